@@ -1,0 +1,312 @@
+# sharedlink: one non-recursive GNU Makefile.
+#
+# Conventions (add a file, not a rule):
+#   src/proto/*.c, src/shm/*.c     pure codecs / table layout, archived per directory
+#   src/daemon/*.c                 sharedlinkd (main.c holds main(), the rest is archived for tests)
+#   src/lib/*.c + src/shm/*.c      libsharedlink.so.1 / .a (exports: src/lib/libsharedlink.sym)
+#   src/cli/*.c                    slctl, linked against libsharedlink.a
+#   tests/common/*.c               helpers linked into every test binary
+#   tests/unit/test_*.c            one cmocka binary per module, run by `make check`
+#   tests/integration/test_*.c     cmocka binaries that start the real daemon, run by `make check`
+#   tests/stress/stress_*.c        stress tests, run by `make check` (asan) and again built with tsan
+#   tests/fuzz/fuzz_*.c            libFuzzer targets; corpus in tests/fuzz/corpus/<name>/
+#   tests/bench/bench_*.c          benchmarks, built optimised by `make bench`
+#   examples/*.c                   programs built only on <sharedlink.h> and pkg-config
+#
+# Build variants: `make` -> build/ (optimised, hardened); SAN=asan -> build/asan/ (ASan+UBSan);
+# SAN=tsan -> build/tsan/.  `make check` = the asan build + every test.
+
+SHELL      := /bin/bash
+.SECONDARY:
+.DELETE_ON_ERROR:
+.DEFAULT_GOAL := all
+
+VERSION    := 0.1.0
+SOVERSION  := 1
+PREFIX     ?= /usr/local
+DESTDIR    ?=
+BINDIR     ?= $(PREFIX)/bin
+SBINDIR    ?= $(PREFIX)/sbin
+LIBDIR     ?= $(PREFIX)/lib
+INCDIR     ?= $(PREFIX)/include
+SYSCONFDIR ?= /etc
+UNITDIR    ?= $(PREFIX)/lib/systemd/system
+
+CC         ?= cc
+SAN        ?=
+WERROR     ?= 1
+WITH_SYSTEMD ?= 1
+FUZZ_TIME  ?= 600
+TEST_TIMEOUT ?= 300
+
+DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev
+DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
+
+# ---------------------------------------------------------------------------------------------
+# Dependencies: when pkg-config cannot find one, run `make deps` once before anything else.
+
+PC_REQUIRED := yaml-0.1 cmocka
+ifeq ($(WITH_SYSTEMD),1)
+PC_REQUIRED += libsystemd
+endif
+
+NODEPS_GOALS := deps deps-extra clean help
+ifeq ($(filter-out $(NODEPS_GOALS),$(or $(MAKECMDGOALS),all)),)
+else
+ifneq ($(shell pkg-config --exists $(PC_REQUIRED) 2>/dev/null && echo ok),ok)
+$(info sharedlink: build dependencies missing ($(PC_REQUIRED)); running 'make deps')
+DEPS_RESULT := $(shell $(MAKE) --no-print-directory deps >&2 && echo ok)
+ifneq ($(DEPS_RESULT),ok)
+$(error 'make deps' failed; install the packages above and try again)
+endif
+endif
+endif
+
+YAML_CFLAGS := $(shell pkg-config --cflags yaml-0.1 2>/dev/null)
+YAML_LIBS   := $(shell pkg-config --libs yaml-0.1 2>/dev/null)
+CMOCKA_CFLAGS := $(shell pkg-config --cflags cmocka 2>/dev/null)
+CMOCKA_LIBS   := $(shell pkg-config --libs cmocka 2>/dev/null)
+ifeq ($(WITH_SYSTEMD),1)
+SYSTEMD_CFLAGS := $(shell pkg-config --cflags libsystemd 2>/dev/null) -DHAVE_LIBSYSTEMD=1
+SYSTEMD_LIBS   := $(shell pkg-config --libs libsystemd 2>/dev/null)
+else
+SYSTEMD_CFLAGS := -DHAVE_LIBSYSTEMD=0
+SYSTEMD_LIBS   :=
+endif
+
+# ---------------------------------------------------------------------------------------------
+# Flags (STYLE.md)
+
+WARN := -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes -Wpointer-arith \
+        -Wcast-qual -Wwrite-strings -Wformat=2 -Wundef -Wvla -Wimplicit-fallthrough
+ifeq ($(WERROR),1)
+WARN += -Werror
+endif
+
+ifeq ($(SAN),asan)
+O        := build/asan
+OPT      := -O1 -g -fno-omit-frame-pointer
+SANFLAGS := -fsanitize=address,undefined -fno-sanitize-recover=all
+HARDEN   :=
+else ifeq ($(SAN),tsan)
+O        := build/tsan
+OPT      := -O1 -g
+SANFLAGS := -fsanitize=thread
+HARDEN   :=
+else ifeq ($(SAN),)
+O        := build
+OPT      := -O2 -g
+SANFLAGS :=
+HARDEN   := -D_FORTIFY_SOURCE=2 -fstack-protector-strong
+else
+$(error SAN must be empty, asan or tsan)
+endif
+
+CPPFLAGS_ALL := -Iinclude -Isrc -D_DEFAULT_SOURCE -DSHAREDLINK_VERSION='"$(VERSION)"'
+CFLAGS_ALL   := -std=c11 $(OPT) $(WARN) $(HARDEN) $(SANFLAGS) -fPIC -fvisibility=hidden \
+                -MMD -MP $(YAML_CFLAGS) $(SYSTEMD_CFLAGS) $(CFLAGS)
+LDFLAGS_ALL  := $(SANFLAGS) -Wl,-z,relro,-z,now $(LDFLAGS)
+LDFLAGS_EXE  := $(LDFLAGS_ALL) -pie
+TEST_CFLAGS  := $(CMOCKA_CFLAGS) -Itests
+
+# ---------------------------------------------------------------------------------------------
+# Sources
+
+PROTO_SRC  := $(wildcard src/proto/*.c)
+SHM_SRC    := $(wildcard src/shm/*.c)
+LIB_SRC    := $(wildcard src/lib/*.c)
+DAEMON_MAIN:= $(wildcard src/daemon/main.c)
+DAEMON_SRC := $(filter-out src/daemon/main.c,$(wildcard src/daemon/*.c))
+CLI_SRC    := $(wildcard src/cli/*.c)
+TCOMMON_SRC:= $(wildcard tests/common/*.c)
+UNIT_SRC   := $(wildcard tests/unit/test_*.c)
+INTEG_SRC  := $(wildcard tests/integration/test_*.c)
+STRESS_SRC := $(wildcard tests/stress/stress_*.c)
+FUZZ_SRC   := $(wildcard tests/fuzz/fuzz_*.c)
+BENCH_SRC  := $(wildcard tests/bench/bench_*.c)
+EXAMPLE_SRC:= $(wildcard examples/*.c)
+
+obj = $(patsubst %.c,$(O)/obj/%.o,$(1))
+
+A_PROTO  := $(O)/internal/libproto.a
+A_SHM    := $(O)/internal/libshm.a
+A_CLIENT := $(O)/internal/libclient.a
+A_DAEMON := $(O)/internal/libdaemon.a
+A_TCOMMON:= $(O)/internal/libtestcommon.a
+INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_CLIENT) $(A_PROTO) $(A_SHM)
+SYS_LIBS := $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lutil -lm
+
+LIBSL_SO   := $(O)/libsharedlink.so.$(SOVERSION)
+LIBSL_A    := $(O)/libsharedlink.a
+LIBSL_SYM  := src/lib/libsharedlink.sym
+SHAREDLINKD:= $(O)/sharedlinkd
+SLCTL      := $(O)/slctl
+PCFILE     := $(O)/sharedlink.pc
+
+UNIT_BIN   := $(patsubst tests/%.c,$(O)/tests/%,$(UNIT_SRC))
+INTEG_BIN  := $(patsubst tests/%.c,$(O)/tests/%,$(INTEG_SRC))
+STRESS_BIN := $(patsubst tests/%.c,$(O)/tests/%,$(STRESS_SRC))
+REPLAY_BIN := $(patsubst tests/fuzz/%.c,$(O)/tests/fuzz/%-replay,$(FUZZ_SRC))
+EXAMPLE_BIN:= $(patsubst examples/%.c,$(O)/examples/%,$(EXAMPLE_SRC))
+
+PROGRAMS := $(if $(DAEMON_MAIN),$(SHAREDLINKD)) $(if $(CLI_SRC),$(SLCTL)) \
+            $(if $(LIB_SRC),$(LIBSL_SO) $(LIBSL_A) $(PCFILE))
+
+# ---------------------------------------------------------------------------------------------
+# Top-level targets
+
+.PHONY: all check test bench fuzz demo deps deps-extra clean install help tsan-stress
+
+all: $(PROGRAMS) $(INTERNAL_ARCHIVES)
+
+help:
+	@echo "make            build sharedlinkd, slctl, libsharedlink into build/"
+	@echo "make check      ASan/UBSan build + every unit, fuzz-replay, stress and integration test"
+	@echo "make bench      optimised benchmarks (prints figures and ratios)"
+	@echo "make fuzz       libFuzzer (clang) on every target for FUZZ_TIME seconds (default 600)"
+	@echo "make demo       run the no-hardware demo"
+	@echo "make deps       install the build dependencies with apt-get (root) or print the command"
+
+check:
+	$(MAKE) --no-print-directory SAN=asan test
+	$(if $(STRESS_SRC),$(MAKE) --no-print-directory SAN=tsan tsan-stress)
+
+# Runs inside the asan build: every test binary, one report line each, a total at the end.
+test: all $(UNIT_BIN) $(REPLAY_BIN) $(STRESS_BIN) $(INTEG_BIN) $(EXAMPLE_BIN)
+	@TEST_TIMEOUT=$(TEST_TIMEOUT) SHAREDLINK_BUILD=$(O) tests/run-tests.sh \
+	    --unit "$(UNIT_BIN)" --replay "$(REPLAY_BIN)" --stress "$(STRESS_BIN)" \
+	    --integration "$(INTEG_BIN)"
+
+tsan-stress: $(STRESS_BIN)
+	@TEST_TIMEOUT=$(TEST_TIMEOUT) SHAREDLINK_BUILD=$(O) tests/run-tests.sh --stress "$(STRESS_BIN)"
+
+deps:
+	@if [ "$$(id -u)" = 0 ]; then \
+	    echo "sharedlink: apt-get install $(DEB_PKGS)"; \
+	    DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $(DEB_PKGS); \
+	else \
+	    echo "sharedlink: not root; install the build dependencies with:"; \
+	    echo "  sudo apt-get install -y $(DEB_PKGS)"; \
+	    exit 1; \
+	fi
+
+# What `make fuzz` and `make bench` need beyond the build: clang with libFuzzer, redis-server.
+deps-extra:
+	@if [ "$$(id -u)" = 0 ]; then \
+	    DEBIAN_FRONTEND=noninteractive apt-get update -qq && \
+	    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends $(DEB_PKGS_EXTRA); \
+	else \
+	    echo "sharedlink: not root; install with:"; \
+	    echo "  sudo apt-get install -y $(DEB_PKGS_EXTRA)"; \
+	    exit 1; \
+	fi
+
+clean:
+	rm -rf build
+
+# ---------------------------------------------------------------------------------------------
+# Objects and archives
+
+$(O)/obj/%.o: %.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS_ALL) $(CPPFLAGS) $(CFLAGS_ALL) $(if $(filter tests/% examples/%,$<),$(TEST_CFLAGS)) -c -o $@ $<
+
+$(O)/internal/%.a:
+	@mkdir -p $(@D)
+	rm -f $@
+	$(AR) rcs $@ $^ $(if $^,,$(O)/obj/empty.o)
+
+$(A_PROTO): $(call obj,$(PROTO_SRC))
+$(A_SHM): $(call obj,$(SHM_SRC))
+$(A_CLIENT): $(call obj,$(LIB_SRC))
+$(A_DAEMON): $(call obj,$(DAEMON_SRC))
+$(A_TCOMMON): $(call obj,$(TCOMMON_SRC))
+
+# An archive with no members still needs one object to be a valid archive.
+$(INTERNAL_ARCHIVES): | $(O)/obj/empty.o
+$(O)/obj/empty.o:
+	@mkdir -p $(@D)
+	echo 'typedef int sharedlink_empty_unit;' | $(CC) -x c -c -o $@ -
+
+LINK_INTERNAL = -Wl,--start-group $(INTERNAL_ARCHIVES) -Wl,--end-group $(SYS_LIBS)
+
+# ---------------------------------------------------------------------------------------------
+# Programs and the library
+
+$(SHAREDLINKD): $(call obj,$(DAEMON_MAIN)) $(A_DAEMON) $(A_PROTO) $(A_SHM)
+	$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) -Wl,--start-group $(A_DAEMON) $(A_PROTO) $(A_SHM) \
+	    -Wl,--end-group $(SYS_LIBS)
+
+$(LIBSL_SO): $(call obj,$(LIB_SRC) $(SHM_SRC)) $(LIBSL_SYM)
+	$(CC) $(LDFLAGS_ALL) -shared -Wl,-soname,libsharedlink.so.$(SOVERSION) \
+	    -Wl,--version-script=$(LIBSL_SYM) -o $@ $(filter %.o,$^) -lpthread
+	ln -sf libsharedlink.so.$(SOVERSION) $(O)/libsharedlink.so
+
+$(LIBSL_A): $(call obj,$(LIB_SRC) $(SHM_SRC))
+	rm -f $@
+	$(AR) rcs $@ $^
+
+$(PCFILE): Makefile
+	@mkdir -p $(@D)
+	printf '%s\n' 'prefix=$(PREFIX)' 'libdir=$(LIBDIR)' 'includedir=$(INCDIR)' '' \
+	    'Name: sharedlink' 'Description: client library for sharedlinkd shared variables' \
+	    'Version: $(VERSION)' 'Libs: -L$${libdir} -lsharedlink' 'Libs.private: -lpthread' \
+	    'Cflags: -I$${includedir}' > $@
+
+$(SLCTL): $(call obj,$(CLI_SRC)) $(LIBSL_A)
+	$(CC) $(LDFLAGS_EXE) -o $@ $^ -lpthread
+
+# ---------------------------------------------------------------------------------------------
+# Tests
+
+$(O)/tests/%: $(O)/obj/tests/%.o $(INTERNAL_ARCHIVES)
+	@mkdir -p $(@D)
+	$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL) $(CMOCKA_LIBS)
+
+# Fuzz targets replayed over their saved corpus with the test compiler.
+$(O)/tests/fuzz/%-replay: $(O)/obj/tests/fuzz/%.o $(O)/obj/tests/fuzz/replay_main.o $(INTERNAL_ARCHIVES)
+	@mkdir -p $(@D)
+	$(CC) $(LDFLAGS_EXE) -o $@ $< $(O)/obj/tests/fuzz/replay_main.o $(LINK_INTERNAL)
+
+# Examples link the installed way: the public header and libsharedlink only.
+$(O)/examples/%: examples/%.c $(LIBSL_A)
+	@mkdir -p $(@D)
+	$(CC) -std=c11 $(OPT) $(WARN) $(SANFLAGS) -Iinclude -o $@ $< $(LIBSL_A) -lpthread
+
+# ---------------------------------------------------------------------------------------------
+# libFuzzer (clang) and benchmarks (optimised, no sanitizers)
+
+FUZZ_CC    ?= clang
+FUZZ_O     := build/fuzz
+FUZZ_LIBSRC:= $(PROTO_SRC) $(SHM_SRC) $(DAEMON_SRC)
+FUZZ_NAMES := $(patsubst tests/fuzz/fuzz_%.c,%,$(FUZZ_SRC))
+
+fuzz:
+	@command -v $(FUZZ_CC) >/dev/null || { echo "make fuzz needs clang: make deps-extra"; exit 1; }
+	@mkdir -p $(FUZZ_O)
+	@set -e; for n in $(FUZZ_NAMES); do \
+	    $(FUZZ_CC) -std=c11 -g -O1 -Iinclude -Isrc -Itests -D_DEFAULT_SOURCE $(YAML_CFLAGS) $(SYSTEMD_CFLAGS) \
+	        -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
+	        -o $(FUZZ_O)/fuzz_$$n tests/fuzz/fuzz_$$n.c $(FUZZ_LIBSRC) $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lm; \
+	done
+	@set -e; for n in $(FUZZ_NAMES); do \
+	    mkdir -p $(FUZZ_O)/corpus-$$n; \
+	    echo "== fuzz_$$n for $(FUZZ_TIME) s"; \
+	    $(FUZZ_O)/fuzz_$$n -max_total_time=$(FUZZ_TIME) -print_final_stats=1 \
+	        $(FUZZ_O)/corpus-$$n tests/fuzz/corpus/$$n 2>&1 | tail -n 12; \
+	done
+
+bench:
+	$(MAKE) --no-print-directory SAN= bench-run
+
+.PHONY: bench-run
+BENCH_BIN := $(patsubst tests/bench/%.c,$(O)/bench/%,$(BENCH_SRC))
+$(O)/bench/%: $(O)/obj/tests/bench/%.o $(INTERNAL_ARCHIVES)
+	@mkdir -p $(@D)
+	$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL)
+
+bench-run: all $(BENCH_BIN)
+	@set -e; for b in $(BENCH_BIN); do echo "== $$b"; SHAREDLINK_BUILD=$(O) $$b; done
+
+-include $(shell find build -name '*.d' 2>/dev/null)

@@ -5,7 +5,6 @@
 
 #include <errno.h>
 #include <fcntl.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/ioctl.h>
@@ -34,18 +33,6 @@ static const struct {
         { 2500000, B2500000 }, { 3000000, B3000000 }, { 3500000, B3500000 },
         { 4000000, B4000000 },
 };
-
-__attribute__((format(printf, 3, 4)))
-static void serial_err(char *err, size_t errsz, const char *fmt, ...)
-{
-        va_list ap;
-
-        if (!err || errsz == 0)
-                return;
-        va_start(ap, fmt);
-        vsnprintf(err, errsz, fmt, ap);
-        va_end(ap);
-}
 
 void serial_config_default(struct serial_config *cfg)
 {
@@ -160,7 +147,7 @@ static int serial_verify(int fd, const struct termios *want, uint32_t baud, char
 
         if (tcgetattr(fd, &got) < 0) {
                 r = -errno;
-                serial_err(err, errsz, "tcgetattr: %s", strerror(-r));
+                snprintf(err, errsz, "tcgetattr: %s", strerror(-r));
                 return r;
         }
         if ((got.c_cflag & cflags) != (want->c_cflag & cflags) ||
@@ -168,22 +155,22 @@ static int serial_verify(int fd, const struct termios *want, uint32_t baud, char
             (got.c_lflag & lflags) != (want->c_lflag & lflags) ||
             (got.c_oflag & OPOST) != 0 || got.c_cc[VMIN] != want->c_cc[VMIN] ||
             got.c_cc[VTIME] != want->c_cc[VTIME]) {
-                serial_err(err, errsz, "the tty did not keep raw mode or flow control settings");
+                snprintf(err, errsz, "the tty did not keep raw mode or flow control settings");
                 return -EINVAL;
         }
         /* Ptys force 8 bits and no parity (pty_set_termios): accepted there, on purpose. */
         if ((got.c_cflag & framing) != (want->c_cflag & framing) && !serial_fd_is_pty(fd)) {
-                serial_err(err, errsz, "the device does not support this parity/data bits");
+                snprintf(err, errsz, "the device does not support this parity/data bits");
                 return -EINVAL;
         }
         r = serial_speed_get(fd, &ispeed, &ospeed);
         if (r < 0) {
-                serial_err(err, errsz, "TCGETS2: %s", strerror(-r));
+                snprintf(err, errsz, "TCGETS2: %s", strerror(-r));
                 return r;
         }
         if ((uint64_t)ospeed + tolerance < baud || ospeed > baud + tolerance ||
             (uint64_t)ispeed + tolerance < baud || ispeed > baud + tolerance) {
-                serial_err(err, errsz, "baud %u not supported by the device (got %u/%u)",
+                snprintf(err, errsz, "baud %u not supported by the device (got %u/%u)",
                            (unsigned)baud, (unsigned)ispeed, (unsigned)ospeed);
                 return -EINVAL;
         }
@@ -199,12 +186,12 @@ int serial_apply(int fd, const struct serial_config *cfg, char *err, size_t errs
         int r;
 
         if (why) {
-                serial_err(err, errsz, "%s", why);
+                snprintf(err, errsz, "%s", why);
                 return -EINVAL;
         }
         if (tcgetattr(fd, &t) < 0) {
                 r = -errno;
-                serial_err(err, errsz, "tcgetattr: %s", strerror(-r));
+                snprintf(err, errsz, "tcgetattr: %s", strerror(-r));
                 return r;
         }
         serial_make_raw(&t, cfg);
@@ -215,13 +202,13 @@ int serial_apply(int fd, const struct serial_config *cfg, char *err, size_t errs
         }
         r = serial_tcsetattr(fd, &t);
         if (r < 0) {
-                serial_err(err, errsz, "tcsetattr: %s", strerror(-r));
+                snprintf(err, errsz, "tcsetattr: %s", strerror(-r));
                 return r;
         }
         if (!standard) {
                 r = serial_speed_set(fd, cfg->baud);
                 if (r < 0) {
-                        serial_err(err, errsz, "TCSETS2 baud %u: %s", (unsigned)cfg->baud,
+                        snprintf(err, errsz, "TCSETS2 baud %u: %s", (unsigned)cfg->baud,
                                    strerror(-r));
                         return r;
                 }
@@ -239,11 +226,11 @@ int serial_open(const char *path, const struct serial_config *cfg, struct serial
         port.fd = open(path, O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
         if (port.fd < 0) {
                 r = -errno;
-                serial_err(err, errsz, "open %s: %s", path, strerror(-r));
+                snprintf(err, errsz, "open %s: %s", path, strerror(-r));
                 return r;
         }
         if (!isatty(port.fd)) {
-                serial_err(err, errsz, "%s: not a tty", path);
+                snprintf(err, errsz, "%s: not a tty", path);
                 close(port.fd);
                 return -ENOTTY;
         }
@@ -251,14 +238,14 @@ int serial_open(const char *path, const struct serial_config *cfg, struct serial
         if (tcgetattr(port.fd, &port.orig) < 0 ||
             serial_speed_get(port.fd, &port.orig_ispeed, &port.orig_ospeed) < 0) {
                 r = -errno;
-                serial_err(err, errsz, "%s: reading settings: %s", path, strerror(-r));
+                snprintf(err, errsz, "%s: reading settings: %s", path, strerror(-r));
                 close(port.fd);
                 return r;
         }
         port.have_orig = true;
         if (ioctl(port.fd, TIOCEXCL) < 0) {
                 r = -errno;
-                serial_err(err, errsz, "%s: TIOCEXCL: %s", path, strerror(-r));
+                snprintf(err, errsz, "%s: TIOCEXCL: %s", path, strerror(-r));
                 close(port.fd);
                 return r;
         }
@@ -269,7 +256,7 @@ int serial_open(const char *path, const struct serial_config *cfg, struct serial
                         char tmp[SERIAL_ERR_MAX];
 
                         snprintf(tmp, sizeof(tmp), "%s", err);
-                        serial_err(err, errsz, "%s: %s", path, tmp);
+                        snprintf(err, errsz, "%s: %s", path, tmp);
                 }
                 serial_close(&port);
                 return r;

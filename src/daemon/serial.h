@@ -64,7 +64,7 @@ const char *serial_config_check(const struct serial_config *cfg);
 /* Whether `baud` has a Bxxx constant (else it needs BOTHER). */
 bool serial_baud_is_standard(uint32_t baud);
 
-/* Opens and configures the tty at path; 0 or -errno with a reason in err (may be NULL). */
+/* Opens and configures the tty at path; 0 or -errno with a reason in err (NULL if errsz is 0). */
 int serial_open(const char *path, const struct serial_config *cfg, struct serial_port *ret_port,
                 char *err, size_t errsz);
 

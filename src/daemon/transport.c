@@ -8,7 +8,6 @@
 #include <fcntl.h>
 #include <netdb.h>
 #include <netinet/in.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -40,18 +39,6 @@ struct transport {
         struct sockaddr_storage udp_peer;
         socklen_t udp_peer_len;
 };
-
-__attribute__((format(printf, 3, 4)))
-static void transport_err(char *err, size_t errsz, const char *fmt, ...)
-{
-        va_list ap;
-
-        if (!err || errsz == 0)
-                return;
-        va_start(ap, fmt);
-        vsnprintf(err, errsz, fmt, ap);
-        va_end(ap);
-}
 
 /* ---------------------------------------------------------------------------------------------
  * Parameters */
@@ -188,27 +175,27 @@ static int transport_link_pty(const char *target, const char *path, char *err, s
         int r;
 
         if (lstat(path, &st) == 0 && !S_ISLNK(st.st_mode)) {
-                transport_err(err, errsz, "refusing to replace %s: not a symlink", path);
+                snprintf(err, errsz, "refusing to replace %s: not a symlink", path);
                 return -EEXIST;
         }
         snprintf(tmp, sizeof(tmp), "%s.%ld.tmp", path, (long)getpid());
         /* A leftover from an earlier process with our pid; again only ever a symlink. */
         if (lstat(tmp, &st) == 0) {
                 if (!S_ISLNK(st.st_mode)) {
-                        transport_err(err, errsz, "refusing to replace %s: not a symlink", tmp);
+                        snprintf(err, errsz, "refusing to replace %s: not a symlink", tmp);
                         return -EEXIST;
                 }
                 unlink(tmp);
         }
         if (symlink(target, tmp) < 0) {
                 r = -errno;
-                transport_err(err, errsz, "symlink %s: %s", tmp, strerror(-r));
+                snprintf(err, errsz, "symlink %s: %s", tmp, strerror(-r));
                 return r;
         }
         if (rename(tmp, path) < 0) {
                 r = -errno;
                 unlink(tmp);
-                transport_err(err, errsz, "rename to %s: %s", path, strerror(-r));
+                snprintf(err, errsz, "rename to %s: %s", path, strerror(-r));
                 return r;
         }
         return 0;
@@ -240,26 +227,26 @@ static int transport_open_pty(struct transport *t, const struct transport_params
         t->fd = posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
         if (t->fd < 0) {
                 r = -errno;
-                transport_err(err, errsz, "posix_openpt: %s", strerror(-r));
+                snprintf(err, errsz, "posix_openpt: %s", strerror(-r));
                 return r;
         }
         if (grantpt(t->fd) < 0 || unlockpt(t->fd) < 0 ||
             ptsname_r(t->fd, t->pty_slave, sizeof(t->pty_slave)) != 0 ||
             fcntl(t->fd, F_SETFL, fcntl(t->fd, F_GETFL) | O_NONBLOCK) < 0) {
                 r = -errno;
-                transport_err(err, errsz, "pty setup: %s", strerror(-r));
+                snprintf(err, errsz, "pty setup: %s", strerror(-r));
                 return r;
         }
         t->pty_slave_fd = open(t->pty_slave, O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
         if (t->pty_slave_fd < 0) {
                 r = -errno;
-                transport_err(err, errsz, "open %s: %s", t->pty_slave, strerror(-r));
+                snprintf(err, errsz, "open %s: %s", t->pty_slave, strerror(-r));
                 return r;
         }
         /* The termios of a pty lives with the slave: a peer gets it raw when it opens it. */
         r = serial_apply(t->pty_slave_fd, &p->serial, why, sizeof(why));
         if (r < 0) {
-                transport_err(err, errsz, "%s: %s", t->pty_slave, why);
+                snprintf(err, errsz, "%s: %s", t->pty_slave, why);
                 return r;
         }
         r = transport_link_pty(t->pty_slave, p->devices[0], err, errsz);
@@ -329,7 +316,7 @@ static int transport_resolve_pair(struct transport_endpoint *ep, const char *con
                         r = transport_resolve(ep[i].host, ep[i].port, family, i == 0,
                                               &ep[i].addr, &ep[i].len);
                         if (r < 0) {
-                                transport_err(err, errsz, "udp address %s: %s", text[i],
+                                snprintf(err, errsz, "udp address %s: %s", text[i],
                                               r == -EADDRNOTAVAIL ?
                                               "not a numeric address or localhost of the "
                                               "same family as the other" : strerror(-r));
@@ -357,13 +344,13 @@ static int transport_open_udp(struct transport *t, const struct transport_params
                 why = transport_split_addr(text[i], ep[i].host, sizeof(ep[i].host), ep[i].port,
                                            i == 0);
                 if (why) {
-                        transport_err(err, errsz, "udp address %s: %s", text[i], why);
+                        snprintf(err, errsz, "udp address %s: %s", text[i], why);
                         return -EINVAL;
                 }
                 ep[i].given = true;
         }
         if (!ep[0].given && !ep[1].given) {
-                transport_err(err, errsz, "udp needs a local or a remote address");
+                snprintf(err, errsz, "udp needs a local or a remote address");
                 return -EINVAL;
         }
         family = transport_resolve_pair(ep, text, err, errsz);
@@ -372,18 +359,18 @@ static int transport_open_udp(struct transport *t, const struct transport_params
         t->fd = socket(family, SOCK_DGRAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
         if (t->fd < 0) {
                 r = -errno;
-                transport_err(err, errsz, "udp socket: %s", strerror(-r));
+                snprintf(err, errsz, "udp socket: %s", strerror(-r));
                 return r;
         }
         if (ep[0].given && bind(t->fd, (const struct sockaddr *)&ep[0].addr, ep[0].len) < 0) {
                 r = -errno;
-                transport_err(err, errsz, "udp bind %s: %s", p->local, strerror(-r));
+                snprintf(err, errsz, "udp bind %s: %s", p->local, strerror(-r));
                 return r;
         }
         if (ep[1].given) {
                 if (connect(t->fd, (const struct sockaddr *)&ep[1].addr, ep[1].len) < 0) {
                         r = -errno;
-                        transport_err(err, errsz, "udp connect %s: %s", p->remote, strerror(-r));
+                        snprintf(err, errsz, "udp connect %s: %s", p->remote, strerror(-r));
                         return r;
                 }
                 t->udp_connected = true;
@@ -404,16 +391,16 @@ int transport_open(const struct transport_params *params, unsigned device_index,
         int r;
 
         if (why) {
-                transport_err(err, errsz, "%s", why);
+                snprintf(err, errsz, "%s", why);
                 return -EINVAL;
         }
         if (params->kind == TRANSPORT_SERIAL && device_index >= params->n_devices) {
-                transport_err(err, errsz, "no device %u", device_index);
+                snprintf(err, errsz, "no device %u", device_index);
                 return -EINVAL;
         }
         t = calloc(1, sizeof(*t));
         if (!t) {
-                transport_err(err, errsz, "out of memory");
+                snprintf(err, errsz, "out of memory");
                 return -ENOMEM;
         }
         t->kind = params->kind;

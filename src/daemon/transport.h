@@ -65,7 +65,7 @@ int transport_params_set_udp(struct transport_params *params, const char *local,
 const char *transport_params_check(const struct transport_params *params);
 
 /* Opens device `device_index` of params (serial), the pty, or the UDP socket. 0 or -errno with
- * a one-line reason in err ("open /dev/ttyUSB0: No such file or directory"). */
+ * a one-line reason in err ("open /dev/ttyUSB0: No such file or directory"; NULL if errsz 0). */
 int transport_open(const struct transport_params *params, unsigned device_index,
                    struct transport **ret_transport, char *err, size_t errsz);
 

@@ -33,8 +33,8 @@
 #define QUOTE_BUF               (QUOTE_MAX * 4u + 8u)
 #define QUOTE_SLOTS             2u
 #define NUMBER_ECHO_MAX         24u     /* digits of an out-of-range number echoed */
-#define KEYS_MAX                24u     /* keys in the largest mapping (link) */
 #define SOCKET_SUFFIX           ".sock"
+#define CIRCE_ADDRESS_DIGITS    6u
 
 /* ---------------------------------------------------------------------------------------------
  * Node tree built from libyaml events */
@@ -158,6 +158,16 @@ static const char *quote(struct ctx *c, const char *s, size_t len)
                 o += 3;
         }
         out[o] = '\0';
+        return out;
+}
+
+/* A number as written (only signs and digits get here), unquoted, cut at NUMBER_ECHO_MAX. */
+static const char *number_text(struct ctx *c, const char *s, size_t len)
+{
+        char *out = c->quote[c->quote_next++ % QUOTE_SLOTS];
+
+        snprintf(out, QUOTE_BUF, "%.*s%s", (int)(len > NUMBER_ECHO_MAX ? NUMBER_ECHO_MAX : len), s,
+                 len > NUMBER_ECHO_MAX ? "..." : "");
         return out;
 }
 
@@ -330,7 +340,7 @@ static int tree_event(struct ctx *c, const yaml_event_t *ev, uint32_t *stack, un
 {
         const yaml_mark_t *m = &ev->start_mark;
         uint32_t parent = *depth ? stack[*depth - 1] : YNONE;
-        uint32_t index;
+        uint32_t index = YNONE;
         int r;
 
         switch (ev->type) {
@@ -497,11 +507,9 @@ static int get_uint(struct ctx *c, const char *key, const struct ynode *n, uint3
         if (s[i] == '0' && n->len - i > 1)
                 return fail(c, n, "%s: leading zeros are not allowed in %s", key,
                             quote_node(c, n));
-        /* Only a sign and digits get here, so the number is echoed as written, unquoted. */
         if (overflow || (negative && v) || v < min || v > max)
-                return fail(c, n, "%s %.*s%s out of range (%u..%u)", key,
-                            (int)(n->len > NUMBER_ECHO_MAX ? NUMBER_ECHO_MAX : n->len), n->text,
-                            n->len > NUMBER_ECHO_MAX ? "..." : "", min, max);
+                return fail(c, n, "%s %s out of range (%u..%u)", key,
+                            number_text(c, n->text, n->len), min, max);
         *ret = (uint32_t)v;
         return 0;
 }
@@ -683,17 +691,14 @@ static int get_circe_address(struct ctx *c, const char *key, const struct ynode 
 
         if (r < 0)
                 return r;
-        for (size_t i = 0; i < n->len; i++) {
-                int d = hex_digit(n->text[i]);
+        for (size_t i = 0; i < n->len || i < CIRCE_ADDRESS_DIGITS; i++) {
+                int d = i < n->len ? hex_digit(n->text[i]) : -1;
 
-                if (d < 0 || n->len != 6)
+                if (d < 0 || n->len != CIRCE_ADDRESS_DIGITS)
                         return fail(c, n, "%s %s: expected six uppercase hex digits", key,
                                     quote_node(c, n));
                 v = v << 4 | (uint32_t)d;
         }
-        if (n->len != 6)
-                return fail(c, n, "%s %s: expected six uppercase hex digits", key,
-                            quote_node(c, n));
         if (v == CONFIG_CIRCE_ADDRESS_RESERVED)
                 return fail(c, n, "%s FFFFFF is reserved", key);
         *ret = v;
@@ -766,16 +771,17 @@ static int get_endpoint(struct ctx *c, const char *key, const struct ynode *n, u
                 host[end - text] = '\0';
                 port_text = end + 1;
         }
-        if (!port_text[0] || strlen(port_text) > 5)
+        if (!port_text[0])
                 goto bad;
         for (const char *p = port_text; *p; p++) {
                 if (*p < '0' || *p > '9')
                         goto bad;
-                port = port * 10 + (uint32_t)(*p - '0');
+                if (port <= UINT16_MAX)         /* stays above the range once it is */
+                        port = port * 10 + (uint32_t)(*p - '0');
         }
         if (port < port_min || port > UINT16_MAX)
                 return fail(c, n, "%s: port %s out of range (%u..%u)", key,
-                            quote(c, port_text, strlen(port_text)), port_min, UINT16_MAX);
+                            number_text(c, port_text, strlen(port_text)), port_min, UINT16_MAX);
 
         memset(&ep, 0, sizeof(ep));
         memcpy(ep.text, text, sizeof(ep.text));
@@ -1600,6 +1606,7 @@ static int parse_root(struct ctx *c, uint32_t root_index)
 int config_parse(const char *text, size_t len, const char *filename, struct config **ret_config,
                  struct config_error *ret_error)
 {
+        static const char bom[] = "\xEF\xBB\xBF";
         struct config_error err = { 0 };
         struct ctx *c;
         uint32_t root = YNONE;
@@ -1607,6 +1614,8 @@ int config_parse(const char *text, size_t len, const char *filename, struct conf
 
         if (!filename)
                 filename = "<config>";
+        if (!text && len == 0)
+                text = "";      /* libyaml asserts on a NULL input, even an empty one */
         /* The context holds a few tens of kilobytes of bookkeeping: heap, not stack. */
         c = calloc(1, sizeof(*c));
         if (!c) {
@@ -1615,22 +1624,26 @@ int config_parse(const char *text, size_t len, const char *filename, struct conf
                 goto out;
         }
         c->filename = filename;
-        c->text = text;
-        c->text_len = len;
         c->err = &err;
-        /*
-         * With the encoding forced to UTF-8 libyaml would count a BOM as a column of the first
-         * line; dropping it here keeps positions what an editor shows.
-         */
-        if (len >= 3 && memcmp(text, "\xEF\xBB\xBF", 3) == 0) {
-                c->text += 3;
-                c->text_len -= 3;
+        if (!text) {
+                r = fail_at(c, 0, 0, "no input");
+                goto out;
         }
         if (len > CONFIG_INPUT_MAX) {
                 fail_at(c, 0, 0, "too large (%zu bytes, at most %u)", len, CONFIG_INPUT_MAX);
                 r = -EFBIG;
                 goto out;
         }
+        /*
+         * With the encoding forced to UTF-8 libyaml would count a BOM as a column of the first
+         * line; dropping it here keeps positions what an editor shows.
+         */
+        if (len >= sizeof(bom) - 1 && memcmp(text, bom, sizeof(bom) - 1) == 0) {
+                text += sizeof(bom) - 1;
+                len -= sizeof(bom) - 1;
+        }
+        c->text = text;
+        c->text_len = len;
         c->cfg = calloc(1, sizeof(*c->cfg));
         if (!c->cfg) {
                 r = fail_nomem(c);

@@ -408,6 +408,12 @@ static struct bad_case bad_cases[] = {
         { "syntax_bad_indent", "links:\n  - name: a\n   protocol: x\n",
           "t.yaml:3:4: did not find expected '-' indicator (while parsing a block "
           "collection)" },
+        { "syntax_mapping_in_value", "instance: a: b\n",
+          "t.yaml:1:12: mapping values are not allowed in this context" },
+        { "syntax_unclosed_quote", "instance: x\ngroup: \"a\n",
+          "t.yaml:3:1: found unexpected end of stream (while scanning a quoted scalar)" },
+        { "not_utf8_line2", "links: 5\r\ninstance: d\xC3(\n",
+          "t.yaml:2:13: invalid trailing UTF-8 octet (0x28)" },
         { "not_utf8", "instance: d\xFFmo\n",
           "t.yaml:1:12: invalid leading UTF-8 octet (0xFF)" },
         { "utf16_bom", "\xFF\xFEi",
@@ -533,6 +539,8 @@ static struct bad_case bad_cases[] = {
           "t.yaml:10:11: baud: expected an integer, got \"115200x\"" },
         { "baud_float", SL_LINK SL_PEER "    baud: 9600.0\n",
           "t.yaml:10:11: baud: expected an integer, got \"9600.0\"" },
+        { "baud_sign_only", SL_LINK SL_PEER "    baud: +\n",
+          "t.yaml:10:11: baud: expected an integer, got \"+\"" },
         { "baud_hex", SL_LINK SL_PEER "    baud: 0x2580\n",
           "t.yaml:10:11: baud: expected an integer, got \"0x2580\"" },
         { "baud_leading_zero", SL_LINK SL_PEER "    baud: 09600\n",
@@ -613,12 +621,31 @@ static struct bad_case bad_cases[] = {
           "transport: udp, local: '10.1:4000'}\n",
           "t.yaml:2:73: local: bad address \"10.1:4000\" (expected IPV4:PORT, [IPV6]:PORT or "
           "localhost:PORT)" },
+        { "endpoint_v6_no_port", "links:\n  - {name: u, protocol: circe, role: controller, "
+          "transport: udp, local: '[::1]'}\n",
+          "t.yaml:2:73: local: bad address \"[::1]\" (expected IPV4:PORT, [IPV6]:PORT or "
+          "localhost:PORT)" },
+        { "endpoint_v6_bad", "links:\n  - {name: u, protocol: circe, role: controller, "
+          "transport: udp, local: '[::g]:1'}\n",
+          "t.yaml:2:73: local: bad address \"[::g]:1\" (expected IPV4:PORT, [IPV6]:PORT or "
+          "localhost:PORT)" },
+        { "endpoint_empty_port", "links:\n  - {name: u, protocol: circe, role: controller, "
+          "transport: udp, local: '127.0.0.1:'}\n",
+          "t.yaml:2:73: local: bad address \"127.0.0.1:\" (expected IPV4:PORT, [IPV6]:PORT or "
+          "localhost:PORT)" },
+        { "endpoint_port_garbage", "links:\n  - {name: u, protocol: circe, role: controller, "
+          "transport: udp, local: '127.0.0.1:80x'}\n",
+          "t.yaml:2:73: local: bad address \"127.0.0.1:80x\" (expected IPV4:PORT, [IPV6]:PORT or "
+          "localhost:PORT)" },
+        { "endpoint_port_huge", "links:\n  - {name: u, protocol: circe, role: controller, "
+          "transport: udp, local: '127.0.0.1:99999999999999999999'}\n",
+          "t.yaml:2:73: local: port 99999999999999999999 out of range (0..65535)" },
         { "endpoint_port_range", "links:\n  - {name: u, protocol: circe, role: controller, "
           "transport: udp, local: '[::1]:70000'}\n",
-          "t.yaml:2:73: local: port \"70000\" out of range (0..65535)" },
+          "t.yaml:2:73: local: port 70000 out of range (0..65535)" },
         { "endpoint_remote_port_zero", "links:\n  - {name: u, protocol: circe, role: controller, "
           "transport: udp, local: 'localhost:1', remote: 'localhost:0'}\n",
-          "t.yaml:2:96: remote: port \"0\" out of range (1..65535)" },
+          "t.yaml:2:96: remote: port 0 out of range (1..65535)" },
 
         /* CIRCE values */
         { "circe_address_lowercase", CIRCE_LINK "    role: mediator\n    transport: pty\n"
@@ -627,6 +654,9 @@ static struct bad_case bad_cases[] = {
         { "circe_address_short", CIRCE_LINK "    role: mediator\n    transport: pty\n"
           "    address: 12345\n",
           "t.yaml:7:14: address \"12345\": expected six uppercase hex digits" },
+        { "circe_address_empty", CIRCE_LINK "    role: mediator\n    transport: pty\n"
+          "    address: ''\n",
+          "t.yaml:7:14: address \"\": expected six uppercase hex digits" },
         { "circe_address_reserved", CIRCE_LINK "    role: mediator\n    transport: pty\n"
           "    emulate: [{address: FFFFFF, capabilities: 32}]\n",
           "t.yaml:7:25: address FFFFFF is reserved" },
@@ -634,6 +664,12 @@ static struct bad_case bad_cases[] = {
           "    emulate:\n      - {address: E1E1E1, capabilities: 32}\n"
           "      - {address: E1E1E1, capabilities: 64}\n",
           "t.yaml:9:19: duplicate emulated device E1E1E1 (first at 8:19)" },
+        { "emulate_missing_address", CIRCE_LINK "    role: mediator\n    transport: pty\n"
+          "    emulate:\n      - capabilities: 32\n",
+          "t.yaml:8:9: missing key \"address\" in emulated device" },
+        { "emulate_not_list", CIRCE_LINK "    role: mediator\n    transport: pty\n"
+          "    emulate: {address: E1E1E1, capabilities: 32}\n",
+          "t.yaml:7:14: emulate: expected a list, got a mapping" },
         { "capabilities_zero", CIRCE_LINK "    role: mediator\n    transport: pty\n"
           "    emulate: [{address: E1E1E1, capabilities: 0}]\n",
           "t.yaml:7:47: capabilities 0 out of range (1..127)" },
@@ -680,6 +716,8 @@ static struct bad_case bad_cases[] = {
           "t.yaml:8:33: variable name: empty string" },
         { "variable_null", SL_LINK "      - address: B\n        outbound:\n          -\n",
           "t.yaml:10:12: variable name: missing value" },
+        { "variable_is_list", SL_LINK "      - {address: B, outbound: [[a]]}\n",
+          "t.yaml:8:33: variable: expected a name or {name, type}, got a list" },
         { "variable_type", SL_LINK "      - {address: B, outbound: [{name: v, type: float}]}\n",
           "t.yaml:8:49: type: expected string, long or double, got \"float\"" },
         { "variable_list_not_list", SL_LINK "      - {address: B, outbound: AutoGpsLat}\n",
@@ -730,6 +768,10 @@ static struct bad_case bad_cases[] = {
         { "device_newline_escape", "links:\n  - {name: x, protocol: sharedlink, transport: pty, "
           "device: \"/dev/x\\ny\"}\n",
           "t.yaml:2:61: device: control character in \"/dev/x\\x0Ay\"" },
+        { "too_many_devices", "links:\n  - {name: c, protocol: circe, role: controller, "
+          "transport: serial, devices: [/dev/1, /dev/2, /dev/3, /dev/4, /dev/5, /dev/6, /dev/7, "
+          "/dev/8, /dev/9]}\n",
+          "t.yaml:2:143: too many devices (at most 8)" },
         { "device_used_twice", SL_LINK SL_PEER
           "  - {name: c, protocol: circe, role: controller, transport: serial, "
           "devices: [/dev/ttyS1, /dev/ttyS0]}\n",
@@ -893,6 +935,19 @@ static void test_too_many_variables(void **state)
         free(t.buf);
 }
 
+static void test_too_many_emulated(void **state)
+{
+        struct text t = { 0 };
+
+        (void)state;
+        text_add(&t, "links:\n  - name: m\n    protocol: circe\n    role: mediator\n"
+                 "    transport: pty\n    device: /tmp/m\n    emulate:\n");
+        for (unsigned i = 0; i <= CONFIG_EMULATE_MAX; i++)
+                text_add(&t, "      - {address: %06X, capabilities: 1}\n", i);
+        expect_error(&t, -EINVAL, "t.yaml:40:9: too many emulated devices (at most 32)");
+        free(t.buf);
+}
+
 static void test_too_many_nodes(void **state)
 {
         struct text t = { 0 };
@@ -1006,6 +1061,11 @@ static void test_filename_default(void **state)
         (void)state;
         assert_int_equal(config_parse("links: 5", 8, NULL, &c, &e), -EINVAL);
         assert_string_equal(e.message, "<config>:1:8: links: expected a list, got \"5\"");
+        assert_int_equal(config_parse(NULL, 0, "n.yaml", &c, &e), -EINVAL);
+        assert_string_equal(e.message, "n.yaml:1:1: empty configuration");
+        assert_int_equal(config_parse(NULL, 10, "n.yaml", &c, &e), -EINVAL);
+        assert_string_equal(e.message, "n.yaml: no input");
+        assert_null(c);
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -1091,6 +1151,13 @@ static const struct equal_case equal_cases[] = {
           "  - {name: sl, protocol: sharedlink, transport: serial, device: /dev/ttyS0, "
           "address: A, peers: [{address: B, outbound: [{name: x2, type: long}, x1], "
           "inbound: [y1]}]}\n"
+          "  - {name: med, protocol: circe, role: mediator, transport: pty, device: /tmp/m.tty, "
+          "emulate: [{address: E1E1E1, capabilities: 32}]}\n", false, true },
+        { "var_added",
+          "links:\n"
+          "  - {name: sl, protocol: sharedlink, transport: serial, device: /dev/ttyS0, "
+          "address: A, peers: [{address: B, outbound: [x1, {name: x2, type: long}], "
+          "inbound: [y1, y2]}]}\n"
           "  - {name: med, protocol: circe, role: mediator, transport: pty, device: /tmp/m.tty, "
           "emulate: [{address: E1E1E1, capabilities: 32}]}\n", false, true },
         { "var_renamed",
@@ -1215,6 +1282,7 @@ int main(void)
                 cmocka_unit_test(test_too_many_links),
                 cmocka_unit_test(test_too_many_peers),
                 cmocka_unit_test(test_too_many_variables),
+                cmocka_unit_test(test_too_many_emulated),
                 cmocka_unit_test(test_too_many_nodes),
                 cmocka_unit_test(test_too_large),
                 cmocka_unit_test(test_long_scalar),

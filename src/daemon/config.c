@@ -1374,21 +1374,11 @@ static int parse_link_circe(struct ctx *c, const struct ynode *const *vals,
         return 0;
 }
 
-static int parse_link(struct ctx *c, const struct ynode *map, unsigned index)
+static int parse_link_name(struct ctx *c, const struct ynode *map,
+                           const struct ynode *const *vals, unsigned index)
 {
-        const char *key_names[LK_COUNT];
-        const struct ynode *keys[LK_COUNT], *vals[LK_COUNT];
         struct config_link *l = &c->cfg->links[index];
-        int e, r;
-
-        r = need_kind(c, "link", map, YNODE_MAPPING);
-        if (r < 0)
-                return r;
-        for (size_t i = 0; i < LK_COUNT; i++)
-                key_names[i] = link_keys[i].name;
-        r = map_read(c, map, "in link", key_names, LK_COUNT, keys, vals);
-        if (r < 0)
-                return r;
+        int r;
 
         if (!vals[LK_NAME])
                 return fail(c, map, "missing key \"name\" in link");
@@ -1401,56 +1391,98 @@ static int parse_link(struct ctx *c, const struct ynode *map, unsigned index)
                         return fail(c, vals[LK_NAME], "duplicate link name %s (first at %u:%u)",
                                     quote_node(c, vals[LK_NAME]), c->link_name_nodes[i]->line,
                                     c->link_name_nodes[i]->column);
+        return 0;
+}
 
-        if (!vals[LK_PROTOCOL])
-                return fail(c, map, "missing key \"protocol\" in link");
-        r = get_enum(c, "protocol", vals[LK_PROTOCOL], protocol_names,
-                     ENUM_COUNT(protocol_names), &e);
+static int get_required_enum(struct ctx *c, const struct ynode *map, const char *key,
+                             const struct ynode *n, const struct enum_name *names, size_t count,
+                             int *ret)
+{
+        if (!n)
+                return fail(c, map, "missing key \"%s\" in link", key);
+        return get_enum(c, key, n, names, count, ret);
+}
+
+/* Protocol, transport and role: what every other key of the link is checked against. */
+static int parse_link_kind(struct ctx *c, const struct ynode *map,
+                           const struct ynode *const *vals, struct config_link *l)
+{
+        int e, r;
+
+        r = get_required_enum(c, map, "protocol", vals[LK_PROTOCOL], protocol_names,
+                              ENUM_COUNT(protocol_names), &e);
         if (r < 0)
                 return r;
         l->protocol = (enum config_protocol)e;
-        if (!vals[LK_TRANSPORT])
-                return fail(c, map, "missing key \"transport\" in link");
-        r = get_enum(c, "transport", vals[LK_TRANSPORT], transport_names,
-                     ENUM_COUNT(transport_names), &e);
+        r = get_required_enum(c, map, "transport", vals[LK_TRANSPORT], transport_names,
+                              ENUM_COUNT(transport_names), &e);
         if (r < 0)
                 return r;
         l->transport = (enum config_transport)e;
         l->circe.role = CONFIG_ROLE_NONE;
         if (l->protocol == CONFIG_PROTOCOL_CIRCE) {
-                if (!vals[LK_ROLE])
-                        return fail(c, map, "missing key \"role\" in link");
-                r = get_enum(c, "role", vals[LK_ROLE], role_names, ENUM_COUNT(role_names), &e);
+                r = get_required_enum(c, map, "role", vals[LK_ROLE], role_names,
+                                      ENUM_COUNT(role_names), &e);
                 if (r < 0)
                         return r;
                 l->circe.role = (enum config_role)e;
         }
-        r = link_check_scope(c, map, l);
-        if (r < 0)
-                return r;
+        return link_check_scope(c, map, l);
+}
+
+static int parse_link_transport(struct ctx *c, const struct ynode *map,
+                                const struct ynode *const *keys, const struct ynode *const *vals,
+                                unsigned index)
+{
+        struct config_link *l = &c->cfg->links[index];
+        int r;
 
         l->serial = (struct config_serial){ CONFIG_BAUD_DEFAULT, CONFIG_PARITY_NONE, 8, 1,
                                             CONFIG_FLOW_NONE };
-        if (l->transport == CONFIG_TRANSPORT_UDP) {
-                if (!vals[LK_LOCAL])
-                        return fail(c, map, "missing key \"local\" in link");
-                r = get_endpoint(c, "local", vals[LK_LOCAL], 0, &l->local);
-                if (r < 0)
-                        return r;
-                if (vals[LK_REMOTE]) {
-                        r = get_endpoint(c, "remote", vals[LK_REMOTE], 1, &l->remote);
-                        if (r < 0)
-                                return r;
-                        l->has_remote = true;
-                }
-        } else {
+        if (l->transport != CONFIG_TRANSPORT_UDP) {
                 r = parse_devices(c, keys, vals, map, l, index);
                 if (r < 0)
                         return r;
-                r = parse_serial(c, vals, &l->serial);
+                return parse_serial(c, vals, &l->serial);
+        }
+        if (!vals[LK_LOCAL])
+                return fail(c, map, "missing key \"local\" in link");
+        r = get_endpoint(c, "local", vals[LK_LOCAL], 0, &l->local);
+        if (r < 0)
+                return r;
+        if (vals[LK_REMOTE]) {
+                r = get_endpoint(c, "remote", vals[LK_REMOTE], 1, &l->remote);
                 if (r < 0)
                         return r;
+                l->has_remote = true;
         }
+        return 0;
+}
+
+static int parse_link(struct ctx *c, const struct ynode *map, unsigned index)
+{
+        const char *key_names[LK_COUNT];
+        const struct ynode *keys[LK_COUNT], *vals[LK_COUNT];
+        struct config_link *l = &c->cfg->links[index];
+        int r;
+
+        r = need_kind(c, "link", map, YNODE_MAPPING);
+        if (r < 0)
+                return r;
+        for (size_t i = 0; i < LK_COUNT; i++)
+                key_names[i] = link_keys[i].name;
+        r = map_read(c, map, "in link", key_names, LK_COUNT, keys, vals);
+        if (r < 0)
+                return r;
+        r = parse_link_name(c, map, vals, index);
+        if (r < 0)
+                return r;
+        r = parse_link_kind(c, map, vals, l);
+        if (r < 0)
+                return r;
+        r = parse_link_transport(c, map, keys, vals, index);
+        if (r < 0)
+                return r;
         if (l->protocol == CONFIG_PROTOCOL_SHAREDLINK)
                 return parse_link_sharedlink(c, vals, map, &l->sl);
         return parse_link_circe(c, vals, &l->circe);

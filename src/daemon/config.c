@@ -133,7 +133,7 @@ static int fail_nomem(struct ctx *c)
         return -ENOMEM;
 }
 
-/* User text for a message: quoted, at most QUOTE_MAX bytes, anything but printable ASCII escaped. */
+/* User text for a message: quoted, at most QUOTE_MAX bytes, all but printable ASCII escaped. */
 static const char *quote(struct ctx *c, const char *s, size_t len)
 {
         char *out = c->quote[c->quote_next++ % QUOTE_SLOTS];
@@ -252,8 +252,9 @@ static void offset_position(const struct ctx *c, size_t offset, unsigned *ret_li
 
         for (size_t i = 0; i < offset && i < c->text_len; i++) {
                 unsigned char ch = (unsigned char)c->text[i];
+                bool crlf = ch == '\r' && i + 1 < c->text_len && c->text[i + 1] == '\n';
 
-                if (ch == '\n' || (ch == '\r' && (i + 1 >= c->text_len || c->text[i + 1] != '\n'))) {
+                if (ch == '\n' || (ch == '\r' && !crlf)) {
                         line++;
                         column = 1;
                 } else if ((ch & 0xC0) != 0x80 && ch != '\r') {

@@ -33,7 +33,7 @@
  */
 #define CONFIG_LINK_NAME_MAX    14u
 #define CONFIG_PATH_MAX         256u    /* device paths and runtime_dir, terminator included */
-#define CONFIG_SOCKET_PATH_MAX  108u    /* sizeof(sun_path): "<runtime_dir>/<instance>.sock" + NUL */
+#define CONFIG_SOCKET_PATH_MAX  108u    /* sizeof(sun_path): "<runtime_dir>/<instance>.sock", NUL */
 #define CONFIG_ENDPOINT_MAX     64u     /* "host:port" text, terminator included */
 #define CONFIG_VERSION_TEXT_MAX 12u     /* CIRCE "999.999.999" + NUL */
 

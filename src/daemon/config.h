@@ -1,0 +1,248 @@
+/*
+ * sharedlinkd configuration: YAML text -> plain structs (DESIGN.md §2.3).
+ *
+ * The parser is pure (no I/O, no logging, no global state): config_parse() takes the text and
+ * either returns a complete, validated struct config or fills a struct config_error whose message
+ * is ready to print as "FILE:LINE:COL: text" (1-based line and column of the offending node).
+ * config_load_file() reads a file and calls it. Every key, default and range is documented in
+ * conf/sharedlinkd.yaml; the limits below are the only ones.
+ */
+#ifndef SHAREDLINK_DAEMON_CONFIG_H
+#define SHAREDLINK_DAEMON_CONFIG_H
+
+#include <netinet/in.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <sys/socket.h>
+
+/* Input bounds: a config file larger than this is refused before parsing. */
+#define CONFIG_INPUT_MAX        (1024u * 1024u)
+#define CONFIG_NODES_MAX        65536u  /* YAML nodes (scalars, lists, mappings) per file */
+#define CONFIG_DEPTH_MAX        16u     /* nesting; the schema itself needs 8 */
+
+/* Names. A variable name is what the shm directory holds (DESIGN.md §2.4: <= 47 bytes). */
+#define CONFIG_VAR_NAME_MAX     47u
+#define CONFIG_INSTANCE_MAX     32u     /* becomes part of an shm name and a socket file name */
+#define CONFIG_GROUP_MAX        32u
+/*
+ * A CIRCE link publishes "<link>.device.<ADDR>.current_competitor" (DESIGN.md §2.8), the longest
+ * generated name: 33 bytes after the link name, so a link name of at most 47 - 33 = 14 bytes keeps
+ * every generated name within CONFIG_VAR_NAME_MAX. The same limit applies to every protocol so a
+ * link can change protocol without being renamed.
+ */
+#define CONFIG_LINK_NAME_MAX    14u
+#define CONFIG_PATH_MAX         256u    /* device paths and runtime_dir, terminator included */
+#define CONFIG_SOCKET_PATH_MAX  108u    /* sizeof(sun_path): "<runtime_dir>/<instance>.sock", NUL */
+#define CONFIG_ENDPOINT_MAX     64u     /* "host:port" text, terminator included */
+#define CONFIG_VERSION_TEXT_MAX 12u     /* CIRCE "999.999.999" + NUL */
+
+/* Counts. */
+#define CONFIG_LINKS_MAX        16u
+#define CONFIG_PEERS_MAX        15u     /* SharedLink addresses A..P, minus the link's own */
+#define CONFIG_DEVICES_MAX      8u      /* device paths a link scans in turn */
+#define CONFIG_EMULATE_MAX      32u     /* devices one CIRCE mediator emulator plays */
+#define CONFIG_LIST_MAX         256u    /* variables in one outbound or inbound list */
+#define CONFIG_VARS_MAX         1024u   /* configured variables per instance, all lists together */
+
+/* Numeric ranges (inclusive) and defaults. */
+#define CONFIG_BAUD_MIN                 1200u
+#define CONFIG_BAUD_MAX                 4000000u
+#define CONFIG_BAUD_DEFAULT             115200u
+#define CONFIG_PERIOD_MS_MAX            60000u          /* 0 = no periodic send */
+#define CONFIG_PERIOD_MS_DEFAULT        100u
+#define CONFIG_REFRESH_MS_MIN           10u
+#define CONFIG_REFRESH_MS_MAX           3600000u
+#define CONFIG_REFRESH_MS_DEFAULT       1000u
+#define CONFIG_MIN_INTERVAL_MS_MAX      60000u          /* 0 = no rate limit */
+#define CONFIG_MIN_INTERVAL_MS_DEFAULT  10u
+#define CONFIG_STALE_MS_MAX             3600000u        /* 0 = never stale */
+#define CONFIG_STALE_REFRESHES          3u              /* default stale_ms = 3 x refresh_ms */
+#define CONFIG_MAX_FRAME_MIN            32u
+#define CONFIG_MAX_FRAME_MAX            4096u
+#define CONFIG_MAX_FRAME_DEFAULT        1024u
+#define CONFIG_TIMEOUT_MS_MIN           100u            /* login_timeout_ms, idle_timeout_ms */
+#define CONFIG_TIMEOUT_MS_MAX           60000u
+#define CONFIG_LOGIN_TIMEOUT_MS_DEFAULT 1000u
+#define CONFIG_IDLE_TIMEOUT_MS_DEFAULT  2000u
+#define CONFIG_KEEPALIVE_MS_MIN         10u
+#define CONFIG_KEEPALIVE_MS_MAX         60000u
+#define CONFIG_KEEPALIVE_MS_DEFAULT     750u
+#define CONFIG_CIRCE_VERSION_PART_MAX   999u
+#define CONFIG_CIRCE_STATUS_MAX         999u
+#define CONFIG_CIRCE_CAPABILITIES_MIN   1u
+#define CONFIG_CIRCE_CAPABILITIES_MAX   127u
+#define CONFIG_CIRCE_ROLES_MAX          127u
+#define CONFIG_CIRCE_LEVEL_MAX          255u            /* signal, battery */
+#define CONFIG_CIRCE_SIGNAL_DEFAULT     255u
+#define CONFIG_CIRCE_ADDRESS_RESERVED   0xFFFFFFu       /* never on the wire (PROTOCOLS.md §2.3) */
+
+#define CONFIG_INSTANCE_DEFAULT         "default"
+#define CONFIG_RUNTIME_DIR_DEFAULT      "/run/sharedlink"
+
+#define CONFIG_ERROR_MAX        512u
+
+enum config_protocol {
+        CONFIG_PROTOCOL_SHAREDLINK,
+        CONFIG_PROTOCOL_CIRCE,
+};
+
+enum config_transport {
+        CONFIG_TRANSPORT_SERIAL,
+        CONFIG_TRANSPORT_UDP,
+        CONFIG_TRANSPORT_PTY,           /* creates a pty, symlinks its slave at devices[0] */
+};
+
+enum config_role {
+        CONFIG_ROLE_NONE,               /* SharedLink links */
+        CONFIG_ROLE_CONTROLLER,
+        CONFIG_ROLE_MEDIATOR,           /* the built-in emulator */
+};
+
+enum config_parity {
+        CONFIG_PARITY_NONE,
+        CONFIG_PARITY_EVEN,
+        CONFIG_PARITY_ODD,
+};
+
+enum config_flow {
+        CONFIG_FLOW_NONE,
+        CONFIG_FLOW_RTSCTS,
+        CONFIG_FLOW_XONXOFF,
+};
+
+enum config_var_type {
+        CONFIG_VAR_STRING,
+        CONFIG_VAR_LONG,
+        CONFIG_VAR_DOUBLE,
+};
+
+struct config_var {
+        char name[CONFIG_VAR_NAME_MAX + 1];
+        enum config_var_type type;
+};
+
+/* One SharedLink peer of a link: what we send it and what it sends us. */
+struct config_peer {
+        char address;                   /* 'A'..'P' */
+        uint32_t period_ms;
+        uint32_t refresh_ms;
+        uint32_t min_interval_ms;
+        uint32_t stale_ms;
+        uint32_t max_frame;
+        bool compression;
+        bool on_change;
+        struct config_var *outbound;    /* positions 0..n_outbound-1 of our list to this peer */
+        unsigned n_outbound;
+        struct config_var *inbound;     /* positions of the peer's outbound list */
+        unsigned n_inbound;
+};
+
+struct config_sharedlink {
+        char address;                   /* this node on this link, 'A'..'P' */
+        struct config_peer peers[CONFIG_PEERS_MAX];
+        unsigned n_peers;
+};
+
+struct config_circe_version {
+        char text[CONFIG_VERSION_TEXT_MAX];     /* as written: "0.2" or "0.2.3" */
+        uint16_t major, minor, patch;
+};
+
+struct config_emulated_device {
+        uint32_t address;               /* 0x000000..0xFFFFFE */
+        uint8_t capabilities;           /* 1..127 */
+        uint8_t roles;                  /* 0..127 */
+        uint8_t signal;
+        uint8_t battery;                /* meaningful only when has_battery */
+        bool has_battery;               /* 022 is optional in Notify Status */
+        bool membership;
+};
+
+struct config_circe {
+        enum config_role role;
+        bool checksum;                  /* send a checksum; received ones are always checked */
+        /* controller */
+        struct config_circe_version expect_version;     /* major.minor only */
+        uint32_t login_timeout_ms;
+        uint32_t idle_timeout_ms;
+        /* mediator (emulator) */
+        struct config_circe_version version;
+        uint16_t status;
+        bool has_address;
+        uint32_t address;
+        uint32_t keepalive_ms;
+        struct config_emulated_device emulate[CONFIG_EMULATE_MAX];
+        unsigned n_emulate;
+};
+
+struct config_serial {
+        uint32_t baud;
+        enum config_parity parity;
+        uint8_t data_bits;              /* 7 or 8 */
+        uint8_t stop_bits;              /* 1 or 2 */
+        enum config_flow flow_control;
+};
+
+struct config_endpoint {
+        char text[CONFIG_ENDPOINT_MAX]; /* as written, for messages */
+        struct sockaddr_storage addr;   /* AF_INET or AF_INET6, port set */
+        socklen_t addr_len;
+};
+
+struct config_link {
+        char name[CONFIG_LINK_NAME_MAX + 1];
+        enum config_protocol protocol;
+        enum config_transport transport;
+        /* serial, pty: devices[0..n_devices-1] (pty: exactly one, the symlink path) */
+        char devices[CONFIG_DEVICES_MAX][CONFIG_PATH_MAX];
+        unsigned n_devices;
+        struct config_serial serial;    /* serial, pty */
+        struct config_endpoint local;   /* udp */
+        struct config_endpoint remote;  /* udp, when has_remote */
+        bool has_remote;
+        struct config_sharedlink sl;    /* protocol sharedlink */
+        struct config_circe circe;      /* protocol circe */
+};
+
+struct config {
+        char instance[CONFIG_INSTANCE_MAX + 1];
+        char runtime_dir[CONFIG_PATH_MAX];
+        char group[CONFIG_GROUP_MAX + 1];       /* "" = none */
+        struct config_link links[CONFIG_LINKS_MAX];
+        unsigned n_links;
+        unsigned n_vars;                /* configured variables, all links and lists */
+};
+
+struct config_error {
+        unsigned line, column;          /* 1-based; 0 when the error has no position (I/O) */
+        char message[CONFIG_ERROR_MAX]; /* "FILE:LINE:COL: text" or "FILE: text", no newline */
+};
+
+/*
+ * Parses LEN bytes of YAML (need not be NUL-terminated); FILENAME only prefixes messages (NULL:
+ * "<config>"). Returns 0 and a new config in *ret_config, or -EINVAL (bad config), -EFBIG (larger
+ * than CONFIG_INPUT_MAX) or -ENOMEM, with *ret_error (if not NULL) filled only on failure.
+ */
+int config_parse(const char *text, size_t len, const char *filename, struct config **ret_config,
+                 struct config_error *ret_error);
+
+/* Reads PATH (at most CONFIG_INPUT_MAX bytes) and parses it; -errno on I/O errors. */
+int config_load_file(const char *path, struct config **ret_config, struct config_error *ret_error);
+
+/* Frees a config from config_parse()/config_load_file(); NULL is fine. Returns NULL. */
+struct config *config_free(struct config *config);
+
+/* True when two links have the same settings, name and variable lists included (reload). */
+bool config_link_equal(const struct config_link *a, const struct config_link *b);
+
+/* The link called NAME, or NULL. */
+const struct config_link *config_link_find(const struct config *config, const char *name);
+
+/* The config-file spelling of an enum value ("sharedlink", "pty", "mediator", "double"...). */
+const char *config_protocol_name(enum config_protocol protocol);
+const char *config_transport_name(enum config_transport transport);
+const char *config_role_name(enum config_role role);
+const char *config_var_type_name(enum config_var_type type);
+
+#endif

@@ -1,0 +1,81 @@
+/*
+ * Control socket (DESIGN.md §2.6): `<runtime_dir>/<instance>.sock`, Unix stream, mode 0660 (group
+ * from the config when set). Commands, never the hot path.
+ *
+ * Wire format (the library's sl_request() speaks it; keep the two in step):
+ *   request  one line, at most CONTROL_LINE_MAX bytes including the '\n', words separated by
+ *            single spaces; words are printable ASCII (0x21-0x7E). A client may send several
+ *            requests on one connection; they are answered in order, one at a time.
+ *   reply    zero or more "DATA <text>\n" lines, then exactly one final line:
+ *            "OK[ <text>]\n" or "ERR <errno> <message>\n" (errno as a positive decimal number,
+ *            e.g. "ERR 110 no answer from peer B within 1000 ms").
+ *
+ * Requests (argv[0]):
+ *   ping                                   -> OK <daemon pid> <epoch>
+ *   query LINK PEER NAME [TIMEOUT_MS]      -> OK <value>          (SharedLink Q -> R/D)
+ *   circe LINK alert ADDR                  -> OK
+ *   circe LINK network-setup ADDR join|leave ROLES
+ *   circe LINK device-setup ASSIGN [DEST|-] [CAPABILITIES|-]
+ *   circe LINK sync-clocks                 -> DATA <ADDR> succeeded|timed-out ... then OK
+ *   circe LINK visualize ADDR[,ADDR...] [current=N] [next=N] [start-timer] [primary=MS]
+ *         [secondary=MS] [faults=N] [refusals=N] [eliminated=0|1] [placement=N]
+ *   circe LINK emulate action ADDR [keys=N] [sensor-time=MS]          (mediator role)
+ *   Commands while a link is down fail with ERR ENOTCONN unless the request gives
+ *   "wait=MS" as its last word (the engine then waits up to MS for the link).
+ *
+ * Peer credentials (SO_PEERCRED): a request is served only for the daemon's uid, root, or a
+ * member of the configured group (primary or supplementary); others get "ERR 13 permission
+ * denied" and the connection is closed. Bounded: CONTROL_CLIENTS_MAX connections, one pending
+ * request each; an overlong line or a client that stops reading is disconnected (counted).
+ */
+#ifndef SHAREDLINK_DAEMON_CONTROL_H
+#define SHAREDLINK_DAEMON_CONTROL_H
+
+#include <stddef.h>
+#include <sys/types.h>
+
+#include "daemon/evloop.h"
+
+#define CONTROL_LINE_MAX        1024    /* request line, '\n' included */
+#define CONTROL_ARGS_MAX        32      /* words per request */
+#define CONTROL_CLIENTS_MAX     64      /* connections at once */
+#define CONTROL_REPLY_MAX       65536   /* bytes of reply queued per client */
+
+struct control;
+struct control_request;
+
+/*
+ * Called for every request from an authorised client. The handler (the daemon core, which
+ * routes to a link engine) must answer req exactly once with control_reply_ok() or
+ * control_reply_error(), now or later. argv points into the request and is valid until then.
+ */
+typedef void (*control_request_fn)(struct control_request *req, int argc, char **argv, void *arg);
+
+/*
+ * Binds the socket (replacing a stale one left by a dead daemon; refusing, -EADDRINUSE, one a
+ * live daemon still answers), sets its mode/group, and serves it on loop. 0 or -errno.
+ */
+int control_new(struct evloop *loop, const char *path, gid_t group, int has_group,
+                control_request_fn fn, void *arg, struct control **ret_control);
+
+/* Closes every connection and the socket, unlinks the path, frees. Pending requests stay valid
+ * until answered (answers then go nowhere). NULL-safe; returns NULL. */
+struct control *control_free(struct control *c);
+
+/* Sends an intermediate "DATA <text>" line. */
+void control_reply_data(struct control_request *req, const char *fmt, ...)
+        __attribute__((format(printf, 2, 3)));
+
+/* Ends the request with "OK[ <text>]" (fmt NULL: bare OK); req is invalid afterwards. */
+void control_reply_ok(struct control_request *req, const char *fmt, ...)
+        __attribute__((format(printf, 2, 3)));
+
+/* Ends the request with "ERR <err> <message>" (err positive or negative errno); req is invalid
+ * afterwards. */
+void control_reply_error(struct control_request *req, int err, const char *fmt, ...)
+        __attribute__((format(printf, 3, 4)));
+
+/* Whether the client that sent req is still connected (an engine may stop waiting early). */
+int control_request_alive(const struct control_request *req);
+
+#endif

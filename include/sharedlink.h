@@ -1,0 +1,234 @@
+/*
+ * libsharedlink: read and write the shared variables of a running sharedlinkd at memory speed.
+ *
+ * The daemon publishes what it hears in a POSIX shared-memory table that clients map read-only;
+ * clients in the daemon's group write outbound variables into a second table that the daemon reads.
+ * Every call returns a negative errno value on failure (sl_strerror explains it); nothing logs,
+ * nothing is global, and one handle may be used by many threads at once (sl_close excepted).
+ *
+ *     #include <sharedlink.h>
+ *
+ *     struct sl_client *c;
+ *     struct sl_meta meta = { .size = sizeof(meta) };
+ *     char value[SL_VALUE_SIZE];
+ *     uint32_t cursor = 0;
+ *     int lat, throttle, r;
+ *
+ *     r = sl_open(NULL, &c);                   // $SHAREDLINK_INSTANCE, or "default"
+ *     if (r < 0) { fprintf(stderr, "sharedlink: %s\n", sl_strerror(r)); return 1; }
+ *     lat = sl_find(c, "AutoGpsLat");
+ *     throttle = sl_find(c, "CmdThrottle");
+ *     for (;;) {
+ *             if (sl_read(c, lat, value, sizeof(value), &meta) >= 0 && (meta.flags & SL_FLAG_VALID))
+ *                     printf("lat %s (%s)\n", value, meta.flags & SL_FLAG_STALE ? "stale" : "fresh");
+ *             sl_write_double(c, throttle, 0.25, 2);   // outbound: sent to the peer by the daemon
+ *             sl_wait(c, &cursor, 1000);               // until something changes, or 1 s
+ *     }
+ *     sl_close(c);
+ *
+ * Build: cc prog.c $(pkg-config --cflags --libs sharedlink)
+ *
+ * Ids: sl_find and sl_info give ids 0..sl_count()-1. An id keeps naming the same variable for the
+ * life of the handle, also across a daemon restart: the library notices the new table (new epoch),
+ * remaps it and re-resolves its ids by name. A variable that the new daemon no longer has reads as
+ * -ENOENT; names that are new get new ids.
+ *
+ * Values are text: printable ASCII 0x20-0x7E except '|', '[' and ']', at most 63 bytes (what the
+ * wire can carry). The extensible structs below start with a `size` member that the caller sets
+ * to sizeof(the struct); the library fills only what fits, so newer fields never break old callers.
+ *
+ * Commands to the daemon (CIRCE operations, SharedLink queries) go through its control socket and
+ * will be added to this header as their own functions; they do not change anything here.
+ */
+#ifndef SHAREDLINK_H
+#define SHAREDLINK_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define SL_NAME_SIZE            48      /* variable name buffer: at most 47 bytes + NUL */
+#define SL_VALUE_SIZE           64      /* value buffer: at most 63 bytes + NUL */
+#define SL_PEER_SIZE            16
+#define SL_LINK_NAME_SIZE       32
+#define SL_PROTOCOL_SIZE        16
+#define SL_STATE_NAME_SIZE      32
+#define SL_TYPE_NAME_SIZE       24
+#define SL_EVENT_TEXT_SIZE      216     /* "key=value ..." + NUL */
+#define SL_COUNTERS_MAX         64      /* counters per link (named ones + spare room) */
+
+/* sl_var_info.direction */
+#define SL_DIR_IN               0       /* published by the daemon: read only */
+#define SL_DIR_OUT              1       /* written by clients, sent by the daemon */
+
+/* sl_var_info.type: how the daemon describes the value on the wire (text in any case) */
+#define SL_VAR_STRING           0
+#define SL_VAR_LONG             1
+#define SL_VAR_DOUBLE           2
+
+/* sl_var_info.flags */
+#define SL_VAR_ADHOC            0x1u    /* created at run time, not from the configuration */
+
+/* sl_meta.flags */
+#define SL_FLAG_VALID           0x1u    /* a complete value was written (else never set, or lost) */
+#define SL_FLAG_STALE           0x2u    /* link down, peer silent, or the daemon is not running */
+#define SL_FLAG_OUTBOUND        0x4u    /* an outbound variable: the value a client wrote */
+#define SL_FLAG_REPAIRED        0x8u    /* outbound: its last writer died mid-write */
+
+/* sl_event.flags */
+#define SL_EVENT_TRUNCATED      0x1u    /* the text was cut to fit */
+#define SL_EVENT_RESTARTED      0x2u    /* first event of a new daemon: the cursor was reset */
+
+struct sl_client;
+
+/* Metadata of a value, filled by the sl_read* functions. */
+struct sl_meta {
+        size_t size;                    /* set by the caller: sizeof(struct sl_meta) */
+        uint64_t mono_ns;               /* time of the last update, CLOCK_MONOTONIC */
+        uint64_t real_ns;               /* time of the last update, CLOCK_REALTIME */
+        uint64_t age_ns;                /* now - mono_ns (0 if never updated) */
+        uint64_t sequence;              /* number of updates so far */
+        uint32_t flags;                 /* SL_FLAG_* */
+};
+
+/* Description of a variable (sl_info). */
+struct sl_var_info {
+        size_t size;                    /* set by the caller: sizeof(struct sl_var_info) */
+        char name[SL_NAME_SIZE];
+        int direction;                  /* SL_DIR_* */
+        int type;                       /* SL_VAR_* */
+        int link;                       /* link index (sl_link_info), or -1 */
+        char peer[SL_PEER_SIZE];        /* peer address, or "" */
+        int position;                   /* place in the peer's list, or -1 */
+        uint32_t flags;                 /* SL_VAR_* flags */
+};
+
+/* One named counter. */
+struct sl_counter {
+        const char *name;               /* static string, e.g. "frames_in" */
+        uint64_t value;
+};
+
+/* State and counters of a link (sl_link_info). */
+struct sl_link_info {
+        size_t size;                    /* set by the caller: sizeof(struct sl_link_info) */
+        char name[SL_LINK_NAME_SIZE];
+        char protocol[SL_PROTOCOL_SIZE];
+        int state;                      /* small integer chosen by the link's engine */
+        char state_name[SL_STATE_NAME_SIZE];    /* e.g. "connected" */
+        uint64_t state_age_ns;          /* time since the last state change */
+        unsigned counter_count;         /* entries used in counters[] */
+        struct sl_counter counters[SL_COUNTERS_MAX];
+};
+
+/* The daemon behind the tables (sl_daemon_info). */
+struct sl_daemon_info {
+        size_t size;                    /* set by the caller: sizeof(struct sl_daemon_info) */
+        int pid;
+        int alive;                      /* 1: heartbeat recent and tables current */
+        uint64_t epoch;                 /* changes at every daemon start */
+        uint64_t heartbeat_age_ns;
+        uint32_t heartbeat_interval_ms; /* 0: the daemon does not run a heartbeat */
+        uint64_t started_real_ns;       /* CLOCK_REALTIME when the tables were created */
+        unsigned counter_count;
+        struct sl_counter counters[SL_COUNTERS_MAX];    /* daemon-wide, e.g. "out_invalid" */
+};
+
+/* One event (sl_events_read). */
+struct sl_event {
+        size_t size;                    /* set by the caller: sizeof(struct sl_event) */
+        uint64_t seq;                   /* event number, increasing within one daemon run */
+        uint64_t lost;                  /* events overwritten before this one could be read */
+        uint64_t mono_ns;
+        uint64_t real_ns;
+        int type;                       /* small integer; type_name is what to print */
+        char type_name[SL_TYPE_NAME_SIZE];      /* e.g. "action", "link-state" */
+        int link;                       /* link index, or -1 */
+        char link_name[SL_LINK_NAME_SIZE];      /* "" when none */
+        uint32_t flags;                 /* SL_EVENT_* */
+        char text[SL_EVENT_TEXT_SIZE];  /* "key=value ...", e.g. "device=E1E1E1 sensor_time=5000" */
+};
+
+/* Opens an instance (NULL: $SHAREDLINK_INSTANCE, else "default"); -ENOENT if it is not running. */
+int sl_open(const char *instance, struct sl_client **ret);
+
+/* Closes a handle; NULL-safe; returns NULL. No other call on it may be running. */
+struct sl_client *sl_close(struct sl_client *c);
+
+/* Id of the variable called name, or -ENOENT. */
+int sl_find(struct sl_client *c, const char *name);
+
+/* Number of ids; ids are 0..count-1 (some may read -ENOENT after a daemon restart). */
+int sl_count(struct sl_client *c);
+
+/* Describes variable id into *ret (ret->size set by the caller); 0 or -ENOENT. */
+int sl_info(struct sl_client *c, int id, struct sl_var_info *ret);
+
+/*
+ * Copies the value of variable id (NUL-terminated) into buf; meta may be NULL. Returns its length
+ * (0 and no SL_FLAG_VALID when it was never set), -ENOENT, -ENOBUFS (size < length + 1), or
+ * -EAGAIN when a writer kept it busy for every bounded attempt (try again). An outbound variable
+ * reads as what was last written to it.
+ */
+int sl_read(struct sl_client *c, int id, char *buf, size_t size, struct sl_meta *meta);
+
+/* Reads a value as a double; -ENODATA when not valid or empty, -EDOM when not a number. */
+int sl_read_double(struct sl_client *c, int id, double *ret, struct sl_meta *meta);
+
+/* Reads a value as a long (decimal); -ENODATA, -EDOM (not an integer) or -ERANGE. */
+int sl_read_long(struct sl_client *c, int id, long *ret, struct sl_meta *meta);
+
+/*
+ * Writes an outbound variable. Returns 0; -EPERM for an inbound variable; -EINVAL when the value
+ * cannot go on the wire (bytes, length); -EACCES when this user may not write (not in the group);
+ * -EBUSY when other writers kept the slot for every bounded attempt; -ENOTCONN when no daemon runs.
+ */
+int sl_write(struct sl_client *c, int id, const char *value);
+
+/* Writes v with that many decimals (0..17; < 0: the shortest text that reads back as v). */
+int sl_write_double(struct sl_client *c, int id, double v, int decimals);
+
+/* Writes v in decimal. */
+int sl_write_long(struct sl_client *c, int id, long v);
+
+/*
+ * Waits until the table changed since *cursor (a value from an earlier call; start with 0), at
+ * most timeout_ms (< 0: no limit; 0: just check). Returns 1 and updates *cursor when something
+ * changed (values, names, links, events, a daemon restart), 0 on timeout, or -errno.
+ */
+int sl_wait(struct sl_client *c, uint32_t *cursor, int timeout_ms);
+
+/*
+ * Reads up to ret_size events after *cursor (start with 0: the oldest retained; or with
+ * sl_events_now) into ret[0..ret_size-1], each element's size set by the caller. Returns the
+ * number read (0: none new) and advances *cursor. Events are never skipped silently: lost counts
+ * the ones overwritten before they could be read.
+ */
+int sl_events_read(struct sl_client *c, uint64_t *cursor, struct sl_event *ret, size_t ret_size);
+
+/* Sets *ret_cursor to "now": sl_events_read then returns only later events. 0 or -errno. */
+int sl_events_now(struct sl_client *c, uint64_t *ret_cursor);
+
+/* Number of links. */
+int sl_link_count(struct sl_client *c);
+
+/* State and counters of link index link (0..sl_link_count-1); 0, -ENOENT or -EAGAIN. */
+int sl_link_info(struct sl_client *c, int link, struct sl_link_info *ret);
+
+/* The daemon's pid, epoch, heartbeat and daemon-wide counters. 0 or -errno. */
+int sl_daemon_info(struct sl_client *c, struct sl_daemon_info *ret);
+
+/* 1 when the daemon is running (heartbeat recent, tables current), 0 when not, or -errno. */
+int sl_daemon_alive(struct sl_client *c);
+
+/* A static English message for a value returned by any sl_* function (negative or not). */
+const char *sl_strerror(int err);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

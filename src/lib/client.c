@@ -1,0 +1,449 @@
+/*
+ * Client handle: open/close, mapping the tables, refreshing after a daemon restart, stable ids.
+ */
+#define _GNU_SOURCE     /* pthread_rwlockattr_setkind_np: writers must not starve behind readers */
+#include "lib/client.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <sharedlink.h>
+
+#include "lib/export.h"
+
+#define NS_PER_S                1000000000ull
+#define NS_PER_MS               1000000ull
+#define CLIENT_HASH_EMPTY       (-1)
+#define CLIENT_IDS_INITIAL      64u
+#define CLIENT_REFRESH_TRIES    2
+
+uint64_t client_now(clockid_t id)
+{
+        struct timespec ts;
+
+        clock_gettime(id, &ts);
+        return (uint64_t)ts.tv_sec * NS_PER_S + (uint64_t)ts.tv_nsec;
+}
+
+void client_copy_field(char *dst, size_t size, const char *src, size_t src_size)
+{
+        size_t len = strnlen(src, src_size < size ? src_size : size - 1u);
+
+        memcpy(dst, src, len);
+        dst[len] = '\0';
+}
+
+/* ---- mappings ------------------------------------------------------------------------------ */
+
+/* Maps .in read-only and checks it. Returns 0, -ENOENT (no daemon), -EACCES, -EAGAIN, -EPROTO. */
+static int map_open(const char *name, struct client_map **ret_map)
+{
+        const struct shm_in_header *h;
+        struct client_map *m;
+        struct stat st;
+        void *base;
+        int fd, r;
+
+        fd = shm_open(name, O_RDONLY | O_CLOEXEC, 0);
+        if (fd < 0)
+                return -errno;
+        if (fstat(fd, &st) < 0) {
+                r = -errno;
+                close(fd);
+                return r;
+        }
+        if ((size_t)st.st_size < sizeof(*h)) {
+                close(fd);
+                return -EAGAIN;         /* being created */
+        }
+        base = mmap(NULL, (size_t)st.st_size, PROT_READ, MAP_SHARED, fd, 0);
+        r = base == MAP_FAILED ? -errno : 0;
+        close(fd);
+        if (r < 0)
+                return r;
+        h = base;
+        r = shm_layout_check_in(h, (uint64_t)st.st_size);
+        if (r < 0)
+                goto fail;
+        m = calloc(1, sizeof(*m));
+        if (!m) {
+                r = -ENOMEM;
+                goto fail;
+        }
+        atomic_init(&m->refs, 1);
+        m->in = h;
+        m->size = (size_t)st.st_size;
+        m->links = (const struct shm_link *)((const char *)base + h->links_offset);
+        m->events = (const struct shm_event *)((const char *)base + h->events_offset);
+        m->dir = (const struct shm_dir_entry *)((const char *)base + h->dir_offset);
+        m->slots = (const struct shm_slot *)((const char *)base + h->slots_offset);
+        m->capacity = h->capacity;
+        m->event_capacity = h->event_capacity;
+        m->epoch = h->epoch;
+        m->dev = st.st_dev;
+        m->ino = st.st_ino;
+        *ret_map = m;
+        return 0;
+fail:
+        munmap(base, (size_t)st.st_size);
+        return r;
+}
+
+struct client_map *client_map_put(struct client_map *m)
+{
+        if (!m)
+                return NULL;
+        if (atomic_fetch_sub_explicit(&m->refs, 1, memory_order_acq_rel) == 1) {
+                munmap((void *)(uintptr_t)m->in, m->size);
+                free(m);
+        }
+        return NULL;
+}
+
+struct client_map *client_map_get(struct sl_client *c)
+{
+        atomic_fetch_add_explicit(&c->map->refs, 1, memory_order_relaxed);
+        return c->map;
+}
+
+int client_map_replaced(const struct sl_client *c, const struct client_map *m)
+{
+        struct stat st;
+        int fd, replaced;
+
+        fd = shm_open(c->in_name, O_RDONLY | O_CLOEXEC, 0);
+        if (fd < 0)
+                return 0;       /* gone, not replaced (yet) */
+        replaced = fstat(fd, &st) == 0 && (st.st_ino != m->ino || st.st_dev != m->dev);
+        close(fd);
+        return replaced;
+}
+
+static void out_unmap(struct sl_client *c)
+{
+        if (c->out)
+                munmap(c->out, c->out_size);
+        c->out = NULL;
+        c->out_slots = NULL;
+        c->out_size = 0;
+        c->out_capacity = 0;
+}
+
+/*
+ * Maps .out read-write if this user may. On failure out_error keeps the reason (-EACCES: not in
+ * the group) for sl_write to return; reading never needs .out.
+ */
+static void out_open(struct sl_client *c)
+{
+        const struct client_map *m = c->map;
+        uint32_t generation = atomic_load_explicit(&m->in->out_generation, memory_order_acquire);
+        struct shm_out_header *h;
+        struct stat st;
+        void *base;
+        int fd, r;
+
+        out_unmap(c);
+        c->out_generation = generation;
+        fd = shm_open(c->out_name, O_RDWR | O_CLOEXEC, 0);
+        if (fd < 0) {
+                c->out_error = errno == ENOENT ? -EAGAIN : -errno;
+                return;
+        }
+        r = fstat(fd, &st) < 0 ? -errno : 0;
+        if (r == 0 && (size_t)st.st_size < sizeof(*h))
+                r = -EAGAIN;
+        if (r < 0) {
+                close(fd);
+                c->out_error = r;
+                return;
+        }
+        base = mmap(NULL, (size_t)st.st_size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+        r = base == MAP_FAILED ? -errno : 0;
+        close(fd);
+        if (r < 0) {
+                c->out_error = r;
+                return;
+        }
+        h = base;
+        r = shm_layout_check_out(h, (uint64_t)st.st_size);
+        /* Another client may have scribbled on it; the daemon will recreate it. */
+        if (r == 0 && (h->epoch != m->epoch || h->generation != generation ||
+                       h->capacity != m->in->out_capacity))
+                r = -EAGAIN;
+        if (r < 0) {
+                munmap(base, (size_t)st.st_size);
+                c->out_error = r;
+                return;
+        }
+        c->out = h;
+        c->out_size = (size_t)st.st_size;
+        c->out_slots = (struct shm_slot *)((char *)base + h->slots_offset);
+        c->out_capacity = h->capacity;
+        c->out_error = 0;
+}
+
+/* ---- ids ----------------------------------------------------------------------------------- */
+
+static uint32_t name_hash(const char *name)
+{
+        uint32_t h = 2166136261u;       /* FNV-1a */
+
+        for (size_t i = 0; i < SHM_NAME_SIZE && name[i]; i++)
+                h = (h ^ (unsigned char)name[i]) * 16777619u;
+        return h;
+}
+
+static int id_lookup(const struct sl_client *c, const char *name)
+{
+        uint32_t mask = c->name_hash_size - 1u;
+
+        if (!c->name_hash_size)
+                return -ENOENT;
+        for (uint32_t i = name_hash(name) & mask, n = 0; n < c->name_hash_size;
+             i = (i + 1u) & mask, n++) {
+                int32_t id = c->name_hash[i];
+
+                if (id == CLIENT_HASH_EMPTY)
+                        return -ENOENT;
+                if (strncmp(c->id_names[id], name, SHM_NAME_SIZE) == 0)
+                        return id;
+        }
+        return -ENOENT;
+}
+
+static void id_hash_insert(struct sl_client *c, uint32_t id)
+{
+        uint32_t mask = c->name_hash_size - 1u;
+        uint32_t i = name_hash(c->id_names[id]) & mask;
+
+        while (c->name_hash[i] != CLIENT_HASH_EMPTY)
+                i = (i + 1u) & mask;
+        c->name_hash[i] = (int32_t)id;
+}
+
+/* Makes room for at least `need` ids. */
+static int ids_reserve(struct sl_client *c, uint32_t need)
+{
+        uint32_t cap = c->ids_cap ? c->ids_cap : CLIENT_IDS_INITIAL;
+        char (*names)[SHM_NAME_SIZE];
+        int32_t *index, *hash;
+        uint32_t hash_size;
+
+        if (need <= c->ids_cap)
+                return 0;
+        if (need > CLIENT_IDS_MAX)
+                return -ENOSPC;
+        while (cap < need)
+                cap *= 2u;
+        names = realloc(c->id_names, (size_t)cap * sizeof(*names));
+        if (!names)
+                return -ENOMEM;
+        c->id_names = names;
+        index = realloc(c->id_index, (size_t)cap * sizeof(*index));
+        if (!index)
+                return -ENOMEM;
+        c->id_index = index;
+        hash_size = 2u * cap;
+        hash = malloc((size_t)hash_size * sizeof(*hash));
+        if (!hash)
+                return -ENOMEM;
+        free(c->name_hash);
+        c->name_hash = hash;
+        c->name_hash_size = hash_size;
+        c->ids_cap = cap;
+        for (uint32_t i = 0; i < hash_size; i++)
+                c->name_hash[i] = CLIENT_HASH_EMPTY;
+        for (uint32_t id = 0; id < c->nids; id++)
+                id_hash_insert(c, id);
+        return 0;
+}
+
+/* Gives ids to the directory entries published since the last sync (write lock held). */
+static void ids_sync(struct sl_client *c)
+{
+        const struct client_map *m = c->map;
+        uint32_t count = atomic_load_explicit(&m->in->count, memory_order_acquire);
+
+        if (count > m->capacity)
+                count = m->capacity;
+        for (; c->synced < count; c->synced++) {
+                const struct shm_dir_entry *e = &m->dir[c->synced];
+                char name[SHM_NAME_SIZE];
+                int id;
+
+                client_copy_field(name, sizeof(name), e->name, sizeof(e->name));
+                id = id_lookup(c, name);
+                if (id < 0) {
+                        if (ids_reserve(c, c->nids + 1u) < 0)
+                                return;         /* out of memory or ids: retried next refresh */
+                        id = (int)c->nids++;
+                        memcpy(c->id_names[id], name, sizeof(name));
+                        id_hash_insert(c, (uint32_t)id);
+                }
+                c->id_index[id] = (int32_t)c->synced;
+                c->index_id[c->synced] = id;
+        }
+}
+
+/* Installs a freshly opened map in place of the current one and re-resolves every id. */
+static int map_install(struct sl_client *c, struct client_map *m)
+{
+        int32_t *index_id = calloc(m->capacity ? m->capacity : 1u, sizeof(*index_id));
+
+        if (!index_id)
+                return -ENOMEM;
+        client_map_put(c->map);
+        c->map = m;
+        free(c->index_id);
+        c->index_id = index_id;
+        for (uint32_t id = 0; id < c->nids; id++)
+                c->id_index[id] = -1;
+        c->synced = 0;
+        ids_sync(c);
+        out_open(c);
+        return 0;
+}
+
+int client_closed(const struct sl_client *c)
+{
+        return atomic_load_explicit(&c->map->in->state, memory_order_acquire) != SHM_STATE_LIVE;
+}
+
+static int needs_refresh(const struct sl_client *c)
+{
+        const struct shm_in_header *h = c->map->in;
+
+        return client_closed(c) ||
+               atomic_load_explicit(&h->count, memory_order_acquire) != c->synced ||
+               atomic_load_explicit(&h->out_generation, memory_order_acquire) != c->out_generation ||
+               (!c->out && c->out_error == -EAGAIN);
+}
+
+/* Write lock held: follow a daemon restart, new names, a recreated .out. */
+static void refresh(struct sl_client *c)
+{
+        struct client_map *m;
+
+        if (client_closed(c) && map_open(c->in_name, &m) == 0) {
+                if (m->epoch != c->map->epoch && map_install(c, m) == 0)
+                        return;
+                client_map_put(m);
+        }
+        ids_sync(c);
+        if (atomic_load_explicit(&c->map->in->out_generation, memory_order_acquire) !=
+            c->out_generation || (!c->out && c->out_error == -EAGAIN))
+                out_open(c);
+}
+
+void client_rdlock(struct sl_client *c)
+{
+        for (int attempt = 0;; attempt++) {
+                pthread_rwlock_rdlock(&c->lock);
+                /* Bounded: with the daemon gone for good, serve the last values (flagged stale). */
+                if (attempt == CLIENT_REFRESH_TRIES || !needs_refresh(c))
+                        return;
+                pthread_rwlock_unlock(&c->lock);
+                pthread_rwlock_wrlock(&c->lock);
+                refresh(c);
+                pthread_rwlock_unlock(&c->lock);
+        }
+}
+
+void client_unlock(struct sl_client *c)
+{
+        pthread_rwlock_unlock(&c->lock);
+}
+
+int client_index(const struct sl_client *c, int id)
+{
+        if (id < 0 || (uint32_t)id >= c->nids || c->id_index[id] < 0)
+                return -ENOENT;
+        return c->id_index[id];
+}
+
+int client_alive(const struct sl_client *c, uint64_t now_mono, uint64_t *ret_age)
+{
+        const struct shm_in_header *h = c->map->in;
+        uint64_t beat = atomic_load_explicit(&h->heartbeat_ns, memory_order_relaxed);
+        uint64_t age = now_mono > beat ? now_mono - beat : 0;
+
+        if (ret_age)
+                *ret_age = age;
+        if (client_closed(c))
+                return 0;
+        if (h->heartbeat_interval_ms == 0)
+                return 1;
+        return age <= (uint64_t)CLIENT_HEARTBEAT_MISSES * h->heartbeat_interval_ms * NS_PER_MS;
+}
+
+/* ---- open / close -------------------------------------------------------------------------- */
+
+SL_EXPORT int sl_open(const char *instance, struct sl_client **ret)
+{
+        pthread_rwlockattr_t attr;
+        struct client_map *m;
+        struct sl_client *c;
+        int r;
+
+        if (!ret)
+                return -EINVAL;
+        if (!instance || !*instance)
+                instance = getenv("SHAREDLINK_INSTANCE");
+        if (!instance || !*instance)
+                instance = "default";
+        c = calloc(1, sizeof(*c));
+        if (!c)
+                return -ENOMEM;
+        if (shm_layout_object_name(instance, "in", c->in_name, sizeof(c->in_name)) < 0 ||
+            shm_layout_object_name(instance, "out", c->out_name, sizeof(c->out_name)) < 0) {
+                free(c);
+                return -EINVAL;
+        }
+        c->c_locale = newlocale(LC_ALL_MASK, "C", (locale_t)0);
+        if (c->c_locale == (locale_t)0) {
+                free(c);
+                return -ENOMEM;
+        }
+        c->pid = (uint32_t)getpid();
+        r = map_open(c->in_name, &m);
+        if (r < 0) {
+                freelocale(c->c_locale);
+                free(c);
+                return r;
+        }
+        pthread_rwlockattr_init(&attr);
+        pthread_rwlockattr_setkind_np(&attr, PTHREAD_RWLOCK_PREFER_WRITER_NONRECURSIVE_NP);
+        pthread_rwlock_init(&c->lock, &attr);
+        pthread_rwlockattr_destroy(&attr);
+        c->out_error = -EAGAIN;
+        r = map_install(c, m);
+        if (r < 0) {
+                client_map_put(m);
+                sl_close(c);
+                return r;
+        }
+        *ret = c;
+        return 0;
+}
+
+SL_EXPORT struct sl_client *sl_close(struct sl_client *c)
+{
+        if (!c)
+                return NULL;
+        out_unmap(c);
+        client_map_put(c->map);
+        pthread_rwlock_destroy(&c->lock);
+        freelocale(c->c_locale);
+        free(c->id_names);
+        free(c->id_index);
+        free(c->index_id);
+        free(c->name_hash);
+        free(c);
+        return NULL;
+}

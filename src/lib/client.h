@@ -1,0 +1,95 @@
+/*
+ * The client handle behind <sharedlink.h>: mappings of .in (read-only) and .out (read-write when
+ * the user may), the id translation that keeps ids stable across daemon restarts, and the lock
+ * that makes one handle usable from many threads.
+ *
+ * Locking: every call holds c->lock for reading while it touches the mappings; only a refresh
+ * (daemon restart, new names, recreated .out) takes it for writing. sl_wait must not hold the lock
+ * while it sleeps, so it pins the current .in mapping with a reference instead (struct client_map).
+ */
+#ifndef SL_CLIENT_H
+#define SL_CLIENT_H
+
+#include <locale.h>
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdint.h>
+#include <sys/types.h>
+
+#include "shm/layout.h"
+
+#define CLIENT_IDS_MAX          (4u * SHM_CAPACITY_MAX)  /* ids a handle hands out in its life */
+#define CLIENT_HEARTBEAT_MISSES 3u      /* heartbeat older than this many intervals: not alive */
+
+/* One mapping of .in, shared by the handle and any sl_wait sleeping on it. */
+struct client_map {
+        _Atomic int refs;
+        const struct shm_in_header *in;
+        size_t size;
+        const struct shm_link *links;
+        const struct shm_event *events;
+        const struct shm_dir_entry *dir;
+        const struct shm_slot *slots;
+        uint32_t capacity;
+        uint32_t event_capacity;
+        uint64_t epoch;
+        dev_t dev;                      /* identity of the object, to notice a replacement */
+        ino_t ino;
+};
+
+struct sl_client {
+        pthread_rwlock_t lock;
+        char in_name[SHM_OBJECT_NAME_SIZE];
+        char out_name[SHM_OBJECT_NAME_SIZE];
+        struct client_map *map;
+        /* .out: mapped read-write when this user may, else out_error says why */
+        struct shm_out_header *out;
+        size_t out_size;
+        struct shm_slot *out_slots;
+        uint32_t out_capacity;
+        uint32_t out_generation;
+        int out_error;
+        /* ids: stable for the life of the handle, resolved by name against the current map */
+        uint32_t nids;
+        uint32_t ids_cap;
+        char (*id_names)[SHM_NAME_SIZE];
+        int32_t *id_index;              /* id -> directory index in the current map, or -1 */
+        int32_t *index_id;              /* directory index -> id, map->capacity entries */
+        uint32_t synced;                /* directory entries of the current map given ids */
+        int32_t *name_hash;             /* open addressing: name -> id */
+        uint32_t name_hash_size;
+        uint32_t pid;                   /* written into .out lock words */
+        locale_t c_locale;              /* numbers are formatted and parsed in the C locale */
+};
+
+/* Takes c->lock for reading, first refreshing the view if the tables changed underneath. */
+void client_rdlock(struct sl_client *c);
+
+/* Releases c->lock. */
+void client_unlock(struct sl_client *c);
+
+/* Directory index of id in the current map (read lock held), or -ENOENT. */
+int client_index(const struct sl_client *c, int id);
+
+/* 1 when the current .in was closed by its daemon (shut down or superseded, no successor yet). */
+int client_closed(const struct sl_client *c);
+
+/* 1 when the daemon looks alive: table live and heartbeat recent (read lock held). */
+int client_alive(const struct sl_client *c, uint64_t now_mono, uint64_t *ret_age);
+
+/* Takes a reference on the current map (read lock held); release with client_map_put. */
+struct client_map *client_map_get(struct sl_client *c);
+
+/* Drops a reference; the last one unmaps. NULL-safe; returns NULL. */
+struct client_map *client_map_put(struct client_map *m);
+
+/* 1 when the name of .in now refers to another object than m (a new daemon replaced it). */
+int client_map_replaced(const struct sl_client *c, const struct client_map *m);
+
+/* CLOCK_MONOTONIC / CLOCK_REALTIME in ns. */
+uint64_t client_now(clockid_t id);
+
+/* Copies a fixed-size, possibly unterminated field into dst[size] with a NUL. */
+void client_copy_field(char *dst, size_t size, const char *src, size_t src_size);
+
+#endif

@@ -1,0 +1,178 @@
+/*
+ * Waiting for changes (futex on the .in change word) and reading the event ring.
+ */
+#include <errno.h>
+#include <limits.h>
+#include <string.h>
+
+#include <sharedlink.h>
+
+#include "lib/client.h"
+#include "lib/export.h"
+#include "shm/events.h"
+#include "shm/futex.h"
+
+#define NS_PER_MS               1000000ull
+/* Longest single futex sleep: in between, sl_wait checks whether the table was replaced behind
+ * its back (normally the replacing daemon wakes it at once; this covers a removed object). */
+#define NOTIFY_SLICE_MS         1000
+/* Event cursors carry 16 bits of the epoch above a 48-bit event number, so a cursor from another
+ * daemon run is recognised instead of silently skipping or repeating events. */
+#define NOTIFY_CURSOR_SHIFT     48
+#define NOTIFY_CURSOR_MASK      ((UINT64_C(1) << NOTIFY_CURSOR_SHIFT) - 1u)
+#define SL_EVENT_SIZE_V1        sizeof(struct sl_event)
+
+static uint32_t change_word(const struct client_map *m)
+{
+        return atomic_load_explicit(&m->in->change, memory_order_acquire);
+}
+
+SL_EXPORT int sl_wait(struct sl_client *c, uint32_t *cursor, int timeout_ms)
+{
+        uint64_t deadline = 0, now;
+        struct client_map *m;
+        uint32_t seen;
+        int r, changed = 0;
+
+        if (!c || !cursor)
+                return -EINVAL;
+        if (timeout_ms > 0)
+                deadline = client_now(CLOCK_MONOTONIC) + (uint64_t)timeout_ms * NS_PER_MS;
+        client_rdlock(c);
+        m = client_map_get(c);
+        client_unlock(c);
+
+        for (;;) {
+                int slice = NOTIFY_SLICE_MS;
+
+                /* A daemon that shuts down or replaces this table bumps the word too. A closed
+                 * table without a successor does not count as a change on every call (that would
+                 * spin the caller): it is waited on slice by slice until a new one appears. */
+                seen = change_word(m);
+                if (seen != *cursor) {
+                        changed = 1;
+                        break;
+                }
+                if (timeout_ms == 0)
+                        break;
+                if (timeout_ms > 0) {
+                        now = client_now(CLOCK_MONOTONIC);
+                        if (now >= deadline)
+                                break;
+                        if ((deadline - now) / NS_PER_MS < (uint64_t)slice)
+                                slice = (int)((deadline - now + NS_PER_MS - 1u) / NS_PER_MS);
+                }
+                r = shm_futex_wait(&m->in->change, seen, slice);
+                if (r == -ETIMEDOUT && client_map_replaced(c, m)) {
+                        changed = 1;
+                        break;
+                }
+                if (r < 0 && r != -ETIMEDOUT && r != -EAGAIN && r != -EINTR) {
+                        client_map_put(m);
+                        return r;
+                }
+        }
+        client_map_put(m);
+        if (!changed)
+                return 0;
+        /* Follow a restart now, so that the cursor belongs to the table that will be waited on. */
+        client_rdlock(c);
+        *cursor = change_word(c->map);
+        client_unlock(c);
+        return 1;
+}
+
+static uint64_t cursor_tag(const struct client_map *m)
+{
+        uint64_t tag = m->epoch >> NOTIFY_CURSOR_SHIFT;
+
+        return tag ? tag : 1u;  /* never 0: cursor 0 means "from the start" */
+}
+
+static void event_fill(const struct sl_client *c, const struct shm_event_copy *e, uint32_t flags,
+                       struct sl_event *ret)
+{
+        const struct client_map *m = c->map;
+        uint32_t links = atomic_load_explicit(&m->in->link_count, memory_order_acquire);
+        struct sl_event ev;
+        size_t size = ret->size < sizeof(ev) ? ret->size : sizeof(ev);
+
+        memset(&ev, 0, sizeof(ev));
+        ev.size = ret->size;
+        ev.seq = e->number;
+        ev.lost = e->lost;
+        ev.mono_ns = e->mono_ns;
+        ev.real_ns = e->real_ns;
+        ev.type = (int)e->type;
+        client_copy_field(ev.type_name, sizeof(ev.type_name), shm_layout_event_name(e->type),
+                          sizeof(ev.type_name));
+        ev.link = -1;
+        if (e->link < links && e->link < SHM_LINKS_MAX) {
+                ev.link = (int)e->link;
+                client_copy_field(ev.link_name, sizeof(ev.link_name), m->links[e->link].name,
+                                  sizeof(m->links[e->link].name));
+        }
+        ev.flags = flags | ((e->flags & SHM_EVENT_TRUNCATED) ? SL_EVENT_TRUNCATED : 0u);
+        memcpy(ev.text, e->text, sizeof(ev.text));
+        memcpy(ret, &ev, size);
+}
+
+SL_EXPORT int sl_events_read(struct sl_client *c, uint64_t *cursor, struct sl_event *ret,
+                             size_t ret_size)
+{
+        const struct client_map *m;
+        size_t stride, got = 0;
+        uint64_t number, tag;
+        uint32_t flags = 0;
+        int r = 0;
+
+        if (!c || !cursor || !ret || ret_size == 0 || ret[0].size < SL_EVENT_SIZE_V1)
+                return -EINVAL;
+        stride = ret[0].size;   /* the caller's sizeof: elements are that far apart */
+        client_rdlock(c);
+        m = c->map;
+        tag = cursor_tag(m);
+        number = *cursor & NOTIFY_CURSOR_MASK;
+        if (*cursor != 0 && (*cursor >> NOTIFY_CURSOR_SHIFT) != tag) {
+                number = 0;     /* a cursor of an earlier daemon run: start over, and say so */
+                flags = SL_EVENT_RESTARTED;
+        }
+        while (got < ret_size) {
+                struct sl_event *out = (struct sl_event *)(void *)((char *)ret + got * stride);
+                struct shm_event_copy e;
+
+                if (out->size != stride) {
+                        r = -EINVAL;
+                        break;
+                }
+                r = shm_events_read(m->events, m->event_capacity, &m->in->event_head, &number, &e);
+                if (r == -ESTALE) {     /* a cursor ahead of the ring: not from this run either */
+                        number = 0;
+                        flags = SL_EVENT_RESTARTED;
+                        continue;
+                }
+                if (r <= 0)
+                        break;
+                event_fill(c, &e, flags, out);
+                flags = 0;
+                got++;
+        }
+        *cursor = (tag << NOTIFY_CURSOR_SHIFT) | (number & NOTIFY_CURSOR_MASK);
+        client_unlock(c);
+        if (got == 0 && r < 0)
+                return r;
+        return (int)got;
+}
+
+SL_EXPORT int sl_events_now(struct sl_client *c, uint64_t *ret_cursor)
+{
+        uint64_t head;
+
+        if (!c || !ret_cursor)
+                return -EINVAL;
+        client_rdlock(c);
+        head = atomic_load_explicit(&c->map->in->event_head, memory_order_acquire);
+        *ret_cursor = (cursor_tag(c->map) << NOTIFY_CURSOR_SHIFT) | (head & NOTIFY_CURSOR_MASK);
+        client_unlock(c);
+        return 0;
+}

@@ -1,0 +1,179 @@
+/*
+ * Layout helpers shared by the daemon and the library: geometry, header checks, name tables, and
+ * the value/name/instance grammars.
+ */
+#include "shm/layout.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+
+#define SHM_COUNTER_NAME(id, name) name,
+static const char *const counter_names[] = { SHM_COUNTER_LIST(SHM_COUNTER_NAME) };
+#undef SHM_COUNTER_NAME
+
+#define SHM_EVENT_NAME(id, name) name,
+static const char *const event_names[] = { SHM_EVENT_LIST(SHM_EVENT_NAME) };
+#undef SHM_EVENT_NAME
+
+static const char *const type_names[SHM_TYPE_COUNT] = { "string", "long", "double" };
+
+static uint64_t align_up(uint64_t v, uint64_t a)
+{
+        return (v + a - 1u) / a * a;
+}
+
+void shm_layout_in_geometry(uint32_t capacity, uint32_t event_capacity,
+                            struct shm_in_geometry *ret_geometry)
+{
+        struct shm_in_geometry g;
+
+        g.links_offset = sizeof(struct shm_in_header);
+        g.events_offset = align_up(g.links_offset + (uint64_t)SHM_LINKS_MAX * sizeof(struct shm_link),
+                                   SHM_CACHE_LINE);
+        g.dir_offset = align_up(g.events_offset + (uint64_t)event_capacity * sizeof(struct shm_event),
+                                SHM_CACHE_LINE);
+        g.slots_offset = align_up(g.dir_offset + (uint64_t)capacity * sizeof(struct shm_dir_entry),
+                                  SHM_CACHE_LINE);
+        g.total_size = g.slots_offset + (uint64_t)capacity * sizeof(struct shm_slot);
+        *ret_geometry = g;
+}
+
+uint64_t shm_layout_out_size(uint32_t out_capacity)
+{
+        return sizeof(struct shm_out_header) + (uint64_t)out_capacity * sizeof(struct shm_slot);
+}
+
+int shm_layout_check_in(const struct shm_in_header *h, uint64_t object_size)
+{
+        struct shm_in_geometry g;
+        uint64_t magic;
+
+        if (object_size < sizeof(*h))
+                return -EAGAIN;         /* created but not sized yet */
+        magic = atomic_load_explicit(&h->magic, memory_order_acquire);
+        if (magic == 0)
+                return -EAGAIN;         /* magic is written last: not ready yet */
+        if (magic != SHM_IN_MAGIC)
+                return -EPROTO;
+        if ((h->layout_version >> 16) != SHM_LAYOUT_MAJOR ||
+            h->header_size != sizeof(*h) ||
+            h->slot_size != sizeof(struct shm_slot) ||
+            h->dir_entry_size != sizeof(struct shm_dir_entry) ||
+            h->link_max != SHM_LINKS_MAX ||
+            h->link_size != sizeof(struct shm_link) ||
+            h->counter_max != SHM_COUNTERS_MAX ||
+            h->event_size != sizeof(struct shm_event))
+                return -EPROTO;
+        if (h->capacity > SHM_CAPACITY_MAX || h->out_capacity > h->capacity ||
+            h->event_capacity < SHM_EVENTS_MIN || h->event_capacity > SHM_EVENTS_MAX ||
+            (h->event_capacity & (h->event_capacity - 1u)) != 0)
+                return -EPROTO;
+        shm_layout_in_geometry(h->capacity, h->event_capacity, &g);
+        if (h->links_offset != g.links_offset || h->events_offset != g.events_offset ||
+            h->dir_offset != g.dir_offset || h->slots_offset != g.slots_offset ||
+            h->total_size != g.total_size || g.total_size > object_size)
+                return -EPROTO;
+        return 0;
+}
+
+int shm_layout_check_out(const struct shm_out_header *h, uint64_t object_size)
+{
+        uint64_t magic;
+
+        if (object_size < sizeof(*h))
+                return -EAGAIN;
+        magic = atomic_load_explicit(&h->magic, memory_order_acquire);
+        if (magic == 0)
+                return -EAGAIN;
+        if (magic != SHM_OUT_MAGIC)
+                return -EPROTO;
+        if ((h->layout_version >> 16) != SHM_LAYOUT_MAJOR || h->header_size != sizeof(*h) ||
+            h->slot_size != sizeof(struct shm_slot) || h->capacity > SHM_CAPACITY_MAX ||
+            h->slots_offset != sizeof(*h) ||
+            h->total_size != shm_layout_out_size(h->capacity) || h->total_size > object_size)
+                return -EPROTO;
+        return 0;
+}
+
+const char *shm_layout_counter_name(unsigned i)
+{
+        if (i >= SHM_COUNTER_COUNT)
+                return NULL;
+        return counter_names[i];
+}
+
+const char *shm_layout_event_name(unsigned t)
+{
+        if (t >= SHM_EVENT_TYPE_COUNT)
+                return "unknown";
+        return event_names[t];
+}
+
+const char *shm_layout_type_name(unsigned t)
+{
+        if (t >= SHM_TYPE_COUNT)
+                return "unknown";
+        return type_names[t];
+}
+
+int shm_layout_value_char(int c)
+{
+        return c >= 0x20 && c <= 0x7e && c != '|' && c != '[' && c != ']';
+}
+
+int shm_layout_value_check(const char *v, size_t len)
+{
+        if (len > SHM_VALUE_MAX)
+                return -EINVAL;
+        for (size_t i = 0; i < len; i++)
+                if (!shm_layout_value_char((unsigned char)v[i]))
+                        return -EINVAL;
+        return 0;
+}
+
+int shm_layout_name_check(const char *name)
+{
+        size_t len;
+
+        if (!name)
+                return -EINVAL;
+        len = strnlen(name, SHM_NAME_SIZE);
+        if (len == 0 || len > SHM_NAME_MAX)
+                return -EINVAL;
+        for (size_t i = 0; i < len; i++)
+                if (name[i] == ' ' || !shm_layout_value_char((unsigned char)name[i]))
+                        return -EINVAL;
+        return 0;
+}
+
+int shm_layout_instance_check(const char *instance)
+{
+        size_t len;
+
+        if (!instance)
+                return -EINVAL;
+        len = strnlen(instance, SHM_INSTANCE_MAX + 1u);
+        if (len == 0 || len > SHM_INSTANCE_MAX || instance[0] == '.')
+                return -EINVAL;
+        for (size_t i = 0; i < len; i++) {
+                char c = instance[i];
+
+                if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                      c == '_' || c == '-' || c == '.'))
+                        return -EINVAL;
+        }
+        return 0;
+}
+
+int shm_layout_object_name(const char *instance, const char *suffix, char *buf, size_t size)
+{
+        int n;
+
+        if (shm_layout_instance_check(instance) < 0)
+                return -EINVAL;
+        n = snprintf(buf, size, "/sharedlink.%s.%s", instance, suffix);
+        if (n < 0 || (size_t)n >= size)
+                return -ENAMETOOLONG;
+        return 0;
+}

@@ -1,0 +1,377 @@
+/*
+ * Shared-memory layout of one sharedlink instance, defined once for the daemon and the library.
+ *
+ * Two POSIX shm objects per instance:
+ *   /sharedlink.<instance>.in   the daemon writes, clients map PROT_READ (mode 0644, 0640 with a group)
+ *   /sharedlink.<instance>.out  clients in the group write, the daemon reads (mode 0660)
+ *
+ * .in:   [struct shm_in_header][struct shm_link x SHM_LINKS_MAX][struct shm_event x event_capacity]
+ *        [struct shm_dir_entry x capacity][struct shm_slot x capacity]
+ * .out:  [struct shm_out_header][struct shm_slot x out_capacity]
+ *
+ * Every region starts on a cache line; the header records every offset and size, and readers check
+ * them against the size of the object before touching anything past the header. Fields are fixed
+ * width integers or char arrays (no bool, enum, pointer or float): the .out object is written by
+ * clients and is hostile input to the daemon, and a byte that does not fit a C type is undefined
+ * behaviour once loaded as that type.
+ *
+ * A variable's id is its directory index. Its inbound slot has the same index in both directions:
+ * for an outbound variable the daemon mirrors there the last value it accepted, so clients outside
+ * the group (which cannot map .out) and watchers see it too. Outbound variables also own a slot in
+ * .out (dir_entry.out_slot), which is where clients write.
+ *
+ * Concurrency (see seqlock.h for the fence reasoning):
+ *   - header fields without _Atomic are written once before `magic` is release-stored, and never
+ *     change afterwards; readers acquire-load `magic` first;
+ *   - directory entries and links below `count` / `link_count` are immutable once published: the
+ *     daemon fills the entry, then release-stores the count; readers acquire-load the count;
+ *   - slots, link state and event records are seqlocked; counters are independent relaxed words.
+ *
+ * Layout version history (major << 16 | minor; a client refuses another major):
+ *   1.0  first layout: links with 64 counters, event ring of 256-byte records, 128-byte slots,
+ *        96-byte directory entries, outbound slots locked by a (pid << 32 | seq) word.
+ */
+#ifndef SHM_LAYOUT_H
+#define SHM_LAYOUT_H
+
+#include <assert.h>
+#include <stdatomic.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#define SHM_LAYOUT_MAJOR        1u
+#define SHM_LAYOUT_MINOR        0u
+#define SHM_LAYOUT_VERSION      ((SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR)
+
+/* "SLNK.IN\0" and "SLNK.OUT" as little-endian words: recognisable in a hex dump. */
+#define SHM_IN_MAGIC            UINT64_C(0x004e492e4b4e4c53)
+#define SHM_OUT_MAGIC           UINT64_C(0x54554f2e4b4e4c53)
+
+#define SHM_CACHE_LINE          64u
+#define SHM_NAME_SIZE           48u     /* variable name: at most 47 bytes + NUL */
+#define SHM_NAME_MAX            (SHM_NAME_SIZE - 1u)
+#define SHM_VALUE_SIZE          64u     /* value: at most 63 bytes + NUL */
+#define SHM_VALUE_MAX           (SHM_VALUE_SIZE - 1u)
+#define SHM_VALUE_WORDS         (SHM_VALUE_SIZE / 8u)
+#define SHM_PEER_SIZE           16u     /* peer address (SharedLink node, CIRCE device) + NUL */
+#define SHM_LINK_NAME_SIZE      32u
+#define SHM_PROTOCOL_SIZE       16u
+#define SHM_STATE_NAME_SIZE     32u
+#define SHM_STATE_NAME_WORDS    (SHM_STATE_NAME_SIZE / 8u)
+#define SHM_LINKS_MAX           32u
+#define SHM_COUNTERS_MAX        64u     /* counter slots per link: named ones + spare room */
+#define SHM_EVENT_TEXT_SIZE     216u    /* "key=value ..." + NUL */
+#define SHM_EVENT_TEXT_WORDS    (SHM_EVENT_TEXT_SIZE / 8u)
+#define SHM_EVENTS_DEFAULT      1024u   /* event ring records unless configured */
+#define SHM_EVENTS_MIN          16u
+#define SHM_EVENTS_MAX          65536u
+#define SHM_CAPACITY_MAX        65536u  /* directory entries (configured + ad hoc) */
+#define SHM_INSTANCE_MAX        64u     /* instance name length, without NUL */
+#define SHM_OBJECT_NAME_SIZE    (SHM_INSTANCE_MAX + 32u)
+
+#define SHM_LINK_NONE           UINT32_MAX      /* dir_entry.link, event.link: no link */
+#define SHM_OUT_NONE            UINT32_MAX      /* dir_entry.out_slot of an inbound variable */
+#define SHM_POSITION_NONE       (-1)
+
+/* shm_in_header.state */
+#define SHM_STATE_LIVE          1u      /* the daemon that created the object owns it */
+#define SHM_STATE_CLOSED        2u      /* superseded or shut down: clients reopen by name */
+
+/* shm_dir_entry.direction */
+#define SHM_DIR_IN              0u      /* the daemon publishes it */
+#define SHM_DIR_OUT             1u      /* clients write it */
+
+/* shm_dir_entry.type */
+#define SHM_TYPE_STRING         0u
+#define SHM_TYPE_LONG           1u
+#define SHM_TYPE_DOUBLE         2u
+#define SHM_TYPE_COUNT          3u
+
+/* shm_dir_entry.flags */
+#define SHM_DIR_ADHOC           0x1u    /* added at run time (e.g. an R frame for an unknown name) */
+
+/* shm_slot.flags (the library's SL_FLAG_* use the same bits) */
+#define SHM_SLOT_VALID          0x1u    /* the value was written completely */
+#define SHM_SLOT_STALE          0x2u    /* link down or peer silent */
+#define SHM_SLOT_OUTBOUND       0x4u    /* a value written by a client (mirror or .out slot) */
+#define SHM_SLOT_REPAIRED       0x8u    /* .out: the writer died mid-write, value discarded */
+
+/* shm_event.flags */
+#define SHM_EVENT_TRUNCATED     0x1u    /* the text did not fit and was cut */
+
+/*
+ * Counters: one fixed, named list shared by the daemon and the library. Per-link counters and the
+ * daemon-wide counters (in the header) use the same indices; a counter that does not apply stays 0.
+ * Append only: the index is part of the layout.
+ */
+#define SHM_COUNTER_LIST(X) \
+        X(FRAMES_IN,            "frames_in") \
+        X(FRAMES_OUT,           "frames_out") \
+        X(BYTES_IN,             "bytes_in") \
+        X(BYTES_OUT,            "bytes_out") \
+        X(NOISE_BYTES,          "noise_bytes") \
+        X(BAD_CHECKSUM,         "bad_checksum") \
+        X(RESYNC,               "resync") \
+        X(OVERLONG,             "overlong") \
+        X(BAD_ADDRESS,          "bad_address") \
+        X(BAD_FIELD,            "bad_field") \
+        X(UNKNOWN_FIELD,        "unknown_field") \
+        X(EMPTY_FIELD,          "empty_field") \
+        X(LIST_MISMATCH,        "list_mismatch") \
+        X(UNKNOWN_PEER,         "unknown_peer") \
+        X(NOT_FOR_US,           "not_for_us") \
+        X(ADHOC_FULL,           "adhoc_full") \
+        X(QUERIES_IN,           "queries_in") \
+        X(ANSWERS_OUT,          "answers_out") \
+        X(REOPENS,              "reopens") \
+        X(IO_ERRORS,            "io_errors") \
+        X(BAD_HEADER,           "bad_header") \
+        X(UNKNOWN_OP,           "unknown_op") \
+        X(BAD_VALUE,            "bad_value") \
+        X(MISSING_PARAM,        "missing_param") \
+        X(SKIPPED_PARAM,        "skipped_param") \
+        X(REPEATED_PARAM,       "repeated_param") \
+        X(NONCOMPLIANT_STATUS,  "noncompliant_status") \
+        X(LOG_MESSAGES,         "log_messages") \
+        X(TX_DROPPED,           "tx_dropped") \
+        X(QUERIES_OUT,          "queries_out") \
+        X(ANSWERS_IN,           "answers_in") \
+        X(TIMEOUTS,             "timeouts") \
+        X(OUT_ACCEPTED,         "out_accepted") \
+        X(OUT_INVALID,          "out_invalid") \
+        X(OUT_BUSY,             "out_busy") \
+        X(OUT_REPAIRED,         "out_repaired") \
+        X(OUT_BAD_OBJECT,       "out_bad_object") \
+        X(OUT_RECREATED,        "out_recreated") \
+        X(EVENTS,               "events")
+
+#define SHM_COUNTER_ENUM(id, name) SHM_COUNTER_##id,
+enum shm_counter {
+        SHM_COUNTER_LIST(SHM_COUNTER_ENUM)
+        SHM_COUNTER_COUNT
+};
+#undef SHM_COUNTER_ENUM
+
+/* Event types: "SEQ LINK TYPE key=value ..." prints the name. Append only. */
+#define SHM_EVENT_LIST(X) \
+        X(NONE,                 "none") \
+        X(LINK_STATE,           "link-state") \
+        X(DEVICE_ONLINE,        "device-online") \
+        X(DEVICE_OFFLINE,       "device-offline") \
+        X(ACTION,               "action") \
+        X(QUERY_ANSWER,         "query-answer") \
+        X(ADHOC_VARIABLE,       "adhoc-variable") \
+        X(LOG,                  "log") \
+        X(KEYS,                 "keys") \
+        X(CLOCK_SYNC,           "clock-sync") \
+        X(DAEMON,               "daemon") \
+        X(OUTBOUND,             "outbound")
+
+#define SHM_EVENT_ENUM(id, name) SHM_EVENT_##id,
+enum shm_event_type {
+        SHM_EVENT_LIST(SHM_EVENT_ENUM)
+        SHM_EVENT_TYPE_COUNT
+};
+#undef SHM_EVENT_ENUM
+
+/* Header of the .in object. Offsets are pinned below. */
+struct shm_in_header {
+        _Atomic uint64_t magic;                 /* SHM_IN_MAGIC, release-stored last */
+        uint32_t layout_version;                /* SHM_LAYOUT_VERSION */
+        uint32_t header_size;                   /* sizeof(struct shm_in_header) */
+        uint64_t total_size;                    /* bytes of the whole object */
+        uint64_t epoch;                         /* random, new at every daemon start, never 0 */
+        int32_t daemon_pid;
+        uint32_t heartbeat_interval_ms;         /* 0: the daemon does not refresh heartbeat_ns */
+        uint64_t daemon_start;                  /* /proc/<pid>/stat starttime: tells pid reuse */
+        uint64_t created_real_ns;               /* CLOCK_REALTIME at creation */
+        _Atomic uint32_t state;                 /* SHM_STATE_* */
+        _Atomic uint32_t out_generation;        /* bumped when .out is recreated */
+        uint32_t capacity;                      /* directory entries = inbound slots */
+        _Atomic uint32_t count;                 /* published entries; grows with ad hoc names */
+        _Atomic uint32_t dir_generation;        /* bumped whenever names are added */
+        uint32_t slot_size;
+        uint32_t dir_entry_size;
+        uint32_t link_max;
+        uint32_t link_size;
+        _Atomic uint32_t link_count;
+        uint32_t counter_max;
+        uint32_t event_size;
+        uint32_t event_capacity;                /* records in the ring (a power of two) */
+        uint32_t out_capacity;                  /* slots in .out */
+        uint64_t links_offset;
+        uint64_t events_offset;
+        uint64_t dir_offset;
+        uint64_t slots_offset;
+        _Atomic uint64_t heartbeat_ns;          /* CLOCK_MONOTONIC, refreshed by the daemon */
+        _Atomic uint64_t event_head;            /* number of the last event written (0: none) */
+        uint8_t reserved0[32];
+        /* Own cache line: the futex clients wait on, bumped once per committed batch. */
+        _Atomic uint32_t change;
+        uint8_t reserved1[60];
+        _Atomic uint64_t counters[SHM_COUNTERS_MAX];    /* daemon-wide (outbound object health) */
+        uint8_t reserved2[256];
+};
+
+/* One link: name and protocol fixed once published; state seqlocked; counters relaxed words. */
+struct shm_link {
+        _Atomic uint64_t seq;                   /* seqlock over state, state_ns, state_name */
+        _Atomic uint64_t state_ns;              /* CLOCK_MONOTONIC of the last state change */
+        _Atomic uint32_t state;                 /* small integer, meaning set by the engine */
+        uint32_t reserved0;
+        _Atomic uint64_t state_name[SHM_STATE_NAME_WORDS];      /* NUL-terminated text */
+        char name[SHM_LINK_NAME_SIZE];
+        char protocol[SHM_PROTOCOL_SIZE];
+        uint8_t reserved1[24];
+        _Atomic uint64_t counters[SHM_COUNTERS_MAX];
+};
+
+/*
+ * One event record. seq encodes the record number n (>= 1): 2n+1 while the producer writes it,
+ * 2n+2 once complete, so a reader knows both "torn" and "overwritten by a later lap".
+ */
+struct shm_event {
+        _Atomic uint64_t seq;
+        _Atomic uint64_t mono_ns;
+        _Atomic uint64_t real_ns;
+        _Atomic uint32_t type;                  /* enum shm_event_type */
+        _Atomic uint32_t link;                  /* link index or SHM_LINK_NONE */
+        _Atomic uint32_t length;                /* text bytes, without NUL */
+        _Atomic uint32_t flags;                 /* SHM_EVENT_* */
+        _Atomic uint64_t text[SHM_EVENT_TEXT_WORDS];
+};
+
+/* One directory entry: immutable once published. */
+struct shm_dir_entry {
+        char name[SHM_NAME_SIZE];
+        char peer[SHM_PEER_SIZE];               /* "" when none */
+        uint32_t link;                          /* SHM_LINK_NONE when none */
+        int32_t position;                       /* place in the peer's list, SHM_POSITION_NONE */
+        uint32_t out_slot;                      /* index in .out, SHM_OUT_NONE for inbound */
+        uint8_t direction;                      /* SHM_DIR_* */
+        uint8_t type;                           /* SHM_TYPE_* */
+        uint16_t flags;                         /* SHM_DIR_* flags */
+        uint8_t reserved[16];
+};
+
+/*
+ * One value slot, in .in (single writer: the daemon) and in .out (many writers). `seq` is the
+ * seqlock word; in .out it is the lock word (writer pid << 32 | sequence): the low 32 bits are the
+ * sequence (odd while written), the high 32 bits the pid of the last writer.
+ */
+struct shm_slot {
+        _Atomic uint64_t seq;
+        _Atomic uint64_t mono_ns;               /* CLOCK_MONOTONIC of the update */
+        _Atomic uint64_t real_ns;               /* CLOCK_REALTIME of the update */
+        _Atomic uint32_t flags;                 /* SHM_SLOT_* */
+        _Atomic uint32_t length;                /* value bytes, without NUL */
+        _Atomic uint64_t value[SHM_VALUE_WORDS];        /* NUL-terminated, NUL-padded */
+        uint8_t reserved[32];
+} __attribute__((aligned(64)));
+
+/* Header of the .out object: written once by the daemon, but clients can scribble over it. */
+struct shm_out_header {
+        _Atomic uint64_t magic;                 /* SHM_OUT_MAGIC, release-stored last */
+        uint32_t layout_version;
+        uint32_t header_size;
+        uint64_t total_size;
+        uint64_t epoch;                         /* the epoch of the matching .in */
+        uint32_t slot_size;
+        uint32_t capacity;
+        uint64_t slots_offset;
+        uint32_t generation;                    /* equals shm_in_header.out_generation */
+        uint8_t reserved0[12];
+        /* Own cache line: clients bump it after every write; the daemon's wake thread waits on it. */
+        _Atomic uint32_t change;
+        uint8_t reserved1[60];
+};
+
+/* Lock-free 4- and 8-byte atomics are address-free, so they work across processes. */
+static_assert(ATOMIC_INT_LOCK_FREE == 2, "32-bit atomics must be lock-free for shared memory");
+static_assert(ATOMIC_LLONG_LOCK_FREE == 2, "64-bit atomics must be lock-free for shared memory");
+static_assert(sizeof(_Atomic uint64_t) == 8 && sizeof(_Atomic uint32_t) == 4, "atomic sizes");
+
+static_assert(sizeof(struct shm_in_header) == 1024, "in header size");
+static_assert(offsetof(struct shm_in_header, magic) == 0, "magic offset");
+static_assert(offsetof(struct shm_in_header, layout_version) == 8, "version offset");
+static_assert(offsetof(struct shm_in_header, epoch) == 24, "epoch offset");
+static_assert(offsetof(struct shm_in_header, daemon_pid) == 32, "pid offset");
+static_assert(offsetof(struct shm_in_header, state) == 56, "state offset");
+static_assert(offsetof(struct shm_in_header, capacity) == 64, "capacity offset");
+static_assert(offsetof(struct shm_in_header, count) == 68, "count offset");
+static_assert(offsetof(struct shm_in_header, out_capacity) == 108, "out capacity offset");
+static_assert(offsetof(struct shm_in_header, links_offset) == 112, "links offset offset");
+static_assert(offsetof(struct shm_in_header, heartbeat_ns) == 144, "heartbeat offset");
+static_assert(offsetof(struct shm_in_header, event_head) == 152, "event head offset");
+static_assert(offsetof(struct shm_in_header, change) == 192, "change word offset");
+static_assert(offsetof(struct shm_in_header, change) % SHM_CACHE_LINE == 0, "change word line");
+static_assert(offsetof(struct shm_in_header, counters) == 256, "counters offset");
+static_assert(sizeof(struct shm_link) == 640, "link size");
+static_assert(offsetof(struct shm_link, name) == 56, "link name offset");
+static_assert(offsetof(struct shm_link, counters) == 128, "link counters offset");
+static_assert(sizeof(struct shm_event) == 256, "event size");
+static_assert(offsetof(struct shm_event, text) == 40, "event text offset");
+static_assert(sizeof(struct shm_dir_entry) == 96, "directory entry size");
+static_assert(offsetof(struct shm_dir_entry, link) == 64, "directory link offset");
+static_assert(offsetof(struct shm_dir_entry, direction) == 76, "directory direction offset");
+static_assert(sizeof(struct shm_slot) == 128, "slot size");
+static_assert(offsetof(struct shm_slot, flags) == 24, "slot flags offset");
+static_assert(offsetof(struct shm_slot, length) == 28, "slot length offset");
+static_assert(offsetof(struct shm_slot, value) == 32, "slot value offset");
+static_assert(sizeof(struct shm_out_header) == 128, "out header size");
+static_assert(offsetof(struct shm_out_header, generation) == 48, "out generation offset");
+static_assert(offsetof(struct shm_out_header, change) == 64, "out change word offset");
+static_assert(SHM_COUNTER_COUNT <= SHM_COUNTERS_MAX, "too many counters");
+static_assert(SHM_VALUE_SIZE % 8 == 0 && SHM_EVENT_TEXT_SIZE % 8 == 0, "text in whole words");
+static_assert(SHM_STATE_NAME_SIZE % 8 == 0, "state name in whole words");
+
+/* The .in layout of a table with these capacities; returns the total size (for create and check). */
+struct shm_in_geometry {
+        uint64_t links_offset;
+        uint64_t events_offset;
+        uint64_t dir_offset;
+        uint64_t slots_offset;
+        uint64_t total_size;
+};
+
+/* Computes where each region of .in lives for the given capacities. */
+void shm_layout_in_geometry(uint32_t capacity, uint32_t event_capacity,
+                            struct shm_in_geometry *ret_geometry);
+
+/* Size of a .out object with out_capacity slots. */
+uint64_t shm_layout_out_size(uint32_t out_capacity);
+
+/*
+ * Checks a mapped .in header against the object size: magic, major version, sizes, offsets.
+ * Returns 0, -EAGAIN (magic not written yet) or -EPROTO (not a layout we understand).
+ */
+int shm_layout_check_in(const struct shm_in_header *h, uint64_t object_size);
+
+/* Same for .out; returns 0, -EAGAIN or -EPROTO. Does not compare epoch/generation. */
+int shm_layout_check_out(const struct shm_out_header *h, uint64_t object_size);
+
+/* Name of counter i, or NULL beyond the named list. */
+const char *shm_layout_counter_name(unsigned i);
+
+/* Name of event type t ("none" .. ), or "unknown". */
+const char *shm_layout_event_name(unsigned t);
+
+/* Name of variable type t ("string", "long", "double"), or "unknown". */
+const char *shm_layout_type_name(unsigned t);
+
+/* 1 if c may appear in a value on the wire: printable ASCII 0x20-0x7E except | [ ]. */
+int shm_layout_value_char(int c);
+
+/* 0 if v[0..len) is a valid value (length <= SHM_VALUE_MAX, wire charset), else -EINVAL. */
+int shm_layout_value_check(const char *v, size_t len);
+
+/* 0 if name is a valid variable name (1..47 bytes, wire charset without space), else -EINVAL. */
+int shm_layout_name_check(const char *name);
+
+/* 0 if instance is a valid instance name (1..64 bytes of [A-Za-z0-9_.-], no leading '.'). */
+int shm_layout_instance_check(const char *instance);
+
+/* Writes "/sharedlink.<instance>.<suffix>" into buf; returns 0, -EINVAL or -ENAMETOOLONG. */
+int shm_layout_object_name(const char *instance, const char *suffix, char *buf, size_t size);
+
+#endif

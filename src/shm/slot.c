@@ -1,0 +1,142 @@
+/*
+ * Value slots: bounded seqlock reads and the writers of .in and .out (see slot.h, seqlock.h).
+ */
+#include "shm/slot.h"
+
+#include <errno.h>
+#include <sched.h>
+#include <string.h>
+
+#include "shm/seqlock.h"
+
+/* Relaxed word-wise copy of the payload; the caller brackets it with read_begin/read_retry. */
+static void slot_copy_payload(const struct shm_slot *slot, struct shm_slot_copy *c)
+{
+        uint64_t words[SHM_VALUE_WORDS];
+
+        c->mono_ns = atomic_load_explicit(&slot->mono_ns, memory_order_relaxed);
+        c->real_ns = atomic_load_explicit(&slot->real_ns, memory_order_relaxed);
+        c->flags = atomic_load_explicit(&slot->flags, memory_order_relaxed);
+        c->length = atomic_load_explicit(&slot->length, memory_order_relaxed);
+        for (unsigned i = 0; i < SHM_VALUE_WORDS; i++)
+                words[i] = atomic_load_explicit(&slot->value[i], memory_order_relaxed);
+        memcpy(c->value, words, sizeof(words));
+}
+
+int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *ret_copy)
+{
+        struct shm_slot_copy c;
+
+        for (unsigned attempt = 0; attempt < SHM_SEQLOCK_TRIES; attempt++) {
+                uint64_t start = shm_seqlock_read_begin(&slot->seq);
+
+                if (shm_seqlock_odd(start)) {
+                        shm_seqlock_relax();
+                        continue;
+                }
+                slot_copy_payload(slot, &c);
+                if (shm_seqlock_read_retry(&slot->seq, start))
+                        continue;
+                c.word = start;
+                *ret_copy = c;
+                return 0;
+        }
+        return -EAGAIN;
+}
+
+uint64_t shm_slot_word(const struct shm_slot *slot)
+{
+        return atomic_load_explicit(&slot->seq, memory_order_acquire);
+}
+
+static void slot_store_value(struct shm_slot *slot, const char *value, uint32_t len)
+{
+        uint64_t words[SHM_VALUE_WORDS];
+
+        /* NUL-padded to the whole field, so a reader never sees bytes of an older, longer value. */
+        memset(words, 0, sizeof(words));
+        memcpy(words, value, len);
+        for (unsigned i = 0; i < SHM_VALUE_WORDS; i++)
+                atomic_store_explicit(&slot->value[i], words[i], memory_order_relaxed);
+}
+
+void shm_slot_store(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
+                    uint64_t mono_ns, uint64_t real_ns)
+{
+        atomic_store_explicit(&slot->mono_ns, mono_ns, memory_order_relaxed);
+        atomic_store_explicit(&slot->real_ns, real_ns, memory_order_relaxed);
+        atomic_store_explicit(&slot->length, len, memory_order_relaxed);
+        slot_store_value(slot, value, len);
+        atomic_store_explicit(&slot->flags, flags, memory_order_relaxed);
+}
+
+void shm_slot_store_word(struct shm_slot *slot, unsigned i, uint64_t w)
+{
+        if (i < SHM_VALUE_WORDS)
+                atomic_store_explicit(&slot->value[i], w, memory_order_relaxed);
+}
+
+void shm_slot_write(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
+                    uint64_t mono_ns, uint64_t real_ns)
+{
+        uint64_t odd = shm_seqlock_write_begin(&slot->seq);
+
+        shm_slot_store(slot, value, len, flags, mono_ns, real_ns);
+        shm_seqlock_write_end(&slot->seq, odd);
+}
+
+void shm_slot_write_flags(struct shm_slot *slot, uint32_t flags)
+{
+        uint64_t odd = shm_seqlock_write_begin(&slot->seq);
+
+        atomic_store_explicit(&slot->flags, flags, memory_order_relaxed);
+        shm_seqlock_write_end(&slot->seq, odd);
+}
+
+int shm_slot_claim(struct shm_slot *slot, uint32_t pid, uint64_t *ret_word)
+{
+        for (unsigned attempt = 0; attempt < SHM_SLOT_CLAIM_TRIES; attempt++) {
+                uint64_t word, seen;
+
+                if (shm_seqlock_claim(&slot->seq, pid, &word, &seen) == 0) {
+                        *ret_word = word;
+                        return 0;
+                }
+                /* Another writer holds it: spin briefly, then let it run (it may share our CPU). */
+                if (attempt < SHM_SLOT_CLAIM_SPINS)
+                        shm_seqlock_relax();
+                else
+                        sched_yield();
+        }
+        return -EBUSY;
+}
+
+int shm_slot_publish(struct shm_slot *slot, uint64_t odd_word)
+{
+        return shm_seqlock_release(&slot->seq, odd_word);
+}
+
+int shm_slot_repair(struct shm_slot *slot, uint64_t odd_word, uint32_t self_pid,
+                    uint64_t mono_ns, uint64_t real_ns)
+{
+        uint64_t expected = odd_word;
+        /* Still odd, now ours: a writer cannot claim it, and readers keep retrying. */
+        uint64_t ours = ((uint64_t)self_pid << 32) |
+                        ((odd_word + 2u) & SHM_SEQLOCK_SEQ_MASK);
+
+        if (!atomic_compare_exchange_strong_explicit(&slot->seq, &expected, ours,
+                                                     memory_order_acquire, memory_order_relaxed))
+                return -EAGAIN;
+        atomic_thread_fence(memory_order_release);      /* as in shm_seqlock_claim */
+        shm_slot_store(slot, "", 0, SHM_SLOT_REPAIRED, mono_ns, real_ns);
+        return shm_seqlock_release(&slot->seq, ours) == 0 ? 0 : -EAGAIN;
+}
+
+int shm_slot_copy_check(const struct shm_slot_copy *copy)
+{
+        if (!(copy->flags & SHM_SLOT_VALID))
+                return -EINVAL;
+        if (copy->length > SHM_VALUE_MAX || copy->value[copy->length] != '\0')
+                return -EINVAL;
+        return shm_layout_value_check(copy->value, copy->length);
+}

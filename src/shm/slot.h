@@ -1,0 +1,76 @@
+/*
+ * Value slots (struct shm_slot): the bounded seqlock reader, the single writer (.in), and the
+ * claim/store/publish steps of a writer of .out, plus the daemon's repair of an abandoned slot.
+ * Everything here touches the slot only through relaxed atomic words (see seqlock.h).
+ */
+#ifndef SHM_SLOT_H
+#define SHM_SLOT_H
+
+#include <stdint.h>
+
+#include "shm/layout.h"
+
+#define SHM_SLOT_CLAIM_SPINS    64u     /* claim attempts before yielding the CPU */
+#define SHM_SLOT_CLAIM_TRIES    1024u   /* claim attempts in all before -EBUSY */
+
+/* A private copy of a slot: what the bounded reader hands out (never a torn one). */
+struct shm_slot_copy {
+        uint64_t word;                  /* the even seqlock word the copy was taken under */
+        uint64_t mono_ns;
+        uint64_t real_ns;
+        uint32_t flags;
+        uint32_t length;
+        char value[SHM_VALUE_SIZE];     /* raw bytes as found: validate before trusting */
+};
+
+/*
+ * Bounded seqlock read: copies the slot into *ret_copy and returns 0, or returns -EAGAIN after
+ * SHM_SEQLOCK_TRIES attempts that all found it odd or changing. The copy is consistent but not
+ * validated (length, charset): use shm_slot_copy_check for memory a client can write.
+ */
+int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *ret_copy);
+
+/* Acquire load of the seqlock word (the daemon's "did it change since the last scan"). */
+uint64_t shm_slot_word(const struct shm_slot *slot);
+
+/*
+ * Single writer of an .in slot: stores value[0..len) (len <= SHM_VALUE_MAX, not checked here),
+ * flags and time stamps under the seqlock.
+ */
+void shm_slot_write(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
+                    uint64_t mono_ns, uint64_t real_ns);
+
+/* Single writer: rewrites only the flags of an .in slot (value and time stamps kept). */
+void shm_slot_write_flags(struct shm_slot *slot, uint32_t flags);
+
+/*
+ * Writer of an .out slot, step 1: takes the slot for pid (bounded spinning, then yielding).
+ * Returns 0 with the odd word in *ret_word, or -EBUSY when another writer keeps it.
+ */
+int shm_slot_claim(struct shm_slot *slot, uint32_t pid, uint64_t *ret_word);
+
+/* Step 2: stores the payload into a claimed slot (any number of times, in any order). */
+void shm_slot_store(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
+                    uint64_t mono_ns, uint64_t real_ns);
+
+/* Step 2, piecemeal (tests kill writers half-way): stores value word i only. */
+void shm_slot_store_word(struct shm_slot *slot, unsigned i, uint64_t w);
+
+/* Step 3: publishes and frees the slot. Returns 0, or -ECANCELED when the daemon took it over. */
+int shm_slot_publish(struct shm_slot *slot, uint64_t odd_word);
+
+/*
+ * Daemon: takes over a slot left odd (odd_word) by a writer that is gone, marks it not valid
+ * (SHM_SLOT_REPAIRED, empty value) and releases it even. Returns 0, or -EAGAIN when the word is no
+ * longer odd_word (the writer finished after all, or another repair won).
+ */
+int shm_slot_repair(struct shm_slot *slot, uint64_t odd_word, uint32_t self_pid,
+                    uint64_t mono_ns, uint64_t real_ns);
+
+/*
+ * Validates a copy taken from memory a client can write: SHM_SLOT_VALID set, length <= 63, every
+ * byte of the value in the wire charset, NUL at value[length]. Returns 0 or -EINVAL.
+ */
+int shm_slot_copy_check(const struct shm_slot_copy *copy);
+
+#endif

@@ -1,0 +1,43 @@
+/*
+ * Wake thread: turns changes of a 32-bit futex word in shared memory into readability of an
+ * eventfd, so the daemon's poll loop learns about client writes without polling the table.
+ *
+ * The thread blocks in futex_waitv on two words: the shared word it watches (clients bump it and
+ * FUTEX_WAKE it after every write) and a private control word the daemon bumps to re-point it at
+ * another word, or to stop it. Waiting on both matters: a client can truncate the object, after
+ * which the daemon could not FUTEX_WAKE the shared word any more to stop the thread. The shared
+ * word is client-controlled, so the thread only ever reads it under the SIGBUS guard, never waits
+ * on it without the control word, and only signals the eventfd (it never touches the table).
+ * On kernels without futex_waitv (before 5.16) it waits on the shared word alone with a timeout of
+ * SHM_WAKE_FALLBACK_MS and rechecks the control word in between.
+ */
+#ifndef SHM_WAKE_H
+#define SHM_WAKE_H
+
+#include <stdatomic.h>
+#include <stdint.h>
+
+#define SHM_WAKE_FALLBACK_MS    250
+
+struct shm_wake;
+
+/* Starts the thread (watching nothing) and its eventfd. Needs shm_guard_install. 0 or -errno. */
+int shm_wake_start(struct shm_wake **ret_wake);
+
+/* The eventfd (non-blocking, close-on-exec): readable when the watched word changed. */
+int shm_wake_fd(const struct shm_wake *w);
+
+/* Drains the eventfd; returns 1 if it was signalled, 0 if not. */
+int shm_wake_ack(struct shm_wake *w);
+
+/*
+ * Points the thread at another word (NULL: none). When this returns the thread no longer reads the
+ * old word, so its mapping may be unmapped. The current value of the new word is the baseline:
+ * only later changes signal the eventfd.
+ */
+void shm_wake_watch(struct shm_wake *w, _Atomic uint32_t *word);
+
+/* Stops and joins the thread, closes the eventfd, frees w. NULL-safe; returns NULL. */
+struct shm_wake *shm_wake_stop(struct shm_wake *w);
+
+#endif

@@ -557,20 +557,17 @@ int sl_encode_list(const struct sl_list *list, size_t *cursor, char *buf, size_t
         for (; pos < list->count; pos++) {
                 bool send = !list->compress || list->full || !list->changed || list->changed[pos];
                 const char *v = send ? list->values[pos] : "";
-                size_t vlen;
-                int r;
+                size_t vlen = v ? value_len(v) : 0;
+                int r = v ? check_value('D', v, vlen) : -EINVAL;
 
-                if (!v)
-                        return -EINVAL;
-                vlen = value_len(v);
-                r = check_value('D', v, vlen);
-                if (r < 0)
-                        return r;
-                if (total + 2 + vlen > limit) {
+                if (r == 0 && total + 2 + vlen > limit)
+                        r = total + 2 + vlen > max_frame ? -EMSGSIZE : -ENOSPC;
+                if (r < 0) {
+                        /* Send what fits; a bad value or one that can never fit (alone in a
+                         * frame) is reported by the call that starts at it: never a loop. */
                         if (pos > start)
                                 break;
-                        /* Not even one value fits: an error, never an empty frame or a loop. */
-                        return total + 2 + vlen > max_frame ? -EMSGSIZE : -ENOSPC;
+                        return r;
                 }
                 total += 2 + vlen;
                 buf[at++] = '|';

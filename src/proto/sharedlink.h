@@ -184,7 +184,8 @@ struct sl_list {
 
 /* Encodes the frame that starts at position *@cursor ("N<cursor>|D..|D..") with as many positions
  * as fit in max_frame and @size; returns its length and advances *@cursor past them, 0 once
- * *@cursor == count, or an error (then *@cursor is left unchanged). */
+ * *@cursor == count, or an error about the value at *@cursor (left unchanged). A frame stops
+ * before a bad value, so the error always names the offending position. */
 int sl_encode_list(const struct sl_list *list, size_t *cursor, char *buf, size_t size);
 
 #endif

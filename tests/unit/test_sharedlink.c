@@ -794,10 +794,15 @@ static void test_list_errors(void **state)
         assert_int_equal(sl_encode_list(&l, &cursor, buf, 4), -ENOSPC);
         assert_int_equal(cursor, 0);
 
+        /* A bad value ends the frame before it; the next call names it. */
         l.values = bad;
+        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), strlen("[:AB|N0|D1|C67]"));
+        assert_memory_equal(buf, "[:AB|N0|D1|C67]", strlen("[:AB|N0|D1|C67]"));
+        assert_int_equal(cursor, 1);
         assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EINVAL);
-        assert_int_equal(cursor, 0);
+        assert_int_equal(cursor, 1);
         /* ... but an unchanged bad value is not sent, so it does not matter. */
+        cursor = 0;
         l.compress = true;
         l.changed = (const bool[]){ true, false };
         assert_true(sl_encode_list(&l, &cursor, buf, sizeof(buf)) > 0);

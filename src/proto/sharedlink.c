@@ -1,0 +1,580 @@
+/*
+ * SharedLink codec: PROTOCOLS.md section 1, byte for byte.
+ *
+ * Grammar (PROTOCOLS.md 1.1, 1.3):
+ *
+ *      frame    = "[" ":" dst src body "]" [CR] [LF]
+ *      dst, src = "A" .. "P"                   ; destination first
+ *      body     = 1*( "|" field ) "|" checksum
+ *      field    = type value                   ; type: "A" .. "Z"
+ *      value    = *( %x20-7E except "|" "[" "]" )
+ *      checksum = "C" 1*2HEX                   ; (':' + ... + 'C') mod 256; '[' excluded
+ *
+ * We emit exactly two uppercase hex digits; we accept lowercase and a single digit (Field
+ * practice: one public implementation forgets the zero padding).
+ *
+ * The stream decoder has two states, told apart by d->len (bytes of the frame collected so far):
+ *
+ *      IDLE   (len == 0)   Between frames. '[' starts a frame (-> FRAME). CR and LF are whitespace
+ *                          in any order. Every other byte is noise: counted, and reported as one
+ *                          NOISE result per run, when the next '[' arrives, at sl_decoder_end(),
+ *                          or every SL_NOISE_RUN_MAX bytes so a garbage-only link still shows.
+ *      FRAME  (len >= 1)   Copying the frame into d->buf, starting with its '['.
+ *                          ']'  -> validate the whole frame -> FRAME or REJECT result; -> IDLE.
+ *                          '['  -> RESYNC result for the partial frame; the new '[' starts a new
+ *                                  frame (stay in FRAME).
+ *                          a byte that would make the frame longer than max_frame -> OVERLONG
+ *                                  result; -> IDLE, so the rest of it is noise until the next '['.
+ *
+ * Validation of a complete frame, in this order (the first failure is the reason): the last field
+ * is a checksum field -> its syntax -> its value -> header ":" dst src "|" -> every byte printable
+ * -> every field (type letter, N/L value, no early 'C') -> at least one field. The checksum goes
+ * first so that line noise shows up as "bad checksum", not as whatever it happened to break.
+ */
+#include <errno.h>
+#include <limits.h>
+#include <string.h>
+
+#include "proto/sharedlink.h"
+
+#define SL_HEADER_LEN   4       /* ":" dst src "|" in the body, "[:AB" on the wire */
+#define SL_TRAILER_LEN  5       /* "|C" hh "]" */
+#define SL_CRLF_LEN     2
+#define SL_PRINT_MIN    0x20
+#define SL_PRINT_MAX    0x7e
+
+_Static_assert(SL_FRAME_MIN <= SL_FRAME_DEFAULT && SL_FRAME_DEFAULT <= SL_FRAME_MAX,
+               "frame limits out of order");
+_Static_assert(SL_FRAME_MAX <= UINT16_MAX, "sl_field.len is 16 bits");
+
+static const char sl_hex_upper[] = "0123456789ABCDEF";
+
+static bool is_addr(char c)
+{
+        return c >= 'A' && c < 'A' + SL_ADDR_COUNT;
+}
+
+static bool is_type_letter(char c)
+{
+        return c >= 'A' && c <= 'Z';
+}
+
+static int hex_value(char c)
+{
+        if (c >= '0' && c <= '9')
+                return c - '0';
+        if (c >= 'A' && c <= 'F')
+                return c - 'A' + 10;
+        if (c >= 'a' && c <= 'f')
+                return c - 'a' + 10;
+        return -1;
+}
+
+/* A value byte: printable ASCII except the three framing characters. */
+static bool is_value_byte(unsigned char c)
+{
+        return c >= SL_PRINT_MIN && c <= SL_PRINT_MAX && c != '|' && c != '[' && c != ']';
+}
+
+enum sl_field_type sl_field_type_of(char letter)
+{
+        switch (letter) {
+        case 'N': case 'D': case 'Q': case 'R': case 'T':
+        case 'L': case 'P': case 'G': case 'E': case 'C':
+                return (enum sl_field_type)letter;
+        default:
+                return SL_FIELD_UNKNOWN;
+        }
+}
+
+const char *sl_decode_reason_str(enum sl_decode_reason reason)
+{
+        switch (reason) {
+        case SL_REASON_NONE:                    return "none";
+        case SL_REASON_NOISE:                   return "noise";
+        case SL_REASON_RESYNC:                  return "resync";
+        case SL_REASON_OVERLONG:                return "overlong frame";
+        case SL_REASON_TRUNCATED:               return "truncated frame";
+        case SL_REASON_NO_CHECKSUM:             return "missing checksum";
+        case SL_REASON_BAD_CHECKSUM_SYNTAX:     return "malformed checksum";
+        case SL_REASON_BAD_CHECKSUM:            return "bad checksum";
+        case SL_REASON_BAD_HEADER:              return "bad header";
+        case SL_REASON_BAD_ADDRESS:             return "bad address";
+        case SL_REASON_BAD_FIELD:               return "bad field";
+        case SL_REASON_NO_FIELDS:               return "no fields";
+        case SL_REASON_UNKNOWN_FIELD:           return "unknown field type";
+        case SL_REASON_EMPTY_FIELD:             return "empty field";
+        case SL_REASON_COUNT:                   break;
+        }
+        return "unknown reason";
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Decoder */
+
+int sl_decoder_init(struct sl_decoder *d, size_t max_frame)
+{
+        if (max_frame == 0)
+                max_frame = SL_FRAME_DEFAULT;
+        if (max_frame < SL_FRAME_MIN || max_frame > SL_FRAME_MAX)
+                return -EINVAL;
+        memset(&d->frame, 0, sizeof(d->frame));
+        d->max_frame = max_frame;
+        d->len = 0;
+        d->noise = 0;
+        return 0;
+}
+
+void sl_decoder_reset(struct sl_decoder *d)
+{
+        d->len = 0;
+        d->noise = 0;
+}
+
+static void result_reject(struct sl_decode_result *r, enum sl_decode_reason reason, size_t bytes)
+{
+        r->kind = SL_RESULT_REJECT;
+        r->reason = reason;
+        r->bytes = bytes;
+        r->frame = NULL;
+}
+
+/*
+ * N and L values: "?" (Pronto4: ask for the list) or decimal digits. Positions beyond
+ * SL_INDEX_MAX saturate: they are beyond any list, which the engine counts as a list mismatch
+ * (Decision: the rest of the frame still applies), so they must not kill the frame here.
+ */
+static bool parse_index(const char *v, size_t len, uint32_t *ret_index)
+{
+        uint64_t k = 0;
+
+        if (len == 1 && v[0] == '?') {
+                *ret_index = SL_INDEX_QUERY;
+                return true;
+        }
+        if (len == 0)
+                return false;
+        for (size_t i = 0; i < len; i++) {
+                if (v[i] < '0' || v[i] > '9')
+                        return false;
+                k = k * 10 + (uint64_t)(v[i] - '0');
+                if (k > SL_INDEX_MAX)
+                        k = SL_INDEX_MAX;
+        }
+        *ret_index = (uint32_t)k;
+        return true;
+}
+
+/* Checksum field b[lp+1 .. m): "C" and one or two hex digits. */
+static enum sl_decode_reason check_checksum(const char *b, size_t m, size_t lp)
+{
+        const char *f = b + lp + 1;
+        size_t flen = m - lp - 1;
+        unsigned sum = 0, want = 0;
+
+        if (flen == 0 || f[0] != 'C')
+                return SL_REASON_NO_CHECKSUM;
+        if (flen < 2 || flen > SL_CHECKSUM_FIELD_MAX)
+                return SL_REASON_BAD_CHECKSUM_SYNTAX;
+        for (size_t i = 1; i < flen; i++) {
+                int h = hex_value(f[i]);
+                if (h < 0)
+                        return SL_REASON_BAD_CHECKSUM_SYNTAX;
+                want = want * 16 + (unsigned)h;
+        }
+        /* From ':' (b[0]) through the 'C' (b[lp + 1]) inclusive. */
+        for (size_t i = 0; i <= lp + 1; i++)
+                sum += (unsigned char)b[i];
+        return (sum & 0xff) == want ? SL_REASON_NONE : SL_REASON_BAD_CHECKSUM;
+}
+
+/* Header ":" dst src "|"; b[lp] is the '|' before the checksum, so b[0 .. lp] is readable. */
+static enum sl_decode_reason check_header(const char *b, size_t lp)
+{
+        if (b[0] != ':')
+                return SL_REASON_BAD_HEADER;
+        for (size_t i = 1; i <= 2; i++)
+                if (i >= lp || !is_addr(b[i]))
+                        return SL_REASON_BAD_ADDRESS;
+        if (b[3] != '|')
+                return SL_REASON_BAD_HEADER;
+        return SL_REASON_NONE;
+}
+
+static bool all_printable(const char *b, size_t n)
+{
+        unsigned bad = 0;
+
+        /* Branch-free so the compiler can vectorise it; '|' '[' ']' cannot be here anyway. */
+        for (size_t i = 0; i < n; i++)
+                bad |= (unsigned char)((unsigned char)b[i] - SL_PRINT_MIN) >
+                       (SL_PRINT_MAX - SL_PRINT_MIN);
+        return bad == 0;
+}
+
+/* Splits b[SL_HEADER_LEN .. lp) on '|' into d->fields. */
+static enum sl_decode_reason split_fields(struct sl_decoder *d, const char *b, size_t lp)
+{
+        struct sl_frame *f = &d->frame;
+        size_t pos = SL_HEADER_LEN;
+
+        while (pos <= lp) {
+                /* b[lp] is '|', so there is always one. */
+                const char *bar = memchr(b + pos, '|', lp + 1 - pos);
+                size_t end = (size_t)(bar - b);
+                size_t flen = end - pos;
+                struct sl_field *fl;
+
+                if (flen == 0) {
+                        /* Field practice: "N0||D1" is seen in the field; skip and count. */
+                        f->empty_fields++;
+                        pos = end + 1;
+                        continue;
+                }
+                /* The checksum is always the last field; one earlier is not a checksum. */
+                if (!is_type_letter(b[pos]) || b[pos] == 'C')
+                        return SL_REASON_BAD_FIELD;
+                /* Cannot trigger: each stored field takes >= 2 bytes of a <= SL_FRAME_MAX frame. */
+                if (f->nfields >= SL_FIELDS_MAX)
+                        return SL_REASON_BAD_FIELD;
+                fl = &d->fields[f->nfields];
+                fl->letter = b[pos];
+                fl->type = (uint8_t)sl_field_type_of(b[pos]);
+                fl->value = b + pos + 1;
+                fl->len = (uint16_t)(flen - 1);
+                fl->index = 0;
+                if (fl->type == SL_FIELD_N || fl->type == SL_FIELD_L) {
+                        if (!parse_index(fl->value, fl->len, &fl->index))
+                                return SL_REASON_BAD_FIELD;
+                } else if (fl->type == SL_FIELD_UNKNOWN) {
+                        /* Decision: unknown types are skipped by the engine, never fatal. */
+                        f->unknown_fields++;
+                }
+                f->nfields++;
+                pos = end + 1;
+        }
+        return f->nfields > 0 ? SL_REASON_NONE : SL_REASON_NO_FIELDS;
+}
+
+/* Validates the complete frame in d->buf[0 .. d->len) ('[' ... ']') and fills d->frame. */
+static enum sl_decode_reason frame_parse(struct sl_decoder *d)
+{
+        const char *b = d->buf + 1;     /* body, after the '[' */
+        size_t m = d->len - 2;          /* without '[' and ']' */
+        struct sl_frame *f = &d->frame;
+        enum sl_decode_reason r;
+        size_t lp = m;
+
+        /* The checksum field follows the last '|'; a valid one is 2 or 3 bytes from the end. */
+        while (lp > 0 && b[lp - 1] != '|')
+                lp--;
+        if (lp == 0)
+                return SL_REASON_NO_CHECKSUM;
+        lp--;
+        r = check_checksum(b, m, lp);
+        if (r != SL_REASON_NONE)
+                return r;
+        r = check_header(b, lp);
+        if (r != SL_REASON_NONE)
+                return r;
+        if (!all_printable(b + SL_HEADER_LEN, lp - (SL_HEADER_LEN - 1)))
+                return SL_REASON_BAD_FIELD;
+
+        f->dst = b[1];
+        f->src = b[2];
+        f->dst_index = (uint8_t)(b[1] - 'A');
+        f->src_index = (uint8_t)(b[2] - 'A');
+        f->nfields = 0;
+        f->fields = d->fields;
+        f->unknown_fields = 0;
+        f->empty_fields = 0;
+        f->raw = d->buf;
+        f->raw_len = d->len;
+        return split_fields(d, b, lp);
+}
+
+/* ']' was just stored: report the frame or why it was dropped; back to IDLE. */
+static void frame_complete(struct sl_decoder *d, struct sl_decode_result *r)
+{
+        enum sl_decode_reason reason = frame_parse(d);
+
+        if (reason == SL_REASON_NONE) {
+                r->kind = SL_RESULT_FRAME;
+                r->reason = SL_REASON_NONE;
+                r->bytes = d->len;
+                r->frame = &d->frame;
+        } else {
+                result_reject(r, reason, d->len);
+        }
+        d->len = 0;
+}
+
+/* IDLE: consumes bytes up to and including a '['; returns the count, with a result if any. */
+static size_t feed_idle(struct sl_decoder *d, const uint8_t *p, size_t n, struct sl_decode_result *r)
+{
+        for (size_t i = 0; i < n; i++) {
+                uint8_t c = p[i];
+
+                if (c == '[') {
+                        d->buf[0] = '[';
+                        d->len = 1;
+                        if (d->noise > 0) {
+                                result_reject(r, SL_REASON_NOISE, d->noise);
+                                d->noise = 0;
+                        }
+                        return i + 1;
+                }
+                if (c == '\r' || c == '\n')
+                        continue;
+                if (++d->noise >= SL_NOISE_RUN_MAX) {
+                        result_reject(r, SL_REASON_NOISE, d->noise);
+                        d->noise = 0;
+                        return i + 1;
+                }
+        }
+        return n;
+}
+
+/* FRAME: copies bytes up to ']', '[' or the length limit; returns the count consumed. */
+static size_t feed_frame(struct sl_decoder *d, const uint8_t *p, size_t n, struct sl_decode_result *r)
+{
+        /* Invariant: d->len <= max_frame - 1, so `room` more body bytes fit before the ']'. */
+        size_t room = d->max_frame - 1 - d->len;
+        size_t scan = n < room + 1 ? n : room + 1;
+        const uint8_t *close = memchr(p, ']', scan);
+        size_t k = close ? (size_t)(close - p) : scan;
+        const uint8_t *open = memchr(p, '[', k);
+
+        if (open) {
+                k = (size_t)(open - p);
+                result_reject(r, SL_REASON_RESYNC, d->len + k);
+                d->buf[0] = '[';
+                d->len = 1;
+                return k + 1;
+        }
+        if (close) {
+                memcpy(d->buf + d->len, p, k + 1);
+                d->len += k + 1;
+                frame_complete(d, r);
+                return k + 1;
+        }
+        if (k > room) {
+                /* p[room] is a body byte where only ']' could still fit. */
+                result_reject(r, SL_REASON_OVERLONG, d->len + k);
+                d->len = 0;
+                return k;
+        }
+        memcpy(d->buf + d->len, p, k);
+        d->len += k;
+        return k;
+}
+
+size_t sl_decoder_feed(struct sl_decoder *d, const uint8_t *buf, size_t len,
+                       struct sl_decode_result *ret_result)
+{
+        size_t used = 0;
+
+        ret_result->kind = SL_RESULT_NONE;
+        ret_result->reason = SL_REASON_NONE;
+        ret_result->bytes = 0;
+        ret_result->frame = NULL;
+        while (used < len && ret_result->kind == SL_RESULT_NONE) {
+                if (d->len == 0)
+                        used += feed_idle(d, buf + used, len - used, ret_result);
+                else
+                        used += feed_frame(d, buf + used, len - used, ret_result);
+        }
+        return used;
+}
+
+bool sl_decoder_end(struct sl_decoder *d, struct sl_decode_result *ret_result)
+{
+        if (d->len > 0) {
+                result_reject(ret_result, SL_REASON_TRUNCATED, d->len);
+                d->len = 0;
+                return true;
+        }
+        if (d->noise > 0) {
+                result_reject(ret_result, SL_REASON_NOISE, d->noise);
+                d->noise = 0;
+                return true;
+        }
+        return false;
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Encoder */
+
+static int check_value(char letter, const char *v, size_t len)
+{
+        uint32_t index;
+
+        if (len > SL_VALUE_MAX)
+                return -EMSGSIZE;
+        for (size_t i = 0; i < len; i++)
+                if (!is_value_byte((unsigned char)v[i]))
+                        return -EINVAL;
+        if ((letter == 'N' || letter == 'L') && !parse_index(v, len, &index))
+                return -EINVAL;
+        return 0;
+}
+
+/* Length of a NUL-terminated value, or SL_VALUE_MAX + 1 if longer. */
+static size_t value_len(const char *v)
+{
+        size_t n = 0;
+
+        while (n <= SL_VALUE_MAX && v[n] != '\0')
+                n++;
+        return n;
+}
+
+static size_t put(char *buf, size_t at, const char *s, size_t n)
+{
+        memcpy(buf + at, s, n);
+        return at + n;
+}
+
+/* Writes "[:" dst src into buf (the caller checked the space); returns 4. */
+static size_t put_header(char *buf, char dst, char src)
+{
+        buf[0] = '[';
+        buf[1] = ':';
+        buf[2] = dst;
+        buf[3] = src;
+        return SL_HEADER_LEN;
+}
+
+/* Appends "|C" hh "]" [CR LF] to the frame buf[0 .. at); returns the new length. */
+static size_t put_trailer(char *buf, size_t at, bool crlf)
+{
+        unsigned sum = 0;
+
+        buf[at++] = '|';
+        buf[at++] = 'C';
+        /* Sum from ':' (buf[1]) through the 'C' just written; '[' excluded. */
+        for (size_t i = 1; i < at; i++)
+                sum += (unsigned char)buf[i];
+        buf[at++] = sl_hex_upper[(sum >> 4) & 0xf];
+        buf[at++] = sl_hex_upper[sum & 0xf];
+        buf[at++] = ']';
+        if (crlf) {
+                buf[at++] = '\r';
+                buf[at++] = '\n';
+        }
+        return at;
+}
+
+int sl_frame_encode(char *buf, size_t size, char dst, char src,
+                    const struct sl_field *fields, size_t nfields, unsigned flags)
+{
+        bool crlf = flags & SL_ENCODE_CRLF;
+        size_t total = SL_HEADER_LEN + SL_TRAILER_LEN + (crlf ? SL_CRLF_LEN : 0);
+        size_t at;
+
+        if (!is_addr(dst) || !is_addr(src) || nfields == 0)
+                return -EINVAL;
+        for (size_t i = 0; i < nfields; i++) {
+                const struct sl_field *f = &fields[i];
+                int r;
+
+                if (!is_type_letter(f->letter) || f->letter == 'C')
+                        return -EINVAL;
+                r = check_value(f->letter, f->value, f->len);
+                if (r < 0)
+                        return r;
+                total += 2 + (size_t)f->len;
+        }
+        if (total > size || total > INT_MAX)
+                return -ENOSPC;
+
+        at = put_header(buf, dst, src);
+        for (size_t i = 0; i < nfields; i++) {
+                buf[at++] = '|';
+                buf[at++] = fields[i].letter;
+                at = put(buf, at, fields[i].value, fields[i].len);
+        }
+        at = put_trailer(buf, at, crlf);
+        return (int)at;
+}
+
+int sl_encode_query(char *buf, size_t size, char dst, char src, const char *name, unsigned flags)
+{
+        struct sl_field f = { .letter = 'Q', .value = name, .len = (uint16_t)value_len(name) };
+
+        return sl_frame_encode(buf, size, dst, src, &f, 1, flags);
+}
+
+int sl_encode_answer(char *buf, size_t size, char dst, char src, const char *name,
+                     const char *value, unsigned flags)
+{
+        struct sl_field f[2] = {
+                { .letter = 'R', .value = name, .len = (uint16_t)value_len(name) },
+                { .letter = 'D', .value = value, .len = (uint16_t)value_len(value) },
+        };
+
+        return sl_frame_encode(buf, size, dst, src, f, 2, flags);
+}
+
+/* Decimal digits of k into out (no terminator); returns the count. */
+static size_t format_index(size_t k, char *out)
+{
+        char tmp[24];
+        size_t n = 0;
+
+        do {
+                tmp[n++] = (char)('0' + k % 10);
+                k /= 10;
+        } while (k > 0);
+        for (size_t i = 0; i < n; i++)
+                out[i] = tmp[n - 1 - i];
+        return n;
+}
+
+int sl_encode_list(const struct sl_list *list, size_t *cursor, char *buf, size_t size)
+{
+        size_t max_frame = list->max_frame ? list->max_frame : SL_FRAME_DEFAULT;
+        size_t limit = max_frame < size ? max_frame : size;
+        size_t start = *cursor, pos = start;
+        char digits[24];
+        size_t ndigits, total, at;
+
+        if (!is_addr(list->dst) || !is_addr(list->src) || max_frame > SL_FRAME_MAX)
+                return -EINVAL;
+        if (start >= list->count)
+                return 0;
+
+        /* "[:AB" "|N" k ... "|C" hh "]" [CR LF] */
+        ndigits = format_index(start, digits);
+        total = SL_HEADER_LEN + 2 + ndigits + SL_TRAILER_LEN + (list->crlf ? SL_CRLF_LEN : 0);
+        if (total > limit)
+                return total > max_frame ? -EMSGSIZE : -ENOSPC;
+        at = put_header(buf, list->dst, list->src);
+        buf[at++] = '|';
+        buf[at++] = 'N';
+        at = put(buf, at, digits, ndigits);
+
+        for (; pos < list->count; pos++) {
+                bool send = !list->compress || list->full || !list->changed || list->changed[pos];
+                const char *v = send ? list->values[pos] : "";
+                size_t vlen = v ? value_len(v) : 0;
+                int r = v ? check_value('D', v, vlen) : -EINVAL;
+
+                if (r == 0 && total + 2 + vlen > limit)
+                        r = total + 2 + vlen > max_frame ? -EMSGSIZE : -ENOSPC;
+                if (r < 0) {
+                        /* Send what fits; a bad value or one that can never fit (alone in a
+                         * frame) is reported by the call that starts at it: never a loop. */
+                        if (pos > start)
+                                break;
+                        return r;
+                }
+                total += 2 + vlen;
+                buf[at++] = '|';
+                buf[at++] = 'D';
+                at = put(buf, at, v, vlen);
+        }
+        at = put_trailer(buf, at, list->crlf);
+        *cursor = pos;
+        return (int)at;
+}

@@ -1,0 +1,898 @@
+/*
+ * Unit tests of the SharedLink codec (src/proto/sharedlink.c) against PROTOCOLS.md section 1.
+ *
+ * The decoder vectors are literal wire bytes whose checksums were computed outside this code base
+ * (the spec's worked examples among them). Every vector is decoded whole, split in two at every
+ * byte boundary, and byte by byte; all three must give the same results. A result is written as
+ * text: a frame as "AB|N0@0|D1" (dst src, then the fields; N/L show "@index", unknown types a
+ * leading '*', and " {u=1}" / " {e=2}" count unknown and empty fields), a rejection as
+ * "!reason/bytes". Results are separated by " ; ".
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <errno.h>
+#include <cmocka.h>
+
+#include "proto/sharedlink.h"
+
+#define OUT_MAX         16384
+#define PIECES_MAX      4
+
+static struct sl_decoder dec;
+
+/* ---------------------------------------------------------------------------------------------
+ * Result transcript */
+
+struct out {
+        char s[OUT_MAX];
+        size_t n;
+};
+
+static void out_add(struct out *o, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+
+static void out_add(struct out *o, const char *fmt, ...)
+{
+        va_list ap;
+        int r;
+
+        va_start(ap, fmt);
+        r = vsnprintf(o->s + o->n, sizeof(o->s) - o->n, fmt, ap);
+        va_end(ap);
+        assert_true(r >= 0 && (size_t)r < sizeof(o->s) - o->n);
+        o->n += (size_t)r;
+}
+
+static const char *reason_tag(enum sl_decode_reason r)
+{
+        static const char *const tags[SL_REASON_COUNT] = {
+                [SL_REASON_NONE] = "none",
+                [SL_REASON_NOISE] = "noise",
+                [SL_REASON_RESYNC] = "resync",
+                [SL_REASON_OVERLONG] = "overlong",
+                [SL_REASON_TRUNCATED] = "truncated",
+                [SL_REASON_NO_CHECKSUM] = "nocsum",
+                [SL_REASON_BAD_CHECKSUM_SYNTAX] = "csumsyntax",
+                [SL_REASON_BAD_CHECKSUM] = "badcsum",
+                [SL_REASON_BAD_HEADER] = "header",
+                [SL_REASON_BAD_ADDRESS] = "address",
+                [SL_REASON_BAD_FIELD] = "field",
+                [SL_REASON_NO_FIELDS] = "nofields",
+                [SL_REASON_UNKNOWN_FIELD] = "unknown",
+                [SL_REASON_EMPTY_FIELD] = "empty",
+        };
+
+        assert_true(r >= 0 && r < SL_REASON_COUNT);
+        return tags[r];
+}
+
+/* Checks what every decoded frame must satisfy, then writes it to the transcript. */
+static void describe_frame(struct out *o, const struct sl_decode_result *r)
+{
+        const struct sl_frame *f = r->frame;
+        size_t unknown = 0;
+
+        assert_non_null(f);
+        assert_true(f->dst >= 'A' && f->dst <= 'P' && f->src >= 'A' && f->src <= 'P');
+        assert_int_equal(f->dst_index, f->dst - 'A');
+        assert_int_equal(f->src_index, f->src - 'A');
+        assert_int_equal(r->bytes, f->raw_len);
+        assert_true(f->raw_len <= dec.max_frame);
+        assert_int_equal(f->raw[0], '[');
+        assert_int_equal(f->raw[f->raw_len - 1], ']');
+        assert_true(f->nfields > 0);
+        out_add(o, "%c%c", f->dst, f->src);
+        for (size_t i = 0; i < f->nfields; i++) {
+                const struct sl_field *fl = &f->fields[i];
+
+                /* Values point into the decoder's copy of the frame. */
+                assert_true(fl->value > f->raw && fl->value + fl->len < f->raw + f->raw_len);
+                if (fl->type == SL_FIELD_UNKNOWN) {
+                        unknown++;
+                        out_add(o, "|*");
+                } else {
+                        assert_int_equal(fl->type, fl->letter);
+                        out_add(o, "|");
+                }
+                out_add(o, "%c%.*s", fl->letter, (int)fl->len, fl->value);
+                if (fl->type == SL_FIELD_N || fl->type == SL_FIELD_L) {
+                        if (fl->index == SL_INDEX_QUERY)
+                                out_add(o, "@?");
+                        else
+                                out_add(o, "@%lu", (unsigned long)fl->index);
+                }
+        }
+        assert_int_equal(unknown, f->unknown_fields);
+        if (f->unknown_fields)
+                out_add(o, " {u=%zu}", f->unknown_fields);
+        if (f->empty_fields)
+                out_add(o, " {e=%zu}", f->empty_fields);
+}
+
+static void describe(struct out *o, const struct sl_decode_result *r)
+{
+        if (o->n > 0)
+                out_add(o, " ; ");
+        if (r->kind == SL_RESULT_FRAME) {
+                describe_frame(o, r);
+        } else {
+                assert_int_equal(r->kind, SL_RESULT_REJECT);
+                assert_null(r->frame);
+                assert_true(r->reason != SL_REASON_NONE);
+                assert_true(r->bytes > 0);
+                out_add(o, "!%s/%zu", reason_tag(r->reason), r->bytes);
+        }
+}
+
+/* Feeds one chunk, describing every result; the decoder must always make progress. */
+static void feed_chunk(const uint8_t *p, size_t n, struct out *o)
+{
+        while (n > 0) {
+                struct sl_decode_result r;
+                size_t used = sl_decoder_feed(&dec, p, n, &r);
+
+                assert_true(used >= 1 && used <= n);
+                if (r.kind == SL_RESULT_NONE)
+                        assert_int_equal(used, n);
+                else
+                        describe(o, &r);
+                p += used;
+                n -= used;
+        }
+}
+
+enum chunking { CHUNK_WHOLE, CHUNK_SPLIT, CHUNK_BYTES };
+
+/* Feeds one piece (a datagram, or the whole stream) and ends it. */
+static void feed_piece(const uint8_t *p, size_t len, enum chunking how, size_t split, struct out *o)
+{
+        struct sl_decode_result r;
+        size_t off = 0;
+
+        while (off < len) {
+                size_t chunk = len - off;
+
+                if (how == CHUNK_BYTES)
+                        chunk = 1;
+                else if (how == CHUNK_SPLIT && off < split && split < len)
+                        chunk = split - off;
+                feed_chunk(p + off, chunk, o);
+                off += chunk;
+        }
+        if (sl_decoder_end(&dec, &r))
+                describe(o, &r);
+        /* After end() the decoder is idle: a second end() has nothing to say. */
+        assert_false(sl_decoder_end(&dec, &r));
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Decoder vectors */
+
+struct vector {
+        const char *name;
+        const char *in[PIECES_MAX];     /* one stream, or several datagrams; each is ended */
+        size_t len;                     /* length of in[0] when it holds a NUL byte; else 0 */
+        size_t max_frame;               /* 0: SL_FRAME_DEFAULT */
+        const char *expect;
+};
+
+#define SPEC_DATA "[:AB|N0|D40.12345678|D-113.12345678|D85.6|D22.1|CD4]"
+#define SPEC_DATA_OUT "AB|N0@0|D40.12345678|D-113.12345678|D85.6|D22.1"
+#define PING "[:AB|P0|C78]"
+#define X32 "[:AB|D01234567890123456789x|CCE]"      /* exactly 32 bytes */
+#define X33 "[:AB|D01234567890123456789xy|C47]"     /* 33 bytes */
+
+static const struct vector vectors[] = {
+        /* PROTOCOLS.md 1.3 worked examples, and the captured ping */
+        { "spec data", { SPEC_DATA }, 0, 0, SPEC_DATA_OUT },
+        { "spec query", { "[:AB|QAutoGpsLat|C2D]" }, 0, 0, "AB|QAutoGpsLat" },
+        { "spec answer", { "[:BA|RAutoGpsLat|D40.12345678|C24]" }, 0, 0,
+          "BA|RAutoGpsLat|D40.12345678" },
+        { "spec compressed", { "[:AB|N0|D|D|D85.7|D|C48]" }, 0, 0, "AB|N0@0|D|D|D85.7|D" },
+        { "captured ping", { PING }, 0, 0, "AB|P0" },
+        /* line ends and checksum spellings */
+        { "CR LF then LF CR", { SPEC_DATA "\r\n" PING "\n\r" PING "\n\n\r\r" }, 0, 0,
+          SPEC_DATA_OUT " ; AB|P0 ; AB|P0" },
+        { "lowercase checksum", { "[:AB|QAutoGpsLat|C2d]" }, 0, 0, "AB|QAutoGpsLat" },
+        { "one-digit checksum", { "[:AB|Dde|C5]" }, 0, 0, "AB|Dde" },
+        { "zero-padded low checksum", { "[:AB|Dde|C05]" }, 0, 0, "AB|Dde" },
+        { "one lowercase digit", { "[:AP|N12|D3.5|Cd]" }, 0, 0, "AP|N12@12|D3.5" },
+        { "addresses P and A", { "[:PA|P0|C86]" }, 0, 0, "PA|P0" },
+        { "other addresses", { "[:CD|N0|D1|C6B]" }, 0, 0, "CD|N0@0|D1" },
+        /* checksum failures */
+        { "bad checksum", { "[:AB|N0|D40.12345678|D-113.12345678|D85.6|D22.1|CD5]" }, 0, 0,
+          "!badcsum/52" },
+        { "one-digit checksum off by one", { "[:AB|Dde|C6]" }, 0, 0, "!badcsum/12" },
+        { "missing checksum", { "[:AB|N0|D1]" }, 0, 0, "!nocsum/11" },
+        { "empty last field", { "[:AB|N0|D1|]" }, 0, 0, "!nocsum/12" },
+        { "lowercase checksum letter", { "[:AB|P0|c78]" }, 0, 0, "!nocsum/12" },
+        { "empty frame", { "[]" }, 0, 0, "!nocsum/2" },
+        { "no bar at all", { "[:AB]" }, 0, 0, "!nocsum/5" },
+        { "checksum without digits", { "[:AB|N0|D1|C]" }, 0, 0, "!csumsyntax/13" },
+        { "checksum with three digits", { "[:AB|N0|D1|C067]" }, 0, 0, "!csumsyntax/16" },
+        { "checksum not hex", { "[:AB|N0|D1|CXY]" }, 0, 0, "!csumsyntax/15" },
+        /* header */
+        { "missing colon", { "[AB|P0|C3E]" }, 0, 0, "!header/11" },
+        { "three address letters", { "[:ABX|P0|CD0]" }, 0, 0, "!header/13" },
+        { "lowercase address", { "[:aB|P0|C98]" }, 0, 0, "!address/12" },
+        { "address beyond P", { "[:AQ|P0|C87]" }, 0, 0, "!address/12" },
+        { "one address letter", { "[:A|P0|C36]" }, 0, 0, "!address/11" },
+        /* fields */
+        { "field without type letter", { "[:AB|0|C28]" }, 0, 0, "!field/11" },
+        { "lowercase type letter", { "[:AB|dx|CD4]" }, 0, 0, "!field/12" },
+        { "control byte in value", { "[:AB|D\x01|C3D]" }, 0, 0, "!field/12" },
+        { "tab in value", { "[:AB|D\t|C45]" }, 0, 0, "!field/12" },
+        { "DEL in value", { "[:AB|P0|D\x7f|CB7]" }, 0, 0, "!field/15" },
+        { "high byte in value", { "[:AB|D\xff|C3B]" }, 0, 0, "!field/12" },
+        { "N not a number", { "[:AB|Nx|D1|CAF]" }, 0, 0, "!field/15" },
+        { "N empty", { "[:AB|N|C46]" }, 0, 0, "!field/11" },
+        { "checksum field before the end", { "[:AB|C00|D1|C8C]" }, 0, 0, "!field/16" },
+        { "only a checksum", { "[:AB|C7C]" }, 0, 0, "!nofields/9" },
+        { "only an empty field", { "[:AB||CF8]" }, 0, 0, "!nofields/10" },
+        { "unknown field type", { "[:AB|MUI|P0|CDF]" }, 0, 0, "AB|*MUI|P0 {u=1}" },
+        { "empty field", { "[:AB|N0||D1|CE3]" }, 0, 0, "AB|N0@0|D1 {e=1}" },
+        { "empty fields twice", { "[:AB|N0||D1||C5F]" }, 0, 0, "AB|N0@0|D1 {e=2}" },
+        { "empty field in an answer", { "[:BA|RAutoGpsLat||D40.12345678|CA0]" }, 0, 0,
+          "BA|RAutoGpsLat|D40.12345678 {e=1}" },
+        { "several N fields", { "[:AB|N0|D1|N5|D2|C58]" }, 0, 0, "AB|N0@0|D1|N5@5|D2" },
+        { "D without N", { "[:AB|D1|D2|C5F]" }, 0, 0, "AB|D1|D2" },
+        { "empty D", { "[:AB|N0|D|C36]" }, 0, 0, "AB|N0@0|D" },
+        { "huge N saturates", { "[:AB|N99999999999|D1|CAA]" }, 0, 0,
+          "AB|N99999999999@4294967294|D1" },
+        { "N at UINT32_MAX saturates", { "[:AB|N4294967295|C5F]" }, 0, 0,
+          "AB|N4294967295@4294967294" },
+        /* Pronto4 dialect (PROTOCOLS.md 1.6) */
+        { "N? asks for the N list", { "[:BA|N?|C85]" }, 0, 0, "BA|N?@?" },
+        { "L? asks for the L list", { "[:BA|L?|C83]" }, 0, 0, "BA|L?@?" },
+        { "L list declaration", { "[:AB|L0|T2|QAutoGpsLat|T2|QAutoGpsLon|CE2]" }, 0, 0,
+          "AB|L0@0|T2|QAutoGpsLat|T2|QAutoGpsLon" },
+        { "self-describing frame",
+          { "[:BA|N0|T4|QVehicleName|DVEH_1|T2|QAutoGpsLat|D0|C5E]" }, 0, 0,
+          "BA|N0@0|T4|QVehicleName|DVEH_1|T2|QAutoGpsLat|D0" },
+        { "pong", { "[:BA|G0|C6F]" }, 0, 0, "BA|G0" },
+        { "module command", { "[:BA|ELink|D0, outbound, on|CA0]" }, 0, 0,
+          "BA|ELink|D0, outbound, on" },
+        /* garbage before, between and inside frames */
+        { "garbage before", { "xyz" PING }, 0, 0, "!noise/3 ; AB|P0" },
+        { "garbage between", { PING "\r\nab\r\n" PING }, 0, 0, "AB|P0 ; !noise/2 ; AB|P0" },
+        { "spaces are noise", { PING " \t" PING }, 0, 0, "AB|P0 ; !noise/2 ; AB|P0" },
+        { "stray closing brackets", { "]]" PING "]" }, 0, 0, "!noise/2 ; AB|P0 ; !noise/1" },
+        { "NUL and high bytes between", { PING "\0\xff\x80" PING }, 15 + 12, 0,
+          "AB|P0 ; !noise/3 ; AB|P0" },
+        { "bracket inside a frame resyncs", { "[:AB|N0|D1" PING }, 0, 0, "!resync/10 ; AB|P0" },
+        { "two brackets", { "[[" PING }, 0, 0, "!resync/1 ; !resync/1 ; AB|P0" },
+        { "bad frame between good ones", { PING "[:AB|P0|C79]" PING }, 0, 0,
+          "AB|P0 ; !badcsum/12 ; AB|P0" },
+        { "trailing partial frame", { PING "[:AB|N0" }, 0, 0, "AB|P0 ; !truncated/7" },
+        { "trailing noise", { PING "zz" }, 0, 0, "AB|P0 ; !noise/2" },
+        { "lone bracket at the end", { "[" }, 0, 0, "!truncated/1" },
+        { "only CR LF", { "\r\n\n\r" }, 0, 0, "" },
+        /* maximum lengths (max_frame 32) */
+        { "exactly max_frame", { X32 }, 0, 32, "AB|D01234567890123456789x" },
+        { "max_frame + 1 then resync", { X33 PING }, 0, 32, "!overlong/32 ; !noise/1 ; AB|P0" },
+        { "overlong tail with CR LF", { X33 "\r\n" PING }, 0, 32,
+          "!overlong/32 ; !noise/1 ; AB|P0" },
+        { "bracket where only ']' fits", { "[:AB|D01234567890123456789abcde" PING }, 0, 32,
+          "!resync/31 ; AB|P0" },
+        { "overlong right before a bracket", { "[:AB|D01234567890123456789abcdef" PING }, 0, 32,
+          "!overlong/32 ; AB|P0" },
+        { "bracket inside an overlong-sized frame", { "[:AB|D01234567890123456789xy[P0|C78]" PING },
+          0, 32, "!resync/28 ; !badcsum/8 ; AB|P0" },
+        { "value longer than SL_VALUE_MAX is decoded",
+          { "[:AB|D0123456789012345678901234567890123456789012345678901234567890123456789|C97]" },
+          0, 0, "AB|D0123456789012345678901234567890123456789012345678901234567890123456789" },
+        /* datagrams: every piece is ended, so nothing joins across datagrams */
+        { "datagram with two frames", { SPEC_DATA PING }, 0, 0, SPEC_DATA_OUT " ; AB|P0" },
+        { "datagram cut in two", { "[:AB|P0", "|C78]", PING }, 0, 0,
+          "!truncated/7 ; !noise/5 ; AB|P0" },
+        { "datagram with a trailing partial frame", { PING "[:AB|N0|D", PING }, 0, 0,
+          "AB|P0 ; !truncated/9 ; AB|P0" },
+        { "datagram without CR LF after datagram with", { PING "\r\n", PING }, 0, 0,
+          "AB|P0 ; AB|P0" },
+};
+
+static void run_vector(const struct vector *v, enum chunking how, size_t split, struct out *o)
+{
+        o->n = 0;
+        o->s[0] = '\0';
+        assert_int_equal(sl_decoder_init(&dec, v->max_frame), 0);
+        for (size_t i = 0; i < PIECES_MAX && v->in[i]; i++) {
+                size_t len = (i == 0 && v->len) ? v->len : strlen(v->in[i]);
+
+                feed_piece((const uint8_t *)v->in[i], len, how, split, o);
+        }
+}
+
+static void check_vector(const struct vector *v, enum chunking how, size_t split)
+{
+        static struct out o;
+
+        run_vector(v, how, split, &o);
+        if (strcmp(o.s, v->expect) != 0) {
+                print_error("vector \"%s\" (%s, split %zu)\n  got:  %s\n  want: %s\n", v->name,
+                            how == CHUNK_WHOLE ? "whole" : how == CHUNK_SPLIT ? "split" : "bytes",
+                            split, o.s, v->expect);
+                fail();
+        }
+}
+
+static void test_decode_vectors(void **state)
+{
+        (void)state;
+        assert_true(sizeof(vectors) / sizeof(vectors[0]) >= 30);
+        for (size_t i = 0; i < sizeof(vectors) / sizeof(vectors[0]); i++) {
+                const struct vector *v = &vectors[i];
+                size_t longest = 0;
+
+                for (size_t k = 0; k < PIECES_MAX && v->in[k]; k++) {
+                        size_t len = (k == 0 && v->len) ? v->len : strlen(v->in[k]);
+                        if (len > longest)
+                                longest = len;
+                }
+                check_vector(v, CHUNK_WHOLE, 0);
+                check_vector(v, CHUNK_BYTES, 0);
+                for (size_t split = 1; split < longest; split++)
+                        check_vector(v, CHUNK_SPLIT, split);
+        }
+}
+
+/* The field values are where the frame said, and raw is the frame as received. */
+static void test_frame_layout(void **state)
+{
+        static const char wire[] = "\r\n" SPEC_DATA "\r\n";
+        struct sl_decode_result r;
+        size_t used;
+
+        (void)state;
+        assert_int_equal(sl_decoder_init(&dec, 0), 0);
+        used = sl_decoder_feed(&dec, (const uint8_t *)wire, strlen(wire), &r);
+        assert_int_equal(used, 2 + strlen(SPEC_DATA));
+        assert_int_equal(r.kind, SL_RESULT_FRAME);
+        assert_int_equal(r.frame->raw_len, strlen(SPEC_DATA));
+        assert_memory_equal(r.frame->raw, SPEC_DATA, strlen(SPEC_DATA));
+        assert_int_equal(r.frame->nfields, 5);
+        assert_int_equal(r.frame->fields[0].type, SL_FIELD_N);
+        assert_int_equal(r.frame->fields[0].index, 0);
+        assert_int_equal(r.frame->fields[2].len, strlen("-113.12345678"));
+        assert_memory_equal(r.frame->fields[2].value, "-113.12345678", r.frame->fields[2].len);
+        assert_int_equal(r.frame->dst_index, 0);
+        assert_int_equal(r.frame->src_index, 1);
+        /* The trailing CR LF is whitespace: consumed, nothing reported. */
+        used = sl_decoder_feed(&dec, (const uint8_t *)wire + used, 2, &r);
+        assert_int_equal(used, 2);
+        assert_int_equal(r.kind, SL_RESULT_NONE);
+        assert_false(sl_decoder_end(&dec, &r));
+}
+
+static void test_decoder_init_limits(void **state)
+{
+        (void)state;
+        assert_int_equal(sl_decoder_init(&dec, 0), 0);
+        assert_int_equal(dec.max_frame, SL_FRAME_DEFAULT);
+        assert_int_equal(sl_decoder_init(&dec, SL_FRAME_MAX), 0);
+        assert_int_equal(sl_decoder_init(&dec, SL_FRAME_MIN), 0);
+        assert_int_equal(sl_decoder_init(&dec, SL_FRAME_MIN - 1), -EINVAL);
+        assert_int_equal(sl_decoder_init(&dec, SL_FRAME_MAX + 1), -EINVAL);
+}
+
+/* Noise runs are reported once per SL_NOISE_RUN_MAX bytes, not once per byte; CR LF are free. */
+static void test_noise_runs(void **state)
+{
+        static uint8_t buf[2 * SL_NOISE_RUN_MAX + 600];
+        static struct out o;
+        size_t n = 0;
+
+        (void)state;
+        for (size_t i = 0; i < 2 * SL_NOISE_RUN_MAX + 400; i++)
+                buf[n++] = (uint8_t)('a' + i % 26);
+        for (size_t i = 0; i < 100; i++) {
+                buf[n++] = '\r';
+                buf[n++] = '\n';
+        }
+        o.n = 0;
+        assert_int_equal(sl_decoder_init(&dec, 0), 0);
+        feed_chunk(buf, n, &o);
+        assert_string_equal(o.s, "!noise/1024 ; !noise/1024");
+        feed_piece(buf, 0, CHUNK_WHOLE, 0, &o);
+        assert_string_equal(o.s, "!noise/1024 ; !noise/1024 ; !noise/400");
+}
+
+/* Builds "[:AB|D<x...>|Chh]" of exactly @len bytes, with its checksum computed here. */
+static size_t make_frame(char *buf, size_t len)
+{
+        unsigned sum = 0;
+        size_t n = 0;
+
+        assert_true(len >= 12);
+        n += (size_t)sprintf(buf, "[:AB|D");
+        for (; n < len - 5; n++)
+                buf[n] = (char)('0' + n % 10);
+        buf[n++] = '|';
+        buf[n++] = 'C';
+        for (size_t i = 1; i < n; i++)
+                sum += (unsigned char)buf[i];
+        n += (size_t)sprintf(buf + n, "%02X]", sum & 0xff);
+        assert_int_equal(n, len);
+        return n;
+}
+
+/* At the default and the largest max_frame: max_frame accepted, max_frame + 1 rejected, resync. */
+static void test_max_frame_edges(void **state)
+{
+        static const size_t limits[] = { SL_FRAME_DEFAULT, SL_FRAME_MAX, 100 };
+        static char buf[2 * SL_FRAME_MAX + 64];
+
+        (void)state;
+        for (size_t k = 0; k < sizeof(limits) / sizeof(limits[0]); k++) {
+                size_t max = limits[k], n;
+                static struct out o;
+                char want[128];
+
+                assert_int_equal(sl_decoder_init(&dec, max), 0);
+                o.n = 0;
+                n = make_frame(buf, max);
+                n += make_frame(buf + n, max + 1);
+                memcpy(buf + n, PING, strlen(PING));
+                n += strlen(PING);
+                feed_piece((const uint8_t *)buf, n, CHUNK_WHOLE, 0, &o);
+                snprintf(want, sizeof(want), "!overlong/%zu ; !noise/1 ; AB|P0", max);
+                assert_int_equal(strncmp(o.s, "AB|D", 4), 0);
+                assert_non_null(strstr(o.s, want));
+                assert_int_equal(strlen(strstr(o.s, want)), strlen(want));
+        }
+}
+
+static void test_reason_strings(void **state)
+{
+        (void)state;
+        for (int i = 0; i < SL_REASON_COUNT; i++) {
+                const char *s = sl_decode_reason_str((enum sl_decode_reason)i);
+
+                assert_non_null(s);
+                assert_true(strlen(s) > 0);
+                assert_string_not_equal(s, "unknown reason");
+                for (int j = 0; j < i; j++)
+                        assert_string_not_equal(s, sl_decode_reason_str((enum sl_decode_reason)j));
+        }
+        assert_string_equal(sl_decode_reason_str(SL_REASON_BAD_CHECKSUM), "bad checksum");
+        assert_string_equal(sl_decode_reason_str(SL_REASON_COUNT), "unknown reason");
+        assert_int_equal(sl_field_type_of('D'), SL_FIELD_D);
+        assert_int_equal(sl_field_type_of('M'), SL_FIELD_UNKNOWN);
+        assert_int_equal(sl_field_type_of('d'), SL_FIELD_UNKNOWN);
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Encoder */
+
+#define F(l, v) { .letter = (l), .value = (v), .len = sizeof(v) - 1 }
+#define FIELDS_MAX 8
+
+struct enc_vector {
+        const char *name;
+        char dst, src;
+        struct sl_field fields[FIELDS_MAX];
+        size_t nfields;
+        unsigned flags;
+        const char *expect;     /* wire bytes, or NULL when an error is expected */
+        int error;
+};
+
+static const struct enc_vector enc_vectors[] = {
+        { "spec data", 'A', 'B',
+          { F('N', "0"), F('D', "40.12345678"), F('D', "-113.12345678"), F('D', "85.6"),
+            F('D', "22.1") }, 5, 0, SPEC_DATA, 0 },
+        { "spec data CR LF", 'A', 'B',
+          { F('N', "0"), F('D', "40.12345678"), F('D', "-113.12345678"), F('D', "85.6"),
+            F('D', "22.1") }, 5, SL_ENCODE_CRLF, SPEC_DATA "\r\n", 0 },
+        { "spec compressed", 'A', 'B', { F('N', "0"), F('D', ""), F('D', ""), F('D', "85.7"),
+          F('D', "") }, 5, 0, "[:AB|N0|D|D|D85.7|D|C48]", 0 },
+        { "ping", 'A', 'B', { F('P', "0") }, 1, 0, PING, 0 },
+        { "low checksum is zero padded", 'A', 'B', { F('D', "de") }, 1, 0, "[:AB|Dde|C05]", 0 },
+        { "other addresses", 'A', 'P', { F('N', "12"), F('D', "3.5") }, 2, 0,
+          "[:AP|N12|D3.5|C0D]", 0 },
+        { "N?", 'B', 'A', { F('N', "?") }, 1, 0, "[:BA|N?|C85]", 0 },
+        { "unknown letter is allowed", 'A', 'B', { F('M', "UI"), F('P', "0") }, 2, 0,
+          "[:AB|MUI|P0|CDF]", 0 },
+        { "value of exactly 63 bytes", 'A', 'B',
+          { F('D', "012345678901234567890123456789012345678901234567890123456789012") }, 1, 0,
+          "[:AB|D012345678901234567890123456789012345678901234567890123456789012|C1D]", 0 },
+        /* refusals */
+        { "bar in value", 'A', 'B', { F('D', "a|b") }, 1, 0, NULL, -EINVAL },
+        { "open bracket in value", 'A', 'B', { F('D', "a[b") }, 1, 0, NULL, -EINVAL },
+        { "close bracket in value", 'A', 'B', { F('D', "a]b") }, 1, 0, NULL, -EINVAL },
+        { "control byte in value", 'A', 'B', { F('D', "a\x1f") }, 1, 0, NULL, -EINVAL },
+        { "CR in value", 'A', 'B', { F('D', "a\r") }, 1, 0, NULL, -EINVAL },
+        { "DEL in value", 'A', 'B', { F('D', "\x7f") }, 1, 0, NULL, -EINVAL },
+        { "high byte in value", 'A', 'B', { F('D', "\x80") }, 1, 0, NULL, -EINVAL },
+        { "value of 64 bytes", 'A', 'B',
+          { F('D', "0123456789012345678901234567890123456789012345678901234567890123") }, 1, 0,
+          NULL, -EMSGSIZE },
+        { "destination beyond P", 'Q', 'B', { F('P', "0") }, 1, 0, NULL, -EINVAL },
+        { "lowercase source", 'A', 'b', { F('P', "0") }, 1, 0, NULL, -EINVAL },
+        { "checksum letter as a field", 'A', 'B', { F('C', "00") }, 1, 0, NULL, -EINVAL },
+        { "digit as a type", 'A', 'B', { F('1', "0") }, 1, 0, NULL, -EINVAL },
+        { "lowercase type", 'A', 'B', { F('d', "0") }, 1, 0, NULL, -EINVAL },
+        { "N not a number", 'A', 'B', { F('N', "x"), F('D', "1") }, 2, 0, NULL, -EINVAL },
+        { "N empty", 'A', 'B', { F('N', ""), F('D', "1") }, 2, 0, NULL, -EINVAL },
+        { "L not a number", 'A', 'B', { F('L', "-1") }, 1, 0, NULL, -EINVAL },
+        { "no fields", 'A', 'B', { F('P', "0") }, 0, 0, NULL, -EINVAL },
+};
+
+/* Decodes one encoded frame and checks it carries exactly the fields that were encoded. */
+static void check_decodes_to(const char *wire, size_t len, char dst, char src,
+                             const struct sl_field *fields, size_t nfields)
+{
+        struct sl_decode_result r;
+        size_t used;
+
+        assert_int_equal(sl_decoder_init(&dec, SL_FRAME_MAX), 0);
+        used = sl_decoder_feed(&dec, (const uint8_t *)wire, len, &r);
+        assert_int_equal(r.kind, SL_RESULT_FRAME);
+        /* Whatever follows the ']' is the optional CR LF. */
+        assert_true(len - used == 0 || (len - used == 2 && memcmp(wire + used, "\r\n", 2) == 0));
+        assert_int_equal(r.frame->dst, dst);
+        assert_int_equal(r.frame->src, src);
+        assert_int_equal(r.frame->nfields, nfields);
+        for (size_t i = 0; i < nfields; i++) {
+                assert_int_equal(r.frame->fields[i].letter, fields[i].letter);
+                assert_int_equal(r.frame->fields[i].len, fields[i].len);
+                assert_memory_equal(r.frame->fields[i].value, fields[i].value, fields[i].len);
+        }
+}
+
+static void test_encode_vectors(void **state)
+{
+        char buf[SL_FRAME_MAX];
+
+        (void)state;
+        for (size_t i = 0; i < sizeof(enc_vectors) / sizeof(enc_vectors[0]); i++) {
+                const struct enc_vector *v = &enc_vectors[i];
+                int r = sl_frame_encode(buf, sizeof(buf), v->dst, v->src, v->fields, v->nfields,
+                                        v->flags);
+
+                if (!v->expect) {
+                        if (r != v->error)
+                                print_error("encode \"%s\": got %d want %d\n", v->name, r, v->error);
+                        assert_int_equal(r, v->error);
+                        continue;
+                }
+                if (r != (int)strlen(v->expect) || memcmp(buf, v->expect, (size_t)r) != 0)
+                        print_error("encode \"%s\": got %.*s want %s\n", v->name, r > 0 ? r : 0,
+                                    buf, v->expect);
+                assert_int_equal(r, strlen(v->expect));
+                assert_memory_equal(buf, v->expect, (size_t)r);
+                check_decodes_to(buf, (size_t)r, v->dst, v->src, v->fields, v->nfields);
+        }
+}
+
+/* A buffer one byte short is refused, the exact size works. */
+static void test_encode_buffer_size(void **state)
+{
+        const struct sl_field f[] = { F('P', "0") };
+        char buf[32];
+
+        (void)state;
+        assert_int_equal(sl_frame_encode(buf, strlen(PING) - 1, 'A', 'B', f, 1, 0), -ENOSPC);
+        assert_int_equal(sl_frame_encode(buf, strlen(PING), 'A', 'B', f, 1, 0), strlen(PING));
+        assert_int_equal(sl_frame_encode(buf, strlen(PING) + 1, 'A', 'B', f, 1, SL_ENCODE_CRLF),
+                         -ENOSPC);
+        assert_int_equal(sl_frame_encode(buf, strlen(PING) + 2, 'A', 'B', f, 1, SL_ENCODE_CRLF),
+                         strlen(PING) + 2);
+        assert_int_equal(sl_frame_encode(buf, 0, 'A', 'B', f, 1, 0), -ENOSPC);
+}
+
+static void test_encode_helpers(void **state)
+{
+        char buf[128];
+        int r;
+
+        (void)state;
+        r = sl_encode_query(buf, sizeof(buf), 'A', 'B', "AutoGpsLat", 0);
+        assert_int_equal(r, strlen("[:AB|QAutoGpsLat|C2D]"));
+        assert_memory_equal(buf, "[:AB|QAutoGpsLat|C2D]", (size_t)r);
+        r = sl_encode_answer(buf, sizeof(buf), 'B', 'A', "AutoGpsLat", "40.12345678", SL_ENCODE_CRLF);
+        assert_int_equal(r, strlen("[:BA|RAutoGpsLat|D40.12345678|C24]\r\n"));
+        assert_memory_equal(buf, "[:BA|RAutoGpsLat|D40.12345678|C24]\r\n", (size_t)r);
+        /* Decision: a query for an unknown name is answered with an empty value. */
+        r = sl_encode_answer(buf, sizeof(buf), 'B', 'A', "Nope", "", 0);
+        assert_true(r > 0);
+        check_decodes_to(buf, (size_t)r, 'B', 'A',
+                         (const struct sl_field[]){ F('R', "Nope"), F('D', "") }, 2);
+        assert_int_equal(sl_encode_query(buf, sizeof(buf), 'A', 'B', "a|b", 0), -EINVAL);
+        assert_int_equal(sl_encode_answer(buf, sizeof(buf), 'A', 'B', "x", "1]", 0), -EINVAL);
+        assert_int_equal(sl_encode_answer(buf, sizeof(buf), 'A', 'B', "x",
+                         "0123456789012345678901234567890123456789012345678901234567890123", 0),
+                         -EMSGSIZE);
+        assert_int_equal(sl_encode_query(buf, 10, 'A', 'B', "AutoGpsLat", 0), -ENOSPC);
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * List encoder */
+
+#define LIST_MAX 300
+
+struct list_case {
+        const char *name;
+        size_t count;
+        size_t max_frame;
+        bool compress, full, crlf;
+        unsigned changed_every;         /* position i changed when i % changed_every == 0; 0: NULL */
+};
+
+static const struct list_case list_cases[] = {
+        { "4 doubles, one frame", 4, 0, false, false, false, 0 },
+        { "40 doubles, 96-byte frames", 40, 96, false, false, false, 0 },
+        { "40 doubles, 96-byte frames, CR LF", 40, 96, false, false, true, 0 },
+        { "40 doubles, compressed", 40, 96, true, false, false, 3 },
+        { "40 doubles, compressed, full refresh", 40, 96, true, true, true, 3 },
+        { "40 doubles, nothing changed", 40, 96, true, false, false, 1000 },
+        { "changed ignored without compression", 40, 96, false, false, false, 2 },
+        { "300 values, N offsets over 100", 300, SL_FRAME_MIN + 60, false, false, true, 0 },
+        { "300 values, default max_frame", 300, 0, true, false, true, 5 },
+        { "300 values, largest max_frame", 300, SL_FRAME_MAX, false, false, false, 0 },
+};
+
+static char list_storage[LIST_MAX][SL_VALUE_MAX + 1];
+static const char *list_values[LIST_MAX];
+static bool list_changed[LIST_MAX];
+
+/* Deterministic values of varied length, some empty, one of the maximum length. */
+static void make_values(size_t count)
+{
+        uint32_t x = 12345;
+
+        for (size_t i = 0; i < count; i++) {
+                x = x * 1103515245u + 12345u;
+                if (i % 17 == 5)
+                        list_storage[i][0] = '\0';
+                else if (i % 23 == 7) {
+                        memset(list_storage[i], 'v', SL_VALUE_MAX);
+                        list_storage[i][SL_VALUE_MAX] = '\0';
+                } else {
+                        snprintf(list_storage[i], sizeof(list_storage[i]), "%.*f", (int)(x % 9),
+                                 (double)(int32_t)x / 1000.0);
+                }
+                list_values[i] = list_storage[i];
+        }
+}
+
+static void check_list_case(const struct list_case *c)
+{
+        struct sl_list l = {
+                .dst = 'A', .src = 'B', .values = list_values, .count = c->count,
+                .max_frame = c->max_frame, .compress = c->compress, .full = c->full, .crlf = c->crlf,
+                .changed = c->changed_every ? list_changed : NULL,
+        };
+        size_t max = c->max_frame ? c->max_frame : SL_FRAME_DEFAULT;
+        size_t cursor = 0, frames = 0;
+        char buf[SL_FRAME_MAX];
+        int r;
+
+        make_values(c->count);
+        for (size_t i = 0; i < c->count; i++)
+                list_changed[i] = c->changed_every && i % c->changed_every == 0;
+        while ((r = sl_encode_list(&l, &cursor, buf, sizeof(buf))) > 0) {
+                size_t start, n = (size_t)r, body = c->crlf ? n - 2 : n;
+                struct sl_decode_result res;
+                const struct sl_frame *f;
+
+                assert_true(++frames <= c->count);
+                assert_true(n <= max);
+                if (c->crlf)
+                        assert_memory_equal(buf + n - 2, "\r\n", 2);
+                assert_int_equal(buf[body - 1], ']');
+                assert_int_equal(sl_decoder_init(&dec, SL_FRAME_MAX), 0);
+                assert_int_equal(sl_decoder_feed(&dec, (const uint8_t *)buf, body, &res), body);
+                assert_int_equal(res.kind, SL_RESULT_FRAME);
+                f = res.frame;
+                assert_int_equal(f->dst, 'A');
+                assert_int_equal(f->src, 'B');
+                assert_int_equal(f->fields[0].type, SL_FIELD_N);
+                start = f->fields[0].index;
+                assert_true(cursor > start);
+                assert_int_equal(f->nfields, 1 + cursor - start);
+                for (size_t i = start; i < cursor; i++) {
+                        const struct sl_field *fl = &f->fields[1 + i - start];
+                        bool sent = !c->compress || c->full || list_changed[i];
+                        const char *want = sent ? list_values[i] : "";
+
+                        assert_int_equal(fl->type, SL_FIELD_D);
+                        assert_int_equal(fl->len, strlen(want));
+                        assert_memory_equal(fl->value, want, fl->len);
+                }
+                /* Greedy: the next position would not have fitted in this frame. */
+                if (cursor < c->count) {
+                        bool sent = !c->compress || c->full || list_changed[cursor];
+                        size_t next = sent ? strlen(list_values[cursor]) : 0;
+
+                        assert_true(n + 2 + next > max);
+                }
+        }
+        assert_int_equal(r, 0);
+        assert_int_equal(cursor, c->count);
+        assert_true(frames >= 1);
+        /* Called again at the end: nothing more. */
+        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), 0);
+}
+
+static void test_list_split(void **state)
+{
+        (void)state;
+        for (size_t i = 0; i < sizeof(list_cases) / sizeof(list_cases[0]); i++) {
+                print_message("list case: %s\n", list_cases[i].name);
+                check_list_case(&list_cases[i]);
+        }
+}
+
+/* The spec's own frames come out of the list encoder byte for byte. */
+static void test_list_spec_frames(void **state)
+{
+        static const char *const v[] = { "40.12345678", "-113.12345678", "85.6", "22.1" };
+        static const char *const v2[] = { "40.12345678", "-113.12345678", "85.7", "22.1" };
+        static const bool changed[] = { false, false, true, false };
+        struct sl_list l = { .dst = 'A', .src = 'B', .values = v, .count = 4 };
+        char buf[256];
+        size_t cursor = 0;
+        int r;
+
+        (void)state;
+        r = sl_encode_list(&l, &cursor, buf, sizeof(buf));
+        assert_int_equal(r, strlen(SPEC_DATA));
+        assert_memory_equal(buf, SPEC_DATA, (size_t)r);
+        assert_int_equal(cursor, 4);
+
+        l.values = v2;
+        l.changed = changed;
+        l.compress = true;
+        cursor = 0;
+        r = sl_encode_list(&l, &cursor, buf, sizeof(buf));
+        assert_int_equal(r, strlen("[:AB|N0|D|D|D85.7|D|C48]"));
+        assert_memory_equal(buf, "[:AB|N0|D|D|D85.7|D|C48]", (size_t)r);
+
+        /* Full refresh sends everything even with compression on. */
+        l.full = true;
+        cursor = 0;
+        r = sl_encode_list(&l, &cursor, buf, sizeof(buf));
+        assert_int_equal(r, strlen("[:AB|N0|D40.12345678|D-113.12345678|D85.7|D22.1|CD5]"));
+        assert_memory_equal(buf, "[:AB|N0|D40.12345678|D-113.12345678|D85.7|D22.1|CD5]", (size_t)r);
+}
+
+static void test_list_errors(void **state)
+{
+        static const char long_value[] =
+                "012345678901234567890123456789012345678901234567890123456789012";
+        static const char *const fits[] = { "1", "2" };
+        static const char *const too_big[] = { "1", long_value };
+        static const char *const bad[] = { "1", "2|3" };
+        static const char *const too_long[] = {
+                "0123456789012345678901234567890123456789012345678901234567890123"
+        };
+        struct sl_list l = { .dst = 'A', .src = 'B', .values = too_big, .count = 2,
+                             .max_frame = SL_FRAME_MIN };
+        char buf[SL_FRAME_MAX];
+        size_t cursor = 0;
+        int r;
+
+        (void)state;
+        /* Position 0 fits, position 1 can never fit in 32 bytes: one frame, then an error. */
+        r = sl_encode_list(&l, &cursor, buf, sizeof(buf));
+        assert_true(r > 0 && r <= SL_FRAME_MIN);
+        assert_int_equal(cursor, 1);
+        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
+        assert_int_equal(cursor, 1);
+        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
+
+        /* The caller's buffer, not max_frame, is what is too small. */
+        l.values = fits;
+        l.max_frame = 0;
+        cursor = 0;
+        assert_int_equal(sl_encode_list(&l, &cursor, buf, 12), -ENOSPC);
+        assert_int_equal(sl_encode_list(&l, &cursor, buf, 4), -ENOSPC);
+        assert_int_equal(cursor, 0);
+
+        /* A bad value ends the frame before it; the next call names it. */
+        l.values = bad;
+        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), strlen("[:AB|N0|D1|C67]"));
+        assert_memory_equal(buf, "[:AB|N0|D1|C67]", strlen("[:AB|N0|D1|C67]"));
+        assert_int_equal(cursor, 1);
+        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        assert_int_equal(cursor, 1);
+        /* ... but an unchanged bad value is not sent, so it does not matter. */
+        cursor = 0;
+        l.compress = true;
+        l.changed = (const bool[]){ true, false };
+        assert_true(sl_encode_list(&l, &cursor, buf, sizeof(buf)) > 0);
+        assert_int_equal(cursor, 2);
+
+        l = (struct sl_list){ .dst = 'A', .src = 'B', .values = too_long, .count = 1 };
+        cursor = 0;
+        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
+        l.values = fits;
+        l.dst = 'Z';
+        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        l.dst = 'A';
+        l.max_frame = SL_FRAME_MAX + 1;
+        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        l.max_frame = 0;
+        l.count = 0;
+        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), 0);
+}
+
+/* Encode -> decode of every decoder vector's frames gives the same frames back. */
+static void test_roundtrip_vectors(void **state)
+{
+        static struct sl_field copy[SL_FIELDS_MAX];
+        static char values[SL_FRAME_MAX];
+        char buf[SL_FRAME_MAX + 8];
+        size_t checked = 0;
+
+        (void)state;
+        for (size_t i = 0; i < sizeof(vectors) / sizeof(vectors[0]); i++) {
+                const char *in = vectors[i].in[0];
+                size_t len = vectors[i].len ? vectors[i].len : strlen(in);
+                struct sl_decode_result r;
+
+                assert_int_equal(sl_decoder_init(&dec, vectors[i].max_frame), 0);
+                while (len > 0) {
+                        size_t used = sl_decoder_feed(&dec, (const uint8_t *)in, len, &r);
+                        const struct sl_frame *f = r.frame;
+                        char dst, src;
+                        size_t nf, vlen = 0;
+                        bool long_value = false;
+                        int n;
+
+                        in += used;
+                        len -= used;
+                        if (r.kind != SL_RESULT_FRAME)
+                                continue;
+                        /* Copy out: the decoder is reused below. */
+                        dst = f->dst;
+                        src = f->src;
+                        nf = f->nfields;
+                        memcpy(values, f->raw, f->raw_len);
+                        for (size_t k = 0; k < nf; k++) {
+                                copy[k] = f->fields[k];
+                                copy[k].value = values + (f->fields[k].value - f->raw);
+                                long_value |= copy[k].len > SL_VALUE_MAX;
+                                vlen += copy[k].len;
+                        }
+                        n = sl_frame_encode(buf, sizeof(buf), dst, src, copy, nf, 0);
+                        if (long_value) {
+                                /* We decode long values but never emit them. */
+                                assert_int_equal(n, -EMSGSIZE);
+                                continue;
+                        }
+                        assert_true(n > 0);
+                        check_decodes_to(buf, (size_t)n, dst, src, copy, nf);
+                        checked++;
+                        /* check_decodes_to() reset the shared decoder: stop this vector. */
+                        break;
+                }
+        }
+        assert_true(checked >= 30);
+}
+
+int main(void)
+{
+        const struct CMUnitTest tests[] = {
+                cmocka_unit_test(test_decode_vectors),
+                cmocka_unit_test(test_frame_layout),
+                cmocka_unit_test(test_decoder_init_limits),
+                cmocka_unit_test(test_noise_runs),
+                cmocka_unit_test(test_max_frame_edges),
+                cmocka_unit_test(test_reason_strings),
+                cmocka_unit_test(test_encode_vectors),
+                cmocka_unit_test(test_encode_buffer_size),
+                cmocka_unit_test(test_encode_helpers),
+                cmocka_unit_test(test_list_spec_frames),
+                cmocka_unit_test(test_list_split),
+                cmocka_unit_test(test_list_errors),
+                cmocka_unit_test(test_roundtrip_vectors),
+        };
+
+        return cmocka_run_group_tests(tests, NULL, NULL);
+}

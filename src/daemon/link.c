@@ -1,0 +1,107 @@
+/*
+ * Link helpers shared by every engine: the configuration-to-transport mapping and the channel
+ * counters in the link's shm area (see link.h).
+ */
+#include "daemon/link.h"
+
+#include <errno.h>
+
+#include "daemon/log.h"
+#include "daemon/transport.h"
+#include "shm/table.h"
+
+static enum transport_kind transport_kind_of(enum config_transport t)
+{
+        switch (t) {
+        case CONFIG_TRANSPORT_UDP:
+                return TRANSPORT_UDP;
+        case CONFIG_TRANSPORT_PTY:
+                return TRANSPORT_PTY;
+        case CONFIG_TRANSPORT_SERIAL:
+        default:
+                return TRANSPORT_SERIAL;
+        }
+}
+
+static enum serial_parity parity_of(enum config_parity p)
+{
+        switch (p) {
+        case CONFIG_PARITY_EVEN:
+                return SERIAL_PARITY_EVEN;
+        case CONFIG_PARITY_ODD:
+                return SERIAL_PARITY_ODD;
+        case CONFIG_PARITY_NONE:
+        default:
+                return SERIAL_PARITY_NONE;
+        }
+}
+
+static enum serial_flow flow_of(enum config_flow f)
+{
+        switch (f) {
+        case CONFIG_FLOW_RTSCTS:
+                return SERIAL_FLOW_RTSCTS;
+        case CONFIG_FLOW_XONXOFF:
+                return SERIAL_FLOW_XONXOFF;
+        case CONFIG_FLOW_NONE:
+        default:
+                return SERIAL_FLOW_NONE;
+        }
+}
+
+/* Fills params from a link's configuration; 0 or -EINVAL with the reason logged. */
+static int link_transport_params(const struct config_link *cfg, struct transport_params *params)
+{
+        const char *why;
+
+        transport_params_init(params, transport_kind_of(cfg->transport));
+        params->serial.baud = cfg->serial.baud;
+        params->serial.parity = parity_of(cfg->serial.parity);
+        params->serial.data_bits = cfg->serial.data_bits;
+        params->serial.stop_bits = cfg->serial.stop_bits;
+        params->serial.flow = flow_of(cfg->serial.flow_control);
+        for (unsigned i = 0; i < cfg->n_devices; i++)
+                if (transport_params_add_device(params, cfg->devices[i]) < 0) {
+                        log_warnx("link %s: device %s: path too long or too many devices",
+                                  cfg->name, cfg->devices[i]);
+                        return -EINVAL;
+                }
+        if (cfg->transport == CONFIG_TRANSPORT_UDP &&
+            transport_params_set_udp(params, cfg->local.text,
+                                     cfg->has_remote ? cfg->remote.text : "") < 0) {
+                log_warnx("link %s: udp address too long", cfg->name);
+                return -EINVAL;
+        }
+        why = transport_params_check(params);
+        if (why) {
+                log_warnx("link %s: %s", cfg->name, why);
+                return -EINVAL;
+        }
+        return 0;
+}
+
+int link_channel_new(const struct link_env *env, const struct channel_ops *ops, void *arg,
+                     struct channel **ret_channel)
+{
+        struct transport_params params;
+        int r;
+
+        r = link_transport_params(env->cfg, &params);
+        if (r < 0)
+                return r;
+        return channel_new(env->loop, &params, NULL, ops, arg, ret_channel);
+}
+
+void link_publish_channel_stats(const struct link_env *env, const struct channel *ch)
+{
+        struct channel_stats st;
+
+        if (!ch || !env->table)
+                return;
+        channel_get_stats(ch, &st);
+        shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_BYTES_IN, st.bytes_in);
+        shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_BYTES_OUT, st.bytes_out);
+        shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_REOPENS, st.reopens);
+        shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_IO_ERRORS, st.io_errors);
+        shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_TX_DROPPED, st.tx_dropped);
+}

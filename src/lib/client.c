@@ -199,7 +199,7 @@ static uint32_t name_hash(const char *name)
         return h;
 }
 
-static int id_lookup(const struct sl_client *c, const char *name)
+int client_id_lookup(const struct sl_client *c, const char *name)
 {
         uint32_t mask = c->name_hash_size - 1u;
 
@@ -278,7 +278,7 @@ static void ids_sync(struct sl_client *c)
                 int id;
 
                 client_copy_field(name, sizeof(name), e->name, sizeof(e->name));
-                id = id_lookup(c, name);
+                id = client_id_lookup(c, name);
                 if (id < 0) {
                         if (ids_reserve(c, c->nids + 1u) < 0)
                                 return;         /* out of memory or ids: retried next refresh */

@@ -68,6 +68,9 @@ void client_rdlock(struct sl_client *c);
 /* Releases c->lock. */
 void client_unlock(struct sl_client *c);
 
+/* Id ever given to name by this handle (read lock held), or -ENOENT. */
+int client_id_lookup(const struct sl_client *c, const char *name);
+
 /* Directory index of id in the current map (read lock held), or -ENOENT. */
 int client_index(const struct sl_client *c, int id);
 

@@ -54,10 +54,10 @@ static int link_state_read(const struct shm_link *l, struct sl_link_info *info, 
                         shm_seqlock_relax();
                         continue;
                 }
-                state = atomic_load_explicit(&l->state, memory_order_relaxed);
-                state_ns = atomic_load_explicit(&l->state_ns, memory_order_relaxed);
+                state = atomic_load_explicit(&l->state, SHM_SEQLOCK_PAYLOAD_LOAD);
+                state_ns = atomic_load_explicit(&l->state_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
                 for (unsigned i = 0; i < SHM_STATE_NAME_WORDS; i++)
-                        words[i] = atomic_load_explicit(&l->state_name[i], memory_order_relaxed);
+                        words[i] = atomic_load_explicit(&l->state_name[i], SHM_SEQLOCK_PAYLOAD_LOAD);
                 if (shm_seqlock_read_retry(&l->seq, start))
                         continue;
                 info->state = (int)state;

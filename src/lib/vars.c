@@ -37,19 +37,18 @@ _Static_assert(SL_VAR_ADHOC == SHM_DIR_ADHOC, "directory flags");
 
 SL_EXPORT int sl_find(struct sl_client *c, const char *name)
 {
-        int found = -ENOENT;
+        int id;
 
         if (!c || !name)
                 return -EINVAL;
+        if (strnlen(name, SHM_NAME_SIZE) > SHM_NAME_MAX)
+                return -ENOENT;
         client_rdlock(c);
-        for (uint32_t id = 0; id < c->nids; id++) {
-                if (c->id_index[id] >= 0 && strncmp(c->id_names[id], name, SHM_NAME_SIZE) == 0) {
-                        found = (int)id;
-                        break;
-                }
-        }
+        id = client_id_lookup(c, name);
+        if (id >= 0 && client_index(c, id) < 0)
+                id = -ENOENT;   /* a name the current daemon does not have */
         client_unlock(c);
-        return found;
+        return id;
 }
 
 SL_EXPORT int sl_count(struct sl_client *c)

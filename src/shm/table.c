@@ -835,10 +835,10 @@ int shm_table_link_state(struct shm_table *t, uint32_t link, uint32_t state, con
         memset(words, 0, sizeof(words));
         memcpy(words, name, strlen(name));
         odd = shm_seqlock_write_begin(&l->seq);
-        atomic_store_explicit(&l->state, state, memory_order_relaxed);
-        atomic_store_explicit(&l->state_ns, clock_ns(CLOCK_MONOTONIC), memory_order_relaxed);
+        atomic_store_explicit(&l->state, state, SHM_SEQLOCK_PAYLOAD_STORE);
+        atomic_store_explicit(&l->state_ns, clock_ns(CLOCK_MONOTONIC), SHM_SEQLOCK_PAYLOAD_STORE);
         for (unsigned i = 0; i < SHM_STATE_NAME_WORDS; i++)
-                atomic_store_explicit(&l->state_name[i], words[i], memory_order_relaxed);
+                atomic_store_explicit(&l->state_name[i], words[i], SHM_SEQLOCK_PAYLOAD_STORE);
         shm_seqlock_write_end(&l->seq, odd);
         publish(t);
         return 0;

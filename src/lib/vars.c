@@ -242,6 +242,7 @@ SL_EXPORT int sl_read_double(struct sl_client *c, int id, double *ret, struct sl
 SL_EXPORT int sl_read_long(struct sl_client *c, int id, long *ret, struct sl_meta *meta)
 {
         char text[SHM_VALUE_SIZE], *end;
+        locale_t old;
         long v;
         int r;
 
@@ -250,11 +251,15 @@ SL_EXPORT int sl_read_long(struct sl_client *c, int id, long *ret, struct sl_met
         r = read_text(c, id, text, meta);
         if (r < 0)
                 return r;
+        /* Other locales may accept other forms of integers; the wire has only one. */
+        old = uselocale(c->c_locale);
         errno = 0;
         v = strtol(text, &end, 10);
+        r = errno;
+        uselocale(old);
         if (end == text || *end != '\0')
                 return -EDOM;
-        if (errno == ERANGE)
+        if (r == ERANGE)
                 return -ERANGE;
         *ret = v;
         return 0;

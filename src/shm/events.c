@@ -62,7 +62,7 @@ static void events_copy(const struct shm_event *e, struct shm_event_copy *c)
 }
 
 int shm_events_read(const struct shm_event *ring, uint32_t capacity, const _Atomic uint64_t *head,
-                    uint64_t *cursor, struct shm_event_copy *ret)
+                    uint64_t *cursor, struct shm_event_copy *ret_event)
 {
         uint64_t next = *cursor + 1u;
         uint64_t lost = 0;
@@ -108,7 +108,7 @@ int shm_events_read(const struct shm_event *ring, uint32_t capacity, const _Atom
                         c.text[c.length] = '\0';
                         c.number = next;
                         c.lost = lost;
-                        *ret = c;
+                        *ret_event = c;
                         *cursor = next;
                         return 1;
                 }

@@ -155,24 +155,25 @@ static inline void shm_seqlock_write_end(_Atomic uint64_t *seq, uint64_t odd)
 
 /*
  * Several writers: one attempt to take the slot for `pid`. Succeeds only from an even word, moving
- * it to (pid, seq+1). On success *ret_word holds the odd word to hand to release. The CAS is
- * acquire so this write is ordered after the previous holder's (its release), and the release
- * fence after it has the same role as in write_begin. Returns 0, or -EBUSY with the word seen.
+ * it to (pid, seq+1). On success *ret_word holds the odd word to hand to release; on -EBUSY
+ * *busy_word holds the word that was in the way. The CAS is acquire so this write is ordered after
+ * the previous holder's (its release), and the release fence after it has the same role as in
+ * write_begin.
  */
 static inline int shm_seqlock_claim(_Atomic uint64_t *seq, uint32_t pid, uint64_t *ret_word,
-                                    uint64_t *ret_seen)
+                                    uint64_t *busy_word)
 {
         uint64_t seen = atomic_load_explicit(seq, memory_order_relaxed);
         uint64_t odd;
 
         if (shm_seqlock_odd(seen)) {
-                *ret_seen = seen;
+                *busy_word = seen;
                 return -EBUSY;
         }
         odd = ((uint64_t)pid << 32) | ((seen + 1u) & SHM_SEQLOCK_SEQ_MASK);
         if (!atomic_compare_exchange_strong_explicit(seq, &seen, odd, memory_order_acquire,
                                                      memory_order_relaxed)) {
-                *ret_seen = seen;
+                *busy_word = seen;
                 return -EBUSY;
         }
         shm_seqlock_fence_release();

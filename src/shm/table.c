@@ -599,6 +599,8 @@ int shm_table_create(const struct shm_table_config *cfg, struct shm_table **ret_
                 r = replace_stale_in(t->in_name);
                 if (r == 0)
                         r = create_object(t->in_name, g.total_size, &t->in_fd, &map);
+                if (r == -EEXIST)
+                        r = -EBUSY;     /* another daemon was quicker */
         }
         if (r < 0)
                 goto fail;

@@ -720,8 +720,10 @@ static void test_restart_after_crash(void **state)
         assert_string_equal(buf, "from-child");
         sl_wait(c, &cursor, 0);
 
+        assert_int_equal(sl_daemon_alive(c), 1);
         kill(pid, SIGKILL);
         assert_int_equal(shmtest_wait(pid), 128 + SIGKILL);
+        assert_int_equal(sl_daemon_alive(c), 0);        /* no heartbeat configured: by pid */
         /* The crashed daemon left its objects; the next one replaces them. */
         assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
         shm_table_set_str(f->t, LAT, "from-parent");

@@ -113,35 +113,36 @@ static void meta_fill(struct sl_meta *meta, const struct shm_slot_copy *copy, ui
 }
 
 /*
- * Reads the .out slot of an outbound variable (read lock held). Returns 1 with a valid copy, 0
- * when it holds no valid value (never written, repaired, recreated, scribbled), or -EAGAIN.
+ * Reads the .out slot of an outbound variable into *copy (read lock held). Returns 1 with a valid
+ * copy, 0 when it holds no valid value (never written, repaired, recreated, scribbled), or -EAGAIN.
  * The slot is client-writable: the copy is validated like the daemon does before it is used.
  */
 static int read_out_slot(const struct sl_client *c, const struct shm_dir_entry *e,
-                         struct shm_slot_copy *ret_copy, uint64_t *ret_sequence)
+                         struct shm_slot_copy *copy, uint64_t *ret_sequence)
 {
-        struct shm_slot_copy copy;
         int r;
 
         if (!c->out || e->out_slot >= c->out_capacity)
                 return 0;
-        r = shm_slot_read(&c->out_slots[e->out_slot], &copy);
+        r = shm_slot_read(&c->out_slots[e->out_slot], copy);
         if (r < 0)
                 return r;
-        if (shm_slot_copy_check(&copy) < 0)
+        if (shm_slot_copy_check(copy) < 0)
                 return 0;
-        copy.flags |= SHM_SLOT_OUTBOUND;
-        *ret_copy = copy;
-        *ret_sequence = shm_seqlock_sequence(copy.word) / 2u;
+        copy->flags |= SHM_SLOT_OUTBOUND;
+        *ret_sequence = shm_seqlock_sequence(copy->word) / 2u;
         return 1;
 }
 
-/* One consistent, validated copy of variable id's value, plus the flags that apply to it. */
-static int read_copy(struct sl_client *c, int id, struct shm_slot_copy *ret_copy,
+/*
+ * One consistent, validated copy of variable id's value, plus the flags that apply to it. Fills
+ * *copy in place (a scratch buffer of the caller: unspecified on failure), to spare the hot path
+ * another copy of it.
+ */
+static int read_copy(struct sl_client *c, int id, struct shm_slot_copy *copy,
                      uint64_t *ret_sequence, uint32_t *ret_extra, uint64_t now)
 {
         const struct shm_dir_entry *e;
-        struct shm_slot_copy copy;
         uint64_t sequence = 0;
         int index, r = 0;
 
@@ -153,22 +154,21 @@ static int read_copy(struct sl_client *c, int id, struct shm_slot_copy *ret_copy
         }
         e = &c->map->dir[index];
         if (e->direction == SHM_DIR_OUT)
-                r = read_out_slot(c, e, &copy, &sequence);
+                r = read_out_slot(c, e, copy, &sequence);
         if (r == 0) {
                 /* .in: the daemon's own value, or its mirror of the last accepted outbound one */
-                r = shm_slot_read(&c->map->slots[index], &copy);
+                r = shm_slot_read(&c->map->slots[index], copy);
                 if (r == 0) {
-                        sequence = copy.word / 2u;
-                        if (copy.length > SHM_VALUE_MAX || !(copy.flags & SHM_SLOT_VALID))
-                                copy.length = 0;
+                        sequence = copy->word / 2u;
+                        if (copy->length > SHM_VALUE_MAX || !(copy->flags & SHM_SLOT_VALID))
+                                copy->length = 0;
                 }
         }
-        *ret_extra = client_alive(c, now, NULL) ? 0 : SL_FLAG_STALE;
+        *ret_extra = !now || client_alive(c, now, NULL) ? 0 : SL_FLAG_STALE;
         client_unlock(c);
         if (r < 0)
                 return r;
-        copy.value[copy.length] = '\0';
-        *ret_copy = copy;
+        copy->value[copy->length] = '\0';
         *ret_sequence = sequence;
         return 0;
 }
@@ -182,7 +182,8 @@ SL_EXPORT int sl_read(struct sl_client *c, int id, char *buf, size_t size, struc
 
         if (!c || !buf || (meta && meta->size < SL_META_SIZE_V1))
                 return -EINVAL;
-        now = client_now(CLOCK_MONOTONIC);
+        /* The clock (~20-30 ns) only matters for the metadata: age, and stale by heartbeat. */
+        now = meta ? client_now(CLOCK_MONOTONIC) : 0;
         r = read_copy(c, id, &copy, &sequence, &extra, now);
         if (r < 0)
                 return r;

@@ -12,21 +12,19 @@
 /* Relaxed word-wise copy of the payload; the caller brackets it with read_begin/read_retry. */
 static void slot_copy_payload(const struct shm_slot *slot, struct shm_slot_copy *c)
 {
-        uint64_t words[SHM_VALUE_WORDS];
-
         c->mono_ns = atomic_load_explicit(&slot->mono_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
         c->real_ns = atomic_load_explicit(&slot->real_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
         c->flags = atomic_load_explicit(&slot->flags, SHM_SEQLOCK_PAYLOAD_LOAD);
         c->length = atomic_load_explicit(&slot->length, SHM_SEQLOCK_PAYLOAD_LOAD);
-        for (unsigned i = 0; i < SHM_VALUE_WORDS; i++)
-                words[i] = atomic_load_explicit(&slot->value[i], SHM_SEQLOCK_PAYLOAD_LOAD);
-        memcpy(c->value, words, sizeof(words));
+        for (unsigned i = 0; i < SHM_VALUE_WORDS; i++) {
+                uint64_t w = atomic_load_explicit(&slot->value[i], SHM_SEQLOCK_PAYLOAD_LOAD);
+
+                memcpy(c->value + 8u * i, &w, sizeof(w));       /* one 8-byte store */
+        }
 }
 
-int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *ret_copy)
+int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *copy)
 {
-        struct shm_slot_copy c;
-
         for (unsigned attempt = 0; attempt < SHM_SEQLOCK_TRIES; attempt++) {
                 uint64_t start = shm_seqlock_read_begin(&slot->seq);
 
@@ -34,11 +32,10 @@ int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *ret_copy)
                         shm_seqlock_relax();
                         continue;
                 }
-                slot_copy_payload(slot, &c);
+                slot_copy_payload(slot, copy);
                 if (shm_seqlock_read_retry(&slot->seq, start))
                         continue;
-                c.word = start;
-                *ret_copy = c;
+                copy->word = start;
                 return 0;
         }
         return -EAGAIN;

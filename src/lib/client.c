@@ -31,6 +31,15 @@ uint64_t client_now(clockid_t id)
         return (uint64_t)ts.tv_sec * NS_PER_S + (uint64_t)ts.tv_nsec;
 }
 
+void client_struct_out(void *ret, const void *full, size_t full_size)
+{
+        size_t size;
+
+        memcpy(&size, ret, sizeof(size));
+        memcpy((char *)ret + sizeof(size), (const char *)full + sizeof(size),
+               (size < full_size ? size : full_size) - sizeof(size));
+}
+
 void client_copy_field(char *dst, size_t size, const char *src, size_t src_size)
 {
         size_t len = strnlen(src, src_size < size ? src_size : size - 1u);

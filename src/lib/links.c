@@ -94,8 +94,7 @@ SL_EXPORT int sl_link_info(struct sl_client *c, int link, struct sl_link_info *r
         client_unlock(c);
         if (r < 0)
                 return r;
-        info.size = ret->size;
-        memcpy(ret, &info, ret->size < sizeof(info) ? ret->size : sizeof(info));
+        client_struct_out(ret, &info, sizeof(info));
         return 0;
 }
 
@@ -131,8 +130,7 @@ SL_EXPORT int sl_daemon_info(struct sl_client *c, struct sl_daemon_info *ret)
         info.alive = daemon_alive(c, &info.heartbeat_age_ns);
         info.counter_count = counters_fill(info.counters, h->counters);
         client_unlock(c);
-        info.size = ret->size;
-        memcpy(ret, &info, ret->size < sizeof(info) ? ret->size : sizeof(info));
+        client_struct_out(ret, &info, sizeof(info));
         return 0;
 }
 

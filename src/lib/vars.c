@@ -67,7 +67,6 @@ SL_EXPORT int sl_info(struct sl_client *c, int id, struct sl_var_info *ret)
 {
         const struct shm_dir_entry *e;
         struct sl_var_info info;
-        size_t size;
         int index;
 
         if (!c || !ret || ret->size < SL_VAR_INFO_SIZE_V1)
@@ -88,9 +87,7 @@ SL_EXPORT int sl_info(struct sl_client *c, int id, struct sl_var_info *ret)
         info.position = e->position;
         info.flags = e->flags;
         client_unlock(c);
-        size = ret->size < sizeof(info) ? ret->size : sizeof(info);
-        info.size = ret->size;
-        memcpy(ret, &info, size);
+        client_struct_out(ret, &info, sizeof(info));
         return 0;
 }
 
@@ -99,17 +96,15 @@ static void meta_fill(struct sl_meta *meta, const struct shm_slot_copy *copy, ui
                       uint32_t extra_flags, uint64_t now)
 {
         struct sl_meta m;
-        size_t size = meta->size < sizeof(m) ? meta->size : sizeof(m);
 
         memset(&m, 0, sizeof(m));
-        m.size = meta->size;
         m.mono_ns = copy->mono_ns;
         m.real_ns = copy->real_ns;
         m.age_ns = copy->mono_ns && now > copy->mono_ns ? now - copy->mono_ns : 0;
         m.sequence = sequence;
         m.flags = (copy->flags & (SL_FLAG_VALID | SL_FLAG_STALE | SL_FLAG_OUTBOUND |
                                   SL_FLAG_REPAIRED)) | extra_flags;
-        memcpy(meta, &m, size);
+        client_struct_out(meta, &m, sizeof(m));
 }
 
 /*
@@ -206,8 +201,7 @@ static int read_text(struct sl_client *c, int id, char *text, struct sl_meta *me
         if (meta) {
                 if (meta->size < SL_META_SIZE_V1)
                         return -EINVAL;
-                m.size = meta->size;
-                memcpy(meta, &m, meta->size < sizeof(m) ? meta->size : sizeof(m));
+                client_struct_out(meta, &m, sizeof(m));
         }
         if (r == 0 || !(m.flags & SL_FLAG_VALID))
                 return -ENODATA;

@@ -218,6 +218,16 @@ static void test_read(void **state)
         assert_int_equal(sl_read(f->c, LAT, NULL, 0, &meta), -EINVAL);
         meta.size = 4;
         assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), -EINVAL);
+
+        /* A caller built against a newer, larger struct: filled up to what we know, rest kept. */
+        struct { struct sl_meta m; unsigned char tail[16]; } big;
+        memset(&big, 0x77, sizeof(big));
+        big.m.size = sizeof(big);
+        assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &big.m), 4);
+        assert_int_equal(big.m.size, sizeof(big));
+        assert_int_equal(big.m.flags, SL_FLAG_VALID | SL_FLAG_STALE);
+        for (size_t i = 0; i < sizeof(big.tail); i++)
+                assert_int_equal(big.tail[i], 0x77);
 }
 
 static void test_read_numbers(void **state)

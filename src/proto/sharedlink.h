@@ -124,6 +124,7 @@ struct sl_decoder {
         size_t noise;                   /* noise bytes not reported yet */
         struct sl_frame frame;
         struct sl_field fields[SL_FIELDS_MAX];
+        uint64_t bars[SL_FRAME_MAX / 64 + 1];   /* where the '|' are in buf (bit i: buf[i + 1]) */
         char buf[SL_FRAME_MAX];
 };
 

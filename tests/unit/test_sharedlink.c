@@ -896,7 +896,7 @@ static void test_roundtrip_vectors(void **state)
                         size_t used = sl_decoder_feed(&dec, (const uint8_t *)in, len, &r);
                         const struct sl_frame *f = r.frame;
                         char dst, src;
-                        size_t nf, vlen = 0;
+                        size_t nf;
                         bool long_value = false;
                         int n;
 
@@ -913,7 +913,6 @@ static void test_roundtrip_vectors(void **state)
                                 copy[k] = f->fields[k];
                                 copy[k].value = values + (f->fields[k].value - f->raw);
                                 long_value |= copy[k].len > SL_VALUE_MAX;
-                                vlen += copy[k].len;
                         }
                         n = sl_frame_encode(buf, sizeof(buf), dst, src, copy, nf, 0);
                         if (long_value) {

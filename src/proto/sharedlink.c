@@ -256,35 +256,42 @@ static uint64_t load_word(const char *p)
 /*
  * One pass over b[0 .. n): returns the checksum (sum mod 256), says whether every byte is
  * printable (0x20-0x7E), and marks every '|' in the bitmap bars (bit i%64 of bars[i/64]), so
- * that splitting the fields needs no second scan and no branch per byte. Byte sums go to 16-bit
- * lanes kept mod 256, so no carry crosses into the next lane.
+ * that splitting the fields needs no second scan and no branch per byte. Each 64-byte block
+ * builds its bitmap word in a register. Byte sums go to 16-bit lanes, reduced mod 256 after each
+ * block (eight words add at most 8 * 255 to a lane, so no carry reaches the next lane).
  */
 static unsigned scan_body(uint64_t *bars, const char *b, size_t n, bool *ret_printable)
 {
         uint64_t even = 0, odd = 0, bad = 0, lanes;
-        unsigned sum, tail_bad = 0;
-        size_t i = 0;
+        unsigned sum = 0, tail_bad = 0;
 
-        memset(bars, 0, (n + 63) / 64 * sizeof(*bars));
-        for (; i + sizeof(uint64_t) <= n; i += sizeof(uint64_t)) {
-                uint64_t w = load_word(b + i);
+        for (size_t blk = 0; blk < n; blk += 64) {
+                const char *p = b + blk;
+                size_t len = n - blk < 64 ? n - blk : 64, j = 0;
+                uint64_t bits = 0;
 
-                even = (even + (w & SWAR_LANES)) & SWAR_LANES;
-                odd = (odd + ((w >> 8) & SWAR_LANES)) & SWAR_LANES;
-                bad |= swar_lt(w, SL_PRINT_MIN) | swar_gt(w, SL_PRINT_MAX);
-                bars[i / 64] |= swar_movemask(swar_eq(w, '|')) << (i % 64);
+                for (; j + sizeof(uint64_t) <= len; j += sizeof(uint64_t)) {
+                        uint64_t w = load_word(p + j);
+
+                        even += w & SWAR_LANES;
+                        odd += (w >> 8) & SWAR_LANES;
+                        bad |= swar_lt(w, SL_PRINT_MIN) | swar_gt(w, SL_PRINT_MAX);
+                        bits |= swar_movemask(swar_eq(w, '|')) << j;
+                }
+                for (; j < len; j++) {
+                        unsigned char c = (unsigned char)p[j];
+
+                        sum += c;
+                        tail_bad |= c < SL_PRINT_MIN || c > SL_PRINT_MAX;
+                        bits |= (uint64_t)(c == '|') << j;
+                }
+                even &= SWAR_LANES;
+                odd &= SWAR_LANES;
+                bars[blk / 64] = bits;
         }
         /* Four 16-bit lanes, each < 512: their total fits the top 16 bits of the product. */
         lanes = even + odd;
-        sum = (unsigned)((lanes * 0x0001000100010001ull) >> 48);
-        for (; i < n; i++) {
-                unsigned char c = (unsigned char)b[i];
-
-                sum += c;
-                tail_bad |= c < SL_PRINT_MIN || c > SL_PRINT_MAX;
-                if (c == '|')
-                        bars[i / 64] |= 1ull << (i % 64);
-        }
+        sum += (unsigned)((lanes * 0x0001000100010001ull) >> 48);
         *ret_printable = bad == 0 && tail_bad == 0;
         return sum & 0xff;
 }

@@ -666,7 +666,7 @@ static size_t format_index(size_t k, char *out)
         return n;
 }
 
-int sl_encode_list(const struct sl_outbound_list *list, size_t *cursor, char *buf, size_t size)
+int sl_encode_list(const struct sl_list *list, size_t *cursor, char *buf, size_t size)
 {
         size_t max_frame = list->max_frame ? list->max_frame : SL_FRAME_DEFAULT;
         size_t limit = max_frame < size ? max_frame : size;

@@ -174,7 +174,7 @@ int sl_encode_answer(char *buf, size_t size, char dst, char src, const char *nam
                      const char *value, unsigned flags);
 
 /* An outbound list to send to one peer, split into frames by sl_encode_list(). */
-struct sl_outbound_list {
+struct sl_list {
         char dst, src;
         const char *const *values;      /* count NUL-terminated values, position 0 first */
         const bool *changed;            /* per position: changed since last sent; NULL = all */
@@ -189,6 +189,6 @@ struct sl_outbound_list {
  * as fit in max_frame and @size; returns its length and advances *@cursor past them, 0 once
  * *@cursor == count, or an error about the value at *@cursor (left unchanged). A frame stops
  * before a bad value, so the error always names the offending position. */
-int sl_encode_list(const struct sl_outbound_list *list, size_t *cursor, char *buf, size_t size);
+int sl_encode_list(const struct sl_list *list, size_t *cursor, char *buf, size_t size);
 
 #endif

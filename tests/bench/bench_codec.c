@@ -98,7 +98,7 @@ enum slb_kind { SLB_LIST, SLB_QUERY_MSG, SLB_ANSWER_MSG, SLB_NOISE };
 
 struct slb_msg {
         enum slb_kind kind;
-        struct sl_outbound_list list;    /* SLB_LIST */
+        struct sl_list list;    /* SLB_LIST */
         const char *name;       /* SLB_QUERY_MSG, SLB_ANSWER_MSG */
         const char *value;      /* SLB_ANSWER_MSG */
         bool crlf;
@@ -152,7 +152,7 @@ static void slb_build(struct workload *w, unsigned variant)
                 }
                 count = variant == SLB_DATA4 ? 4 : variant == SLB_MIX ? 4 + rng() % 37 : 40;
                 m->kind = SLB_LIST;
-                m->list = (struct sl_outbound_list){
+                m->list = (struct sl_list){
                         .dst = 'A', .src = 'B', .values = values + nv, .changed = changed + nv,
                         .count = count, .max_frame = SL_FRAME_DEFAULT, .crlf = m->crlf,
                         .compress = variant == SLB_COMPRESSED || (variant == SLB_MIX && pick < 3),

@@ -295,7 +295,7 @@ static size_t digits(size_t k)
 }
 
 /* What sl_encode_list() must say about position p: 0 if it can be sent. */
-static int position_error(const struct sl_outbound_list *l, size_t p)
+static int position_error(const struct sl_list *l, size_t p)
 {
         bool sent = !l->compress || l->full || l->changed[p];
         const char *v = sent ? l->values[p] : "";
@@ -315,7 +315,7 @@ static int position_error(const struct sl_outbound_list *l, size_t p)
 static void fuzz_list(const uint8_t *data, const uint8_t *wire, size_t len)
 {
         static char out[SL_FRAME_MAX];
-        struct sl_outbound_list l = {
+        struct sl_list l = {
                 .dst = 'A', .src = 'B', .values = list_values, .changed = list_changed,
                 .max_frame = data[3] ? 1 + (size_t)data[3] * 16 : 0,
                 .compress = data[0] & 0x10, .full = data[0] & 0x20, .crlf = data[0] & 0x40,

@@ -717,7 +717,7 @@ static void make_values(size_t count)
 
 static void check_list_case(const struct list_case *c)
 {
-        struct sl_outbound_list l = {
+        struct sl_list l = {
                 .dst = 'A', .src = 'B', .values = list_values, .count = c->count,
                 .max_frame = c->max_frame, .compress = c->compress, .full = c->full, .crlf = c->crlf,
                 .changed = c->changed_every ? list_changed : NULL,
@@ -789,7 +789,7 @@ static void test_list_spec_frames(void **state)
         static const char *const v[] = { "40.12345678", "-113.12345678", "85.6", "22.1" };
         static const char *const v2[] = { "40.12345678", "-113.12345678", "85.7", "22.1" };
         static const bool changed[] = { false, false, true, false };
-        struct sl_outbound_list l = { .dst = 'A', .src = 'B', .values = v, .count = 4 };
+        struct sl_list l = { .dst = 'A', .src = 'B', .values = v, .count = 4 };
         char buf[256];
         size_t cursor = 0;
         int r;
@@ -826,7 +826,7 @@ static void test_list_errors(void **state)
         static const char *const too_long[] = {
                 "0123456789012345678901234567890123456789012345678901234567890123"
         };
-        struct sl_outbound_list l = { .dst = 'A', .src = 'B', .values = too_big, .count = 2,
+        struct sl_list l = { .dst = 'A', .src = 'B', .values = too_big, .count = 2,
                              .max_frame = SL_FRAME_MIN };
         char buf[SL_FRAME_MAX];
         size_t cursor = 0;
@@ -863,7 +863,7 @@ static void test_list_errors(void **state)
         assert_true(sl_encode_list(&l, &cursor, buf, sizeof(buf)) > 0);
         assert_int_equal(cursor, 2);
 
-        l = (struct sl_outbound_list){ .dst = 'A', .src = 'B', .values = too_long, .count = 1 };
+        l = (struct sl_list){ .dst = 'A', .src = 'B', .values = too_long, .count = 1 };
         cursor = 0;
         assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
         l.values = fits;

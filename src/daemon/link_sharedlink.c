@@ -1279,6 +1279,14 @@ static void sl_outbound(void *engine, const struct shm_out_change *change)
         peer_change_request(l, p);
 }
 
+/* The core's heartbeat: channel counters move while down too (reopen attempts). */
+static void sl_heartbeat(void *engine)
+{
+        struct link_sl *l = engine;
+
+        link_publish_channel_stats(&l->env, l->ch);
+}
+
 static const char *sl_status(void *engine)
 {
         struct link_sl *l = engine;
@@ -1293,4 +1301,5 @@ const struct link_ops link_sharedlink_ops = {
         .outbound = sl_outbound,
         .command = sl_command,
         .status = sl_status,
+        .heartbeat = sl_heartbeat,
 };

@@ -75,12 +75,12 @@
 #define LINK_SHAREDLINK_ADHOC_MAX               1024    /* ad hoc variables one link creates */
 #define LINK_SHAREDLINK_RETRY_MS                10      /* a refused on-change frame: retry */
 
-/* The shm link state numbers (sl_link_info().state). */
+/* The shm link state numbers (sl_link_info().state); 0 is the core's "failed" (no engine). */
 enum link_sharedlink_state {
-        LINK_SHAREDLINK_STATE_CONNECTING = 0,
-        LINK_SHAREDLINK_STATE_UP = 1,
-        LINK_SHAREDLINK_STATE_DOWN = 2,
-        LINK_SHAREDLINK_STATE_STOPPED = 3,
+        LINK_SHAREDLINK_STATE_CONNECTING = 1,
+        LINK_SHAREDLINK_STATE_UP = 2,
+        LINK_SHAREDLINK_STATE_DOWN = 3,
+        LINK_SHAREDLINK_STATE_STOPPED = 4,
 };
 
 /* The SharedLink engine's operations (link_ops_for(CONFIG_PROTOCOL_SHAREDLINK)). */

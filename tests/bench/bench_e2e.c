@@ -99,6 +99,7 @@ struct waiter {
         sem_t go, done;
         _Atomic int stop;
         _Atomic uint64_t stamp;         /* when the event was seen */
+        _Atomic uint64_t mid;           /* inbound: the daemon's time stamp of the value */
         char expect[64];                /* what the event must carry */
         int fd;                         /* floor: pty slave; outbound: the link's master */
         struct sl_client *client;       /* inbound */
@@ -136,6 +137,29 @@ static void *floor_thread(void *arg)
         return NULL;
 }
 
+/* Wake-up hop: a thread blocked on a futex (a semaphore) woken by another thread. */
+static sem_t hop_sem;
+
+static void *hop_thread(void *arg)
+{
+        struct waiter *w = arg;
+
+        while (sem_wait(&w->go) == 0 && !atomic_load(&w->stop)) {
+                while (sem_wait(&hop_sem) < 0 && errno == EINTR)
+                        ;
+                atomic_store(&w->stamp, now_ns());
+                sem_post(&w->done);
+        }
+        return NULL;
+}
+
+static int cause_hop(void *arg, unsigned i)
+{
+        (void)arg;
+        (void)i;
+        return sem_post(&hop_sem) < 0 ? -errno : 0;
+}
+
 /* Inbound: a client blocked in sl_wait until the value is the expected one. */
 static void *inbound_thread(void *arg)
 {
@@ -148,9 +172,15 @@ static void *inbound_thread(void *arg)
                 uint64_t deadline = now_ns() + (uint64_t)WAIT_MS * 1000000u;
 
                 for (;;) {
-                        if (sl_read(w->client, w->id, value, sizeof(value), NULL) >= 0 &&
-                            strcmp(value, w->expect) == 0)
+                        struct sl_meta meta = { .size = sizeof(meta) };
+
+                        if (sl_read(w->client, w->id, value, sizeof(value), &meta) >= 0 &&
+                            strcmp(value, w->expect) == 0) {
+                                /* The daemon stamps a frame's values when it starts applying
+                                 * them (CLOCK_MONOTONIC, like ours). */
+                                atomic_store(&w->mid, meta.mono_ns);
                                 break;
+                        }
                         if (now_ns() > deadline) {
                                 w->failed = 1;
                                 break;
@@ -221,9 +251,11 @@ static void waiter_stop(struct waiter *w)
  * -errno. Warm-up samples are taken and dropped.
  */
 static int measure(struct waiter *w, struct sample_set *s, int (*cause)(void *, unsigned),
-                   void *arg)
+                   void *arg, struct sample_set *mid)
 {
         s->n = 0;
+        if (mid)
+                mid->n = 0;
         for (unsigned i = 0; i < WARMUP + SAMPLES; i++) {
                 uint64_t t0;
                 int r;
@@ -240,6 +272,8 @@ static int measure(struct waiter *w, struct sample_set *s, int (*cause)(void *, 
                         return -ETIMEDOUT;
                 if (i >= WARMUP)
                         s->v[s->n++] = atomic_load(&w->stamp) - t0;
+                if (i >= WARMUP && mid)
+                        mid->v[mid->n++] = atomic_load(&w->mid) - t0;
         }
         return 0;
 }
@@ -438,13 +472,13 @@ static long long stat_field(const char *text, const char *key)
 
 static int run_latency(void)
 {
-        static struct sample_set floor_s, in_s, out_s;
+        static struct sample_set floor_s, hop_s, in_s, mid_s, out_s;
         struct harness h;
         struct waiter w = { 0 };
         struct frame_cause fc;
         struct write_cause wc;
         struct sl_client *c = NULL;
-        double fmed, fp99, imed, ip99, omed, op99;
+        double fmed, fp99, hmed, hp99, imed, ip99, mmed, mp99, omed, op99;
         int master, slave, fm, fs, r;
         char pts[HARNESS_PATH_MAX];
 
@@ -469,11 +503,23 @@ static int run_latency(void)
         fc = (struct frame_cause){ .fd = fm, .dst = 'B', .src = 'A' };
         r = waiter_start(&w, floor_thread);
         if (r == 0) {
-                r = measure(&w, &floor_s, cause_frame, &fc);
+                r = measure(&w, &floor_s, cause_frame, &fc, NULL);
                 waiter_stop(&w);
         }
         close(fm);
         close(fs);
+        if (r < 0)
+                goto out;
+
+        /* One futex wake-up between two threads: what the table adds to the pty, at least. */
+        sem_init(&hop_sem, 0, 0);
+        w = (struct waiter){ 0 };
+        r = waiter_start(&w, hop_thread);
+        if (r == 0) {
+                r = measure(&w, &hop_s, cause_hop, NULL, NULL);
+                waiter_stop(&w);
+        }
+        sem_destroy(&hop_sem);
         if (r < 0)
                 goto out;
 
@@ -482,7 +528,7 @@ static int run_latency(void)
         fc = (struct frame_cause){ .fd = master, .dst = 'B', .src = 'A' };
         r = w.id < 0 ? w.id : waiter_start(&w, inbound_thread);
         if (r == 0) {
-                r = measure(&w, &in_s, cause_frame, &fc);
+                r = measure(&w, &in_s, cause_frame, &fc, &mid_s);
                 waiter_stop(&w);
         }
         if (r < 0)
@@ -494,19 +540,24 @@ static int run_latency(void)
         wc = (struct write_cause){ .client = c, .id = sl_find(c, "Out0") };
         r = wc.id < 0 ? wc.id : waiter_start(&w, outbound_thread);
         if (r == 0) {
-                r = measure(&w, &out_s, cause_write, &wc);
+                r = measure(&w, &out_s, cause_write, &wc, NULL);
                 waiter_stop(&w);
         }
         if (r < 0)
                 goto out;
 
         percentiles(&floor_s, &fmed, &fp99);
+        percentiles(&hop_s, &hmed, &hp99);
         percentiles(&in_s, &imed, &ip99);
+        percentiles(&mid_s, &mmed, &mp99);
         percentiles(&out_s, &omed, &op99);
         printf("latency, %d samples each (us)          median      p99\n", SAMPLES);
         printf("  floor: pty master -> slave reader  %8.1f %8.1f\n", fmed, fp99);
+        printf("  futex wake-up, thread to thread    %8.1f %8.1f   (floor + this = %.2fx floor)\n",
+               hmed, hp99, (fmed + hmed) / fmed);
         printf("  inbound: pty -> sl_wait client     %8.1f %8.1f   median %.2fx floor "
                "(target <= 1.5x)\n", imed, ip99, imed / fmed);
+        printf("    of which pty -> daemon applies   %8.1f %8.1f\n", mmed, mp99);
         printf("  outbound: sl_write -> pty master   %8.1f %8.1f   p99 %s 1 ms target\n", omed,
                op99, op99 < 1000.0 ? "under" : "OVER");
 out:

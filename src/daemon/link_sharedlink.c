@@ -3,8 +3,8 @@
  *
  * Data flows one way through each path (DESIGN.md §1):
  *     channel bytes -> sl_decoder -> frame_apply() -> shm_table_begin/set/commit, events, counters
- *     client write -> core's outbound scan -> sl_outbound() -> sl_encode_list -> channel_send
- *     control "query" -> sl_command() -> Q frame ... R|D frame -> control_reply_ok()
+ *     client write -> core's outbound scan -> lsl_outbound() -> sl_encode_list -> channel_send
+ *     control "query" -> lsl_command() -> Q frame ... R|D frame -> control_reply_ok()
  *
  * Timers, all per peer and armed only while they have something to do, so an idle link with no
  * periodic send never wakes the daemon: the period (while up and the list is not empty), the
@@ -41,11 +41,11 @@ static const char *const addr_names[SL_ADDR_COUNT] = {
         "A", "B", "C", "D", "E", "F", "G", "H", "I", "J", "K", "L", "M", "N", "O", "P",
 };
 
-struct link_sl;
+struct lsl;
 
 /* One peer of the link: its outbound list (what we send) and inbound list (what it sends). */
-struct sl_peer {
-        struct link_sl *link;
+struct lsl_peer {
+        struct lsl *link;
         const struct config_peer *cfg;
         unsigned index;
 
@@ -69,24 +69,24 @@ struct sl_peer {
         struct evloop_timer stale_timer;
 };
 
-/* Where an outbound variable id lives, for sl_outbound(); sorted by id. */
-struct sl_outref {
+/* Where an outbound variable id lives, for lsl_outbound(); sorted by id. */
+struct lsl_outref {
         uint32_t id;
         uint16_t peer;
         uint16_t pos;
 };
 
 /* An ad hoc inbound variable this link created. */
-struct sl_adhoc {
+struct lsl_adhoc {
         uint32_t id;
         unsigned peer;
 };
 
 /* A control query waiting for the link (not sent) or for its answer (sent). */
-struct sl_query {
-        struct link_sl *link;
+struct lsl_query {
+        struct lsl *link;
         struct control_request *req;            /* NULL: free slot */
-        struct sl_peer *peer;
+        struct lsl_peer *peer;
         char name[SHM_NAME_SIZE];
         unsigned timeout_ms;
         bool sent;
@@ -94,8 +94,8 @@ struct sl_query {
 };
 
 /* Answers and pongs to one received frame, packed into frames of the peer's max_frame. */
-struct sl_reply {
-        struct sl_peer *peer;
+struct lsl_reply {
+        struct lsl_peer *peer;
         struct sl_field fields[REPLY_FIELDS_MAX];
         size_t nfields;
         char text[SL_FRAME_MAX];                /* copies of the field values */
@@ -103,7 +103,7 @@ struct sl_reply {
         size_t frame_len;                       /* encoded length of fields[0..nfields) */
 };
 
-struct link_sl {
+struct lsl {
         struct link_env env;
         const struct config_link *cfg;
         char addr;
@@ -114,25 +114,25 @@ struct link_sl {
         enum link_sharedlink_state state;
         char status[STATUS_MAX];
 
-        struct sl_peer peers[CONFIG_PEERS_MAX];
+        struct lsl_peer peers[CONFIG_PEERS_MAX];
         unsigned n_peers;
         int peer_of_addr[SL_ADDR_COUNT];        /* peer index, -1 when not a peer */
 
-        struct sl_outref *outrefs;
+        struct lsl_outref *outrefs;
         size_t n_outrefs;
 
-        struct sl_adhoc *adhoc;
+        struct lsl_adhoc *adhoc;
         size_t n_adhoc, cap_adhoc;
 
-        struct sl_query queries[LINK_SHAREDLINK_QUERIES_MAX];
+        struct lsl_query queries[LINK_SHAREDLINK_QUERIES_MAX];
 
         struct log_ratelimit rl;
-        struct sl_reply reply;
+        struct lsl_reply reply;
         char txbuf[SL_FRAME_MAX];
         struct sl_decoder dec;                  /* about 40 KiB: the engine lives on the heap */
 };
 
-static void count(struct link_sl *l, enum shm_counter c, uint64_t n)
+static void count(struct lsl *l, enum shm_counter c, uint64_t n)
 {
         shm_table_counter_add(l->env.table, l->env.shm_link, c, n);
 }
@@ -159,7 +159,7 @@ static void copy_cut(char *dst, size_t size, const char *src)
         dst[n] = '\0';
 }
 
-static void timer_arm(struct link_sl *l, struct evloop_timer *t, uint64_t delay_ms,
+static void timer_arm(struct lsl *l, struct evloop_timer *t, uint64_t delay_ms,
                       uint64_t interval_ms)
 {
         int r = evloop_timer_arm(t, delay_ms, interval_ms);
@@ -187,7 +187,7 @@ static const char *state_word(enum link_sharedlink_state s)
 }
 
 /* Publishes the state (and an event when its number changes); reason only for DOWN. */
-static void state_set(struct link_sl *l, enum link_sharedlink_state s, const char *reason)
+static void state_set(struct lsl *l, enum link_sharedlink_state s, const char *reason)
 {
         char name[SHM_STATE_NAME_SIZE];
         char status[STATUS_MAX];
@@ -217,7 +217,7 @@ static void state_set(struct link_sl *l, enum link_sharedlink_state s, const cha
 /* ---------------------------------------------------------------------------------------------
  * Sending */
 
-static int send_frame(struct link_sl *l, const char *buf, size_t len)
+static int send_frame(struct lsl *l, const char *buf, size_t len)
 {
         int r = channel_send(l->ch, buf, len);
 
@@ -231,7 +231,7 @@ static int send_frame(struct link_sl *l, const char *buf, size_t len)
  * the others empty when compressing), split into frames. Positions of frames that went out are
  * no longer dirty. Returns 0, or the first error (positions not sent stay dirty).
  */
-static int peer_send_range(struct link_sl *l, struct sl_peer *p, size_t first, size_t end,
+static int peer_send_range(struct lsl *l, struct lsl_peer *p, size_t first, size_t end,
                            bool full)
 {
         struct sl_list list = {
@@ -275,7 +275,7 @@ static int peer_send_range(struct link_sl *l, struct sl_peer *p, size_t first, s
         return err;
 }
 
-static int peer_send_full(struct link_sl *l, struct sl_peer *p)
+static int peer_send_full(struct lsl *l, struct lsl_peer *p)
 {
         int r = peer_send_range(l, p, 0, p->n_out, true);
 
@@ -285,7 +285,7 @@ static int peer_send_full(struct link_sl *l, struct sl_peer *p)
 }
 
 /* The on-change frame: the written positions, first to last. */
-static void peer_send_changes(struct link_sl *l, struct sl_peer *p)
+static void peer_send_changes(struct lsl *l, struct lsl_peer *p)
 {
         size_t first = p->n_out, last = 0;
         int r;
@@ -313,7 +313,7 @@ static void peer_send_changes(struct link_sl *l, struct sl_peer *p)
 }
 
 /* A client wrote one of this peer's positions: send now, or when the interval ends. */
-static void peer_change_request(struct link_sl *l, struct sl_peer *p)
+static void peer_change_request(struct lsl *l, struct lsl_peer *p)
 {
         uint64_t now, min_ns;
 
@@ -330,7 +330,7 @@ static void peer_change_request(struct link_sl *l, struct sl_peer *p)
 
 static void on_change_timer(struct evloop *loop, struct evloop_timer *timer, void *arg)
 {
-        struct sl_peer *p = arg;
+        struct lsl_peer *p = arg;
 
         (void)loop;
         (void)timer;
@@ -339,8 +339,8 @@ static void on_change_timer(struct evloop *loop, struct evloop_timer *timer, voi
 
 static void on_period(struct evloop *loop, struct evloop_timer *timer, void *arg)
 {
-        struct sl_peer *p = arg;
-        struct link_sl *l = p->link;
+        struct lsl_peer *p = arg;
+        struct lsl *l = p->link;
         bool full;
 
         (void)loop;
@@ -354,7 +354,7 @@ static void on_period(struct evloop *loop, struct evloop_timer *timer, void *arg
 /* ---------------------------------------------------------------------------------------------
  * Staleness */
 
-static void peer_mark_stale(struct link_sl *l, struct sl_peer *p)
+static void peer_mark_stale(struct lsl *l, struct lsl_peer *p)
 {
         shm_table_begin(l->env.table);
         for (size_t k = 0; k < p->n_in; k++)
@@ -367,8 +367,8 @@ static void peer_mark_stale(struct link_sl *l, struct sl_peer *p)
 
 static void on_stale_timer(struct evloop *loop, struct evloop_timer *timer, void *arg)
 {
-        struct sl_peer *p = arg;
-        struct link_sl *l = p->link;
+        struct lsl_peer *p = arg;
+        struct lsl *l = p->link;
         uint64_t now = evloop_now_ns(loop);
         uint64_t deadline = p->last_rx_ns + ms_to_ns(p->cfg->stale_ms);
 
@@ -380,7 +380,7 @@ static void on_stale_timer(struct evloop *loop, struct evloop_timer *timer, void
         peer_mark_stale(l, p);
 }
 
-static void peer_heard(struct link_sl *l, struct sl_peer *p)
+static void peer_heard(struct lsl *l, struct lsl_peer *p)
 {
         p->last_rx_ns = evloop_now_ns(l->env.loop);
         if (p->cfg->stale_ms > 0 && !evloop_timer_armed(&p->stale_timer))
@@ -390,7 +390,7 @@ static void peer_heard(struct link_sl *l, struct sl_peer *p)
 /* ---------------------------------------------------------------------------------------------
  * Replies (answers to Q, pongs to P) */
 
-static void reply_begin(struct link_sl *l, struct sl_peer *p)
+static void reply_begin(struct lsl *l, struct lsl_peer *p)
 {
         l->reply.peer = p;
         l->reply.nfields = 0;
@@ -398,9 +398,9 @@ static void reply_begin(struct link_sl *l, struct sl_peer *p)
         l->reply.frame_len = FRAME_OVERHEAD + (l->crlf ? CRLF_LEN : 0);
 }
 
-static void reply_flush(struct link_sl *l)
+static void reply_flush(struct lsl *l)
 {
-        struct sl_reply *rp = &l->reply;
+        struct lsl_reply *rp = &l->reply;
         int n;
 
         if (rp->nfields == 0)
@@ -415,9 +415,9 @@ static void reply_flush(struct link_sl *l)
 }
 
 /* Adds fields that must travel in one frame (R and its D); false if they can never fit. */
-static bool reply_add(struct link_sl *l, const struct sl_field *fields, size_t n)
+static bool reply_add(struct lsl *l, const struct sl_field *fields, size_t n)
 {
-        struct sl_reply *rp = &l->reply;
+        struct lsl_reply *rp = &l->reply;
         size_t max = rp->peer->cfg->max_frame;
         size_t base = FRAME_OVERHEAD + (l->crlf ? CRLF_LEN : 0);
         size_t need = 0;
@@ -445,7 +445,7 @@ static bool reply_add(struct link_sl *l, const struct sl_field *fields, size_t n
 /* ---------------------------------------------------------------------------------------------
  * Queries from the control socket */
 
-static void query_free(struct sl_query *q)
+static void query_free(struct lsl_query *q)
 {
         evloop_timer_cancel(&q->timer);
         q->req = NULL;
@@ -453,14 +453,14 @@ static void query_free(struct sl_query *q)
         q->sent = false;
 }
 
-static void query_fail(struct sl_query *q, int err, const char *why)
+static void query_fail(struct lsl_query *q, int err, const char *why)
 {
         control_reply_error(q->req, err, "%s", why);
         query_free(q);
 }
 
 /* Sends Q<name> and starts the answer timeout; fails the query on a send error. */
-static void query_send(struct link_sl *l, struct sl_query *q)
+static void query_send(struct lsl *l, struct lsl_query *q)
 {
         char why[64];
         int n, r;
@@ -480,7 +480,7 @@ static void query_send(struct link_sl *l, struct sl_query *q)
 
 static void on_query_timer(struct evloop *loop, struct evloop_timer *timer, void *arg)
 {
-        struct sl_query *q = arg;
+        struct lsl_query *q = arg;
         char why[96];
 
         (void)loop;
@@ -498,11 +498,11 @@ static void on_query_timer(struct evloop *loop, struct evloop_timer *timer, void
 }
 
 /* An answer arrived from p: every query of p waiting for that name gets it. */
-static void queries_answer(struct link_sl *l, struct sl_peer *p, const char *name,
+static void queries_answer(struct lsl *l, struct lsl_peer *p, const char *name,
                            const char *value)
 {
         for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++) {
-                struct sl_query *q = &l->queries[i];
+                struct lsl_query *q = &l->queries[i];
 
                 if (!q->req || !q->sent || q->peer != p || strcmp(q->name, name) != 0)
                         continue;
@@ -514,14 +514,14 @@ static void queries_answer(struct link_sl *l, struct sl_peer *p, const char *nam
 }
 
 /* The link went down: sent queries cannot be answered; waiting ones keep waiting. */
-static void queries_link_down(struct link_sl *l)
+static void queries_link_down(struct lsl *l)
 {
         for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++)
                 if (l->queries[i].req && l->queries[i].sent)
                         query_fail(&l->queries[i], ENOTCONN, "link went down");
 }
 
-static void queries_link_up(struct link_sl *l)
+static void queries_link_up(struct lsl *l)
 {
         for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++)
                 if (l->queries[i].req && !l->queries[i].sent) {
@@ -531,11 +531,11 @@ static void queries_link_up(struct link_sl *l)
 }
 
 /* A free query slot; when all are taken, those whose client left are ended first. */
-static struct sl_query *query_slot(struct link_sl *l)
+static struct lsl_query *query_slot(struct lsl *l)
 {
         for (int pass = 0; pass < 2; pass++)
                 for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++) {
-                        struct sl_query *q = &l->queries[i];
+                        struct lsl_query *q = &l->queries[i];
 
                         if (!q->req)
                                 return q;
@@ -567,12 +567,12 @@ static bool parse_ms(const char *s, unsigned min, unsigned max, unsigned *ret)
         return true;
 }
 
-static void sl_command(void *engine, struct control_request *req, int argc, char **argv)
+static void lsl_command(void *engine, struct control_request *req, int argc, char **argv)
 {
-        struct link_sl *l = engine;
+        struct lsl *l = engine;
         unsigned timeout = LINK_SHAREDLINK_QUERY_TIMEOUT_MS, wait = 0;
         bool has_wait = false;
-        struct sl_query *q;
+        struct lsl_query *q;
         int pi;
 
         if (argc < 1 || strcmp(argv[0], "query") != 0) {
@@ -636,7 +636,7 @@ static void sl_command(void *engine, struct control_request *req, int argc, char
 /* ---------------------------------------------------------------------------------------------
  * Receiving */
 
-static bool peer_has_inbound(const struct sl_peer *p, uint32_t id)
+static bool peer_has_inbound(const struct lsl_peer *p, uint32_t id)
 {
         for (size_t k = 0; k < p->n_in; k++)
                 if (p->in_ids[k] == id)
@@ -645,7 +645,7 @@ static bool peer_has_inbound(const struct sl_peer *p, uint32_t id)
 }
 
 /* The ad hoc variable "<link>.<peer>.<name>" of p: its id (created if needed), or -1. */
-static int adhoc_id(struct link_sl *l, struct sl_peer *p, const char *name)
+static int adhoc_id(struct lsl *l, struct lsl_peer *p, const char *name)
 {
         char full[ADHOC_NAME_SIZE];
         struct shm_var v;
@@ -671,7 +671,7 @@ static int adhoc_id(struct link_sl *l, struct sl_peer *p, const char *name)
         }
         if (l->n_adhoc == l->cap_adhoc) {
                 size_t cap = l->cap_adhoc ? 2 * l->cap_adhoc : 16;
-                struct sl_adhoc *a = realloc(l->adhoc, cap * sizeof(*a));
+                struct lsl_adhoc *a = realloc(l->adhoc, cap * sizeof(*a));
 
                 if (!a) {
                         count(l, SHM_COUNTER_ADHOC_FULL, 1);
@@ -693,14 +693,14 @@ static int adhoc_id(struct link_sl *l, struct sl_peer *p, const char *name)
                 count(l, id == -ENOSPC ? SHM_COUNTER_ADHOC_FULL : SHM_COUNTER_BAD_VALUE, 1);
                 return -1;
         }
-        l->adhoc[l->n_adhoc++] = (struct sl_adhoc){ .id = (uint32_t)id, .peer = p->index };
+        l->adhoc[l->n_adhoc++] = (struct lsl_adhoc){ .id = (uint32_t)id, .peer = p->index };
         shm_table_eventf(l->env.table, SHM_EVENT_ADHOC_VARIABLE, l->env.shm_link,
                          "name=%s peer=%c", full, p->cfg->address);
         return id;
 }
 
 /* R<name>|D<value> from p. */
-static void answer_in(struct link_sl *l, struct sl_peer *p, const struct sl_field *r,
+static void answer_in(struct lsl *l, struct lsl_peer *p, const struct sl_field *r,
                       const struct sl_field *d)
 {
         char name[SL_VALUE_MAX + 1], value[SL_VALUE_MAX + 1];
@@ -727,7 +727,7 @@ static void answer_in(struct link_sl *l, struct sl_peer *p, const struct sl_fiel
 }
 
 /* Q<name> from p: answer R<name>|D<value>. */
-static void query_in(struct link_sl *l, const struct sl_field *q)
+static void query_in(struct lsl *l, const struct sl_field *q)
 {
         char name[SL_VALUE_MAX + 1], value[SHM_VALUE_SIZE];
         struct sl_field pair[2];
@@ -756,7 +756,7 @@ static void query_in(struct link_sl *l, const struct sl_field *q)
 }
 
 /* A positional D for position pos of p's list. */
-static void data_in(struct link_sl *l, struct sl_peer *p, uint32_t pos, const struct sl_field *d)
+static void data_in(struct lsl *l, struct lsl_peer *p, uint32_t pos, const struct sl_field *d)
 {
         if (pos >= p->n_in) {
                 /* Decision: dropped and counted; the rest of the frame still applies. */
@@ -777,7 +777,7 @@ enum next_data {
 };
 
 /* Walks the fields of a frame from p (see link_sharedlink.h for the meaning of each). */
-static void fields_apply(struct link_sl *l, struct sl_peer *p, const struct sl_frame *f)
+static void fields_apply(struct lsl *l, struct lsl_peer *p, const struct sl_frame *f)
 {
         enum next_data next = NEXT_POSITION;
         const struct sl_field *answer = NULL;
@@ -860,9 +860,9 @@ static void fields_apply(struct link_sl *l, struct sl_peer *p, const struct sl_f
                 count(l, SHM_COUNTER_BAD_FIELD, 1);
 }
 
-static void frame_apply(struct link_sl *l, const struct sl_frame *f)
+static void frame_apply(struct lsl *l, const struct sl_frame *f)
 {
-        struct sl_peer *p;
+        struct lsl_peer *p;
         int pi;
 
         count(l, SHM_COUNTER_FRAMES_IN, 1);
@@ -891,7 +891,7 @@ static void frame_apply(struct link_sl *l, const struct sl_frame *f)
         reply_flush(l);
 }
 
-static void result_count(struct link_sl *l, const struct sl_decode_result *r)
+static void result_count(struct lsl *l, const struct sl_decode_result *r)
 {
         enum shm_counter c;
         uint64_t n = 1;
@@ -931,7 +931,7 @@ static void result_count(struct link_sl *l, const struct sl_decode_result *r)
                                 l->cfg->name, r->bytes, sl_decode_reason_str(r->reason));
 }
 
-static void handle_result(struct link_sl *l, const struct sl_decode_result *r)
+static void handle_result(struct lsl *l, const struct sl_decode_result *r)
 {
         if (r->kind == SL_RESULT_FRAME)
                 frame_apply(l, r->frame);
@@ -941,7 +941,7 @@ static void handle_result(struct link_sl *l, const struct sl_decode_result *r)
 
 static void on_input(struct channel *ch, const uint8_t *data, size_t len, void *arg)
 {
-        struct link_sl *l = arg;
+        struct lsl *l = arg;
         struct sl_decode_result r;
 
         (void)ch;
@@ -961,7 +961,7 @@ static void on_input(struct channel *ch, const uint8_t *data, size_t len, void *
 /* ---------------------------------------------------------------------------------------------
  * Channel up and down */
 
-static void peers_stop_timers(struct link_sl *l)
+static void peers_stop_timers(struct lsl *l)
 {
         for (unsigned i = 0; i < l->n_peers; i++) {
                 evloop_timer_cancel(&l->peers[i].period_timer);
@@ -970,13 +970,13 @@ static void peers_stop_timers(struct link_sl *l)
         }
 }
 
-static void link_up(struct link_sl *l)
+static void link_up(struct lsl *l)
 {
         log_info("link %s: up (%s)", l->cfg->name, channel_device(l->ch));
         sl_decoder_reset(&l->dec);
         state_set(l, LINK_SHAREDLINK_STATE_UP, NULL);
         for (unsigned i = 0; i < l->n_peers; i++) {
-                struct sl_peer *p = &l->peers[i];
+                struct lsl_peer *p = &l->peers[i];
 
                 if (p->n_out == 0)
                         continue;
@@ -990,7 +990,7 @@ static void link_up(struct link_sl *l)
         link_publish_channel_stats(&l->env, l->ch);
 }
 
-static void link_down(struct link_sl *l, const char *reason, unsigned retry_ms)
+static void link_down(struct lsl *l, const char *reason, unsigned retry_ms)
 {
         if (l->state == LINK_SHAREDLINK_STATE_UP || l->state == LINK_SHAREDLINK_STATE_CONNECTING)
                 log_warnx("link %s: down: %s (retry in %u ms)", l->cfg->name, reason, retry_ms);
@@ -1029,7 +1029,7 @@ static unsigned shm_type_of(enum config_var_type t)
         }
 }
 
-static int sl_declare(const struct config_link *cfg, uint32_t link_index, struct shm_var *vars,
+static int lsl_declare(const struct config_link *cfg, uint32_t link_index, struct shm_var *vars,
                       size_t *n, size_t max, char *names_buf, size_t names_size,
                       size_t *names_used)
 {
@@ -1080,13 +1080,13 @@ static int sl_declare(const struct config_link *cfg, uint32_t link_index, struct
 
 static int outref_cmp(const void *a, const void *b)
 {
-        const struct sl_outref *x = a, *y = b;
+        const struct lsl_outref *x = a, *y = b;
 
         return (x->id > y->id) - (x->id < y->id);
 }
 
-/* Resolves the ids of one list (declared by sl_declare before the table was made). */
-static int find_ids(struct link_sl *l, const struct config_var *vars, size_t n, uint32_t *ids)
+/* Resolves the ids of one list (declared by lsl_declare before the table was made). */
+static int find_ids(struct lsl *l, const struct config_var *vars, size_t n, uint32_t *ids)
 {
         for (size_t k = 0; k < n; k++) {
                 int id = shm_table_find(l->env.table, vars[k].name);
@@ -1101,9 +1101,9 @@ static int find_ids(struct link_sl *l, const struct config_var *vars, size_t n, 
         return 0;
 }
 
-static int peer_init(struct link_sl *l, unsigned index)
+static int peer_init(struct lsl *l, unsigned index)
 {
-        struct sl_peer *p = &l->peers[index];
+        struct lsl_peer *p = &l->peers[index];
         const struct config_peer *c = &l->cfg->sl.peers[index];
         int r;
 
@@ -1139,7 +1139,7 @@ static int peer_init(struct link_sl *l, unsigned index)
         return 0;
 }
 
-static int outrefs_init(struct link_sl *l)
+static int outrefs_init(struct lsl *l)
 {
         size_t n = 0;
 
@@ -1150,7 +1150,7 @@ static int outrefs_init(struct link_sl *l)
                 return -ENOMEM;
         for (unsigned i = 0; i < l->n_peers; i++)
                 for (size_t k = 0; k < l->peers[i].n_out; k++)
-                        l->outrefs[l->n_outrefs++] = (struct sl_outref){
+                        l->outrefs[l->n_outrefs++] = (struct lsl_outref){
                                 .id = l->peers[i].out_ids[k],
                                 .peer = (uint16_t)i,
                                 .pos = (uint16_t)k,
@@ -1159,10 +1159,10 @@ static int outrefs_init(struct link_sl *l)
         return 0;
 }
 
-static void engine_free(struct link_sl *l)
+static void engine_free(struct lsl *l)
 {
         for (unsigned i = 0; i < CONFIG_PEERS_MAX; i++) {
-                struct sl_peer *p = &l->peers[i];
+                struct lsl_peer *p = &l->peers[i];
 
                 free(p->out_ids);
                 free(p->out_values);
@@ -1175,7 +1175,7 @@ static void engine_free(struct link_sl *l)
         free(l);
 }
 
-static int sl_create(const struct link_env *env, void **ret_engine)
+static int lsl_create(const struct link_env *env, void **ret_engine)
 {
         static const struct channel_ops ch_ops = {
                 .up = on_channel_up,
@@ -1184,7 +1184,7 @@ static int sl_create(const struct link_env *env, void **ret_engine)
         };
         const struct config_link *cfg = env->cfg;
         size_t max_frame = SL_FRAME_MIN;
-        struct link_sl *l;
+        struct lsl *l;
         int r;
 
         if (cfg->protocol != CONFIG_PROTOCOL_SHAREDLINK || cfg->sl.n_peers > CONFIG_PEERS_MAX)
@@ -1244,9 +1244,9 @@ fail:
         return r;
 }
 
-static void sl_destroy(void *engine)
+static void lsl_destroy(void *engine)
 {
-        struct link_sl *l = engine;
+        struct lsl *l = engine;
 
         if (!l)
                 return;
@@ -1260,12 +1260,12 @@ static void sl_destroy(void *engine)
         engine_free(l);
 }
 
-static void sl_outbound(void *engine, const struct shm_out_change *change)
+static void lsl_outbound(void *engine, const struct shm_out_change *change)
 {
-        struct link_sl *l = engine;
-        struct sl_outref key = { .id = change->id };
-        const struct sl_outref *ref;
-        struct sl_peer *p;
+        struct lsl *l = engine;
+        struct lsl_outref key = { .id = change->id };
+        const struct lsl_outref *ref;
+        struct lsl_peer *p;
 
         /* Invalid writes never reach the wire; a repaired slot keeps the last good value. */
         if (change->status != SHM_OUT_CHANGED)
@@ -1280,26 +1280,26 @@ static void sl_outbound(void *engine, const struct shm_out_change *change)
 }
 
 /* The core's heartbeat: channel counters move while down too (reopen attempts). */
-static void sl_heartbeat(void *engine)
+static void lsl_heartbeat(void *engine)
 {
-        struct link_sl *l = engine;
+        struct lsl *l = engine;
 
         link_publish_channel_stats(&l->env, l->ch);
 }
 
-static const char *sl_status(void *engine)
+static const char *lsl_status(void *engine)
 {
-        struct link_sl *l = engine;
+        struct lsl *l = engine;
 
         return l->status;
 }
 
 const struct link_ops link_sharedlink_ops = {
-        .declare = sl_declare,
-        .create = sl_create,
-        .destroy = sl_destroy,
-        .outbound = sl_outbound,
-        .command = sl_command,
-        .status = sl_status,
-        .heartbeat = sl_heartbeat,
+        .declare = lsl_declare,
+        .create = lsl_create,
+        .destroy = lsl_destroy,
+        .outbound = lsl_outbound,
+        .command = lsl_command,
+        .status = lsl_status,
+        .heartbeat = lsl_heartbeat,
 };

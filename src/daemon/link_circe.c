@@ -230,6 +230,49 @@ static void publish_device(struct link_circe *e, unsigned i, const struct link_c
         }
 }
 
+/*
+ * The `STATUS=` line: the core counts a link as up when its first word is "up". A controller is
+ * up once logged in; the emulator while its port is open (it serves whoever logs in).
+ */
+static void status_update(struct link_circe *e, enum link_circe_state s)
+{
+        const char *line;
+
+        switch (s) {
+        case LINK_CIRCE_CONNECTED:
+                line = e->controller ? "up" : "up (controller logged in)";
+                break;
+        case LINK_CIRCE_UNCONFIGURED:
+                line = e->controller ? "up (unconfigured mediator)"
+                                     : "up (controller logged in, unconfigured)";
+                break;
+        case LINK_CIRCE_CONNECTING:
+                line = e->controller ? "connecting (Login sent)" : "up (waiting for Login)";
+                break;
+        case LINK_CIRCE_VERSION_MISMATCH:
+                if (strncmp(e->status_line, "down: ", 6) == 0) {
+                        /* hook_fail() just wrote why: keep it under the state's name. */
+                        char why[STATUS_LINE_MAX];
+
+                        snprintf(why, sizeof(why), "%s", e->status_line + 6);
+                        snprintf(e->status_line, sizeof(e->status_line), "version-mismatch: %.*s",
+                                 (int)(sizeof(e->status_line) - sizeof("version-mismatch: ")),
+                                 why);
+                        return;
+                }
+                line = "version-mismatch";
+                break;
+        case LINK_CIRCE_DISCONNECTED:
+        default:
+                /* Keep the "down: <reason>" the channel or the session gave. */
+                if (strncmp(e->status_line, "down", 4) == 0)
+                        return;
+                line = "down";
+                break;
+        }
+        snprintf(e->status_line, sizeof(e->status_line), "%s", line);
+}
+
 /* ---- hooks ----------------------------------------------------------------------------------- */
 
 static int hook_send(void *arg, const struct circe_msg *m)
@@ -273,8 +316,7 @@ static void hook_state(void *arg, enum link_circe_state s, const char *detail)
         shm_table_link_state(e->env.table, e->env.shm_link, (uint32_t)s, name);
         shm_table_eventf(e->env.table, SHM_EVENT_LINK_STATE, e->env.shm_link, "state=%s%s%s",
                          name, detail[0] ? " " : "", detail);
-        if (s != LINK_CIRCE_DISCONNECTED || e->status_line[0] == '\0')
-                snprintf(e->status_line, sizeof(e->status_line), "%s", name);
+        status_update(e, s);
         log_ratelimited(&e->rl_state, LOG_PRIO_INFO, "link %s: %s%s%s", link_name(e), name,
                         detail[0] ? " " : "", detail);
 }
@@ -778,8 +820,7 @@ static int op_create(const struct link_env *env, void **ret_engine)
                 link_circe_controller_init(&e->ctl, &env->cfg->circe, &hooks, e);
         else
                 link_circe_mediator_init(&e->med, &env->cfg->circe, &hooks, e, now_ms());
-        snprintf(e->status_line, sizeof(e->status_line), "%s",
-                 link_circe_state_name(LINK_CIRCE_DISCONNECTED));
+        snprintf(e->status_line, sizeof(e->status_line), "down");
         publish_initial(e);
         r = link_channel_new(env, &channel_callbacks, e, &e->ch);
         if (r < 0) {

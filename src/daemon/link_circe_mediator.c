@@ -67,11 +67,13 @@ static int send_msg(struct link_circe_mediator *m, uint64_t now_ms, const struct
 {
         int r = m->hooks->send(m->arg, msg);
 
+        /* A failed send (queue full) counts as an attempt: the next Keep Alive is due a whole
+         * period later, not at once, so a stuck port never makes the timer spin. */
+        m->last_sent_ms = now_ms;
         if (r < 0) {
                 m->stats.send_errors++;
                 return r;
         }
-        m->last_sent_ms = now_ms;
         return 0;
 }
 

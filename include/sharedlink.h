@@ -34,7 +34,12 @@
  * -ENOENT; names that are new get new ids.
  *
  * Values are text: printable ASCII 0x20-0x7E except '|', '[' and ']', at most 63 bytes (what the
- * wire can carry). The extensible structs below start with a `size` member that the caller sets
+ * wire can carry).
+ *
+ * Trust: the daemon treats everything clients write as hostile and survives any of it. Writers
+ * share one outbound table, so a member of the group that truncates it can make other writers'
+ * processes fault (SIGBUS) until the daemon has recreated it; the library installs no signal
+ * handlers. Readers only map the daemon's read-only table and are not exposed to this. The extensible structs below start with a `size` member that the caller sets
  * to sizeof(the struct); the library fills only what fits, so newer fields never break old callers.
  *
  * Commands to the daemon (CIRCE operations, SharedLink queries) go through its control socket and

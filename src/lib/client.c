@@ -31,6 +31,15 @@ uint64_t client_now(clockid_t id)
         return (uint64_t)ts.tv_sec * NS_PER_S + (uint64_t)ts.tv_nsec;
 }
 
+void client_struct_out(void *ret, const void *full, size_t full_size)
+{
+        size_t size;
+
+        memcpy(&size, ret, sizeof(size));
+        memcpy((char *)ret + sizeof(size), (const char *)full + sizeof(size),
+               (size < full_size ? size : full_size) - sizeof(size));
+}
+
 void client_copy_field(char *dst, size_t size, const char *src, size_t src_size)
 {
         size_t len = strnlen(src, src_size < size ? src_size : size - 1u);
@@ -199,7 +208,7 @@ static uint32_t name_hash(const char *name)
         return h;
 }
 
-static int id_lookup(const struct sl_client *c, const char *name)
+int client_id_lookup(const struct sl_client *c, const char *name)
 {
         uint32_t mask = c->name_hash_size - 1u;
 
@@ -278,7 +287,7 @@ static void ids_sync(struct sl_client *c)
                 int id;
 
                 client_copy_field(name, sizeof(name), e->name, sizeof(e->name));
-                id = id_lookup(c, name);
+                id = client_id_lookup(c, name);
                 if (id < 0) {
                         if (ids_reserve(c, c->nids + 1u) < 0)
                                 return;         /* out of memory or ids: retried next refresh */

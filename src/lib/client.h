@@ -68,6 +68,9 @@ void client_rdlock(struct sl_client *c);
 /* Releases c->lock. */
 void client_unlock(struct sl_client *c);
 
+/* Id ever given to name by this handle (read lock held), or -ENOENT. */
+int client_id_lookup(const struct sl_client *c, const char *name);
+
 /* Directory index of id in the current map (read lock held), or -ENOENT. */
 int client_index(const struct sl_client *c, int id);
 
@@ -88,6 +91,13 @@ int client_map_replaced(const struct sl_client *c, const struct client_map *m);
 
 /* CLOCK_MONOTONIC / CLOCK_REALTIME in ns. */
 uint64_t client_now(clockid_t id);
+
+/*
+ * Hands a filled extensible struct (one starting with `size_t size`) to the caller: copies as much
+ * of full[0..full_size) as the caller's struct holds (its size member says how much), keeping that
+ * size member as the caller set it. Callers check the size against their first version first.
+ */
+void client_struct_out(void *ret, const void *full, size_t full_size);
 
 /* Copies a fixed-size, possibly unterminated field into dst[size] with a NUL. */
 void client_copy_field(char *dst, size_t size, const char *src, size_t src_size);

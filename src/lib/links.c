@@ -2,6 +2,7 @@
  * Link state and counters, and the daemon behind the tables.
  */
 #include <errno.h>
+#include <signal.h>
 #include <string.h>
 
 #include <sharedlink.h>
@@ -54,10 +55,10 @@ static int link_state_read(const struct shm_link *l, struct sl_link_info *info, 
                         shm_seqlock_relax();
                         continue;
                 }
-                state = atomic_load_explicit(&l->state, memory_order_relaxed);
-                state_ns = atomic_load_explicit(&l->state_ns, memory_order_relaxed);
+                state = atomic_load_explicit(&l->state, SHM_SEQLOCK_PAYLOAD_LOAD);
+                state_ns = atomic_load_explicit(&l->state_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
                 for (unsigned i = 0; i < SHM_STATE_NAME_WORDS; i++)
-                        words[i] = atomic_load_explicit(&l->state_name[i], memory_order_relaxed);
+                        words[i] = atomic_load_explicit(&l->state_name[i], SHM_SEQLOCK_PAYLOAD_LOAD);
                 if (shm_seqlock_read_retry(&l->seq, start))
                         continue;
                 info->state = (int)state;
@@ -93,9 +94,23 @@ SL_EXPORT int sl_link_info(struct sl_client *c, int link, struct sl_link_info *r
         client_unlock(c);
         if (r < 0)
                 return r;
-        info.size = ret->size;
-        memcpy(ret, &info, ret->size < sizeof(info) ? ret->size : sizeof(info));
+        client_struct_out(ret, &info, sizeof(info));
         return 0;
+}
+
+/*
+ * The hot path (sl_read) judges liveness by the heartbeat alone; here a daemon without heartbeat
+ * is also checked by pid (EPERM: it exists, owned by someone else).
+ */
+static int daemon_alive(const struct sl_client *c, uint64_t *ret_age)
+{
+        const struct shm_in_header *h = c->map->in;
+        int alive = client_alive(c, client_now(CLOCK_MONOTONIC), ret_age);
+
+        if (alive && h->heartbeat_interval_ms == 0 && h->daemon_pid > 0 &&
+            kill(h->daemon_pid, 0) < 0 && errno == ESRCH)
+                alive = 0;
+        return alive;
 }
 
 SL_EXPORT int sl_daemon_info(struct sl_client *c, struct sl_daemon_info *ret)
@@ -112,11 +127,10 @@ SL_EXPORT int sl_daemon_info(struct sl_client *c, struct sl_daemon_info *ret)
         info.epoch = h->epoch;
         info.heartbeat_interval_ms = h->heartbeat_interval_ms;
         info.started_real_ns = h->created_real_ns;
-        info.alive = client_alive(c, client_now(CLOCK_MONOTONIC), &info.heartbeat_age_ns);
+        info.alive = daemon_alive(c, &info.heartbeat_age_ns);
         info.counter_count = counters_fill(info.counters, h->counters);
         client_unlock(c);
-        info.size = ret->size;
-        memcpy(ret, &info, ret->size < sizeof(info) ? ret->size : sizeof(info));
+        client_struct_out(ret, &info, sizeof(info));
         return 0;
 }
 
@@ -127,7 +141,7 @@ SL_EXPORT int sl_daemon_alive(struct sl_client *c)
         if (!c)
                 return -EINVAL;
         client_rdlock(c);
-        alive = client_alive(c, client_now(CLOCK_MONOTONIC), NULL);
+        alive = daemon_alive(c, NULL);
         client_unlock(c);
         return alive;
 }

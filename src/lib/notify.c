@@ -95,10 +95,8 @@ static void event_fill(const struct sl_client *c, const struct shm_event_copy *e
         const struct client_map *m = c->map;
         uint32_t links = atomic_load_explicit(&m->in->link_count, memory_order_acquire);
         struct sl_event ev;
-        size_t size = ret->size < sizeof(ev) ? ret->size : sizeof(ev);
 
         memset(&ev, 0, sizeof(ev));
-        ev.size = ret->size;
         ev.seq = e->number;
         ev.lost = e->lost;
         ev.mono_ns = e->mono_ns;
@@ -114,7 +112,7 @@ static void event_fill(const struct sl_client *c, const struct shm_event_copy *e
         }
         ev.flags = flags | ((e->flags & SHM_EVENT_TRUNCATED) ? SL_EVENT_TRUNCATED : 0u);
         memcpy(ev.text, e->text, sizeof(ev.text));
-        memcpy(ret, &ev, size);
+        client_struct_out(ret, &ev, sizeof(ev));
 }
 
 SL_EXPORT int sl_events_read(struct sl_client *c, uint64_t *cursor, struct sl_event *ret,

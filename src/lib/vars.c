@@ -37,19 +37,18 @@ _Static_assert(SL_VAR_ADHOC == SHM_DIR_ADHOC, "directory flags");
 
 SL_EXPORT int sl_find(struct sl_client *c, const char *name)
 {
-        int found = -ENOENT;
+        int id;
 
         if (!c || !name)
                 return -EINVAL;
+        if (strnlen(name, SHM_NAME_SIZE) > SHM_NAME_MAX)
+                return -ENOENT;
         client_rdlock(c);
-        for (uint32_t id = 0; id < c->nids; id++) {
-                if (c->id_index[id] >= 0 && strncmp(c->id_names[id], name, SHM_NAME_SIZE) == 0) {
-                        found = (int)id;
-                        break;
-                }
-        }
+        id = client_id_lookup(c, name);
+        if (id >= 0 && client_index(c, id) < 0)
+                id = -ENOENT;   /* a name the current daemon does not have */
         client_unlock(c);
-        return found;
+        return id;
 }
 
 SL_EXPORT int sl_count(struct sl_client *c)
@@ -68,7 +67,6 @@ SL_EXPORT int sl_info(struct sl_client *c, int id, struct sl_var_info *ret)
 {
         const struct shm_dir_entry *e;
         struct sl_var_info info;
-        size_t size;
         int index;
 
         if (!c || !ret || ret->size < SL_VAR_INFO_SIZE_V1)
@@ -89,9 +87,7 @@ SL_EXPORT int sl_info(struct sl_client *c, int id, struct sl_var_info *ret)
         info.position = e->position;
         info.flags = e->flags;
         client_unlock(c);
-        size = ret->size < sizeof(info) ? ret->size : sizeof(info);
-        info.size = ret->size;
-        memcpy(ret, &info, size);
+        client_struct_out(ret, &info, sizeof(info));
         return 0;
 }
 
@@ -100,49 +96,48 @@ static void meta_fill(struct sl_meta *meta, const struct shm_slot_copy *copy, ui
                       uint32_t extra_flags, uint64_t now)
 {
         struct sl_meta m;
-        size_t size = meta->size < sizeof(m) ? meta->size : sizeof(m);
 
         memset(&m, 0, sizeof(m));
-        m.size = meta->size;
         m.mono_ns = copy->mono_ns;
         m.real_ns = copy->real_ns;
         m.age_ns = copy->mono_ns && now > copy->mono_ns ? now - copy->mono_ns : 0;
         m.sequence = sequence;
         m.flags = (copy->flags & (SL_FLAG_VALID | SL_FLAG_STALE | SL_FLAG_OUTBOUND |
                                   SL_FLAG_REPAIRED)) | extra_flags;
-        memcpy(meta, &m, size);
+        client_struct_out(meta, &m, sizeof(m));
 }
 
 /*
- * Reads the .out slot of an outbound variable (read lock held). Returns 1 with a valid copy, 0
- * when it holds no valid value (never written, repaired, recreated, scribbled), or -EAGAIN.
+ * Reads the .out slot of an outbound variable into *copy (read lock held). Returns 1 with a valid
+ * copy, 0 when it holds no valid value (never written, repaired, recreated, scribbled), or -EAGAIN.
  * The slot is client-writable: the copy is validated like the daemon does before it is used.
  */
 static int read_out_slot(const struct sl_client *c, const struct shm_dir_entry *e,
-                         struct shm_slot_copy *ret_copy, uint64_t *ret_sequence)
+                         struct shm_slot_copy *copy, uint64_t *ret_sequence)
 {
-        struct shm_slot_copy copy;
         int r;
 
         if (!c->out || e->out_slot >= c->out_capacity)
                 return 0;
-        r = shm_slot_read(&c->out_slots[e->out_slot], &copy);
+        r = shm_slot_read(&c->out_slots[e->out_slot], copy);
         if (r < 0)
                 return r;
-        if (shm_slot_copy_check(&copy) < 0)
+        if (shm_slot_copy_check(copy) < 0)
                 return 0;
-        copy.flags |= SHM_SLOT_OUTBOUND;
-        *ret_copy = copy;
-        *ret_sequence = shm_seqlock_sequence(copy.word) / 2u;
+        copy->flags |= SHM_SLOT_OUTBOUND;
+        *ret_sequence = shm_seqlock_sequence(copy->word) / 2u;
         return 1;
 }
 
-/* One consistent, validated copy of variable id's value, plus the flags that apply to it. */
-static int read_copy(struct sl_client *c, int id, struct shm_slot_copy *ret_copy,
+/*
+ * One consistent, validated copy of variable id's value, plus the flags that apply to it. Fills
+ * *copy in place (a scratch buffer of the caller: unspecified on failure), to spare the hot path
+ * another copy of it.
+ */
+static int read_copy(struct sl_client *c, int id, struct shm_slot_copy *copy,
                      uint64_t *ret_sequence, uint32_t *ret_extra, uint64_t now)
 {
         const struct shm_dir_entry *e;
-        struct shm_slot_copy copy;
         uint64_t sequence = 0;
         int index, r = 0;
 
@@ -154,22 +149,21 @@ static int read_copy(struct sl_client *c, int id, struct shm_slot_copy *ret_copy
         }
         e = &c->map->dir[index];
         if (e->direction == SHM_DIR_OUT)
-                r = read_out_slot(c, e, &copy, &sequence);
+                r = read_out_slot(c, e, copy, &sequence);
         if (r == 0) {
                 /* .in: the daemon's own value, or its mirror of the last accepted outbound one */
-                r = shm_slot_read(&c->map->slots[index], &copy);
+                r = shm_slot_read(&c->map->slots[index], copy);
                 if (r == 0) {
-                        sequence = copy.word / 2u;
-                        if (copy.length > SHM_VALUE_MAX || !(copy.flags & SHM_SLOT_VALID))
-                                copy.length = 0;
+                        sequence = copy->word / 2u;
+                        if (copy->length > SHM_VALUE_MAX || !(copy->flags & SHM_SLOT_VALID))
+                                copy->length = 0;
                 }
         }
-        *ret_extra = client_alive(c, now, NULL) ? 0 : SL_FLAG_STALE;
+        *ret_extra = !now || client_alive(c, now, NULL) ? 0 : SL_FLAG_STALE;
         client_unlock(c);
         if (r < 0)
                 return r;
-        copy.value[copy.length] = '\0';
-        *ret_copy = copy;
+        copy->value[copy->length] = '\0';
         *ret_sequence = sequence;
         return 0;
 }
@@ -183,7 +177,8 @@ SL_EXPORT int sl_read(struct sl_client *c, int id, char *buf, size_t size, struc
 
         if (!c || !buf || (meta && meta->size < SL_META_SIZE_V1))
                 return -EINVAL;
-        now = client_now(CLOCK_MONOTONIC);
+        /* The clock (~20-30 ns) only matters for the metadata: age, and stale by heartbeat. */
+        now = meta ? client_now(CLOCK_MONOTONIC) : 0;
         r = read_copy(c, id, &copy, &sequence, &extra, now);
         if (r < 0)
                 return r;
@@ -206,8 +201,7 @@ static int read_text(struct sl_client *c, int id, char *text, struct sl_meta *me
         if (meta) {
                 if (meta->size < SL_META_SIZE_V1)
                         return -EINVAL;
-                m.size = meta->size;
-                memcpy(meta, &m, meta->size < sizeof(m) ? meta->size : sizeof(m));
+                client_struct_out(meta, &m, sizeof(m));
         }
         if (r == 0 || !(m.flags & SL_FLAG_VALID))
                 return -ENODATA;
@@ -243,6 +237,7 @@ SL_EXPORT int sl_read_double(struct sl_client *c, int id, double *ret, struct sl
 SL_EXPORT int sl_read_long(struct sl_client *c, int id, long *ret, struct sl_meta *meta)
 {
         char text[SHM_VALUE_SIZE], *end;
+        locale_t old;
         long v;
         int r;
 
@@ -251,11 +246,15 @@ SL_EXPORT int sl_read_long(struct sl_client *c, int id, long *ret, struct sl_met
         r = read_text(c, id, text, meta);
         if (r < 0)
                 return r;
+        /* Other locales may accept other forms of integers; the wire has only one. */
+        old = uselocale(c->c_locale);
         errno = 0;
         v = strtol(text, &end, 10);
+        r = errno;
+        uselocale(old);
         if (end == text || *end != '\0')
                 return -EDOM;
-        if (errno == ERANGE)
+        if (r == ERANGE)
                 return -ERANGE;
         *ret = v;
         return 0;

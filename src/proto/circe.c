@@ -477,49 +477,44 @@ static void store_value(struct circe_msg *m, unsigned id, const struct value *va
 
 /* ---- Packet parser --------------------------------------------------------------------------- */
 
-/* A parameter's place in the packet: pkt[pos] is its first id digit. */
+/* Most parameters a packet can hold: each takes 5 bytes at least ("ddd:" TAB). */
+#define PARAMS_MAX ((CIRCE_PACKET_MAX - HEADER_LEN - 1) / (PARAM_ID_DIGITS + 2))
+
+/* A parameter that passed step 5: its id and where its value lies in the packet. */
 struct param_ref {
-        unsigned id;
-        const uint8_t *value;
-        size_t len;
-        size_t next;                    /* position after its TAB */
+        uint16_t id;
+        uint16_t pos;
+        uint16_t len;
 };
 
-/* Step 5 for one parameter at pos (< end, pkt[end - 1] is TAB). */
-static bool param_syntax(const uint8_t *pkt, size_t pos, size_t end, struct param_ref *ret_ref)
-{
-        const uint8_t *tab;
-        size_t vpos = pos + PARAM_ID_DIGITS + 1;
+_Static_assert(CIRCE_PACKET_MAX <= UINT16_MAX, "struct param_ref holds 16-bit positions");
 
-        if (end - pos < PARAM_ID_DIGITS + 2)    /* "ddd:" TAB at the least */
+/* Step 1: STX first, ETX last, neither inside.  Also sums every byte before the ETX, from which
+ * step 2 takes its checksum. */
+static bool parse_framing(const uint8_t *pkt, size_t len, unsigned *ret_sum)
+{
+        unsigned sum = CIRCE_STX;
+
+        if (len < 2 || pkt[0] != CIRCE_STX || pkt[len - 1] != CIRCE_ETX)
                 return false;
-        for (size_t i = 0; i < PARAM_ID_DIGITS; i++)
-                if (!is_digit(pkt[pos + i]))
+        for (size_t i = 1; i < len - 1; i++) {
+                if (pkt[i] == CIRCE_STX || pkt[i] == CIRCE_ETX)
                         return false;
-        if (pkt[pos + PARAM_ID_DIGITS] != ':')
-                return false;
-        /* The region ends with TAB, so there is always one to find. */
-        tab = memchr(pkt + vpos, CIRCE_TAB, end - vpos);
-        if (!tab)
-                return false;
-        if (memchr(pkt + vpos, '\0', (size_t)(tab - (pkt + vpos))))
-                return false;
-        ret_ref->id = (unsigned)((pkt[pos] - '0') * 100 + (pkt[pos + 1] - '0') * 10 +
-                                 (pkt[pos + 2] - '0'));
-        ret_ref->value = pkt + vpos;
-        ret_ref->len = (size_t)(tab - (pkt + vpos));
-        ret_ref->next = (size_t)(tab - pkt) + 1;
+                sum += pkt[i];
+        }
+        *ret_sum = sum;
         return true;
 }
 
-/* Steps 2 (checksum) for pkt[0..end) where pkt[end] is ETX; sets *ret_body_end. */
-static enum circe_reason parse_checksum(const uint8_t *pkt, size_t end, struct circe_result *ret,
-                                        size_t *ret_body_end)
+/* Step 2 for pkt[0..end), pkt[end] being ETX and sum the sum of pkt[0..end); sets
+ * *ret_body_end, the end of what the checksum covers. */
+static enum circe_reason parse_checksum(const uint8_t *pkt, size_t end, unsigned sum,
+                                        struct circe_result *ret, size_t *ret_body_end)
 {
-        unsigned sum = 0;
         int hi, lo;
 
-        if (end >= 1 && pkt[end - 1] == CIRCE_TAB) {
+        /* The reference implementation's rule: TAB right before ETX means no checksum. */
+        if (pkt[end - 1] == CIRCE_TAB) {
                 *ret_body_end = end;
                 return CIRCE_REASON_NONE;
         }
@@ -530,8 +525,7 @@ static enum circe_reason parse_checksum(const uint8_t *pkt, size_t end, struct c
         lo = hex_any_val(pkt[end - 1]);
         if (hi < 0 || lo < 0)
                 return CIRCE_REASON_CHECKSUM_SYNTAX;
-        for (size_t i = 0; i < end - CHECKSUM_DIGITS; i++)
-                sum += pkt[i];
+        sum -= (unsigned)pkt[end - 2] + pkt[end - 1];   /* STX through the last TAB */
         if ((sum & 0xFF) != (unsigned)(hi << 4 | lo))
                 return CIRCE_REASON_BAD_CHECKSUM;
         ret->has_checksum = true;
@@ -539,35 +533,67 @@ static enum circe_reason parse_checksum(const uint8_t *pkt, size_t end, struct c
         return CIRCE_REASON_NONE;
 }
 
-/* Step 6 for the parameters of pkt[HEADER_LEN..end): checks and stores what the operation
- * keeps, counts what it skips; *ret_seen gets the ids kept. */
-static enum circe_reason parse_values(const uint8_t *pkt, size_t end, const struct op_spec *os,
+/* Step 5 for pkt[HEADER_LEN..end), pkt[end - 1] being TAB: every parameter is "ddd:" value TAB
+ * with no NUL in the value.  Fills refs[0..*ret_count). */
+static bool parse_syntax(const uint8_t *pkt, size_t end, struct param_ref refs[PARAMS_MAX],
+                         size_t *ret_count)
+{
+        size_t n = 0, pos = HEADER_LEN;
+
+        while (pos < end) {
+                size_t vpos = pos + PARAM_ID_DIGITS + 1, v;
+
+                /* n < PARAMS_MAX always holds within CIRCE_PACKET_MAX; kept as a guard. */
+                if (end - pos < PARAM_ID_DIGITS + 2 || n >= PARAMS_MAX)
+                        return false;
+                if (!is_digit(pkt[pos]) || !is_digit(pkt[pos + 1]) || !is_digit(pkt[pos + 2]) ||
+                    pkt[pos + PARAM_ID_DIGITS] != ':')
+                        return false;
+                /* pkt[end - 1] is TAB, so this scan stops inside the region. */
+                for (v = vpos; pkt[v] != CIRCE_TAB; v++)
+                        if (pkt[v] == '\0')
+                                return false;
+                refs[n].id = (uint16_t)((pkt[pos] - '0') * 100 + (pkt[pos + 1] - '0') * 10 +
+                                        (pkt[pos + 2] - '0'));
+                refs[n].pos = (uint16_t)vpos;
+                refs[n].len = (uint16_t)(v - vpos);
+                n++;
+                pos = v + 1;
+        }
+        *ret_count = n;
+        return true;
+}
+
+/* Step 6: checks and stores what the operation keeps, counts what it skips; *ret_seen gets
+ * the ids kept. */
+static enum circe_reason parse_values(const uint8_t *pkt, const struct param_ref *refs,
+                                      size_t count, const struct op_spec *os,
                                       struct circe_result *ret, uint64_t *ret_seen)
 {
         struct circe_msg *m = &ret->msg;
         uint64_t seen = 0;
-        struct param_ref ref;
 
-        for (size_t pos = HEADER_LEN; pos < end; pos = ref.next) {
+        for (size_t i = 0; i < count; i++) {
+                unsigned id = refs[i].id;
                 struct value val;
                 enum circe_reason r;
+                bool dest_list;
 
-                (void)param_syntax(pkt, pos, end, &ref);        /* checked by step 5 */
-                if (ref.id >= PARAM_ID_LIMIT || !(os->allowed & PBIT(ref.id))) {
+                if (id >= PARAM_ID_LIMIT || !(os->allowed & PBIT(id))) {
                         ret->skipped++;
                         continue;
                 }
-                bool dest_list = m->op == CIRCE_OP_VISUALIZE && ref.id == CIRCE_PARAM_DESTINATION;
-                if (!dest_list && (seen & PBIT(ref.id))) {
+                dest_list = m->op == CIRCE_OP_VISUALIZE && id == CIRCE_PARAM_DESTINATION;
+                if (!dest_list && (seen & PBIT(id))) {
                         ret->repeated++;
                         continue;
                 }
-                r = check_value(ref.id, ref.value, ref.len, &val);
+                r = check_value(id, pkt + refs[i].pos, refs[i].len, &val);
                 if (r != CIRCE_REASON_NONE) {
-                        ret->param = ref.id;
+                        ret->param = id;
                         return r;
                 }
-                seen |= PBIT(ref.id);
+                seen |= PBIT(id);
                 if (dest_list) {
                         struct circe_visualize *v = &m->u.visualize;
                         /* Cannot happen within CIRCE_PACKET_MAX (see the _Static_assert). */
@@ -575,31 +601,65 @@ static enum circe_reason parse_values(const uint8_t *pkt, size_t end, const stru
                                 return CIRCE_REASON_OVERLONG;
                         v->dests[v->dest_count++] = val.num;
                 } else {
-                        store_value(m, ref.id, &val);
+                        store_value(m, id, &val);
                 }
         }
         *ret_seen = seen;
         return CIRCE_REASON_NONE;
 }
 
+/* Zeroes the part of m that op uses, so absent optional fields read as zero. */
+static void msg_clear(struct circe_msg *m, enum circe_op op)
+{
+        m->op = op;
+        switch (op) {
+        case CIRCE_OP_ALERT:
+                memset(&m->u.alert, 0, sizeof(m->u.alert));
+                break;
+        case CIRCE_OP_NETWORK_SETUP:
+                memset(&m->u.network_setup, 0, sizeof(m->u.network_setup));
+                break;
+        case CIRCE_OP_DEVICE_SETUP:
+                memset(&m->u.device_setup, 0, sizeof(m->u.device_setup));
+                break;
+        case CIRCE_OP_VISUALIZE:
+                memset(&m->u.visualize, 0, sizeof(m->u.visualize));
+                break;
+        case CIRCE_OP_KEEP_ALIVE:
+                memset(&m->u.keep_alive, 0, sizeof(m->u.keep_alive));
+                break;
+        case CIRCE_OP_NOTIFY_STATUS:
+                memset(&m->u.notify_status, 0, sizeof(m->u.notify_status));
+                break;
+        case CIRCE_OP_NOTIFY_ACTION:
+                memset(&m->u.notify_action, 0, sizeof(m->u.notify_action));
+                break;
+        case CIRCE_OP_LOG:
+                memset(&m->u.log, 0, sizeof(m->u.log));
+                break;
+        default:
+                break;          /* no parameters */
+        }
+}
+
 static enum circe_reason parse_packet(const uint8_t *pkt, size_t len, struct circe_result *ret)
 {
+        struct param_ref refs[PARAMS_MAX];
         const struct op_spec *os;
-        size_t end, body_end;
+        size_t end, body_end, count;
         uint64_t seen, missing;
-        struct param_ref ref;
+        unsigned sum;
         enum circe_reason r;
 
         /* 1. framing */
         if (len > CIRCE_PACKET_MAX)
                 return CIRCE_REASON_OVERLONG;
-        if (len < 2 || pkt[0] != CIRCE_STX || pkt[len - 1] != CIRCE_ETX ||
-            memchr(pkt + 1, CIRCE_STX, len - 2) || memchr(pkt + 1, CIRCE_ETX, len - 2))
+        if (!parse_framing(pkt, len, &sum))
                 return CIRCE_REASON_BAD_FRAMING;
         end = len - 1;
 
         /* 2. checksum */
-        r = parse_checksum(pkt, end, ret, &body_end);
+        r = parse_checksum(pkt, end, sum, ret, &body_end);
         if (r != CIRCE_REASON_NONE)
                 return r;
 
@@ -610,15 +670,14 @@ static enum circe_reason parse_packet(const uint8_t *pkt, size_t len, struct cir
         os = op_spec_get((unsigned)((pkt[1] - '0') * 10 + (pkt[2] - '0')));
         if (!os)
                 return CIRCE_REASON_UNKNOWN_OP;
-        ret->msg.op = (enum circe_op)(os - op_specs);
 
         /* 5. syntax of every parameter, before any value is looked at */
-        for (size_t pos = HEADER_LEN; pos < body_end; pos = ref.next)
-                if (!param_syntax(pkt, pos, body_end, &ref))
-                        return CIRCE_REASON_BAD_PARAM_SYNTAX;
+        if (!parse_syntax(pkt, body_end, refs, &count))
+                return CIRCE_REASON_BAD_PARAM_SYNTAX;
 
         /* 6. values */
-        r = parse_values(pkt, body_end, os, ret, &seen);
+        msg_clear(&ret->msg, (enum circe_op)(os - op_specs));
+        r = parse_values(pkt, refs, count, os, ret, &seen);
         if (r != CIRCE_REASON_NONE)
                 return r;
 
@@ -651,6 +710,8 @@ static void result_reject(struct circe_result *ret, enum circe_reason reason)
 {
         ret->kind = CIRCE_RESULT_REJECTED;
         ret->reason = reason;
+        ret->skipped = 0;               /* counts of a dropped packet mean nothing */
+        ret->repeated = 0;
         ret->msg.op = CIRCE_OP_NONE;
 }
 
@@ -659,10 +720,8 @@ void circe_decode(const uint8_t *pkt, size_t len, struct circe_result *ret)
         enum circe_reason r;
 
         result_reset(ret, pkt, len);
-        memset(&ret->msg, 0, sizeof(ret->msg));
         r = parse_packet(pkt, len, ret);
         if (r != CIRCE_REASON_NONE) {
-                memset(&ret->msg, 0, sizeof(ret->msg));
                 result_reject(ret, r);
                 return;
         }
@@ -689,6 +748,22 @@ static void decoder_start(struct circe_decoder *d)
         d->buf[0] = CIRCE_STX;
         d->len = 1;
         d->state = CIRCE_DECODER_PACKET;
+}
+
+/* In PACKET: keeps the ordinary bytes (neither STX nor ETX) at the head of p that still leave
+ * room for ETX, in one go; returns how many.  Only a fast path for the loop below. */
+static size_t decoder_take_run(struct circe_decoder *d, const uint8_t *p, size_t n)
+{
+        size_t room = CIRCE_PACKET_MAX - 1 - d->len, k = 0;
+
+        if (n > room)
+                n = room;
+        while (k < n && p[k] != CIRCE_STX && p[k] != CIRCE_ETX) {
+                d->buf[d->len + k] = p[k];
+                k++;
+        }
+        d->len += k;
+        return k;
 }
 
 /* ETX arrived: parse buf, leave one result. */
@@ -758,6 +833,7 @@ size_t circe_decoder_feed(struct circe_decoder *d, const uint8_t *buf, size_t le
                                 goto out;
                         }
                         d->buf[d->len++] = c;
+                        i += decoder_take_run(d, buf + i, len - i);
                         break;
                 }
         }

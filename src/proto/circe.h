@@ -292,8 +292,8 @@ struct circe_result {
         /* The parameter a VALUE_* or MISSING_PARAM rejection is about; 0 when it is none, or when
          * a Visualize lacks all of its display parameters. */
         unsigned param;
-        unsigned skipped;               /* parameters not allowed for the operation, skipped */
-        unsigned repeated;              /* repeated parameters ignored (the first one counts) */
+        unsigned skipped;               /* MESSAGE: parameters not allowed for the op, skipped */
+        unsigned repeated;              /* MESSAGE: repeats ignored (the first one counts) */
         bool has_checksum;              /* the packet carried a (valid) checksum */
         /* The packet's bytes (STX ... ETX, or the partial packet for OVERLONG/ABANDONED); from
          * circe_decoder_feed() they live in the decoder and stay valid until its next call. */

@@ -31,15 +31,15 @@ uint64_t shm_events_write(struct shm_event *ring, uint32_t capacity, _Atomic uin
 
         /* Same ordering as shm_seqlock_write_begin/end, with the value 2n+1 / 2n+2 chosen here. */
         atomic_store_explicit(&e->seq, 2u * n + 1u, memory_order_relaxed);
-        atomic_thread_fence(memory_order_release);
-        atomic_store_explicit(&e->mono_ns, mono_ns, memory_order_relaxed);
-        atomic_store_explicit(&e->real_ns, real_ns, memory_order_relaxed);
-        atomic_store_explicit(&e->type, type, memory_order_relaxed);
-        atomic_store_explicit(&e->link, link, memory_order_relaxed);
-        atomic_store_explicit(&e->length, (uint32_t)len, memory_order_relaxed);
-        atomic_store_explicit(&e->flags, flags, memory_order_relaxed);
+        shm_seqlock_fence_release();
+        atomic_store_explicit(&e->mono_ns, mono_ns, SHM_SEQLOCK_PAYLOAD_STORE);
+        atomic_store_explicit(&e->real_ns, real_ns, SHM_SEQLOCK_PAYLOAD_STORE);
+        atomic_store_explicit(&e->type, type, SHM_SEQLOCK_PAYLOAD_STORE);
+        atomic_store_explicit(&e->link, link, SHM_SEQLOCK_PAYLOAD_STORE);
+        atomic_store_explicit(&e->length, (uint32_t)len, SHM_SEQLOCK_PAYLOAD_STORE);
+        atomic_store_explicit(&e->flags, flags, SHM_SEQLOCK_PAYLOAD_STORE);
         for (unsigned i = 0; i < SHM_EVENT_TEXT_WORDS; i++)
-                atomic_store_explicit(&e->text[i], words[i], memory_order_relaxed);
+                atomic_store_explicit(&e->text[i], words[i], SHM_SEQLOCK_PAYLOAD_STORE);
         atomic_store_explicit(&e->seq, 2u * n + 2u, memory_order_release);
         /* Head after the record: a reader that sees head >= n finds record n complete (or newer). */
         atomic_store_explicit(head, n, memory_order_release);
@@ -50,19 +50,19 @@ static void events_copy(const struct shm_event *e, struct shm_event_copy *c)
 {
         uint64_t words[SHM_EVENT_TEXT_WORDS];
 
-        c->mono_ns = atomic_load_explicit(&e->mono_ns, memory_order_relaxed);
-        c->real_ns = atomic_load_explicit(&e->real_ns, memory_order_relaxed);
-        c->type = atomic_load_explicit(&e->type, memory_order_relaxed);
-        c->link = atomic_load_explicit(&e->link, memory_order_relaxed);
-        c->length = atomic_load_explicit(&e->length, memory_order_relaxed);
-        c->flags = atomic_load_explicit(&e->flags, memory_order_relaxed);
+        c->mono_ns = atomic_load_explicit(&e->mono_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
+        c->real_ns = atomic_load_explicit(&e->real_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
+        c->type = atomic_load_explicit(&e->type, SHM_SEQLOCK_PAYLOAD_LOAD);
+        c->link = atomic_load_explicit(&e->link, SHM_SEQLOCK_PAYLOAD_LOAD);
+        c->length = atomic_load_explicit(&e->length, SHM_SEQLOCK_PAYLOAD_LOAD);
+        c->flags = atomic_load_explicit(&e->flags, SHM_SEQLOCK_PAYLOAD_LOAD);
         for (unsigned i = 0; i < SHM_EVENT_TEXT_WORDS; i++)
-                words[i] = atomic_load_explicit(&e->text[i], memory_order_relaxed);
+                words[i] = atomic_load_explicit(&e->text[i], SHM_SEQLOCK_PAYLOAD_LOAD);
         memcpy(c->text, words, sizeof(words));
 }
 
 int shm_events_read(const struct shm_event *ring, uint32_t capacity, const _Atomic uint64_t *head,
-                    uint64_t *cursor, struct shm_event_copy *ret)
+                    uint64_t *cursor, struct shm_event_copy *ret_event)
 {
         uint64_t next = *cursor + 1u;
         uint64_t lost = 0;
@@ -108,7 +108,7 @@ int shm_events_read(const struct shm_event *ring, uint32_t capacity, const _Atom
                         c.text[c.length] = '\0';
                         c.number = next;
                         c.lost = lost;
-                        *ret = c;
+                        *ret_event = c;
                         *cursor = next;
                         return 1;
                 }

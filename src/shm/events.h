@@ -35,10 +35,10 @@ uint64_t shm_events_write(struct shm_event *ring, uint32_t capacity, _Atomic uin
 /*
  * Reader: reads the record after *cursor (the number of the last record read; 0 to start with the
  * oldest one retained). Returns 1 and advances *cursor (records skipped because they were
- * overwritten are counted in ret->lost), 0 when there is nothing new, -EAGAIN when the producer
+ * overwritten are counted in ret_event->lost), 0 when there is nothing new, -EAGAIN when the producer
  * kept the record busy for every bounded attempt.
  */
 int shm_events_read(const struct shm_event *ring, uint32_t capacity, const _Atomic uint64_t *head,
-                    uint64_t *cursor, struct shm_event_copy *ret);
+                    uint64_t *cursor, struct shm_event_copy *ret_event);
 
 #endif

@@ -13,12 +13,13 @@
 
 /*
  * The signal handler is process-wide, so the "which thread is inside a guarded call" state must be
- * reachable from it without arguments: a thread-local pointer to that thread's jump buffer.
- * This and the once-flag below are the only global state in src/shm; the library never uses them.
+ * reachable from it without arguments: a thread-local pointer to that thread's jump buffer; and
+ * the handler that was installed before ours, to hand unguarded faults back to. These are the only
+ * global state in src/shm; the library never uses them.
  */
 static _Thread_local sigjmp_buf *volatile guard_jump;
-static pthread_once_t guard_once = PTHREAD_ONCE_INIT;
-static int guard_install_error;
+static pthread_mutex_t guard_lock = PTHREAD_MUTEX_INITIALIZER;
+static struct sigaction guard_previous;
 
 static void guard_handler(int sig, siginfo_t *info, void *context)
 {
@@ -30,32 +31,39 @@ static void guard_handler(int sig, siginfo_t *info, void *context)
                 guard_jump = NULL;
                 siglongjmp(*jump, 1);
         }
-        /* Not ours: fall back to the default action; returning re-executes the fault. */
-        signal(sig, SIG_DFL);
+        /* Not ours: put the previous handler back (the default action, or a sanitizer's) and
+         * return; the faulting instruction runs again and faults into it. */
+        sigaction(sig, &guard_previous, NULL);
 }
 
-static void guard_install_once(void)
+static int guard_installed(void)
 {
-        struct sigaction sa;
+        struct sigaction cur;
 
-        memset(&sa, 0, sizeof(sa));
-        sa.sa_sigaction = guard_handler;
-        /* SA_NODEFER: we leave the handler by siglongjmp on a buffer saved without the signal
-         * mask, so SIGBUS must not be blocked while the handler runs, or it would stay blocked
-         * and the next fault would kill the process. */
-        sa.sa_flags = SA_SIGINFO | SA_NODEFER;
-        sigemptyset(&sa.sa_mask);
-        if (sigaction(SIGBUS, &sa, NULL) < 0)
-                guard_install_error = -errno;
+        return sigaction(SIGBUS, NULL, &cur) == 0 && (cur.sa_flags & SA_SIGINFO) &&
+               cur.sa_sigaction == guard_handler;
 }
 
 int shm_guard_install(void)
 {
-        int r = pthread_once(&guard_once, guard_install_once);
+        struct sigaction sa;
+        int r = 0;
 
-        if (r != 0)
-                return -r;
-        return guard_install_error;
+        pthread_mutex_lock(&guard_lock);
+        /* Checked every time, not once: someone (a test framework) may have replaced it. */
+        if (!guard_installed()) {
+                memset(&sa, 0, sizeof(sa));
+                sa.sa_sigaction = guard_handler;
+                /* SA_NODEFER: we leave the handler by siglongjmp on a buffer saved without the
+                 * signal mask, so SIGBUS must not be blocked while the handler runs, or it would
+                 * stay blocked and the next fault would kill the process. */
+                sa.sa_flags = SA_SIGINFO | SA_NODEFER;
+                sigemptyset(&sa.sa_mask);
+                if (sigaction(SIGBUS, &sa, &guard_previous) < 0)
+                        r = -errno;
+        }
+        pthread_mutex_unlock(&guard_lock);
+        return r;
 }
 
 int shm_guard_run(void (*fn)(void *arg), void *arg)

@@ -8,13 +8,13 @@
  * client can truncate between the fstat and the copy. The guard installs one process-wide SIGBUS
  * handler (SA_NODEFER, so the signal is not left blocked after the jump); a thread arms it with a
  * thread-local jump buffer around the guarded call. A SIGBUS outside a guarded call restores the
- * default action and returns, so the faulting instruction raises it again and the process dies
- * as it would have without the guard. Daemon side only: the library never installs handlers.
+ * handler that was there before (the default action, or a sanitizer's) and returns, so the
+ * faulting instruction raises it again and the process dies as it would have without the guard. Daemon side only: the library never installs handlers.
  */
 #ifndef SHM_GUARD_H
 #define SHM_GUARD_H
 
-/* Installs the SIGBUS handler (idempotent, thread-safe). Returns 0 or -errno. */
+/* Installs the SIGBUS handler unless it is installed already (thread-safe). 0 or -errno. */
 int shm_guard_install(void);
 
 /*

@@ -12,21 +12,19 @@
 /* Relaxed word-wise copy of the payload; the caller brackets it with read_begin/read_retry. */
 static void slot_copy_payload(const struct shm_slot *slot, struct shm_slot_copy *c)
 {
-        uint64_t words[SHM_VALUE_WORDS];
+        c->mono_ns = atomic_load_explicit(&slot->mono_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
+        c->real_ns = atomic_load_explicit(&slot->real_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
+        c->flags = atomic_load_explicit(&slot->flags, SHM_SEQLOCK_PAYLOAD_LOAD);
+        c->length = atomic_load_explicit(&slot->length, SHM_SEQLOCK_PAYLOAD_LOAD);
+        for (unsigned i = 0; i < SHM_VALUE_WORDS; i++) {
+                uint64_t w = atomic_load_explicit(&slot->value[i], SHM_SEQLOCK_PAYLOAD_LOAD);
 
-        c->mono_ns = atomic_load_explicit(&slot->mono_ns, memory_order_relaxed);
-        c->real_ns = atomic_load_explicit(&slot->real_ns, memory_order_relaxed);
-        c->flags = atomic_load_explicit(&slot->flags, memory_order_relaxed);
-        c->length = atomic_load_explicit(&slot->length, memory_order_relaxed);
-        for (unsigned i = 0; i < SHM_VALUE_WORDS; i++)
-                words[i] = atomic_load_explicit(&slot->value[i], memory_order_relaxed);
-        memcpy(c->value, words, sizeof(words));
+                memcpy(c->value + 8u * i, &w, sizeof(w));       /* one 8-byte store */
+        }
 }
 
-int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *ret_copy)
+int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *copy)
 {
-        struct shm_slot_copy c;
-
         for (unsigned attempt = 0; attempt < SHM_SEQLOCK_TRIES; attempt++) {
                 uint64_t start = shm_seqlock_read_begin(&slot->seq);
 
@@ -34,11 +32,10 @@ int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *ret_copy)
                         shm_seqlock_relax();
                         continue;
                 }
-                slot_copy_payload(slot, &c);
+                slot_copy_payload(slot, copy);
                 if (shm_seqlock_read_retry(&slot->seq, start))
                         continue;
-                c.word = start;
-                *ret_copy = c;
+                copy->word = start;
                 return 0;
         }
         return -EAGAIN;
@@ -57,23 +54,23 @@ static void slot_store_value(struct shm_slot *slot, const char *value, uint32_t 
         memset(words, 0, sizeof(words));
         memcpy(words, value, len);
         for (unsigned i = 0; i < SHM_VALUE_WORDS; i++)
-                atomic_store_explicit(&slot->value[i], words[i], memory_order_relaxed);
+                atomic_store_explicit(&slot->value[i], words[i], SHM_SEQLOCK_PAYLOAD_STORE);
 }
 
 void shm_slot_store(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
                     uint64_t mono_ns, uint64_t real_ns)
 {
-        atomic_store_explicit(&slot->mono_ns, mono_ns, memory_order_relaxed);
-        atomic_store_explicit(&slot->real_ns, real_ns, memory_order_relaxed);
-        atomic_store_explicit(&slot->length, len, memory_order_relaxed);
+        atomic_store_explicit(&slot->mono_ns, mono_ns, SHM_SEQLOCK_PAYLOAD_STORE);
+        atomic_store_explicit(&slot->real_ns, real_ns, SHM_SEQLOCK_PAYLOAD_STORE);
+        atomic_store_explicit(&slot->length, len, SHM_SEQLOCK_PAYLOAD_STORE);
         slot_store_value(slot, value, len);
-        atomic_store_explicit(&slot->flags, flags, memory_order_relaxed);
+        atomic_store_explicit(&slot->flags, flags, SHM_SEQLOCK_PAYLOAD_STORE);
 }
 
 void shm_slot_store_word(struct shm_slot *slot, unsigned i, uint64_t w)
 {
         if (i < SHM_VALUE_WORDS)
-                atomic_store_explicit(&slot->value[i], w, memory_order_relaxed);
+                atomic_store_explicit(&slot->value[i], w, SHM_SEQLOCK_PAYLOAD_STORE);
 }
 
 void shm_slot_write(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
@@ -89,7 +86,7 @@ void shm_slot_write_flags(struct shm_slot *slot, uint32_t flags)
 {
         uint64_t odd = shm_seqlock_write_begin(&slot->seq);
 
-        atomic_store_explicit(&slot->flags, flags, memory_order_relaxed);
+        atomic_store_explicit(&slot->flags, flags, SHM_SEQLOCK_PAYLOAD_STORE);
         shm_seqlock_write_end(&slot->seq, odd);
 }
 
@@ -127,7 +124,7 @@ int shm_slot_repair(struct shm_slot *slot, uint64_t odd_word, uint32_t self_pid,
         if (!atomic_compare_exchange_strong_explicit(&slot->seq, &expected, ours,
                                                      memory_order_acquire, memory_order_relaxed))
                 return -EAGAIN;
-        atomic_thread_fence(memory_order_release);      /* as in shm_seqlock_claim */
+        shm_seqlock_fence_release();                    /* as in shm_seqlock_claim */
         shm_slot_store(slot, "", 0, SHM_SLOT_REPAIRED, mono_ns, real_ns);
         return shm_seqlock_release(&slot->seq, ours) == 0 ? 0 : -EAGAIN;
 }

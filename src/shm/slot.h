@@ -24,11 +24,14 @@ struct shm_slot_copy {
 };
 
 /*
- * Bounded seqlock read: copies the slot into *ret_copy and returns 0, or returns -EAGAIN after
+ * Bounded seqlock read: copies the slot into *copy and returns 0, or returns -EAGAIN after
  * SHM_SEQLOCK_TRIES attempts that all found it odd or changing. The copy is consistent but not
  * validated (length, charset): use shm_slot_copy_check for memory a client can write.
+ * Unlike a ret_ parameter, *copy is the scratch buffer of the attempts and holds garbage after
+ * -EAGAIN: copying a private copy out on success instead cost 2.7x (26 vs 9.5 ns, x86-64, a
+ * store-forwarding stall), and this is the hot path of every client read.
  */
-int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *ret_copy);
+int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *copy);
 
 /* Acquire load of the seqlock word (the daemon's "did it change since the last scan"). */
 uint64_t shm_slot_word(const struct shm_slot *slot);

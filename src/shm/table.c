@@ -482,9 +482,11 @@ static void table_free(struct shm_table *t)
         free(t);
 }
 
-/* Private bookkeeping of the configured variables; counts outbound ones into out_capacity. */
+/* Private bookkeeping of the configured variables; outbound ones get .out slots in order. */
 static int vars_index(struct shm_table *t, const struct shm_table_config *cfg)
 {
+        uint32_t out = 0;
+
         for (uint32_t i = 0; i < cfg->nvars; i++) {
                 const struct shm_var *v = &cfg->vars[i];
                 struct table_var *tv = &t->vars[i];
@@ -498,8 +500,8 @@ static int vars_index(struct shm_table *t, const struct shm_table_config *cfg)
                 tv->link = v->link;
                 tv->out_slot = SHM_OUT_NONE;
                 if (v->direction == SHM_DIR_OUT) {
-                        tv->out_slot = t->out_capacity;
-                        t->out_ids[t->out_capacity++] = i;
+                        tv->out_slot = out;
+                        t->out_ids[out++] = i;
                 }
                 hash_insert(t, tv->name, (int32_t)i);
         }
@@ -574,6 +576,9 @@ int shm_table_create(const struct shm_table_config *cfg, struct shm_table **ret_
         t->capacity = cfg->nvars + cfg->adhoc_capacity;
         t->event_capacity = events_capacity(cfg->event_capacity);
         t->out_generation = 1;
+        for (uint32_t i = 0; i < cfg->nvars; i++)
+                if (cfg->vars[i].direction == SHM_DIR_OUT)
+                        t->out_capacity++;
         random_epoch(&t->epoch);
         if (shm_layout_object_name(cfg->instance, "in", t->in_name, sizeof(t->in_name)) < 0 ||
             shm_layout_object_name(cfg->instance, "out", t->out_name, sizeof(t->out_name)) < 0) {
@@ -594,6 +599,8 @@ int shm_table_create(const struct shm_table_config *cfg, struct shm_table **ret_
                 r = replace_stale_in(t->in_name);
                 if (r == 0)
                         r = create_object(t->in_name, g.total_size, &t->in_fd, &map);
+                if (r == -EEXIST)
+                        r = -EBUSY;     /* another daemon was quicker */
         }
         if (r < 0)
                 goto fail;
@@ -830,10 +837,10 @@ int shm_table_link_state(struct shm_table *t, uint32_t link, uint32_t state, con
         memset(words, 0, sizeof(words));
         memcpy(words, name, strlen(name));
         odd = shm_seqlock_write_begin(&l->seq);
-        atomic_store_explicit(&l->state, state, memory_order_relaxed);
-        atomic_store_explicit(&l->state_ns, clock_ns(CLOCK_MONOTONIC), memory_order_relaxed);
+        atomic_store_explicit(&l->state, state, SHM_SEQLOCK_PAYLOAD_STORE);
+        atomic_store_explicit(&l->state_ns, clock_ns(CLOCK_MONOTONIC), SHM_SEQLOCK_PAYLOAD_STORE);
         for (unsigned i = 0; i < SHM_STATE_NAME_WORDS; i++)
-                atomic_store_explicit(&l->state_name[i], words[i], memory_order_relaxed);
+                atomic_store_explicit(&l->state_name[i], words[i], SHM_SEQLOCK_PAYLOAD_STORE);
         shm_seqlock_write_end(&l->seq, odd);
         publish(t);
         return 0;
@@ -1076,6 +1083,9 @@ int shm_table_out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata)
 
         if (t->out_capacity == 0)
                 return 0;
+        /* Cheap (one sigaction) and robust against anyone having replaced the handler since. */
+        if (shm_guard_install() < 0)
+                return -EFAULT;
         if (out_check(t) < 0 || shm_guard_run(scan_copy, t) < 0)
                 return scan_broken(t);
         for (uint32_t i = 0; i < t->out_capacity; i++) {

@@ -165,6 +165,8 @@ uint64_t shm_table_eventf(struct shm_table *t, enum shm_event_type type, uint32_
  * per changed slot. Never waits on a client-controlled word.
  * Returns the number of changes reported, or -EBADMSG when the object was truncated or its header
  * overwritten: it was then recreated empty (clients reopen it) and the scan is void.
+ * Call it when the wake fd is readable, and also on a periodic timer (e.g. the link period): a
+ * writer that died mid-write never bumps the change word, so only a later scan repairs its slot.
  */
 int shm_table_out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata);
 

@@ -42,7 +42,10 @@ static void wake_load_fn(void *arg)
 static int wake_read(const _Atomic uint32_t *word, uint32_t *ret_value)
 {
         struct wake_load l = { .word = word, .value = 0 };
-        int r = shm_guard_run(wake_load_fn, &l);
+        int r = shm_guard_install();
+
+        if (r == 0)
+                r = shm_guard_run(wake_load_fn, &l);
 
         if (r < 0)
                 return r;

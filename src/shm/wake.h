@@ -21,7 +21,7 @@
 
 struct shm_wake;
 
-/* Starts the thread (watching nothing) and its eventfd. Needs shm_guard_install. 0 or -errno. */
+/* Starts the thread (watching nothing) and its eventfd. 0 or -errno. */
 int shm_wake_start(struct shm_wake **ret_wake);
 
 /* The eventfd (non-blocking, close-on-exec): readable when the watched word changed. */

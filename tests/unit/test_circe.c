@@ -826,6 +826,25 @@ static void test_packet_bound(void **state)
         assert_int_equal(d.stats.discarded, 2);         /* the 1024th body byte and the ETX */
         assert_int_equal(d.stats.rejected[CIRCE_REASON_OVERLONG], 1);
         assert_int_equal(d.stats.stray_etx, 0);
+        {
+                /* The same whatever the reads: split everywhere, counters included. */
+                const struct expect want2[] = { REJ(CIRCE_REASON_OVERLONG), MSG(CIRCE_OP_LOGIN) };
+                struct circe_decoder_stats st;
+                check_stream((const char *)s, len + 5, want2, 2, &st);
+                assert_int_equal(st.discarded, 2);
+        }
+        {
+                /* Exactly at the bound, preceded and followed by other packets, split
+                 * everywhere. */
+                size_t k = build("02" T, 3, CS_NONE, s);
+                k += build(body, log_body(body, CIRCE_LOG_MAX), CS_NONE, s + k);
+                k += build("06" T, 3, CS_UPPER, s + k);
+                const struct expect want3[] = { MSG(CIRCE_OP_LOGOUT), MSG(CIRCE_OP_LOG),
+                                                MSG(CIRCE_OP_SYNC_CLOCKS) };
+                struct circe_decoder_stats st;
+                check_stream((const char *)s, k, want3, 3, &st);
+                assert_int_equal(st.rejected[CIRCE_REASON_OVERLONG], 0);
+        }
 
         /* A long run of garbage after STX: one overlong result, not one per byte. */
         memset(s, 'A', sizeof(s));

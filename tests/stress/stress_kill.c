@@ -1,0 +1,325 @@
+/*
+ * Kill stress: a client writing outbound values is killed with SIGKILL at a random point of its
+ * writes, again and again. After each kill the daemon side scans .out: a slot the dead writer left
+ * odd must be repaired at once (none stays wedged: every lock word is even after the scan, and the
+ * next writer gets every slot), and no half-written value is ever accepted by the daemon or read
+ * as valid by a reader process that reads all the time through the library.
+ *
+ * Writers alternate between the library (sl_write) and a deliberately slow raw writer that stores
+ * the value word by word, yielding in between, so that many kills land inside a write.
+ * Runs KILL_ITERATIONS kills (default 2000; a few seconds on an idle machine), or until
+ * STRESS_SECONDS (default 30) have passed on a busy one, whichever comes first.
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <inttypes.h>
+#include <sched.h>
+#include <signal.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <sharedlink.h>
+
+#include "common/shmtest.h"
+#include "shm/futex.h"
+#include "shm/seqlock.h"
+#include "shm/slot.h"
+#include "shm/table.h"
+
+#define NVARS                   4
+#define DEFAULT_ITERATIONS      2000
+#define DEFAULT_SECONDS         30
+#define WAIT_LIMIT_MS           10000
+#define NS_PER_S                1000000000ull
+
+struct shared {
+        _Atomic int stop;
+        _Atomic uint64_t reads;
+        _Atomic uint64_t valid_reads;
+        _Atomic uint64_t torn;
+};
+
+static uint64_t now_ns(void)
+{
+        struct timespec ts;
+
+        clock_gettime(CLOCK_MONOTONIC, &ts);
+        return (uint64_t)ts.tv_sec * NS_PER_S + (uint64_t)ts.tv_nsec;
+}
+
+/* Value for (writer, n): "w<writer>n<n>:" then filler, then the 2-hex-digit sum of what precedes. */
+static size_t make_value(unsigned writer, uint64_t n, char *buf)
+{
+        size_t len = (size_t)snprintf(buf, SL_VALUE_SIZE, "w%un%" PRIu64 ":", writer, n);
+        size_t target = 24 + (size_t)(n % 36);
+        unsigned sum = 0;
+
+        while (len < target) {
+                buf[len] = (char)('a' + (n + len) % 26);
+                len++;
+        }
+        for (size_t i = 0; i < len; i++)
+                sum += (unsigned char)buf[i];
+        snprintf(buf + len, SL_VALUE_SIZE - len, "%02X", sum & 0xffu);
+        return len + 2;
+}
+
+/* 1 when v is exactly a value make_value can produce. */
+static int value_ok(const char *v, size_t len)
+{
+        char expect[SL_VALUE_SIZE];
+        unsigned writer;
+        uint64_t n;
+
+        if (sscanf(v, "w%un%" SCNu64 ":", &writer, &n) != 2)
+                return 0;
+        return make_value(writer, n, expect) == len && memcmp(expect, v, len) == 0;
+}
+
+/* ---- the writer that gets killed --------------------------------------------------------------- */
+
+struct writer_arg {
+        const char *instance;
+        unsigned index;
+        int slow;
+};
+
+static int writer_main(void *arg)
+{
+        struct writer_arg *w = arg;
+        char value[SL_VALUE_SIZE], name[SHM_OBJECT_NAME_SIZE];
+        struct sl_client *c;
+        struct shm_out_header *h = NULL;
+        struct shm_slot *slots = NULL;
+        int fd;
+
+        if (sl_open(w->instance, &c) < 0)
+                return 1;
+        if (w->slow) {
+                shm_layout_object_name(w->instance, "out", name, sizeof(name));
+                fd = shm_open(name, O_RDWR, 0);
+                if (fd < 0)
+                        return 2;
+                h = mmap(NULL, shm_layout_out_size(NVARS), PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+                close(fd);
+                if (h == MAP_FAILED)
+                        return 3;
+                slots = (struct shm_slot *)(h + 1);
+        }
+        for (uint64_t n = 0;; n++) {
+                unsigned id = (unsigned)((n * 7 + w->index) % NVARS);
+                size_t len = make_value(w->index, n, value);
+                uint64_t word, words[SHM_VALUE_WORDS];
+
+                if (!w->slow) {
+                        if (sl_write(c, (int)id, value) < 0)
+                                return 4;
+                        continue;
+                }
+                /* By hand, slowly: the odd window spans several yields. */
+                if (shm_slot_claim(&slots[id], (uint32_t)getpid(), &word) < 0)
+                        return 5;
+                memset(words, 0, sizeof(words));
+                memcpy(words, value, len);
+                atomic_store_explicit(&slots[id].length, (uint32_t)len, memory_order_relaxed);
+                for (unsigned i = 0; i < SHM_VALUE_WORDS; i++) {
+                        shm_slot_store_word(&slots[id], i, words[i]);
+                        sched_yield();
+                }
+                atomic_store_explicit(&slots[id].flags, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND,
+                                      memory_order_relaxed);
+                if (shm_slot_publish(&slots[id], word) < 0)
+                        return 6;
+                atomic_fetch_add(&h->change, 1);
+                shm_futex_wake(&h->change, 1);
+        }
+}
+
+/* ---- a reader that never stops reading --------------------------------------------------------- */
+
+struct reader_arg {
+        const char *instance;
+        struct shared *sh;
+};
+
+static int reader_main(void *arg)
+{
+        struct reader_arg *r = arg;
+        struct sl_meta meta = { .size = sizeof(meta) };
+        uint64_t reads = 0, valid = 0, torn = 0;
+        char buf[SL_VALUE_SIZE];
+        struct sl_client *c;
+
+        if (sl_open(r->instance, &c) < 0)
+                return 1;
+        while (!atomic_load_explicit(&r->sh->stop, memory_order_relaxed)) {
+                int len = sl_read(c, (int)(reads % NVARS), buf, sizeof(buf), &meta);
+
+                reads++;
+                if (len < 0 || !(meta.flags & SL_FLAG_VALID))
+                        continue;       /* busy, or no valid value: nothing handed out */
+                valid++;
+                if (!value_ok(buf, (size_t)len))
+                        torn++;
+        }
+        atomic_fetch_add(&r->sh->reads, reads);
+        atomic_fetch_add(&r->sh->valid_reads, valid);
+        atomic_fetch_add(&r->sh->torn, torn);
+        sl_close(c);
+        return 0;
+}
+
+/* ---- the daemon side ------------------------------------------------------------------------------ */
+
+struct scan_stats {
+        uint64_t accepted;
+        uint64_t repaired;
+        uint64_t bad;           /* an accepted value that is not a complete value: must stay 0 */
+        uint64_t invalid;       /* writers only write valid values: must stay 0 */
+};
+
+static void on_change(void *userdata, const struct shm_out_change *ch)
+{
+        struct scan_stats *s = userdata;
+
+        switch (ch->status) {
+        case SHM_OUT_CHANGED:
+                s->accepted++;
+                if (!value_ok(ch->value, ch->length))
+                        s->bad++;
+                break;
+        case SHM_OUT_REPAIRED:
+                s->repaired++;
+                break;
+        case SHM_OUT_INVALID:
+                s->invalid++;
+                break;
+        }
+}
+
+/* Waits (on the futex, not a clock) until writers bumped the .out change word `steps` times. */
+static int wait_progress(const struct shm_out_header *h, unsigned steps)
+{
+        uint32_t start = atomic_load(&h->change), seen;
+
+        while ((seen = atomic_load(&h->change)) - start < steps)
+                if (shm_futex_wait(&h->change, seen, WAIT_LIMIT_MS) == -ETIMEDOUT)
+                        return -1;
+        return 0;
+}
+
+static int all_even(const struct shm_slot *slots)
+{
+        for (unsigned i = 0; i < NVARS; i++)
+                if (shm_seqlock_odd(shm_slot_word(&slots[i])))
+                        return 0;
+        return 1;
+}
+
+static int create_table(const char *instance, struct shm_table **ret)
+{
+        static const char *const names[NVARS] = { "o0", "o1", "o2", "o3" };
+        struct shm_var vars[NVARS];
+        struct shm_table_config cfg;
+
+        memset(&cfg, 0, sizeof(cfg));
+        for (int i = 0; i < NVARS; i++)
+                vars[i] = (struct shm_var){ names[i], SHM_DIR_OUT, SHM_TYPE_STRING, SHM_LINK_NONE,
+                                            NULL, SHM_POSITION_NONE };
+        cfg.instance = instance;
+        cfg.vars = vars;
+        cfg.nvars = NVARS;
+        return shm_table_create(&cfg, ret);
+}
+
+static unsigned env_unsigned(const char *name, unsigned def)
+{
+        const char *v = getenv(name);
+        unsigned long n = v ? strtoul(v, NULL, 10) : 0;
+
+        return n ? (unsigned)n : def;
+}
+
+int main(void)
+{
+        unsigned iterations = env_unsigned("KILL_ITERATIONS", DEFAULT_ITERATIONS);
+        uint64_t deadline = now_ns() + env_unsigned("STRESS_SECONDS", DEFAULT_SECONDS) * NS_PER_S;
+        struct shared *sh = mmap(NULL, sizeof(*sh), PROT_READ | PROT_WRITE,
+                                 MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+        char instance[64], name[SHM_OBJECT_NAME_SIZE];
+        struct scan_stats st = { 0, 0, 0, 0 };
+        struct reader_arg ra;
+        struct shm_table *t;
+        struct shm_out_header *h;
+        unsigned kills = 0, wedged = 0, stuck = 0, final_fail = 0;
+        struct sl_client *c;
+        pid_t reader;
+        int fd, failed;
+
+        srand((unsigned)getpid());
+        shmtest_instance(instance, sizeof(instance), "kill");
+        if (sh == MAP_FAILED || create_table(instance, &t) < 0)
+                return 2;
+        memset(sh, 0, sizeof(*sh));
+        shm_layout_object_name(instance, "out", name, sizeof(name));
+        fd = shm_open(name, O_RDONLY, 0);
+        h = mmap(NULL, shm_layout_out_size(NVARS), PROT_READ, MAP_SHARED, fd, 0);
+        close(fd);
+        if (h == MAP_FAILED)
+                return 2;
+        ra = (struct reader_arg){ instance, sh };
+        reader = shmtest_fork(reader_main, &ra);
+
+        for (; kills < iterations && now_ns() < deadline; kills++) {
+                struct writer_arg w = { instance, kills, (int)(kills & 1u) };
+                pid_t pid = shmtest_fork(writer_main, &w);
+
+                /* Let it get going for a random number of writes, then kill it mid-stride
+                 * (fewer for the slow writer: each of its writes yields the CPU eight times). */
+                if (wait_progress(h, 1u + (unsigned)rand() % (w.slow ? 6u : 40u)) < 0)
+                        stuck++;
+                kill(pid, SIGKILL);
+                if (shmtest_wait(pid) != 128 + SIGKILL)
+                        stuck++;
+                shm_table_out_scan(t, on_change, &st);
+                if (!all_even((const struct shm_slot *)(h + 1)))
+                        wedged++;
+        }
+
+        /* Every slot still takes a write (nothing wedged), and the daemon accepts it. */
+        if (sl_open(instance, &c) == 0) {
+                for (int i = 0; i < NVARS; i++) {
+                        char v[SL_VALUE_SIZE];
+
+                        make_value(9999, (uint64_t)i, v);
+                        final_fail += sl_write(c, i, v) != 0;
+                }
+                sl_close(c);
+        } else {
+                final_fail = NVARS;
+        }
+        uint64_t before = st.accepted;
+        shm_table_out_scan(t, on_change, &st);
+        final_fail += st.accepted - before != NVARS;
+
+        atomic_store(&sh->stop, 1);
+        failed = shmtest_wait(reader) != 0;
+        failed |= st.bad || st.invalid || wedged || stuck || final_fail || atomic_load(&sh->torn);
+        /* A run in which no kill landed inside a write proved nothing about repair. */
+        failed |= st.repaired == 0 || atomic_load(&sh->valid_reads) == 0;
+        printf("stress_kill: kills=%u repaired=%" PRIu64 " accepted=%" PRIu64 " bad=%" PRIu64
+               " invalid=%" PRIu64 " wedged=%u stuck=%u final_write_failures=%u\n",
+               kills, st.repaired, st.accepted, st.bad, st.invalid, wedged, stuck, final_fail);
+        printf("stress_kill: reader reads=%" PRIu64 " valid=%" PRIu64 " torn=%" PRIu64 "\n",
+               atomic_load(&sh->reads), atomic_load(&sh->valid_reads), atomic_load(&sh->torn));
+        printf("stress_kill: %s\n", failed ? "FAILED" : "ok, nothing wedged, nothing half-written");
+        munmap(h, shm_layout_out_size(NVARS));
+        shm_table_destroy(t);
+        shmtest_unlink(instance);
+        return failed;
+}

@@ -1,0 +1,887 @@
+/*
+ * Unit tests of libsharedlink against real tables made by the daemon-side module (this process, or
+ * a child process, plays the daemon): ids, reads and metadata, writes and their refusals, waiting,
+ * events, links, ad hoc names, daemon restarts (clean and crashed), a recreated .out, permissions.
+ */
+#include <errno.h>
+#include <fcntl.h>
+#include <locale.h>
+#include <math.h>
+#include <pthread.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include <sharedlink.h>
+
+#include "common/shmtest.h"
+#include "shm/layout.h"
+#include "shm/slot.h"
+#include "shm/table.h"
+
+#define WAIT_LIMIT_MS   10000   /* a hang guard, not a timing assertion */
+#define ADHOC           4u
+
+enum { LAT, LON, THROTTLE, STEER, STATE, NOTE, NVARS };
+
+static const struct shm_var vars[NVARS] = {
+        { "AutoGpsLat", SHM_DIR_IN, SHM_TYPE_DOUBLE, 0, "A", 0 },
+        { "AutoGpsLon", SHM_DIR_IN, SHM_TYPE_DOUBLE, 0, "A", 1 },
+        { "CmdThrottle", SHM_DIR_OUT, SHM_TYPE_DOUBLE, 0, "A", 0 },
+        { "CmdSteer", SHM_DIR_OUT, SHM_TYPE_LONG, 0, "A", 1 },
+        { "agility.state", SHM_DIR_IN, SHM_TYPE_STRING, 1, NULL, SHM_POSITION_NONE },
+        { "Note", SHM_DIR_OUT, SHM_TYPE_STRING, SHM_LINK_NONE, NULL, SHM_POSITION_NONE },
+};
+
+static const struct shm_link_def links[] = {
+        { "vehicle", "sharedlink" },
+        { "agility", "circe" },
+};
+
+struct fixture {
+        char instance[64];
+        struct shm_table_config cfg;
+        struct shm_table *t;
+        struct sl_client *c;
+};
+
+static void config_default(struct fixture *f)
+{
+        memset(&f->cfg, 0, sizeof(f->cfg));
+        f->cfg.instance = f->instance;
+        f->cfg.vars = vars;
+        f->cfg.nvars = NVARS;
+        f->cfg.links = links;
+        f->cfg.nlinks = 2;
+        f->cfg.adhoc_capacity = ADHOC;
+        f->cfg.event_capacity = 16;
+}
+
+static int setup_daemon(void **state)
+{
+        struct fixture *f = calloc(1, sizeof(*f));
+
+        shmtest_instance(f->instance, sizeof(f->instance), "lib");
+        config_default(f);
+        *state = f;
+        return shm_table_create(&f->cfg, &f->t) == 0 ? 0 : -1;
+}
+
+static int setup_bare(void **state)
+{
+        struct fixture *f = calloc(1, sizeof(*f));
+
+        shmtest_instance(f->instance, sizeof(f->instance), "lib");
+        config_default(f);
+        *state = f;
+        return 0;
+}
+
+static int setup(void **state)
+{
+        struct fixture *f;
+
+        if (setup_daemon(state) < 0)
+                return -1;
+        f = *state;
+        return sl_open(f->instance, &f->c) == 0 ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+        struct fixture *f = *state;
+
+        sl_close(f->c);
+        shm_table_destroy(f->t);
+        shmtest_unlink(f->instance);
+        free(f);
+        return 0;
+}
+
+struct seen {
+        unsigned n;
+        struct shm_out_change last;
+};
+
+static void on_change(void *userdata, const struct shm_out_change *change)
+{
+        struct seen *s = userdata;
+
+        s->n++;
+        s->last = *change;
+}
+
+static int scan(struct fixture *f, struct seen *s)
+{
+        memset(s, 0, sizeof(*s));
+        return shm_table_out_scan(f->t, on_change, s);
+}
+
+/* ---- open, ids ------------------------------------------------------------------------------ */
+
+static void test_open_errors(void **state)
+{
+        struct fixture *f = *state;
+        struct sl_client *c = NULL;
+        char other[64];
+
+        shmtest_instance(other, sizeof(other), "absent");
+        assert_int_equal(sl_open(other, &c), -ENOENT);
+        assert_null(c);
+        assert_int_equal(sl_open("bad/name", &c), -EINVAL);
+        assert_int_equal(sl_open(f->instance, NULL), -EINVAL);
+        /* NULL: the environment names the instance. */
+        setenv("SHAREDLINK_INSTANCE", f->instance, 1);
+        assert_int_equal(sl_open(NULL, &c), 0);
+        unsetenv("SHAREDLINK_INSTANCE");
+        assert_int_equal(sl_count(c), NVARS);
+        assert_null(sl_close(c));
+        assert_null(sl_close(NULL));
+}
+
+static void test_find_info(void **state)
+{
+        struct fixture *f = *state;
+        struct sl_var_info info = { .size = sizeof(info) };
+        struct sl_var_info small = { .size = sizeof(size_t) };
+
+        assert_int_equal(sl_count(f->c), NVARS);
+        for (int i = 0; i < NVARS; i++) {
+                assert_int_equal(sl_find(f->c, vars[i].name), i);
+                assert_int_equal(sl_info(f->c, i, &info), 0);
+                assert_int_equal(info.size, sizeof(info));
+                assert_string_equal(info.name, vars[i].name);
+                assert_int_equal(info.direction, (int)vars[i].direction);
+                assert_int_equal(info.type, (int)vars[i].type);
+                assert_int_equal(info.link, vars[i].link == SHM_LINK_NONE ? -1 : (int)vars[i].link);
+                assert_string_equal(info.peer, vars[i].peer ? vars[i].peer : "");
+                assert_int_equal(info.position, vars[i].position);
+                assert_int_equal(info.flags, 0);
+        }
+        assert_int_equal(sl_find(f->c, "NoSuchThing"), -ENOENT);
+        assert_int_equal(sl_find(f->c, ""), -ENOENT);
+        assert_int_equal(sl_find(f->c, NULL), -EINVAL);
+        assert_int_equal(sl_info(f->c, NVARS, &info), -ENOENT);
+        assert_int_equal(sl_info(f->c, -1, &info), -ENOENT);
+        assert_int_equal(sl_info(f->c, 0, &small), -EINVAL);
+        assert_int_equal(sl_count(NULL), -EINVAL);
+        assert_int_equal(sl_find(NULL, "x"), -EINVAL);
+}
+
+/* ---- reads ---------------------------------------------------------------------------------- */
+
+static void test_read(void **state)
+{
+        struct fixture *f = *state;
+        struct sl_meta meta = { .size = sizeof(meta) };
+        char buf[SL_VALUE_SIZE];
+
+        /* Never set: empty, not valid. */
+        assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 0);
+        assert_string_equal(buf, "");
+        assert_int_equal(meta.flags & SL_FLAG_VALID, 0);
+        assert_int_equal(meta.sequence, 0);
+
+        shm_table_begin_at(f->t, 5000, 6000);
+        shm_table_set_str(f->t, LAT, "40.12345678");
+        shm_table_commit(f->t);
+        assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 11);
+        assert_string_equal(buf, "40.12345678");
+        assert_int_equal(meta.size, sizeof(meta));
+        assert_int_equal(meta.flags, SL_FLAG_VALID);
+        assert_int_equal(meta.mono_ns, 5000);
+        assert_int_equal(meta.real_ns, 6000);
+        assert_int_equal(meta.sequence, 1);
+        assert_true(meta.age_ns > 0);
+        shm_table_set_str(f->t, LAT, "40.2");
+        assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), NULL), 4);
+        assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 4);
+        assert_int_equal(meta.sequence, 2);
+
+        shm_table_set_link_stale(f->t, 0, 1);
+        assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 4);
+        assert_int_equal(meta.flags, SL_FLAG_VALID | SL_FLAG_STALE);
+
+        assert_int_equal(sl_read(f->c, LAT, buf, 4, &meta), -ENOBUFS);  /* no room for NUL */
+        assert_int_equal(sl_read(f->c, LAT, buf, 5, &meta), 4);
+        assert_int_equal(sl_read(f->c, NVARS, buf, sizeof(buf), &meta), -ENOENT);
+        assert_int_equal(sl_read(f->c, -5, buf, sizeof(buf), &meta), -ENOENT);
+        assert_int_equal(sl_read(f->c, LAT, NULL, 0, &meta), -EINVAL);
+        meta.size = 4;
+        assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), -EINVAL);
+
+        /* A caller built against a newer, larger struct: filled up to what we know, rest kept. */
+        struct { struct sl_meta m; unsigned char tail[16]; } big;
+        memset(&big, 0x77, sizeof(big));
+        big.m.size = sizeof(big);
+        assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &big.m), 4);
+        assert_int_equal(big.m.size, sizeof(big));
+        assert_int_equal(big.m.flags, SL_FLAG_VALID | SL_FLAG_STALE);
+        for (size_t i = 0; i < sizeof(big.tail); i++)
+                assert_int_equal(big.tail[i], 0x77);
+}
+
+static void test_read_numbers(void **state)
+{
+        struct fixture *f = *state;
+        static const struct {
+                const char *text;
+                int dr; double d;
+                int lr; long l;
+        } cases[] = {
+                { "40.5", 0, 40.5, -EDOM, 0 },
+                { "-113.25", 0, -113.25, -EDOM, 0 },
+                { "12", 0, 12.0, 0, 12 },
+                { "-7", 0, -7.0, 0, -7 },
+                { "1e3", 0, 1000.0, -EDOM, 0 },
+                { "abc", -EDOM, 0, -EDOM, 0 },
+                { "12abc", -EDOM, 0, -EDOM, 0 },
+                { "", -ENODATA, 0, -ENODATA, 0 },
+                { "99999999999999999999999", 0, 1e23, -ERANGE, 0 },
+                { "1e999", -ERANGE, 0, -EDOM, 0 },
+        };
+        struct sl_meta meta = { .size = sizeof(meta) };
+        double d;
+        long l;
+
+        assert_int_equal(sl_read_double(f->c, LAT, &d, &meta), -ENODATA);        /* never set */
+        for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+                shm_table_set_str(f->t, STATE, cases[i].text);
+                assert_int_equal(sl_read_double(f->c, STATE, &d, &meta), cases[i].dr);
+                if (cases[i].dr == 0)
+                        assert_true(d == cases[i].d);
+                assert_int_equal(sl_read_long(f->c, STATE, &l, NULL), cases[i].lr);
+                if (cases[i].lr == 0)
+                        assert_int_equal(l, cases[i].l);
+        }
+        assert_int_equal(sl_read_double(f->c, STATE, NULL, NULL), -EINVAL);
+        assert_int_equal(sl_read_long(f->c, 99, &l, NULL), -ENOENT);
+}
+
+/* ---- writes --------------------------------------------------------------------------------- */
+
+static void test_write(void **state)
+{
+        struct fixture *f = *state;
+        struct sl_meta meta = { .size = sizeof(meta) };
+        char buf[SL_VALUE_SIZE];
+        struct seen s;
+
+        assert_int_equal(sl_write(f->c, THROTTLE, "0.25"), 0);
+        /* What was last written reads back at once, before the daemon even looked. */
+        assert_int_equal(sl_read(f->c, THROTTLE, buf, sizeof(buf), &meta), 4);
+        assert_string_equal(buf, "0.25");
+        assert_int_equal(meta.flags, SL_FLAG_VALID | SL_FLAG_OUTBOUND);
+        assert_int_equal(meta.sequence, 1);
+        assert_true(meta.mono_ns > 0 && meta.real_ns > 0);
+        /* And the daemon hears it. */
+        assert_int_equal(scan(f, &s), 1);
+        assert_int_equal(s.last.id, THROTTLE);
+        assert_int_equal(s.last.status, SHM_OUT_CHANGED);
+        assert_string_equal(s.last.value, "0.25");
+        assert_int_equal(s.last.writer_pid, getpid());
+
+        assert_int_equal(sl_write_long(f->c, STEER, -42), 0);
+        assert_int_equal(sl_write(f->c, NOTE, ""), 0);                  /* empty is a value */
+        assert_int_equal(scan(f, &s), 2);
+        assert_int_equal(sl_read(f->c, STEER, buf, sizeof(buf), NULL), 3);
+        assert_string_equal(buf, "-42");
+        assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), &meta), 0);
+        assert_int_equal(meta.flags, SL_FLAG_VALID | SL_FLAG_OUTBOUND);
+}
+
+static void test_write_refused(void **state)
+{
+        struct fixture *f = *state;
+        char value[80];
+        struct seen s;
+
+        assert_int_equal(sl_write(f->c, LAT, "1"), -EPERM);             /* inbound */
+        assert_int_equal(sl_write(f->c, STATE, "x"), -EPERM);
+        assert_int_equal(sl_write(f->c, NVARS, "1"), -ENOENT);
+        assert_int_equal(sl_write(f->c, -1, "1"), -ENOENT);
+        assert_int_equal(sl_write(f->c, NOTE, NULL), -EINVAL);
+        assert_int_equal(sl_write(NULL, NOTE, "x"), -EINVAL);
+        /* Every byte the wire cannot carry. */
+        for (int b = 1; b < 256; b++) {
+                if (b >= 0x20 && b <= 0x7e && b != '|' && b != '[' && b != ']')
+                        continue;
+                snprintf(value, sizeof(value), "ab%cd", b);
+                assert_int_equal(sl_write(f->c, NOTE, value), -EINVAL);
+        }
+        /* Lengths: 63 goes, 64 does not. */
+        memset(value, 'y', sizeof(value));
+        value[SL_VALUE_SIZE - 1] = '\0';
+        assert_int_equal(sl_write(f->c, NOTE, value), 0);
+        value[SL_VALUE_SIZE - 1] = 'y';
+        value[SL_VALUE_SIZE] = '\0';
+        assert_int_equal(sl_write(f->c, NOTE, value), -EINVAL);
+        value[SL_VALUE_SIZE + 5] = '\0';
+        assert_int_equal(sl_write(f->c, NOTE, value), -EINVAL);
+        /* Only the 63-byte value reached the table. */
+        assert_int_equal(scan(f, &s), 1);
+        assert_int_equal(s.last.length, SL_VALUE_SIZE - 1);
+        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_INVALID), 0);
+}
+
+static void test_write_numbers(void **state)
+{
+        struct fixture *f = *state;
+        static const struct { double v; int decimals; int r; const char *text; } cases[] = {
+                { 0.25, 2, 0, "0.25" },
+                { 0.25, 0, 0, "0" },
+                { -113.123456789, 6, 0, "-113.123457" },
+                { 0.1, -1, 0, "0.1" },
+                { 1.0 / 3.0, -1, 0, "0.3333333333333333" },
+                { 1e20, -1, 0, "1e+20" },
+                { 40.5, 17, 0, "40.50000000000000000" },
+                { 1.0, 18, -EINVAL, NULL },
+                { 1e300, 2, -EINVAL, NULL },            /* 300 digits: too long for the wire */
+        };
+        char buf[SL_VALUE_SIZE];
+        double d;
+
+        for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+                assert_int_equal(sl_write_double(f->c, THROTTLE, cases[i].v, cases[i].decimals),
+                                 cases[i].r);
+                if (cases[i].r == 0) {
+                        assert_true(sl_read(f->c, THROTTLE, buf, sizeof(buf), NULL) > 0);
+                        assert_string_equal(buf, cases[i].text);
+                }
+        }
+        assert_int_equal(sl_write_double(f->c, THROTTLE, NAN, 2), -EINVAL);
+        assert_int_equal(sl_write_double(f->c, THROTTLE, INFINITY, -1), -EINVAL);
+        assert_int_equal(sl_write_double(f->c, LAT, 1.0, 2), -EPERM);
+        assert_int_equal(sl_write_long(f->c, STEER, -9223372036854775807L - 1), 0);
+        assert_int_equal(sl_read(f->c, STEER, buf, sizeof(buf), NULL), 20);
+        /* Whatever the program's locale, numbers use '.' (checked where such a locale exists). */
+        if (setlocale(LC_NUMERIC, "de_DE.UTF-8")) {
+                assert_int_equal(sl_write_double(f->c, THROTTLE, 0.5, 1), 0);
+                assert_int_equal(sl_read(f->c, THROTTLE, buf, sizeof(buf), NULL), 3);
+                assert_string_equal(buf, "0.5");
+                assert_int_equal(sl_read_double(f->c, THROTTLE, &d, NULL), 0);
+                assert_true(d == 0.5);
+                setlocale(LC_NUMERIC, "C");
+        }
+}
+
+static void test_write_read_after_repair(void **state)
+{
+        struct fixture *f = *state;
+        char name[SHM_OBJECT_NAME_SIZE], buf[SL_VALUE_SIZE];
+        struct sl_meta meta = { .size = sizeof(meta) };
+        struct seen s;
+        uint64_t word;
+        pid_t pid;
+        int fd;
+
+        assert_int_equal(sl_write(f->c, NOTE, "kept"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        /* A writer dies half-way through the next write (in a child: a real dead pid). */
+        shm_layout_object_name(f->instance, "out", name, sizeof(name));
+        fd = shm_open(name, O_RDWR, 0);
+        assert_true(fd >= 0);
+        fflush(NULL);
+        pid = fork();
+        if (pid == 0) {
+                struct shm_slot *slots = mmap(NULL, shm_layout_out_size(3), PROT_READ | PROT_WRITE,
+                                              MAP_SHARED, fd, 0);
+                struct shm_slot *slot = (struct shm_slot *)((char *)slots +
+                                        sizeof(struct shm_out_header)) + 2;
+
+                if (shm_slot_claim(slot, (uint32_t)getpid(), &word) < 0)
+                        _exit(1);
+                shm_slot_store_word(slot, 0, 0x4141414141414141ull);
+                _exit(0);
+        }
+        close(fd);
+        assert_int_equal(shmtest_wait(pid), 0);
+        assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), &meta), -EAGAIN);   /* held */
+        assert_int_equal(scan(f, &s), 1);
+        assert_int_equal(s.last.status, SHM_OUT_REPAIRED);
+        /* The lost write is not handed out; what the daemon last accepted is. */
+        assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), &meta), 4);
+        assert_string_equal(buf, "kept");
+        assert_int_equal(meta.flags, SL_FLAG_VALID | SL_FLAG_OUTBOUND);
+        assert_int_equal(sl_write(f->c, NOTE, "again"), 0);
+        assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), NULL), 5);
+}
+
+/* ---- waiting ---------------------------------------------------------------------------------- */
+
+struct waiter {
+        struct sl_client *c;
+        uint32_t cursor;
+        int result;
+};
+
+static void *waiter_main(void *arg)
+{
+        struct waiter *w = arg;
+
+        w->result = sl_wait(w->c, &w->cursor, WAIT_LIMIT_MS);
+        return NULL;
+}
+
+static void test_wait_thread(void **state)
+{
+        struct fixture *f = *state;
+        struct waiter w = { f->c, 0, -1 };
+        uint32_t before;
+        pthread_t th;
+
+        sl_wait(f->c, &w.cursor, 0);                    /* catch up with the table */
+        assert_int_equal(sl_wait(f->c, &w.cursor, 0), 0);
+        assert_int_equal(sl_wait(f->c, &w.cursor, 10), 0);      /* times out: nothing changed */
+        before = w.cursor;
+        assert_int_equal(pthread_create(&th, NULL, waiter_main, &w), 0);
+        shm_table_begin(f->t);
+        shm_table_set_str(f->t, LAT, "1");
+        shm_table_commit(f->t);
+        pthread_join(th, NULL);
+        assert_int_equal(w.result, 1);
+        assert_int_equal(w.cursor, before + 1);
+        assert_int_equal(sl_wait(f->c, &w.cursor, 0), 0);
+        assert_int_equal(sl_wait(f->c, NULL, 0), -EINVAL);
+}
+
+struct wait_child {
+        const char *instance;
+        int ready[2];
+};
+
+/* Another process: opens, catches up, says so, then blocks until the daemon commits. */
+static int wait_child_main(void *arg)
+{
+        struct wait_child *w = arg;
+        struct sl_client *c;
+        uint32_t cursor = 0;
+        int r;
+
+        close(w->ready[0]);
+        if (sl_open(w->instance, &c) < 0)
+                return 2;
+        sl_wait(c, &cursor, 0);
+        if (write(w->ready[1], "r", 1) != 1)
+                return 3;
+        r = sl_wait(c, &cursor, WAIT_LIMIT_MS);
+        sl_close(c);
+        return r == 1 ? 0 : 1;
+}
+
+static void test_wait_process(void **state)
+{
+        struct fixture *f = *state;
+        struct wait_child w = { f->instance, { -1, -1 } };
+        char c;
+        pid_t pid;
+
+        assert_int_equal(pipe(w.ready), 0);
+        pid = shmtest_fork(wait_child_main, &w);
+        close(w.ready[1]);
+        assert_int_equal(read(w.ready[0], &c, 1), 1);
+        close(w.ready[0]);
+        shm_table_event(f->t, SHM_EVENT_LOG, SHM_LINK_NONE, "x=1");     /* events count too */
+        assert_int_equal(shmtest_wait(pid), 0);
+}
+
+/* ---- events ----------------------------------------------------------------------------------- */
+
+static void event_init(struct sl_event *ev, size_t n)
+{
+        for (size_t i = 0; i < n; i++)
+                ev[i].size = sizeof(ev[i]);
+}
+
+static void test_events(void **state)
+{
+        struct fixture *f = *state;
+        struct sl_event ev[4];
+        uint64_t cursor = 0, now;
+
+        event_init(ev, 4);
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 0);
+        shm_table_event(f->t, SHM_EVENT_LINK_STATE, 1, "state=connected");
+        shm_table_eventf(f->t, SHM_EVENT_ACTION, 1, "device=%s sensor_time=%d", "E1E1E1", 5000);
+        shm_table_event(f->t, SHM_EVENT_DEVICE_OFFLINE, 1, "device=AAAAAA");
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 3);
+        assert_int_equal(ev[0].seq, 1);
+        assert_string_equal(ev[0].type_name, "link-state");
+        assert_int_equal(ev[1].seq, 2);
+        assert_int_equal(ev[1].type, SHM_EVENT_ACTION);
+        assert_string_equal(ev[1].type_name, "action");
+        assert_int_equal(ev[1].link, 1);
+        assert_string_equal(ev[1].link_name, "agility");
+        assert_string_equal(ev[1].text, "device=E1E1E1 sensor_time=5000");
+        assert_int_equal(ev[1].lost, 0);
+        assert_int_equal(ev[1].flags, 0);
+        assert_true(ev[1].mono_ns > 0 && ev[1].real_ns > 0);
+        assert_string_equal(ev[2].type_name, "device-offline");
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 0);
+
+        /* Overrun: 16 records retained of 40 written, the reader learns how many it lost. */
+        for (int i = 0; i < 40; i++)
+                shm_table_eventf(f->t, SHM_EVENT_LOG, SHM_LINK_NONE, "i=%d", i);
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 2), 2);
+        assert_int_equal(ev[0].seq, 43 - 16 + 1);
+        assert_int_equal(ev[0].lost, 24);
+        assert_int_equal(ev[0].link, -1);
+        assert_string_equal(ev[0].link_name, "");
+        assert_int_equal(ev[1].lost, 0);
+        assert_int_equal(ev[1].seq, ev[0].seq + 1);
+
+        /* "now": only what comes next. */
+        assert_int_equal(sl_events_now(f->c, &now), 0);
+        shm_table_event(f->t, SHM_EVENT_KEYS, 0, "keys=3");
+        assert_int_equal(sl_events_read(f->c, &now, ev, 4), 1);
+        assert_string_equal(ev[0].text, "keys=3");
+        assert_string_equal(ev[0].link_name, "vehicle");
+
+        ev[0].size = 8;
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), -EINVAL);
+        ev[0].size = sizeof(ev[0]);
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 0), -EINVAL);
+}
+
+/* ---- links, daemon ---------------------------------------------------------------------------- */
+
+static void test_links(void **state)
+{
+        struct fixture *f = *state;
+        struct sl_link_info li = { .size = sizeof(li) };
+        struct sl_daemon_info di = { .size = sizeof(di) };
+        int found = 0;
+
+        assert_int_equal(sl_link_count(f->c), 2);
+        shm_table_link_state(f->t, 1, 3, "connected");
+        shm_table_counter_add(f->t, 1, SHM_COUNTER_FRAMES_IN, 7);
+        shm_table_counter_add(f->t, 1, SHM_COUNTER_BAD_CHECKSUM, 2);
+        assert_int_equal(sl_link_info(f->c, 1, &li), 0);
+        assert_string_equal(li.name, "agility");
+        assert_string_equal(li.protocol, "circe");
+        assert_int_equal(li.state, 3);
+        assert_string_equal(li.state_name, "connected");
+        assert_int_equal(li.counter_count, SHM_COUNTER_COUNT);
+        for (unsigned i = 0; i < li.counter_count; i++) {
+                if (strcmp(li.counters[i].name, "frames_in") == 0) {
+                        assert_int_equal(li.counters[i].value, 7);
+                        found++;
+                }
+                if (strcmp(li.counters[i].name, "bad_checksum") == 0) {
+                        assert_int_equal(li.counters[i].value, 2);
+                        found++;
+                }
+        }
+        assert_int_equal(found, 2);
+        assert_int_equal(sl_link_info(f->c, 2, &li), -ENOENT);
+        assert_int_equal(sl_link_info(f->c, -1, &li), -ENOENT);
+
+        /* A link added later shows up. */
+        shm_table_link_add(f->t, &(struct shm_link_def){ "arena", "circe" });
+        assert_int_equal(sl_link_count(f->c), 3);
+        assert_int_equal(sl_link_info(f->c, 2, &li), 0);
+        assert_string_equal(li.name, "arena");
+        assert_string_equal(li.state_name, "");
+
+        shm_table_counter_add(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_REPAIRED, 1);
+        assert_int_equal(sl_daemon_info(f->c, &di), 0);
+        assert_int_equal(di.pid, getpid());
+        assert_int_equal(di.epoch, shm_table_epoch(f->t));
+        assert_int_equal(di.alive, 1);
+        assert_int_equal(di.heartbeat_interval_ms, 0);
+        assert_true(di.started_real_ns > 0);
+        assert_int_equal(di.counters[SHM_COUNTER_OUT_REPAIRED].value, 1);
+        assert_string_equal(di.counters[SHM_COUNTER_OUT_REPAIRED].name, "out_repaired");
+        assert_int_equal(sl_daemon_alive(f->c), 1);
+}
+
+static void test_adhoc_visible(void **state)
+{
+        struct fixture *f = *state;
+        struct shm_var v = { "AdhocTemp", SHM_DIR_IN, SHM_TYPE_STRING, 0, "A", SHM_POSITION_NONE };
+        struct sl_var_info info = { .size = sizeof(info) };
+        char buf[SL_VALUE_SIZE];
+        uint32_t cursor = 0;
+        int id;
+
+        sl_wait(f->c, &cursor, 0);
+        assert_int_equal(shm_table_add(f->t, &v), NVARS);
+        shm_table_set_str(f->t, NVARS, "21.5");
+        assert_int_equal(sl_wait(f->c, &cursor, WAIT_LIMIT_MS), 1);
+        assert_int_equal(sl_count(f->c), NVARS + 1);
+        id = sl_find(f->c, "AdhocTemp");
+        assert_int_equal(id, NVARS);
+        assert_int_equal(sl_info(f->c, id, &info), 0);
+        assert_int_equal(info.flags, SL_VAR_ADHOC);
+        assert_int_equal(sl_read(f->c, id, buf, sizeof(buf), NULL), 4);
+        assert_string_equal(buf, "21.5");
+}
+
+/* ---- daemon restarts --------------------------------------------------------------------------- */
+
+static void test_restart_clean(void **state)
+{
+        struct fixture *f = *state;
+        /* The new daemon's config: other order, one name gone (Note), one new (Extra). */
+        static const struct shm_var vars2[] = {
+                { "Extra", SHM_DIR_IN, SHM_TYPE_LONG, SHM_LINK_NONE, NULL, SHM_POSITION_NONE },
+                { "CmdThrottle", SHM_DIR_OUT, SHM_TYPE_DOUBLE, 0, "A", 0 },
+                { "AutoGpsLat", SHM_DIR_IN, SHM_TYPE_DOUBLE, 0, "A", 0 },
+                { "AutoGpsLon", SHM_DIR_IN, SHM_TYPE_DOUBLE, 0, "A", 1 },
+                { "CmdSteer", SHM_DIR_OUT, SHM_TYPE_LONG, 0, "A", 1 },
+                { "agility.state", SHM_DIR_IN, SHM_TYPE_STRING, 1, NULL, SHM_POSITION_NONE },
+        };
+        struct sl_meta meta = { .size = sizeof(meta) };
+        struct waiter w = { f->c, 0, -1 };
+        char buf[SL_VALUE_SIZE];
+        uint64_t old_epoch = shm_table_epoch(f->t);
+        struct seen s;
+        pthread_t th;
+
+        shm_table_set_str(f->t, LAT, "1.0");
+        sl_wait(f->c, &w.cursor, 0);
+        assert_int_equal(pthread_create(&th, NULL, waiter_main, &w), 0);
+
+        /* Clean shutdown: the waiter wakes; values stay readable, flagged stale; no writes. */
+        f->t = shm_table_destroy(f->t);
+        pthread_join(th, NULL);
+        assert_int_equal(w.result, 1);
+        assert_int_equal(sl_daemon_alive(f->c), 0);
+        assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 3);
+        assert_int_equal(meta.flags, SL_FLAG_VALID | SL_FLAG_STALE);
+        assert_int_equal(sl_write(f->c, THROTTLE, "1"), -ENOTCONN);
+        assert_int_equal(sl_wait(f->c, &w.cursor, 0), 0);       /* closed is not a change each time */
+
+        /* A new daemon: the same ids keep naming the same variables. */
+        f->cfg.vars = vars2;
+        f->cfg.nvars = 6;
+        assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
+        assert_true(shm_table_epoch(f->t) != old_epoch);
+        shm_table_begin(f->t);
+        shm_table_set_str(f->t, 2, "2.0");              /* AutoGpsLat, now index 2 */
+        shm_table_set_str(f->t, 0, "77");               /* Extra */
+        shm_table_commit(f->t);
+        assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 3);
+        assert_string_equal(buf, "2.0");
+        assert_int_equal(meta.flags, SL_FLAG_VALID);
+        assert_int_equal(sl_daemon_alive(f->c), 1);
+        assert_int_equal(sl_find(f->c, "AutoGpsLat"), LAT);
+        assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), NULL), -ENOENT);      /* gone */
+        assert_int_equal(sl_find(f->c, "Note"), -ENOENT);
+        assert_int_equal(sl_find(f->c, "Extra"), NVARS);                /* new name, new id */
+        assert_int_equal(sl_count(f->c), NVARS + 1);
+        assert_int_equal(sl_read(f->c, NVARS, buf, sizeof(buf), NULL), 2);
+        assert_string_equal(buf, "77");
+        /* Writes reach the new daemon. */
+        assert_int_equal(sl_write(f->c, THROTTLE, "0.5"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        assert_int_equal(s.last.id, 1);                 /* its id in the new table */
+        assert_string_equal(s.last.value, "0.5");
+        assert_int_equal(sl_wait(f->c, &w.cursor, 0), 1);
+}
+
+struct crash_daemon {
+        const struct shm_table_config *cfg;
+        int ready[2];
+};
+
+/* A daemon in a child: publishes a value, says so, and is then killed. */
+static int crash_daemon_main(void *arg)
+{
+        struct crash_daemon *d = arg;
+        struct shm_table *t;
+
+        close(d->ready[0]);
+        if (shm_table_create(d->cfg, &t) < 0)
+                return 1;
+        shm_table_set_str(t, LAT, "from-child");
+        if (write(d->ready[1], "r", 1) != 1)
+                return 2;
+        for (;;)
+                pause();
+}
+
+static void test_restart_after_crash(void **state)
+{
+        struct fixture *f = *state;
+        struct crash_daemon d = { &f->cfg, { -1, -1 } };
+        struct sl_client *c;
+        char buf[SL_VALUE_SIZE];
+        uint32_t cursor = 0;
+        char ch;
+        pid_t pid;
+
+        assert_int_equal(pipe(d.ready), 0);
+        pid = shmtest_fork(crash_daemon_main, &d);
+        close(d.ready[1]);
+        assert_int_equal(read(d.ready[0], &ch, 1), 1);
+        close(d.ready[0]);
+        assert_int_equal(sl_open(f->instance, &c), 0);
+        assert_int_equal(sl_read(c, LAT, buf, sizeof(buf), NULL), 10);
+        assert_string_equal(buf, "from-child");
+        sl_wait(c, &cursor, 0);
+
+        assert_int_equal(sl_daemon_alive(c), 1);
+        kill(pid, SIGKILL);
+        assert_int_equal(shmtest_wait(pid), 128 + SIGKILL);
+        assert_int_equal(sl_daemon_alive(c), 0);        /* no heartbeat configured: by pid */
+        /* The crashed daemon left its objects; the next one replaces them. */
+        assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
+        shm_table_set_str(f->t, LAT, "from-parent");
+        assert_int_equal(sl_wait(c, &cursor, WAIT_LIMIT_MS), 1);        /* woken by the replace */
+        assert_int_equal(sl_read(c, LAT, buf, sizeof(buf), NULL), 11);
+        assert_string_equal(buf, "from-parent");
+        assert_int_equal(sl_write(c, THROTTLE, "3"), 0);
+        sl_close(c);
+}
+
+static void test_out_recreated(void **state)
+{
+        struct fixture *f = *state;
+        char name[SHM_OBJECT_NAME_SIZE];
+        struct seen s;
+        int fd;
+
+        assert_int_equal(sl_write(f->c, NOTE, "a"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        /* Someone truncates .out under everybody's mappings. */
+        shm_layout_object_name(f->instance, "out", name, sizeof(name));
+        fd = shm_open(name, O_RDWR, 0);
+        assert_true(fd >= 0);
+        assert_int_equal(ftruncate(fd, 0), 0);
+        close(fd);
+        assert_int_equal(scan(f, &s), -EBADMSG);                        /* recreated */
+        /* The client notices the new .out and writes there. */
+        assert_int_equal(sl_write(f->c, NOTE, "b"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        assert_string_equal(s.last.value, "b");
+}
+
+/* ---- permissions ------------------------------------------------------------------------------ */
+
+struct perm_probe {
+        const char *instance;
+        int want_open;
+        int want_write;
+};
+
+static int perm_probe_main(void *arg)
+{
+        struct perm_probe *p = arg;
+        char name[SHM_OBJECT_NAME_SIZE], buf[SL_VALUE_SIZE];
+        struct sl_client *c = NULL;
+        int r, fd;
+
+        r = sl_open(p->instance, &c);
+        if (r != p->want_open)
+                return 10;
+        if (r < 0)
+                return 0;
+        if (sl_read(c, LAT, buf, sizeof(buf), NULL) < 0)
+                return 11;
+        if (sl_write(c, THROTTLE, "0.5") != p->want_write)
+                return 12;
+        /* Whatever happens, the inbound table is never writable. */
+        shm_layout_object_name(p->instance, "in", name, sizeof(name));
+        fd = shm_open(name, O_RDWR, 0);
+        if (fd >= 0 || errno != EACCES)
+                return 13;
+        if (p->want_write != 0) {
+                shm_layout_object_name(p->instance, "out", name, sizeof(name));
+                fd = shm_open(name, O_RDWR, 0);
+                if (fd >= 0 || errno != EACCES)
+                        return 14;
+        }
+        sl_close(c);
+        return 0;
+}
+
+static void test_permissions_no_group(void **state)
+{
+        struct fixture *f = *state;
+        struct perm_probe p = { f->instance, 0, -EACCES };
+        const gid_t nogroup = SHMTEST_NOBODY;
+
+        if (geteuid() != 0)
+                skip();
+        shm_table_set_str(f->t, LAT, "1");
+        /* Anyone reads 0644; nobody outside the group writes. */
+        assert_int_equal(shmtest_as_user(SHMTEST_NOBODY, SHMTEST_NOBODY, 1, &nogroup,
+                                         perm_probe_main, &p), 0);
+}
+
+static void test_permissions_group(void **state)
+{
+        struct fixture *f = *state;
+        struct perm_probe outsider = { f->instance, -EACCES, 0 };
+        struct perm_probe member = { f->instance, 0, 0 };
+        const gid_t nogroup = SHMTEST_NOBODY, group = SHMTEST_GROUP;
+        struct seen s;
+
+        if (geteuid() != 0)
+                skip();
+        f->cfg.has_group = 1;
+        f->cfg.gid = SHMTEST_GROUP;
+        assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
+        shm_table_set_str(f->t, LAT, "1");
+        /* 0640: outside the group, not even readable. */
+        assert_int_equal(shmtest_as_user(SHMTEST_NOBODY, SHMTEST_NOBODY, 1, &nogroup,
+                                         perm_probe_main, &outsider), 0);
+        /* A member (supplementary group) reads and writes. */
+        assert_int_equal(shmtest_as_user(SHMTEST_NOBODY, SHMTEST_NOBODY, 1, &group,
+                                         perm_probe_main, &member), 0);
+        assert_int_equal(scan(f, &s), 1);
+        assert_string_equal(s.last.value, "0.5");
+}
+
+static void test_strerror(void **state)
+{
+        static const int codes[] = { ENOENT, EINVAL, EPERM, EACCES, EAGAIN, EBUSY, ECANCELED,
+                                     ENOTCONN, ENOBUFS, ENODATA, EDOM, ERANGE, EPROTO, ENOSPC };
+
+        (void)state;
+        assert_string_equal(sl_strerror(0), "success");
+        for (size_t i = 0; i < sizeof(codes) / sizeof(codes[0]); i++) {
+                assert_non_null(sl_strerror(-codes[i]));
+                assert_string_not_equal(sl_strerror(-codes[i]), "unexpected error");
+                for (size_t j = 0; j < i; j++)
+                        assert_string_not_equal(sl_strerror(-codes[i]), sl_strerror(-codes[j]));
+        }
+        assert_string_equal(sl_strerror(-EXDEV), "unexpected error");
+}
+
+int main(void)
+{
+        const struct CMUnitTest tests[] = {
+                cmocka_unit_test_setup_teardown(test_open_errors, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_find_info, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_read, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_read_numbers, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_refused, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_numbers, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_read_after_repair, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_wait_thread, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_wait_process, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_events, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_links, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_adhoc_visible, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_restart_clean, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_restart_after_crash, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_out_recreated, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_permissions_no_group, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_permissions_group, setup_bare, teardown),
+                cmocka_unit_test(test_strerror),
+        };
+
+        return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -557,6 +557,8 @@ static void op_command(void *engine, struct control_request *req, int argc, char
         }
         if (session_ready(e)) {
                 execute(e, req, &cmd);
+                /* A synchronisation brings a deadline, an action moves the Keep Alive one. */
+                rearm(e);
                 return;
         }
         if (!cmd.has_wait || cmd.wait_ms == 0) {

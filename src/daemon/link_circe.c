@@ -881,6 +881,17 @@ static void op_outbound(void *engine, const struct shm_out_change *change)
         (void)change;           /* a CIRCE link declares no outbound variables */
 }
 
+static void op_heartbeat(void *engine)
+{
+        struct link_circe *e = engine;
+
+        /* Reopen attempts while down change the channel's counters with no I/O of ours. */
+        link_publish_channel_stats(&e->env, e->ch);
+        log_ratelimit_flush(&e->rl_wire);
+        log_ratelimit_flush(&e->rl_log);
+        log_ratelimit_flush(&e->rl_state);
+}
+
 static const char *op_status(void *engine)
 {
         const struct link_circe *e = engine;
@@ -895,4 +906,5 @@ const struct link_ops link_circe_ops = {
         .outbound = op_outbound,
         .command = op_command,
         .status = op_status,
+        .heartbeat = op_heartbeat,
 };

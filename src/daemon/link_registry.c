@@ -7,6 +7,7 @@
 
 #include <stddef.h>
 
+#include "daemon/link_circe.h"
 #include "daemon/link_sharedlink.h"
 
 const struct link_ops *link_ops_for(enum config_protocol protocol)
@@ -15,7 +16,7 @@ const struct link_ops *link_ops_for(enum config_protocol protocol)
         case CONFIG_PROTOCOL_SHAREDLINK:
                 return &link_sharedlink_ops;
         case CONFIG_PROTOCOL_CIRCE:
-                return NULL;    /* link_circe_ops: not merged yet */
+                return &link_circe_ops;
         default:
                 return NULL;
         }

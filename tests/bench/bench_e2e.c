@@ -105,6 +105,7 @@ struct waiter {
         struct sl_client *client;       /* inbound */
         int id;
         int failed;
+        int started;
 };
 
 /* Floor: read the slave until the frame's last byte. */
@@ -231,14 +232,21 @@ static void *outbound_thread(void *arg)
 
 static int waiter_start(struct waiter *w, void *(*fn)(void *))
 {
+        int r;
+
         sem_init(&w->go, 0, 0);
         sem_init(&w->done, 0, 0);
         atomic_store(&w->stop, 0);
-        return -pthread_create(&w->thread, NULL, fn, w);
+        r = -pthread_create(&w->thread, NULL, fn, w);
+        w->started = r == 0;
+        return r;
 }
 
 static void waiter_stop(struct waiter *w)
 {
+        if (!w->started)
+                return;
+        w->started = 0;
         atomic_store(&w->stop, 1);
         sem_post(&w->go);
         pthread_join(w->thread, NULL);
@@ -246,36 +254,27 @@ static void waiter_stop(struct waiter *w)
         sem_destroy(&w->done);
 }
 
-/*
- * One sample: arm the waiter, take t0, cause the event, wait for the stamp. `cause` returns 0 or
- * -errno. Warm-up samples are taken and dropped.
- */
-static int measure(struct waiter *w, struct sample_set *s, int (*cause)(void *, unsigned),
-                   void *arg, struct sample_set *mid)
+/* One sample: arm the waiter, take t0, cause the event, wait for the stamp. Returns the delay
+ * in ns (and the daemon's stamp relative to t0 in *ret_mid when asked), or -errno. */
+static int64_t sample_one(struct waiter *w, int (*cause)(void *, unsigned), void *arg,
+                          unsigned i, uint64_t *ret_mid)
 {
-        s->n = 0;
-        if (mid)
-                mid->n = 0;
-        for (unsigned i = 0; i < WARMUP + SAMPLES; i++) {
-                uint64_t t0;
-                int r;
+        uint64_t t0;
+        int r;
 
-                snprintf(w->expect, sizeof(w->expect), "v%u", i);
-                sem_post(&w->go);
-                usleep(GAP_US);         /* the waiter is blocked again before t0 */
-                t0 = now_ns();
-                r = cause(arg, i);
-                if (r < 0)
-                        return r;
-                sem_wait(&w->done);
-                if (w->failed)
-                        return -ETIMEDOUT;
-                if (i >= WARMUP)
-                        s->v[s->n++] = atomic_load(&w->stamp) - t0;
-                if (i >= WARMUP && mid)
-                        mid->v[mid->n++] = atomic_load(&w->mid) - t0;
-        }
-        return 0;
+        snprintf(w->expect, sizeof(w->expect), "v%u", i);
+        sem_post(&w->go);
+        usleep(GAP_US);         /* the waiter is blocked again before t0 */
+        t0 = now_ns();
+        r = cause(arg, i);
+        if (r < 0)
+                return r;
+        sem_wait(&w->done);
+        if (w->failed)
+                return -ETIMEDOUT;
+        if (ret_mid)
+                *ret_mid = atomic_load(&w->mid) - t0;
+        return (int64_t)(atomic_load(&w->stamp) - t0);
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -474,8 +473,8 @@ static int run_latency(void)
 {
         static struct sample_set floor_s, hop_s, in_s, mid_s, out_s;
         struct harness h;
-        struct waiter w = { 0 };
-        struct frame_cause fc;
+        struct waiter wf, wh, wi, wo;
+        struct frame_cause fc, ffc;
         struct write_cause wc;
         struct sl_client *c = NULL;
         double fmed, fp99, hmed, hp99, imed, ip99, mmed, mp99, omed, op99;
@@ -494,55 +493,59 @@ static int run_latency(void)
         usleep(100000);
         drain(master);
 
-        /* Floor: a pty pair of our own, the same frame bytes. */
+        /* The four probes run interleaved, one sample of each in turn, so that whatever else
+         * the machine does weighs on all of them alike. */
         r = harness_openpty(&fm, &fs, pts);
         if (r < 0)
                 goto out;
         fcntl(fs, F_SETFL, fcntl(fs, F_GETFL) | O_NONBLOCK);
-        w.fd = fs;
-        fc = (struct frame_cause){ .fd = fm, .dst = 'B', .src = 'A' };
-        r = waiter_start(&w, floor_thread);
-        if (r == 0) {
-                r = measure(&w, &floor_s, cause_frame, &fc, NULL);
-                waiter_stop(&w);
+        sem_init(&hop_sem, 0, 0);
+        /* Floor: a pty pair of our own, the same frame bytes. */
+        wf = (struct waiter){ .fd = fs };
+        ffc = (struct frame_cause){ .fd = fm, .dst = 'B', .src = 'A' };
+        /* One futex wake-up between two threads: what the table adds to the pty, at least. */
+        wh = (struct waiter){ 0 };
+        /* Inbound through the daemon. */
+        wi = (struct waiter){ .client = c, .id = sl_find(c, "In0") };
+        fc = (struct frame_cause){ .fd = master, .dst = 'B', .src = 'A' };
+        /* Outbound, on_change with no rate limit. */
+        wo = (struct waiter){ .fd = master };
+        wc = (struct write_cause){ .client = c, .id = sl_find(c, "Out0") };
+        r = wi.id < 0 ? wi.id : wc.id < 0 ? wc.id : 0;
+        if (r == 0)
+                r = waiter_start(&wf, floor_thread);
+        if (r == 0)
+                r = waiter_start(&wh, hop_thread);
+        if (r == 0)
+                r = waiter_start(&wi, inbound_thread);
+        if (r == 0)
+                r = waiter_start(&wo, outbound_thread);
+        for (unsigned i = 0; r == 0 && i < WARMUP + SAMPLES; i++) {
+                int64_t d[4];
+                uint64_t mid = 0;
+
+                d[0] = sample_one(&wf, cause_frame, &ffc, i, NULL);
+                d[1] = sample_one(&wh, cause_hop, NULL, i, NULL);
+                d[2] = sample_one(&wi, cause_frame, &fc, i, &mid);
+                d[3] = sample_one(&wo, cause_write, &wc, i, NULL);
+                for (int k = 0; k < 4; k++)
+                        if (d[k] < 0)
+                                r = (int)d[k];
+                if (r < 0 || i < WARMUP)
+                        continue;
+                floor_s.v[floor_s.n++] = (uint64_t)d[0];
+                hop_s.v[hop_s.n++] = (uint64_t)d[1];
+                in_s.v[in_s.n++] = (uint64_t)d[2];
+                mid_s.v[mid_s.n++] = mid;
+                out_s.v[out_s.n++] = (uint64_t)d[3];
         }
+        waiter_stop(&wf);
+        waiter_stop(&wh);
+        waiter_stop(&wi);
+        waiter_stop(&wo);
+        sem_destroy(&hop_sem);
         close(fm);
         close(fs);
-        if (r < 0)
-                goto out;
-
-        /* One futex wake-up between two threads: what the table adds to the pty, at least. */
-        sem_init(&hop_sem, 0, 0);
-        w = (struct waiter){ 0 };
-        r = waiter_start(&w, hop_thread);
-        if (r == 0) {
-                r = measure(&w, &hop_s, cause_hop, NULL, NULL);
-                waiter_stop(&w);
-        }
-        sem_destroy(&hop_sem);
-        if (r < 0)
-                goto out;
-
-        /* Inbound through the daemon. */
-        w = (struct waiter){ .client = c, .id = sl_find(c, "In0") };
-        fc = (struct frame_cause){ .fd = master, .dst = 'B', .src = 'A' };
-        r = w.id < 0 ? w.id : waiter_start(&w, inbound_thread);
-        if (r == 0) {
-                r = measure(&w, &in_s, cause_frame, &fc, &mid_s);
-                waiter_stop(&w);
-        }
-        if (r < 0)
-                goto out;
-
-        /* Outbound, on_change with no rate limit. */
-        drain(master);
-        w = (struct waiter){ .fd = master };
-        wc = (struct write_cause){ .client = c, .id = sl_find(c, "Out0") };
-        r = wc.id < 0 ? wc.id : waiter_start(&w, outbound_thread);
-        if (r == 0) {
-                r = measure(&w, &out_s, cause_write, &wc, NULL);
-                waiter_stop(&w);
-        }
         if (r < 0)
                 goto out;
 

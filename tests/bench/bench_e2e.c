@@ -4,14 +4,20 @@
  *
  *   floor     a frame written into a pty master -> a thread blocked in read() on the slave has
  *             its last byte (what any program pays to get bytes through a pty);
+ *   wake-up   one futex wake-up from a thread to another (what handing a value from the daemon
+ *             to a client costs at least, on top of the floor);
  *   inbound   a frame written into the master of the daemon's link -> a client thread blocked
- *             in sl_wait() reads the new value (pty + daemon decode + table + futex wake);
+ *             in sl_wait() reads the new value (pty + daemon decode + table + futex wake); the
+ *             value's own time stamp splits it at the moment the daemon applied the frame;
  *   outbound  sl_write() with on_change and min_interval_ms 0 -> the frame's last byte is read
  *             on the master by a thread blocked in poll();
  *   idle      a second daemon with 4 SharedLink links and no periodic send, left alone for
  *             IDLE_S seconds: its CPU time (/proc/PID/stat) and its threads' context switches
  *             (/proc/PID/task/N/status), and the loop's own wakeup counters from the control
  *             socket's `stats` request when the daemon answers it.
+ *
+ * The latency probes take one sample each in turn (interleaved), so a machine whose load changes
+ * during the run weighs on all of them alike.
  *
  * Targets (the issue): inbound median within 1.5x of the floor, outbound p99 under 1 ms, no
  * wakeups beyond the configured timers when idle. Prints the figures and the ratios; the exit

@@ -16,6 +16,7 @@
 #include <sharedlink.h>
 
 #include "lib/export.h"
+#include "lib/request.h"
 
 #define NS_PER_S                1000000000ull
 #define NS_PER_MS               1000000ull
@@ -414,6 +415,7 @@ SL_EXPORT int sl_open(const char *instance, struct sl_client **ret)
                 free(c);
                 return -EINVAL;
         }
+        request_init(c, instance);
         c->c_locale = newlocale(LC_ALL_MASK, "C", (locale_t)0);
         if (c->c_locale == (locale_t)0) {
                 free(c);

@@ -20,6 +20,7 @@
 
 #define CLIENT_IDS_MAX          (4u * SHM_CAPACITY_MAX)  /* ids a handle hands out in its life */
 #define CLIENT_HEARTBEAT_MISSES 3u      /* heartbeat older than this many intervals: not alive */
+#define CLIENT_RUNTIME_DIR_SIZE 108     /* sizeof(sun_path): the socket path must fit in it anyway */
 
 /* One mapping of .in, shared by the handle and any sl_wait sleeping on it. */
 struct client_map {
@@ -60,6 +61,11 @@ struct sl_client {
         uint32_t name_hash_size;
         uint32_t pid;                   /* written into .out lock words */
         locale_t c_locale;              /* numbers are formatted and parsed in the C locale */
+        /* control socket (request.c): "<runtime_dir>/<instance>.sock", under c->lock */
+        char instance[SHM_INSTANCE_MAX + 1];
+        char runtime_dir[CLIENT_RUNTIME_DIR_SIZE];      /* "": unusable, runtime_dir_error says why */
+        int runtime_dir_error;
+        _Atomic int command_wait_ms;    /* "wait=MS" on query/circe requests; 0: none */
 };
 
 /* Takes c->lock for reading, first refreshing the view if the tables changed underneath. */

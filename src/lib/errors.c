@@ -29,6 +29,12 @@ SL_EXPORT const char *sl_strerror(int err)
         case EPROTO:    return "shared-memory layout not understood (library and daemon versions differ?)";
         case ENOSPC:    return "too many variables";
         case ENOMEM:    return "out of memory";
+        case ECONNREFUSED: return "the daemon's control socket does not answer (is sharedlinkd "
+                                  "running? is $SHAREDLINK_RUNTIME_DIR its runtime_dir?)";
+        case ETIMEDOUT: return "timed out waiting for the answer";
+        case ECONNRESET: return "the daemon closed the connection before answering";
+        case ENAMETOOLONG: return "the control socket path is too long";
+        case EOPNOTSUPP: return "not supported by this link (protocol or role)";
         default:        return "unexpected error";
         }
 }

@@ -145,10 +145,11 @@ static void list_text(const struct row *rows, int n)
         for (int i = 0; i < n; i++) {
                 const struct row *r = &rows[i];
 
-                printf("%-*s %-3s %-*s %-*s %-6s %*s %-*s %s\n", wn, r->info.name,
+                /* No padding after the flags when there is no value: no trailing blanks. */
+                printf("%-*s %-3s %-*s %-*s %-6s %*s %-*s%s%s\n", wn, r->info.name,
                        direction_name(r->info.direction), wl, or_dash(r->link), wp,
-                       or_dash(r->info.peer), type_name(r->info.type), wa, r->age, wf, r->flags,
-                       r->value);
+                       or_dash(r->info.peer), type_name(r->info.type), wa, r->age,
+                       r->value[0] ? wf : 0, r->flags, r->value[0] ? " " : "", r->value);
         }
 }
 
@@ -406,7 +407,7 @@ static int watch_one(struct slctl *s, struct watched *v)
                 printf("%s %s [invalid]%s\n", when, name,
                        meta.flags & SL_FLAG_STALE ? " [stale]" : "");
         else
-                printf("%s %s %s%s\n", when, name, value,
+                printf("%s %s%s%s%s\n", when, name, value[0] ? " " : "", value,
                        meta.flags & SL_FLAG_STALE ? " [stale]" : "");
         r = v->known || v->fresh;
         v->known = 1;

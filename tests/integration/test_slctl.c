@@ -1,0 +1,888 @@
+/*
+ * Integration tests of slctl (build/asan/slctl, run as a process): list, get, set, watch, events
+ * and stats against real tables, usage errors (exit 2), bad input (exit 1), no daemon (exit 3),
+ * and JSON that parses.
+ *
+ * The tables are made by this test process with the daemon's own table module (src/shm/table.h),
+ * so the test plays the daemon's side of the shared memory: it publishes values and events,
+ * marks them stale, and reads what slctl wrote to .out with the daemon's outbound scan.
+ */
+#define _GNU_SOURCE     /* pipe2 */
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <setjmp.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "common/harness.h"
+#include "common/shmtest.h"
+#include "shm/table.h"
+
+#define RUN_LIMIT_MS    20000   /* a hang guard for one slctl run, not a timing assertion */
+#define LINE_LIMIT_MS   10000   /* the same for one line of a running watch/events */
+#define OUT_SIZE        65536
+#define ERR_SIZE        4096
+#define ARGV_MAX        32
+
+enum { LAT, LON, THROTTLE, STATE, QUOTE, NEVER, NVARS };
+
+static const struct shm_var vars[NVARS] = {
+        [LAT] = { "AutoGpsLat", SHM_DIR_IN, SHM_TYPE_DOUBLE, 0, "A", 0 },
+        [LON] = { "AutoGpsLon", SHM_DIR_IN, SHM_TYPE_DOUBLE, 0, "A", 1 },
+        [THROTTLE] = { "CmdThrottle", SHM_DIR_OUT, SHM_TYPE_DOUBLE, 0, "A", 0 },
+        [STATE] = { "agility.state", SHM_DIR_IN, SHM_TYPE_STRING, 1, NULL, SHM_POSITION_NONE },
+        /* JSON must escape what names and values may hold: quotes and backslashes. */
+        [QUOTE] = { "Quote\"Back\\slash", SHM_DIR_IN, SHM_TYPE_STRING, SHM_LINK_NONE, NULL,
+                    SHM_POSITION_NONE },
+        [NEVER] = { "NeverSet", SHM_DIR_IN, SHM_TYPE_LONG, SHM_LINK_NONE, NULL, SHM_POSITION_NONE },
+};
+
+static const struct shm_link_def links[] = {
+        { "vehicle", "sharedlink" },
+        { "agility", "circe" },
+};
+
+struct fixture {
+        struct harness h;
+        struct shm_table *t;
+        char out[OUT_SIZE];
+        char err[ERR_SIZE];
+};
+
+static int make_table(struct fixture *f, uint32_t event_capacity, struct shm_table **ret)
+{
+        struct shm_table_config cfg = {
+                .instance = f->h.instance, .vars = vars, .nvars = NVARS, .links = links,
+                .nlinks = 2, .adhoc_capacity = 4, .event_capacity = event_capacity,
+        };
+
+        return shm_table_create(&cfg, ret);
+}
+
+static int setup_bare(void **state)
+{
+        struct fixture *f = calloc(1, sizeof(*f));
+
+        *state = f;
+        return f && harness_init(&f->h, "slctl") == 0 ? 0 : -1;
+}
+
+static int setup(void **state)
+{
+        struct fixture *f;
+
+        if (setup_bare(state) < 0)
+                return -1;
+        f = *state;
+        if (make_table(f, 16, &f->t) < 0)
+                return -1;
+        shm_table_begin(f->t);
+        shm_table_set_str(f->t, LAT, "40.12345678");
+        shm_table_set_str(f->t, LON, "-113.5");
+        shm_table_set_str(f->t, STATE, "connected");
+        shm_table_set_str(f->t, QUOTE, "say \"hi\" \\o/");
+        shm_table_commit(f->t);
+        shm_table_link_state(f->t, 0, 1, "up");
+        shm_table_counter_add(f->t, 0, SHM_COUNTER_FRAMES_IN, 42);
+        return 0;
+}
+
+static int teardown(void **state)
+{
+        struct fixture *f = *state;
+
+        shm_table_destroy(f->t);
+        harness_cleanup(&f->h);
+        free(f);
+        return 0;
+}
+
+/* ---- running slctl ------------------------------------------------------------------------- */
+
+struct proc {
+        pid_t pid;
+        int out;                        /* its stdout (non-blocking read end) */
+        int err;                        /* its stderr */
+};
+
+/* Starts slctl with args (NULL-terminated) in the harness environment. */
+static void proc_start(struct fixture *f, const char *const *args, struct proc *p)
+{
+        const char *argv[ARGV_MAX];
+        int out[2], err[2];
+        size_t n = 0;
+
+        argv[n++] = harness_slctl_path();
+        for (size_t i = 0; args[i] && n < ARGV_MAX - 1; i++)
+                argv[n++] = args[i];
+        argv[n] = NULL;
+        assert_int_equal(pipe2(out, O_CLOEXEC), 0);
+        assert_int_equal(pipe2(err, O_CLOEXEC), 0);
+        p->pid = fork();
+        assert_true(p->pid >= 0);
+        if (p->pid == 0) {
+                union { const char *const *c; char *const *m; } u = { .c = argv };
+
+                setenv("SHAREDLINK_INSTANCE", f->h.instance, 1);
+                setenv("SHAREDLINK_RUNTIME_DIR", f->h.dir, 1);
+                dup2(out[1], STDOUT_FILENO);
+                dup2(err[1], STDERR_FILENO);
+                execv(u.m[0], u.m);
+                _exit(127);
+        }
+        close(out[1]);
+        close(err[1]);
+        fcntl(out[0], F_SETFL, O_NONBLOCK);
+        fcntl(err[0], F_SETFL, O_NONBLOCK);
+        p->out = out[0];
+        p->err = err[0];
+}
+
+/* Reads what is left on both pipes until EOF, waits for the exit; returns the exit code. */
+static int proc_finish(struct proc *p, char *out, size_t out_size, char *err, size_t err_size)
+{
+        uint64_t deadline = harness_now_ns() + (uint64_t)RUN_LIMIT_MS * 1000000u;
+        size_t lens[2] = { strlen(out), strlen(err) };
+        char *bufs[2] = { out, err };
+        size_t sizes[2] = { out_size, err_size };
+        int fds[2] = { p->out, p->err }, st;
+
+        while (fds[0] >= 0 || fds[1] >= 0) {
+                struct pollfd pf[2] = { { .fd = fds[0], .events = POLLIN },
+                                        { .fd = fds[1], .events = POLLIN } };
+
+                if (harness_now_ns() > deadline) {
+                        kill(p->pid, SIGKILL);
+                        fail_msg("slctl did not finish");
+                }
+                if (poll(pf, 2, 100) <= 0)
+                        continue;
+                for (int i = 0; i < 2; i++) {
+                        ssize_t n;
+
+                        if (fds[i] < 0 || !pf[i].revents)
+                                continue;
+                        n = read(fds[i], bufs[i] + lens[i], sizes[i] - 1 - lens[i]);
+                        if (n > 0) {
+                                lens[i] += (size_t)n;
+                                bufs[i][lens[i]] = '\0';
+                        } else if (n == 0 || (errno != EAGAIN && errno != EINTR)) {
+                                close(fds[i]);
+                                fds[i] = -1;
+                        }
+                }
+        }
+        assert_int_equal(waitpid(p->pid, &st, 0), p->pid);
+        return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+/* Runs slctl with args to its end; stdout in f->out, stderr in f->err; returns the exit code. */
+static int run_argv(struct fixture *f, const char *const *args)
+{
+        struct proc p;
+
+        f->out[0] = '\0';
+        f->err[0] = '\0';
+        proc_start(f, args, &p);
+        return proc_finish(&p, f->out, sizeof(f->out), f->err, sizeof(f->err));
+}
+
+#define RUN(f, ...) run_argv((f), (const char *const[]){ __VA_ARGS__, NULL })
+
+/* Reads one line of a running slctl's stdout into buf (newline included). */
+static void proc_line(struct proc *p, char *buf, size_t size)
+{
+        ssize_t n = harness_read_until(p->out, buf, size, '\n', LINE_LIMIT_MS);
+
+        if (n <= 0)
+                fail_msg("no line from slctl (%zd), got \"%s\"", n, buf);
+}
+
+/* Number of lines in text. */
+static int count_lines(const char *text)
+{
+        int n = 0;
+
+        for (; *text; text++)
+                n += *text == '\n';
+        return n;
+}
+
+/* ---- a small strict JSON checker (RFC 8259 grammar; no python needed) ---------------------- */
+
+struct json_in {
+        const char *p;
+        int depth;
+};
+
+static int json_value(struct json_in *j);
+
+static void json_ws(struct json_in *j)
+{
+        while (*j->p == ' ' || *j->p == '\n' || *j->p == '\r' || *j->p == '\t')
+                j->p++;
+}
+
+static int json_lit(struct json_in *j, const char *lit)
+{
+        size_t n = strlen(lit);
+
+        if (strncmp(j->p, lit, n) != 0)
+                return -1;
+        j->p += n;
+        return 0;
+}
+
+static int json_str(struct json_in *j)
+{
+        if (*j->p++ != '"')
+                return -1;
+        for (;;) {
+                unsigned char ch = (unsigned char)*j->p++;
+
+                if (ch == '"')
+                        return 0;
+                if (ch < 0x20)
+                        return -1;      /* includes the end of the text */
+                if (ch >= 0x80)
+                        return -1;      /* slctl promises ASCII-only output */
+                if (ch != '\\')
+                        continue;
+                ch = (unsigned char)*j->p++;
+                if (ch == 'u') {
+                        for (int i = 0; i < 4; i++, j->p++)
+                                if (!strchr("0123456789abcdefABCDEF", *j->p) || !*j->p)
+                                        return -1;
+                } else if (!strchr("\"\\/bfnrt", ch) || !ch) {
+                        return -1;
+                }
+        }
+}
+
+static int json_num(struct json_in *j)
+{
+        const char *start = j->p;
+
+        if (*j->p == '-')
+                j->p++;
+        if (*j->p == '0')
+                j->p++;
+        else if (*j->p >= '1' && *j->p <= '9')
+                while (*j->p >= '0' && *j->p <= '9')
+                        j->p++;
+        else
+                return -1;
+        if (*j->p == '.') {
+                j->p++;
+                if (!(*j->p >= '0' && *j->p <= '9'))
+                        return -1;
+                while (*j->p >= '0' && *j->p <= '9')
+                        j->p++;
+        }
+        if (*j->p == 'e' || *j->p == 'E') {
+                j->p++;
+                if (*j->p == '+' || *j->p == '-')
+                        j->p++;
+                if (!(*j->p >= '0' && *j->p <= '9'))
+                        return -1;
+                while (*j->p >= '0' && *j->p <= '9')
+                        j->p++;
+        }
+        return j->p > start ? 0 : -1;
+}
+
+static int json_list(struct json_in *j, char close, int members)
+{
+        j->p++;
+        json_ws(j);
+        if (*j->p == close) {
+                j->p++;
+                return 0;
+        }
+        for (;;) {
+                json_ws(j);
+                if (members) {
+                        if (json_str(j) < 0)
+                                return -1;
+                        json_ws(j);
+                        if (*j->p++ != ':')
+                                return -1;
+                }
+                if (json_value(j) < 0)
+                        return -1;
+                json_ws(j);
+                if (*j->p == close) {
+                        j->p++;
+                        return 0;
+                }
+                if (*j->p++ != ',')
+                        return -1;
+        }
+}
+
+static int json_value(struct json_in *j)
+{
+        int r;
+
+        json_ws(j);
+        if (++j->depth > 64)
+                return -1;
+        switch (*j->p) {
+        case '{':
+                r = json_list(j, '}', 1);
+                break;
+        case '[':
+                r = json_list(j, ']', 0);
+                break;
+        case '"':
+                r = json_str(j);
+                break;
+        case 't':
+                r = json_lit(j, "true");
+                break;
+        case 'f':
+                r = json_lit(j, "false");
+                break;
+        case 'n':
+                r = json_lit(j, "null");
+                break;
+        default:
+                r = json_num(j);
+        }
+        j->depth--;
+        return r;
+}
+
+/* 0 when text is exactly one JSON value (with whitespace around). */
+static int json_check(const char *text)
+{
+        struct json_in j = { .p = text };
+
+        if (json_value(&j) < 0)
+                return -1;
+        json_ws(&j);
+        return *j.p == '\0' ? 0 : -1;
+}
+
+/* A python3 on $PATH, for a second opinion on the JSON; NULL when there is none. */
+static const char *python3_path(void)
+{
+        static char found[512];
+        const char *path = getenv("PATH");
+        char dirs[4096], *save = NULL;
+
+        if (!path)
+                return NULL;
+        snprintf(dirs, sizeof(dirs), "%s", path);
+        for (char *d = strtok_r(dirs, ":", &save); d; d = strtok_r(NULL, ":", &save)) {
+                snprintf(found, sizeof(found), "%s/python3", d);
+                if (access(found, X_OK) == 0)
+                        return found;
+        }
+        return NULL;
+}
+
+/* Checks JSON with the checker above and, when there is one, python3 -m json.tool. */
+static void assert_json(struct fixture *f, const char *text)
+{
+        const char *py = python3_path();
+        char path[HARNESS_PATH_MAX];
+
+        if (json_check(text) < 0)
+                fail_msg("not JSON: %s", text);
+        if (!py)
+                return;
+        assert_int_equal(harness_write_file(&f->h, "out.json", text, path), 0);
+        {
+                const char *const argv[] = { py, "-m", "json.tool", path, NULL };
+                char out[OUT_SIZE];
+
+                assert_int_equal(harness_run(&f->h, out, sizeof(out), RUN_LIMIT_MS, argv), 0);
+        }
+}
+
+static void test_json_checker(void **state)
+{
+        static const char *const good[] = {
+                "{}", "[]", "{\"a\":[1,-2.5e3,true,false,null,\"x\\\"\\u00ff\"]}", " 0 ",
+        };
+        static const char *const bad[] = {
+                "", "{", "{\"a\"}", "[1,]", "{\"a\":1,}", "\"\x01\"", "01", "1.", "tru",
+                "{} {}", "\"\\x\"", "\"\xc3\xa9\"", "[\"\\u00f\"]",
+        };
+
+        (void)state;
+        for (size_t i = 0; i < sizeof(good) / sizeof(good[0]); i++)
+                assert_int_equal(json_check(good[i]), 0);
+        for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++)
+                if (json_check(bad[i]) == 0)
+                        fail_msg("accepted: %s", bad[i]);
+}
+
+/* ---- list, get ----------------------------------------------------------------------------- */
+
+static void test_list(void **state)
+{
+        struct fixture *f = *state;
+
+        assert_int_equal(RUN(f, "list"), 0);
+        assert_int_equal(count_lines(f->out), 1 + NVARS);
+        assert_non_null(strstr(f->out, "NAME"));
+        assert_non_null(strstr(f->out, " 40.12345678\n"));
+        assert_non_null(strstr(f->out, " say \"hi\" \\o/\n"));
+        /* One row, field by field: name, direction, link, peer, type, age, flags, value. */
+        {
+                char name[64], dir[8], link[32], peer[16], type[16], age[32], flags[64], value[64];
+                const char *row = strstr(f->out, "AutoGpsLon ");
+
+                assert_non_null(row);
+                assert_int_equal(sscanf(row, "%63s %7s %31s %15s %15s %31s %63s %63s", name, dir,
+                                        link, peer, type, age, flags, value), 8);
+                assert_string_equal(dir, "in");
+                assert_string_equal(link, "vehicle");
+                assert_string_equal(peer, "A");
+                assert_string_equal(type, "double");
+                assert_true(age[strlen(age) - 1] == 's');
+                assert_string_equal(flags, "valid");
+                assert_string_equal(value, "-113.5");
+        }
+        /* Never written: age and flags "-", no value. */
+        {
+                char name[64], dir[8], link[32], peer[16], type[16], age[32], flags[64];
+                const char *row = strstr(f->out, "CmdThrottle ");
+
+                assert_non_null(row);
+                assert_int_equal(sscanf(row, "%63s %7s %31s %15s %15s %31s %63s", name, dir, link,
+                                        peer, type, age, flags), 7);
+                assert_string_equal(dir, "out");
+                assert_string_equal(age, "-");
+                assert_string_equal(flags, "-");
+                assert_true(strncmp(strchr(row, '\n') - 2, " -", 2) == 0);  /* no value after */
+        }
+
+        assert_int_equal(RUN(f, "list", "--json"), 0);
+        assert_json(f, f->out);
+        assert_non_null(strstr(f->out, "\"name\":\"Quote\\\"Back\\\\slash\""));
+        assert_non_null(strstr(f->out, "\"value\":\"say \\\"hi\\\" \\\\o/\""));
+        assert_non_null(strstr(f->out, "\"name\":\"NeverSet\",\"direction\":\"in\",\"link\":null,"
+                               "\"peer\":null,\"type\":\"long\",\"position\":null,\"value\":\"\","
+                               "\"valid\":false"));
+        assert_non_null(strstr(f->out, "\"name\":\"AutoGpsLat\",\"direction\":\"in\","
+                               "\"link\":\"vehicle\",\"peer\":\"A\",\"type\":\"double\","
+                               "\"position\":0,\"value\":\"40.12345678\",\"valid\":true,"
+                               "\"stale\":false"));
+}
+
+static void test_get(void **state)
+{
+        struct fixture *f = *state;
+
+        assert_int_equal(RUN(f, "get", "AutoGpsLon", "AutoGpsLat", "agility.state"), 0);
+        assert_string_equal(f->out, "-113.5\n40.12345678\nconnected\n");
+        /* Never set: an empty line; stale: its last value, unless --strict. */
+        assert_int_equal(RUN(f, "get", "NeverSet", "AutoGpsLat"), 0);
+        assert_string_equal(f->out, "\n40.12345678\n");
+        assert_int_equal(shm_table_set_stale(f->t, LAT, 1), 0);
+        shm_table_commit(f->t);
+        assert_int_equal(RUN(f, "get", "AutoGpsLat"), 0);
+        assert_string_equal(f->out, "40.12345678\n");
+        assert_int_equal(RUN(f, "get", "--strict", "AutoGpsLon", "AutoGpsLat"), 1);
+        assert_string_equal(f->out, "");
+        assert_non_null(strstr(f->err, "AutoGpsLat"));
+        assert_non_null(strstr(f->err, "stale"));
+        assert_int_equal(RUN(f, "get", "--strict", "NeverSet"), 1);
+        assert_string_equal(f->out, "");
+        assert_int_equal(RUN(f, "get", "--strict", "AutoGpsLon"), 0);
+        assert_string_equal(f->out, "-113.5\n");
+        /* Unknown: nothing printed, the name in the message. */
+        assert_int_equal(RUN(f, "get", "AutoGpsLon", "NoSuchThing"), 1);
+        assert_string_equal(f->out, "");
+        assert_non_null(strstr(f->err, "NoSuchThing"));
+}
+
+/* ---- set ----------------------------------------------------------------------------------- */
+
+struct scanned {
+        int n;
+        struct shm_out_change last;
+};
+
+static void on_out(void *userdata, const struct shm_out_change *change)
+{
+        struct scanned *s = userdata;
+
+        s->n++;
+        s->last = *change;
+}
+
+static void test_set(void **state)
+{
+        struct fixture *f = *state;
+        struct scanned s = { 0 };
+        char long_value[80];
+
+        assert_int_equal(RUN(f, "set", "CmdThrottle", "0.25"), 0);
+        assert_string_equal(f->out, "");
+        /* The daemon's side sees it, validated. */
+        assert_int_equal(shm_table_out_scan(f->t, on_out, &s), 1);
+        assert_int_equal(s.last.id, THROTTLE);
+        assert_int_equal(s.last.status, SHM_OUT_CHANGED);
+        assert_string_equal(s.last.value, "0.25");
+        /* A negative number is a value, not an option; so is anything after --. */
+        assert_int_equal(RUN(f, "set", "CmdThrottle", "-0.5"), 0);
+        assert_int_equal(RUN(f, "get", "CmdThrottle"), 0);
+        assert_string_equal(f->out, "-0.5\n");
+        assert_int_equal(RUN(f, "set", "--", "CmdThrottle", "-x"), 0);
+        assert_int_equal(RUN(f, "get", "CmdThrottle"), 0);
+        assert_string_equal(f->out, "-x\n");
+        /* Refusals, each explained. */
+        assert_int_equal(RUN(f, "set", "AutoGpsLat", "1"), 1);
+        assert_non_null(strstr(f->err, "inbound"));
+        assert_int_equal(RUN(f, "set", "CmdThrottle", "a|b"), 1);
+        assert_non_null(strstr(f->err, "printable ASCII"));
+        memset(long_value, '7', 64);
+        long_value[64] = '\0';
+        assert_int_equal(RUN(f, "set", "CmdThrottle", long_value), 1);
+        assert_non_null(strstr(f->err, "63 bytes"));
+        long_value[63] = '\0';
+        assert_int_equal(RUN(f, "set", "CmdThrottle", long_value), 0);
+        assert_int_equal(RUN(f, "set", "NoSuchThing", "1"), 1);
+        assert_non_null(strstr(f->err, "NoSuchThing"));
+        /* Nothing refused reached .out: the last change is the 63-byte value. */
+        s.n = 0;
+        assert_true(shm_table_out_scan(f->t, on_out, &s) >= 1);
+        assert_string_equal(s.last.value, long_value);
+}
+
+/* ---- watch --------------------------------------------------------------------------------- */
+
+static void test_watch(void **state)
+{
+        const char *const args[] = { "watch", "--count", "2", "--timeout", "60000", "AutoGpsLat",
+                                     "AutoGpsLon", NULL };
+        struct fixture *f = *state;
+        char line[512], out[256] = "", err[256] = "";
+        struct proc p;
+
+        proc_start(f, args, &p);
+        /* The current values first: once they are out, slctl is watching. */
+        proc_line(&p, line, sizeof(line));
+        assert_non_null(strstr(line, " AutoGpsLat 40.12345678\n"));
+        assert_true(line[4] == '-' && line[10] == 'T');         /* 2025-11-23T04:36:12.345 */
+        proc_line(&p, line, sizeof(line));
+        assert_non_null(strstr(line, " AutoGpsLon -113.5\n"));
+
+        shm_table_set_str(f->t, LAT, "41.5");
+        proc_line(&p, line, sizeof(line));
+        assert_non_null(strstr(line, " AutoGpsLat 41.5\n"));
+        shm_table_set_stale(f->t, LON, 1);
+        shm_table_commit(f->t);
+        proc_line(&p, line, sizeof(line));
+        assert_non_null(strstr(line, " AutoGpsLon -113.5 [stale]\n"));
+        /* Two changes seen: it ends by itself. */
+        assert_int_equal(proc_finish(&p, out, sizeof(out), err, sizeof(err)), 0);
+        assert_string_equal(out, "");
+
+        /* No change within the bound: with --count that is an error, without it is not. */
+        assert_int_equal(RUN(f, "watch", "--count", "1", "--timeout", "50", "NeverSet"), 1);
+        assert_int_equal(count_lines(f->out), 1);
+        assert_non_null(strstr(f->out, " NeverSet [invalid]\n"));
+        assert_int_equal(RUN(f, "watch", "--timeout", "0"), 0);
+        assert_int_equal(count_lines(f->out), NVARS);
+        assert_int_equal(RUN(f, "watch", "NoSuchThing"), 1);
+        assert_int_equal(RUN(f, "watch", "--count", "0"), 1);
+        assert_int_equal(RUN(f, "watch", "--timeout", "soon"), 1);
+}
+
+static void test_watch_new_names(void **state)
+{
+        const char *const args[] = { "watch", "--count", "1", "--timeout", "60000", NULL };
+        const struct shm_var adhoc = { "AdHocName", SHM_DIR_IN, SHM_TYPE_STRING, 0, "A",
+                                       SHM_POSITION_NONE };
+        struct fixture *f = *state;
+        char line[512], out[256] = "", err[256] = "";
+        struct proc p;
+        int id;
+
+        proc_start(f, args, &p);
+        for (int i = 0; i < NVARS; i++)
+                proc_line(&p, line, sizeof(line));
+        /* A name that appears while watching everything is a change too. */
+        id = shm_table_add(f->t, &adhoc);
+        assert_true(id >= 0);
+        shm_table_set_str(f->t, (uint32_t)id, "hello world");
+        proc_line(&p, line, sizeof(line));
+        assert_non_null(strstr(line, " AdHocName "));
+        assert_int_equal(proc_finish(&p, out, sizeof(out), err, sizeof(err)), 0);
+}
+
+/* ---- events -------------------------------------------------------------------------------- */
+
+static void test_events_ring(void **state)
+{
+        struct fixture *f = *state;
+        char expect[64];
+
+        /* setup() made 0 events (link_state publishes no event); 20 in a ring of 16. */
+        for (int i = 0; i < 20; i++)
+                shm_table_eventf(f->t, SHM_EVENT_ACTION, 1, "device=E1E1E1 sensor_time=%d",
+                                 i * 100);
+        shm_table_event(f->t, SHM_EVENT_DAEMON, SHM_LINK_NONE, "");
+        assert_int_equal(RUN(f, "events"), 0);
+        assert_true(strncmp(f->out, "- - overrun lost=", 17) == 0);
+        snprintf(expect, sizeof(expect), "\n20 agility action device=E1E1E1 sensor_time=1900\n");
+        assert_non_null(strstr(f->out, expect));
+        assert_non_null(strstr(f->out, "\n21 - daemon\n"));
+        assert_int_equal(count_lines(f->out), 1 + 16);
+        assert_int_equal(RUN(f, "events", "--count", "2"), 0);
+        assert_int_equal(count_lines(f->out), 3);       /* the overrun line, then 2 events */
+        assert_int_equal(RUN(f, "events", "--new"), 0);
+        assert_string_equal(f->out, "");
+        assert_int_equal(RUN(f, "events", "--timeout", "10"), 2);
+}
+
+static void test_events_follow(void **state)
+{
+        const char *const args[] = { "events", "--follow", "--count", "3", "--timeout", "60000",
+                                     NULL };
+        struct fixture *f = *state;
+        char line[512], out[256] = "", err[256] = "";
+        struct proc p;
+
+        shm_table_event(f->t, SHM_EVENT_DEVICE_ONLINE, 1, "device=AAAAAA");
+        proc_start(f, args, &p);
+        proc_line(&p, line, sizeof(line));
+        assert_string_equal(line, "1 agility device-online device=AAAAAA\n");
+        /* Printed as they come. */
+        shm_table_event(f->t, SHM_EVENT_ACTION, 1, "device=E1E1E1 sensor_time=5000");
+        proc_line(&p, line, sizeof(line));
+        assert_string_equal(line, "2 agility action device=E1E1E1 sensor_time=5000\n");
+        shm_table_begin(f->t);
+        shm_table_event(f->t, SHM_EVENT_DEVICE_OFFLINE, 1, "device=AAAAAA");
+        shm_table_event(f->t, SHM_EVENT_ACTION, 1, "device=E1E1E1");
+        shm_table_commit(f->t);
+        proc_line(&p, line, sizeof(line));
+        assert_string_equal(line, "3 agility device-offline device=AAAAAA\n");
+        /* --count 3: the fourth is not printed. */
+        assert_int_equal(proc_finish(&p, out, sizeof(out), err, sizeof(err)), 0);
+        assert_string_equal(out, "");
+        /* Following with nothing new until the bound: fine without --count. */
+        assert_int_equal(RUN(f, "events", "--follow", "--new", "--timeout", "20"), 0);
+        assert_string_equal(f->out, "");
+        assert_int_equal(RUN(f, "events", "--follow", "--new", "--count", "1", "--timeout", "20"),
+                         1);
+}
+
+/* ---- stats --------------------------------------------------------------------------------- */
+
+static void test_stats(void **state)
+{
+        struct fixture *f = *state;
+        char pid[64];
+
+        assert_int_equal(RUN(f, "stats"), 0);
+        snprintf(pid, sizeof(pid), "sharedlinkd pid %d, running", (int)getpid());
+        assert_non_null(strstr(f->out, pid));
+        assert_non_null(strstr(f->out, "link vehicle (sharedlink): up for "));
+        assert_non_null(strstr(f->out, "link agility (circe): no state yet"));
+        assert_non_null(strstr(f->out, "frames_in                    42"));
+        assert_non_null(strstr(f->out, "out_recreated"));
+        assert_int_equal(RUN(f, "stats", "--json"), 0);
+        assert_json(f, f->out);
+        assert_non_null(strstr(f->out, "\"name\":\"vehicle\",\"protocol\":\"sharedlink\","
+                               "\"state\":1,\"state_name\":\"up\""));
+        assert_non_null(strstr(f->out, "\"frames_in\":42,"));
+        assert_non_null(strstr(f->out, "\"alive\":true"));
+}
+
+/* ---- usage, help, bad input ---------------------------------------------------------------- */
+
+static void test_usage(void **state)
+{
+        static const char *const usage[][8] = {
+                { "bogus" }, { "--bogus" }, { "-i" }, { "-i", "" },
+                { "list", "extra" }, { "list", "--bogus" }, { "list", "--json=1" },
+                { "list", "--json", "--json" }, { "get" }, { "set", "CmdThrottle" },
+                { "set", "a", "b", "c" }, { "watch", "--count" }, { "events", "--timeout", "5" },
+                { "events", "x" }, { "stats", "x" }, { "query", "vehicle", "A" },
+                { "circe" }, { "circe", "agility" }, { "circe", "agility", "dance" },
+                { "circe", "agility", "alert" }, { "circe", "agility", "alert", "A", "B" },
+                { "circe", "agility", "network-setup", "AAAAAA", "--roles", "1" },
+                { "circe", "agility", "network-setup", "AAAAAA", "--join", "--leave", "--roles",
+                  "1" },
+                { "circe", "agility", "network-setup", "AAAAAA", "--join" },
+                { "circe", "agility", "device-setup" },
+                { "circe", "agility", "sync-clocks", "--roles", "1" },
+                { "circe", "agility", "visualize" },
+                { "circe", "agility", "emulate", "press", "E1E1E1" },
+                { "circe", "agility", "alert", "E1E1E1", "--keys", "1" },
+                { "help", "bogus" },
+        };
+        struct fixture *f = *state;
+
+        assert_int_equal(run_argv(f, (const char *const[]){ NULL }), 2);
+        assert_non_null(strstr(f->err, "--help"));
+        for (size_t i = 0; i < sizeof(usage) / sizeof(usage[0]); i++) {
+                int code = run_argv(f, usage[i]);
+
+                if (code != 2)
+                        fail_msg("slctl %s %s %s: exit %d, not 2", usage[i][0],
+                                 usage[i][1] ? usage[i][1] : "", usage[i][1] && usage[i][2] ?
+                                 usage[i][2] : "", code);
+                assert_string_equal(f->out, "");
+                assert_true(f->err[0] != '\0');
+        }
+}
+
+static void test_help(void **state)
+{
+        static const char *const commands[] = {
+                "list", "get", "set", "watch", "events", "stats", "query", "circe",
+        };
+        struct fixture *f = *state;
+
+        assert_int_equal(RUN(f, "--help"), 0);
+        for (size_t i = 0; i < sizeof(commands) / sizeof(commands[0]); i++)
+                assert_non_null(strstr(f->out, commands[i]));
+        assert_non_null(strstr(f->out, "Exit status"));
+        assert_int_equal(RUN(f, "-h"), 0);
+        assert_int_equal(RUN(f, "help"), 0);
+        for (size_t i = 0; i < sizeof(commands) / sizeof(commands[0]); i++) {
+                char want[64];
+
+                snprintf(want, sizeof(want), "slctl [-i INSTANCE] %s", commands[i]);
+                assert_int_equal(RUN(f, commands[i], "--help"), 0);
+                assert_non_null(strstr(f->out, want));
+                assert_int_equal(RUN(f, "help", commands[i]), 0);
+                assert_non_null(strstr(f->out, want));
+        }
+        assert_int_equal(RUN(f, "--version"), 0);
+        assert_true(strncmp(f->out, "slctl (sharedlink) ", 19) == 0);
+}
+
+/* Refused by the library before any connection: exit 1, although no daemon socket exists. */
+static void test_bad_input(void **state)
+{
+        static const char *const bad[][10] = {
+                { "query", "vehicle", "Z", "AutoGpsLat" },
+                { "query", "vehicle", "A", "Bad|Name" },
+                { "query", "--timeout", "0", "vehicle", "A", "X" },
+                { "query", "--timeout", "60001", "vehicle", "A", "X" },
+                { "query", "--wait", "60001", "vehicle", "A", "X" },
+                { "circe", "agility", "alert", "FFFFFF" },
+                { "circe", "agility", "alert", "E1E1E" },
+                { "circe", "agility", "network-setup", "AAAAAA", "--join", "--roles", "128" },
+                { "circe", "agility", "network-setup", "AAAAAA", "--join", "--roles", "x" },
+                { "circe", "agility", "device-setup", "--assign", "123456", "--capabilities",
+                  "200" },
+                { "circe", "agility", "device-setup", "--assign", "123456", "--dest", "XYZ" },
+                { "circe", "agility", "visualize", "D15D15" },
+                { "circe", "agility", "visualize", "D15D15,", "--current", "1" },
+                { "circe", "agility", "visualize", "D15D15", "--current", "1000" },
+                { "circe", "agility", "visualize", "D15D15", "--primary", "1000000" },
+                { "circe", "agility", "visualize", "D15D15", "--eliminated", "2" },
+                { "circe", "agility", "visualize", "D15D15", "--faults", "-1" },
+                { "circe", "arena", "emulate", "action", "E1E1E1", "--keys", "65536" },
+                { "circe", "arena", "emulate", "action", "E1E1E1", "--sensor-time", "9999999999" },
+        };
+        struct fixture *f = *state;
+
+        for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+                int code = run_argv(f, bad[i]);
+
+                if (code != 1)
+                        fail_msg("case %zu (%s %s ...): exit %d, not 1; %s", i, bad[i][0],
+                                 bad[i][1], code, f->err);
+                assert_string_equal(f->out, "");
+                assert_true(f->err[0] != '\0');
+        }
+        /* Lower-case addresses are taken (upper-cased); well-formed commands then find no
+         * daemon listening on the control socket. */
+        assert_int_equal(RUN(f, "circe", "agility", "alert", "e1e1e1"), 3);
+        assert_non_null(strstr(f->err, "not running"));
+        assert_int_equal(RUN(f, "circe", "agility", "visualize", "d15d15,E1E1E1", "--current",
+                             "7", "--start-timer", "--wait", "100"), 3);
+        assert_int_equal(RUN(f, "query", "vehicle", "A", "AutoGpsLat"), 3);
+}
+
+/* ---- no daemon ----------------------------------------------------------------------------- */
+
+static void test_not_running(void **state)
+{
+        static const char *const cmds[][8] = {
+                { "list" }, { "list", "--json" }, { "get", "AutoGpsLat" },
+                { "set", "CmdThrottle", "1" }, { "watch" }, { "events" }, { "stats" },
+                { "query", "vehicle", "A", "X" }, { "circe", "agility", "alert", "E1E1E1" },
+                { "circe", "agility", "sync-clocks" },
+        };
+        struct fixture *f = *state;
+
+        /* No tables at all. */
+        for (size_t i = 0; i < sizeof(cmds) / sizeof(cmds[0]); i++) {
+                int code = run_argv(f, cmds[i]);
+
+                if (code != 3)
+                        fail_msg("slctl %s: exit %d, not 3", cmds[i][0], code);
+                assert_string_equal(f->out, "");
+                assert_non_null(strstr(f->err, "not running"));
+        }
+}
+
+/* Makes the tables and exits without removing them: a daemon that crashed. */
+static int crashed_daemon(void *arg)
+{
+        struct fixture *f = arg;
+        struct shm_table *t;
+
+        return make_table(f, 16, &t) == 0 ? 0 : 1;
+}
+
+static void test_dead_daemon(void **state)
+{
+        struct fixture *f = *state;
+
+        assert_int_equal(shmtest_wait(shmtest_fork(crashed_daemon, f)), 0);
+        assert_int_equal(RUN(f, "get", "AutoGpsLat"), 3);
+        assert_non_null(strstr(f->err, "not running"));
+        assert_int_equal(RUN(f, "list"), 3);
+        /* stats still shows what the dead daemon left, and says so. */
+        assert_int_equal(RUN(f, "stats"), 3);
+        assert_non_null(strstr(f->out, "not running"));
+        assert_non_null(strstr(f->out, "link vehicle (sharedlink)"));
+        assert_int_equal(RUN(f, "stats", "--json"), 3);
+        assert_json(f, f->out);
+        assert_non_null(strstr(f->out, "\"alive\":false"));
+        shmtest_unlink(f->h.instance);
+}
+
+int main(void)
+{
+        const struct CMUnitTest tests[] = {
+                cmocka_unit_test(test_json_checker),
+                cmocka_unit_test_setup_teardown(test_list, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_get, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_set, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_watch, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_watch_new_names, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_events_ring, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_events_follow, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_stats, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_usage, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_help, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_bad_input, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_not_running, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_dead_daemon, setup_bare, teardown),
+        };
+
+        return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -155,7 +155,7 @@ PROGRAMS := $(if $(DAEMON_MAIN),$(SHAREDLINKD)) $(if $(CLI_SRC),$(SLCTL)) \
 # ---------------------------------------------------------------------------------------------
 # Top-level targets
 
-.PHONY: all check test bench fuzz demo deps deps-extra clean install help tsan-stress
+.PHONY: all check bench fuzz deps deps-extra clean help
 
 all: $(PROGRAMS) $(INTERNAL_ARCHIVES)
 
@@ -167,18 +167,23 @@ help:
 	@echo "make demo       run the no-hardware demo"
 	@echo "make deps       install the build dependencies with apt-get (root) or print the command"
 
+# Builds the asan variant of everything and the tsan variant of the stress tests, then runs every
+# test binary once, with one total at the end.
 check:
-	$(MAKE) --no-print-directory SAN=asan test
-	$(if $(STRESS_SRC),$(MAKE) --no-print-directory SAN=tsan tsan-stress)
+	$(MAKE) --no-print-directory SAN=asan test-build
+	$(if $(STRESS_SRC),$(MAKE) --no-print-directory SAN=tsan test-build-tsan)
+	@TEST_TIMEOUT=$(TEST_TIMEOUT) SHAREDLINK_BUILD=build/asan tests/run-tests.sh \
+	    --unit "$(call variant_bins,build/asan,$(UNIT_SRC))" \
+	    --replay "$(patsubst tests/fuzz/%.c,build/asan/tests/fuzz/%-replay,$(FUZZ_SRC))" \
+	    --stress "$(call variant_bins,build/asan,$(STRESS_SRC))" \
+	    --tsan "$(call variant_bins,build/tsan,$(STRESS_SRC))" \
+	    --integration "$(call variant_bins,build/asan,$(INTEG_SRC))"
 
-# Runs inside the asan build: every test binary, one report line each, a total at the end.
-test: all $(UNIT_BIN) $(REPLAY_BIN) $(STRESS_BIN) $(INTEG_BIN) $(EXAMPLE_BIN)
-	@TEST_TIMEOUT=$(TEST_TIMEOUT) SHAREDLINK_BUILD=$(O) tests/run-tests.sh \
-	    --unit "$(UNIT_BIN)" --replay "$(REPLAY_BIN)" --stress "$(STRESS_BIN)" \
-	    --integration "$(INTEG_BIN)"
+variant_bins = $(patsubst tests/%.c,$(1)/tests/%,$(2))
 
-tsan-stress: $(STRESS_BIN)
-	@TEST_TIMEOUT=$(TEST_TIMEOUT) SHAREDLINK_BUILD=$(O) tests/run-tests.sh --stress "$(STRESS_BIN)"
+.PHONY: test-build test-build-tsan
+test-build: all $(UNIT_BIN) $(REPLAY_BIN) $(STRESS_BIN) $(INTEG_BIN) $(EXAMPLE_BIN)
+test-build-tsan: $(STRESS_BIN)
 
 deps:
 	@if [ "$$(id -u)" = 0 ]; then \

@@ -647,7 +647,7 @@ static enum circe_reason parse_packet(const uint8_t *pkt, size_t len, struct cir
         struct param_ref refs[PARAMS_MAX];
         const struct op_spec *os;
         size_t end, body_end, count;
-        uint64_t seen, missing;
+        uint64_t seen = 0, missing;   /* = 0: gcc -fsanitize=thread warns maybe-uninitialized */
         unsigned sum;
         enum circe_reason r;
 

@@ -7,7 +7,7 @@
  *
  * Decoding, on a byte stream (serial, pty):
  *
- *      struct sl_decoder d;              // about 40 KiB: keep it in the link, not on a small stack
+ *      struct sl_decoder d;              // about 37 KiB: keep it in the link, not on a small stack
  *      struct sl_decode_result r;
  *      sl_decoder_init(&d, max_frame);
  *      while (len > 0) {
@@ -31,7 +31,9 @@
 /* ---------------------------------------------------------------------------------------------
  * Limits */
 
-#define SL_VALUE_MAX            63      /* longest value we emit (bytes, no terminator) */
+/* Longest value we emit (bytes, no terminator). The decoder passes longer values through, as
+ * the grammar has no bound: whoever stores a decoded value checks its length. */
+#define SL_VALUE_MAX            63
 #define SL_FRAME_DEFAULT        1024    /* default max_frame, '[' through ']' */
 #define SL_FRAME_MAX            4096    /* largest configurable max_frame */
 #define SL_FRAME_MIN            32      /* smallest configurable max_frame */
@@ -124,6 +126,7 @@ struct sl_decoder {
         size_t noise;                   /* noise bytes not reported yet */
         struct sl_frame frame;
         struct sl_field fields[SL_FIELDS_MAX];
+        uint64_t bars[SL_FRAME_MAX / 64 + 1];   /* where the '|' are in buf (bit i: buf[i + 1]) */
         char buf[SL_FRAME_MAX];
 };
 

@@ -446,6 +446,61 @@ static void test_max_frame_edges(void **state)
         }
 }
 
+/* Appends "|C" hh "]" to the frame buf[0 .. n), with the checksum computed here; returns n. */
+static size_t close_frame(char *buf, size_t n)
+{
+        unsigned sum = 0;
+
+        buf[n++] = '|';
+        buf[n++] = 'C';
+        for (size_t i = 1; i < n; i++)
+                sum += (unsigned char)buf[i];
+        n += (size_t)sprintf(buf + n, "%02X]", sum & 0xff);
+        return n;
+}
+
+/* A byte outside 0x20-0x7E at any offset (so at every place in an 8-byte word) is found, and a
+ * '|' at any offset splits the fields there; both with the right checksum. */
+static void test_every_offset(void **state)
+{
+        static const unsigned char bad[] = { 0x00, 0x01, 0x1f, 0x7f, 0x80, 0xfe, 0xff };
+        char buf[128];
+
+        (void)state;
+        for (size_t len = 1; len <= 40; len++) {
+                for (size_t at = 0; at < len; at++) {
+                        struct sl_decode_result r;
+                        size_t n;
+
+                        for (size_t k = 0; k < sizeof(bad); k++) {
+                                n = (size_t)sprintf(buf, "[:AB|D");
+                                for (size_t i = 0; i < len; i++)
+                                        buf[n++] = i == at ? (char)bad[k] : (char)('a' + i % 26);
+                                n = close_frame(buf, n);
+                                assert_int_equal(sl_decoder_init(&dec, 0), 0);
+                                assert_int_equal(sl_decoder_feed(&dec, (const uint8_t *)buf, n, &r), n);
+                                assert_int_equal(r.kind, SL_RESULT_REJECT);
+                                assert_int_equal(r.reason, SL_REASON_BAD_FIELD);
+                        }
+                        /* "D<at letters>|D<the rest>" */
+                        n = (size_t)sprintf(buf, "[:AB|D");
+                        for (size_t i = 0; i < len; i++)
+                                buf[n++] = i == at ? '|' : (char)('a' + i % 26);
+                        if (at + 1 < len)
+                                buf[n - len + at + 1] = 'D';
+                        n = close_frame(buf, n);
+                        assert_int_equal(sl_decoder_init(&dec, 0), 0);
+                        assert_int_equal(sl_decoder_feed(&dec, (const uint8_t *)buf, n, &r), n);
+                        assert_int_equal(r.kind, SL_RESULT_FRAME);
+                        assert_int_equal(r.frame->nfields, at + 1 < len ? 2 : 1);
+                        assert_int_equal(r.frame->empty_fields, at + 1 < len ? 0 : 1);
+                        assert_int_equal(r.frame->fields[0].len, at);
+                        if (at + 1 < len)
+                                assert_int_equal(r.frame->fields[1].len, len - at - 2);
+                }
+        }
+}
+
 static void test_reason_strings(void **state)
 {
         (void)state;
@@ -841,7 +896,7 @@ static void test_roundtrip_vectors(void **state)
                         size_t used = sl_decoder_feed(&dec, (const uint8_t *)in, len, &r);
                         const struct sl_frame *f = r.frame;
                         char dst, src;
-                        size_t nf, vlen = 0;
+                        size_t nf;
                         bool long_value = false;
                         int n;
 
@@ -858,7 +913,6 @@ static void test_roundtrip_vectors(void **state)
                                 copy[k] = f->fields[k];
                                 copy[k].value = values + (f->fields[k].value - f->raw);
                                 long_value |= copy[k].len > SL_VALUE_MAX;
-                                vlen += copy[k].len;
                         }
                         n = sl_frame_encode(buf, sizeof(buf), dst, src, copy, nf, 0);
                         if (long_value) {
@@ -884,6 +938,7 @@ int main(void)
                 cmocka_unit_test(test_decoder_init_limits),
                 cmocka_unit_test(test_noise_runs),
                 cmocka_unit_test(test_max_frame_edges),
+                cmocka_unit_test(test_every_offset),
                 cmocka_unit_test(test_reason_strings),
                 cmocka_unit_test(test_encode_vectors),
                 cmocka_unit_test(test_encode_buffer_size),

@@ -176,7 +176,8 @@ int sl_info(struct sl_client *c, int id, struct sl_var_info *ret);
  * Copies the value of variable id (NUL-terminated) into buf; meta may be NULL. Returns its length
  * (0 and no SL_FLAG_VALID when it was never set), -ENOENT, -ENOBUFS (size < length + 1), or
  * -EAGAIN when a writer kept it busy for every bounded attempt (try again). An outbound variable
- * reads as what was last written to it.
+ * reads as what was last written to it. On failure buf holds nothing meaningful (a buffer of
+ * SL_VALUE_SIZE bytes or more is used as scratch space by the read: the fastest path).
  */
 int sl_read(struct sl_client *c, int id, char *buf, size_t size, struct sl_meta *meta);
 

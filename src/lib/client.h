@@ -3,9 +3,10 @@
  * the user may), the id translation that keeps ids stable across daemon restarts, and the lock
  * that makes one handle usable from many threads.
  *
- * Locking: every call holds c->lock for reading while it touches the mappings; only a refresh
- * (daemon restart, new names, recreated .out) takes it for writing. sl_wait must not hold the lock
- * while it sleeps, so it pins the current .in mapping with a reference instead (struct client_map).
+ * Locking: every call holds the handle's lock for reading (client_rdlock) while it touches the
+ * mappings; only a refresh (daemon restart, new names, recreated .out) takes it for writing. sl_wait
+ * must not hold the lock while it sleeps, so it pins the current .in mapping with a reference
+ * instead (struct client_map). The lock is not recursive: never take it twice in one thread.
  */
 #ifndef SL_CLIENT_H
 #define SL_CLIENT_H
@@ -39,7 +40,10 @@ struct client_map {
 };
 
 struct sl_client {
-        pthread_rwlock_t lock;
+        /* the handle's lock (client.c): readers inside, a writer wanting in, writers in turn */
+        _Atomic uint32_t readers;
+        _Atomic uint32_t writer;
+        pthread_mutex_t writers;
         char in_name[SHM_OBJECT_NAME_SIZE];
         char out_name[SHM_OBJECT_NAME_SIZE];
         struct client_map *map;
@@ -61,18 +65,24 @@ struct sl_client {
         uint32_t name_hash_size;
         uint32_t pid;                   /* written into .out lock words */
         locale_t c_locale;              /* numbers are formatted and parsed in the C locale */
-        /* control socket (request.c): "<runtime_dir>/<instance>.sock", under c->lock */
+        /* control socket (request.c): "<runtime_dir>/<instance>.sock", under the lock */
         char instance[SHM_INSTANCE_MAX + 1];
         char runtime_dir[CLIENT_RUNTIME_DIR_SIZE];      /* "": unusable, runtime_dir_error says why */
         int runtime_dir_error;
         _Atomic int command_wait_ms;    /* "wait=MS" on query/circe requests; 0: none */
 };
 
-/* Takes c->lock for reading, first refreshing the view if the tables changed underneath. */
+/* Takes the lock for reading, first refreshing the view if the tables changed underneath. */
 void client_rdlock(struct sl_client *c);
 
-/* Releases c->lock. */
+/* Releases a read lock. */
 void client_unlock(struct sl_client *c);
+
+/* Takes the lock for writing (no refresh): waits for the readers inside to leave. */
+void client_wrlock(struct sl_client *c);
+
+/* Releases the write lock. */
+void client_wrunlock(struct sl_client *c);
 
 /* Id ever given to name by this handle (read lock held), or -ENOENT. */
 int client_id_lookup(const struct sl_client *c, const char *name);

@@ -116,9 +116,9 @@ SL_EXPORT int sl_set_runtime_dir(struct sl_client *c, const char *dir)
 
         if (!c || (dir && !*dir))
                 return -EINVAL;
-        pthread_rwlock_wrlock(&c->lock);
+        client_wrlock(c);
         r = runtime_dir_store(c, dir ? dir : runtime_dir_default());
-        pthread_rwlock_unlock(&c->lock);
+        client_wrunlock(c);
         return r;
 }
 
@@ -136,7 +136,7 @@ static int socket_address(struct sl_client *c, struct sockaddr_un *ret_sa)
         struct sockaddr_un sa = { .sun_family = AF_UNIX };
         int r;
 
-        pthread_rwlock_rdlock(&c->lock);
+        client_rdlock(c);
         r = c->runtime_dir_error;
         if (r == 0) {
                 int n = snprintf(sa.sun_path, sizeof(sa.sun_path), "%s/%s%s", c->runtime_dir,
@@ -145,7 +145,7 @@ static int socket_address(struct sl_client *c, struct sockaddr_un *ret_sa)
                 if (n < 0 || (size_t)n >= sizeof(sa.sun_path))
                         r = -ENAMETOOLONG;      /* not reached: runtime_dir_store checked it */
         }
-        pthread_rwlock_unlock(&c->lock);
+        client_unlock(c);
         if (r < 0)
                 return r;
         *ret_sa = sa;

@@ -185,6 +185,10 @@ variant_bins = $(patsubst tests/%.c,$(1)/tests/%,$(2))
 test-build: all $(UNIT_BIN) $(REPLAY_BIN) $(STRESS_BIN) $(INTEG_BIN) $(EXAMPLE_BIN)
 test-build-tsan: $(STRESS_BIN)
 
+# The no-hardware demo (tests/demo.sh): the optimised build, one daemon on conf/demo.yaml.
+demo: all
+	@SHAREDLINK_BUILD=$(O) tests/demo.sh
+
 deps:
 	@if [ "$$(id -u)" = 0 ]; then \
 	    echo "sharedlink: apt-get install $(DEB_PKGS)"; \

@@ -1615,6 +1615,7 @@ static int parse_root(struct ctx *c, uint32_t root_index)
                 if (r < 0)
                         return r;
                 c->runtime_dir_node = vals[TK_RUNTIME_DIR];
+                cfg->runtime_dir_set = true;
         }
         if (vals[TK_GROUP] && (r = get_group(c, vals[TK_GROUP], cfg->group,
                                              sizeof(cfg->group))) < 0)

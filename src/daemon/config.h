@@ -208,6 +208,7 @@ struct config_link {
 struct config {
         char instance[CONFIG_INSTANCE_MAX + 1];
         char runtime_dir[CONFIG_PATH_MAX];
+        bool runtime_dir_set;           /* runtime_dir came from the file, not the default */
         char group[CONFIG_GROUP_MAX + 1];       /* "" = none */
         struct config_link links[CONFIG_LINKS_MAX];
         unsigned n_links;

@@ -12,6 +12,11 @@
  *
  * Requests (argv[0]):
  *   ping                                   -> OK <daemon pid> <epoch>
+ *   stats                                  -> DATA loop wakeups=N idle_wakeups=N fd_events=N
+ *                                               timer_fires=N signals=N nval_drops=N
+ *                                             DATA control <control_stats fields as key=N>
+ *                                             then OK (answered by the core, for diagnostics
+ *                                             and for the "no busy waiting" tests)
  *   query LINK PEER NAME [TIMEOUT_MS]      -> OK <value>          (SharedLink Q -> R/D)
  *   circe LINK alert ADDR                  -> OK
  *   circe LINK network-setup ADDR join|leave ROLES
@@ -32,6 +37,7 @@
 #define SHAREDLINK_DAEMON_CONTROL_H
 
 #include <stddef.h>
+#include <stdint.h>
 #include <sys/types.h>
 
 #include "daemon/evloop.h"
@@ -43,6 +49,20 @@
 
 struct control;
 struct control_request;
+
+/* Counters since control_new() (the `stats` request prints them). */
+struct control_stats {
+        uint64_t accepted;              /* connections accepted */
+        uint64_t refused_full;          /* refused: CONTROL_CLIENTS_MAX already connected */
+        uint64_t denied;                /* peers outside uid/root/group, answered ERR 13 */
+        uint64_t requests;              /* requests handed to the handler */
+        uint64_t bad_requests;          /* malformed lines answered ERR without the handler */
+        uint64_t overlong;              /* lines over CONTROL_LINE_MAX: disconnected */
+        uint64_t slow_readers;          /* reply queue over CONTROL_REPLY_MAX: disconnected */
+        uint64_t orphaned;              /* requests whose client left before the answer */
+        uint64_t orphan_answers;        /* answers to those, which went nowhere */
+        unsigned clients;               /* connected now */
+};
 
 /*
  * Called for every request from an authorised client. The handler (the daemon core, which
@@ -77,5 +97,8 @@ void control_reply_error(struct control_request *req, int err, const char *fmt, 
 
 /* Whether the client that sent req is still connected (an engine may stop waiting early). */
 int control_request_alive(const struct control_request *req);
+
+/* Copies the counters. */
+void control_get_stats(const struct control *c, struct control_stats *ret_stats);
 
 #endif

@@ -70,8 +70,15 @@ struct link_ops {
          */
         void (*command)(void *engine, struct control_request *req, int argc, char **argv);
 
-        /* One line for `STATUS=` and logs: "up", "connecting", "down: hang-up" ... */
+        /* One line for `STATUS=` and logs: "up", "connecting", "down: hang-up" ... The core
+         * counts a link as up when the first word of this text is "up". */
         const char *(*status)(void *engine);
+
+        /* Optional (NULL: nothing to do): called at every core heartbeat (DAEMON_HEARTBEAT_MS),
+         * so the engine publishes its channel counters with link_publish_channel_stats() even
+         * when no I/O burst happened (reopens while down, say). The core cannot do it itself:
+         * the channel belongs to the engine. */
+        void (*heartbeat)(void *engine);
 };
 
 /* The engine of a protocol: &link_sharedlink_ops or &link_circe_ops. NULL for an unknown one. */
@@ -86,7 +93,7 @@ int link_channel_new(const struct link_env *env, const struct channel_ops *ops, 
                      struct channel **ret_channel);
 
 /* Copies the channel's counters into the link's shm counters (bytes, reopens, io errors, tx
- * drops); engines call it after I/O bursts, the core at every heartbeat. */
+ * drops); engines call it after I/O bursts and from ops->heartbeat. */
 void link_publish_channel_stats(const struct link_env *env, const struct channel *ch);
 
 #endif

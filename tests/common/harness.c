@@ -14,6 +14,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -73,6 +74,7 @@ int harness_init(struct harness *h, const char *tag)
         chmod(h->dir, 0755);
         snprintf(h->instance, sizeof(h->instance), "t%ld-%s", (long)getpid(), tag);
         snprintf(h->notify_path, sizeof(h->notify_path), "%s/notify.sock", h->dir);
+        snprintf(h->log_path, sizeof(h->log_path), "%s/daemon.log", h->dir);
 
         h->notify_fd = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
         if (h->notify_fd < 0)
@@ -224,7 +226,15 @@ int harness_start_daemon(struct harness *h, const char *config, int timeout_ms, 
         if (pid < 0)
                 return -errno;
         if (pid == 0) {
+                /* A test that dies (timeout, crash) must not leave its daemon behind. */
+                prctl(PR_SET_PDEATHSIG, SIGTERM);
                 child_env(h);
+                if (h->capture_log) {
+                        int fd = open(h->log_path, O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+
+                        if (fd >= 0)
+                                dup2(fd, STDERR_FILENO);
+                }
                 exec_argv(argv);
         }
         h->pid = pid;
@@ -261,56 +271,198 @@ int harness_stop_daemon(struct harness *h, int sig, int timeout_ms)
         }
 }
 
-int harness_run(struct harness *h, char *out, size_t size, int timeout_ms, const char *const *argv)
+/* Appends what one read of fd gives to buf[*len..size-1); 0 at EOF or error, 1 otherwise. */
+static int read_some(int fd, char *buf, size_t size, size_t *len)
+{
+        char tmp[512];
+        ssize_t n = read(fd, tmp, sizeof(tmp));
+
+        if (n < 0 && (errno == EINTR || errno == EAGAIN))
+                return 1;
+        if (n <= 0)
+                return 0;
+        if (buf && size > 0) {
+                size_t take = (size_t)n < size - 1 - *len ? (size_t)n : size - 1 - *len;
+
+                memcpy(buf + *len, tmp, take);
+                *len += take;
+        }
+        return 1;
+}
+
+int harness_run_capture(struct harness *h, char *out, size_t size, char *err, size_t errsize,
+                        int timeout_ms, const char *const *argv)
 {
         uint64_t deadline = harness_now_ns() + (uint64_t)timeout_ms * 1000000u;
-        int pipefd[2], st;
-        size_t len = 0;
+        int opipe[2], epipe[2] = { -1, -1 }, st;
+        size_t olen = 0, elen = 0;
         pid_t pid;
 
-        if (pipe2(pipefd, O_CLOEXEC) < 0)
+        if (pipe2(opipe, O_CLOEXEC) < 0)
                 return -errno;
+        if (err && pipe2(epipe, O_CLOEXEC) < 0) {
+                close(opipe[0]);
+                close(opipe[1]);
+                return -errno;
+        }
         pid = fork();
         if (pid < 0) {
-                close(pipefd[0]);
-                close(pipefd[1]);
-                return -errno;
+                st = -errno;
+                close(opipe[0]);
+                close(opipe[1]);
+                if (err) {
+                        close(epipe[0]);
+                        close(epipe[1]);
+                }
+                return st;
         }
         if (pid == 0) {
                 child_env(h);
-                dup2(pipefd[1], STDOUT_FILENO);
+                dup2(opipe[1], STDOUT_FILENO);
+                if (err)
+                        dup2(epipe[1], STDERR_FILENO);
                 exec_argv(argv);
         }
-        close(pipefd[1]);
-        for (;;) {
-                struct pollfd p = { .fd = pipefd[0], .events = POLLIN };
+        close(opipe[1]);
+        if (err)
+                close(epipe[1]);
+        while (opipe[0] >= 0 || epipe[0] >= 0) {
+                struct pollfd p[2] = { { .fd = opipe[0], .events = POLLIN },
+                                       { .fd = epipe[0], .events = POLLIN } };
                 int left = remaining_ms(deadline);
-                char tmp[512];
-                ssize_t n;
 
                 if (left == 0) {
                         kill(pid, SIGKILL);
                         waitpid(pid, &st, 0);
-                        close(pipefd[0]);
+                        if (opipe[0] >= 0)
+                                close(opipe[0]);
+                        if (epipe[0] >= 0)
+                                close(epipe[0]);
                         return -ETIMEDOUT;
                 }
-                if (poll(&p, 1, left) <= 0)
+                if (poll(p, 2, left) <= 0)
                         continue;
-                n = read(pipefd[0], tmp, sizeof(tmp));
-                if (n <= 0)
-                        break;
-                if (out && size > 0) {
-                        size_t take = (size_t)n < size - 1 - len ? (size_t)n : size - 1 - len;
-                        memcpy(out + len, tmp, take);
-                        len += take;
+                if (p[0].revents && !read_some(opipe[0], out, size, &olen)) {
+                        close(opipe[0]);
+                        opipe[0] = -1;
+                }
+                if (p[1].revents && !read_some(epipe[0], err, errsize, &elen)) {
+                        close(epipe[0]);
+                        epipe[0] = -1;
                 }
         }
-        close(pipefd[0]);
         if (out && size > 0)
-                out[len] = '\0';
+                out[olen] = '\0';
+        if (err && errsize > 0)
+                err[elen] = '\0';
         if (waitpid(pid, &st, 0) < 0)
                 return -errno;
         return WIFEXITED(st) ? WEXITSTATUS(st) : 128 + WTERMSIG(st);
+}
+
+int harness_run(struct harness *h, char *out, size_t size, int timeout_ms, const char *const *argv)
+{
+        return harness_run_capture(h, out, size, NULL, 0, timeout_ms, argv);
+}
+
+int harness_log_contains(struct harness *h, const char *needle)
+{
+        char buf[4096];
+        size_t keep = strlen(needle), len = 0;
+        int fd = open(h->log_path, O_RDONLY | O_CLOEXEC);
+        ssize_t n;
+
+        if (fd < 0)
+                return -errno;
+        if (keep >= sizeof(buf) / 2) {
+                close(fd);
+                return -EINVAL;
+        }
+        /* Scans in chunks, carrying the last strlen(needle) bytes over so a match that straddles
+         * two chunks is still found. */
+        while ((n = read(fd, buf + len, sizeof(buf) - 1 - len)) > 0) {
+                len += (size_t)n;
+                buf[len] = '\0';
+                if (strstr(buf, needle)) {
+                        close(fd);
+                        return 1;
+                }
+                if (len > keep) {
+                        memmove(buf, buf + len - keep, keep);
+                        len = keep;
+                }
+        }
+        close(fd);
+        return 0;
+}
+
+int harness_wait_log(struct harness *h, const char *needle, int timeout_ms)
+{
+        uint64_t deadline = harness_now_ns() + (uint64_t)timeout_ms * 1000000u;
+
+        for (;;) {
+                if (harness_log_contains(h, needle) == 1)
+                        return 0;
+                if (remaining_ms(deadline) == 0)
+                        return -ETIMEDOUT;
+                /* A file gives no readiness event: short slices, like wait_notify_or_exit. */
+                poll(NULL, 0, HARNESS_POLL_SLICE_MS);
+        }
+}
+
+int harness_connect_unix(const char *path)
+{
+        struct sockaddr_un sa = { .sun_family = AF_UNIX };
+        int fd;
+
+        if (strlen(path) >= sizeof(sa.sun_path))
+                return -ENAMETOOLONG;
+        strcpy(sa.sun_path, path);
+        fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+        if (fd < 0)
+                return -errno;
+        if (connect(fd, (struct sockaddr *)&sa, sizeof(sa)) < 0) {
+                int r = -errno;
+
+                close(fd);
+                return r;
+        }
+        return fd;
+}
+
+ssize_t harness_control_request(int fd, const char *line, char *reply, size_t size,
+                                int timeout_ms)
+{
+        size_t len = 0, start;
+        ssize_t n;
+        int r;
+
+        char *req;
+
+        if (size == 0)
+                return -EINVAL;
+        /* One write for the line and its '\n': a daemon that answers the line (an overlong
+         * one, say) and closes must not find half a request. */
+        req = malloc(strlen(line) + 2);
+        if (!req)
+                return -ENOMEM;
+        strcpy(req, line);
+        strcat(req, "\n");
+        r = harness_write_all(fd, req, strlen(req), timeout_ms);
+        free(req);
+        if (r < 0)
+                return r;
+        for (;;) {
+                start = len;
+                n = harness_read_until(fd, reply + len, size - len, '\n', timeout_ms);
+                if (n < 0)
+                        return n;
+                len += (size_t)n;
+                if (!strncmp(reply + start, "OK", 2) || !strncmp(reply + start, "ERR", 3))
+                        return (ssize_t)len;
+                if (len + 1 >= size)
+                        return -ENOBUFS;
+        }
 }
 
 int harness_openpty(int *ret_master, int *ret_slave, char *ret_slave_path)
@@ -372,7 +524,12 @@ int harness_write_all(int fd, const void *buf, size_t len, int timeout_ms)
         const char *p = buf;
 
         while (len > 0) {
-                ssize_t n = write(fd, p, len);
+                /* send() with MSG_NOSIGNAL on sockets: a peer that closed is -EPIPE, not a
+                 * SIGPIPE that kills the test; write() for everything else (ptys). */
+                ssize_t n = send(fd, p, len, MSG_NOSIGNAL);
+
+                if (n < 0 && errno == ENOTSOCK)
+                        n = write(fd, p, len);
 
                 if (n < 0 && (errno == EAGAIN || errno == EINTR)) {
                         struct pollfd pf = { .fd = fd, .events = POLLOUT };

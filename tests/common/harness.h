@@ -21,6 +21,8 @@ struct harness {
         int notify_fd;                     /* our NOTIFY_SOCKET end, -1 when closed */
         pid_t pid;                         /* daemon pid, 0 when not running */
         char last_notify[HARNESS_NOTIFY_MAX];
+        int capture_log;                   /* set before starting: daemon stderr -> log_path */
+        char log_path[HARNESS_PATH_MAX + 32];
 };
 
 /* Makes the temp dir and a unique instance name ("t<pid>_<tag>"); 0 or -errno. */
@@ -54,6 +56,26 @@ int harness_stop_daemon(struct harness *h, int sig, int timeout_ms);
  * capturing stdout into out (NUL-terminated, truncated to size); returns the exit code (>= 0),
  * or -errno / -ETIMEDOUT. */
 int harness_run(struct harness *h, char *out, size_t size, int timeout_ms, const char *const *argv);
+
+/* Like harness_run, also capturing stderr into err (NUL-terminated, truncated to errsize; err
+ * may be NULL to leave stderr alone). */
+int harness_run_capture(struct harness *h, char *out, size_t size, char *err, size_t errsize,
+                        int timeout_ms, const char *const *argv);
+
+/* Whether the captured daemon log (capture_log) contains needle: 1, 0, or -errno. */
+int harness_log_contains(struct harness *h, const char *needle);
+
+/* Waits until the captured daemon log contains needle; 0 or -ETIMEDOUT. */
+int harness_wait_log(struct harness *h, const char *needle, int timeout_ms);
+
+/* Connects to a Unix stream socket (a control socket); returns the fd (CLOEXEC) or -errno. */
+int harness_connect_unix(const char *path);
+
+/* Sends one request line (a '\n' is appended) on a control connection and reads the reply up to
+ * and including its final "OK..." or "ERR..." line into reply (NUL-terminated, DATA lines
+ * included). Returns the length, -EIO (connection closed first) or -ETIMEDOUT. */
+ssize_t harness_control_request(int fd, const char *line, char *reply, size_t size,
+                                int timeout_ms);
 
 /* Opens a raw pty pair (master and slave non-blocking, CLOEXEC); 0 or -errno. */
 int harness_openpty(int *ret_master, int *ret_slave, char *ret_slave_path);

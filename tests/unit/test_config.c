@@ -72,6 +72,7 @@ static void test_reference(void **state)
         (void)state;
         assert_string_equal(c->instance, "vehicle");
         assert_string_equal(c->runtime_dir, "/run/sharedlink");
+        assert_true(c->runtime_dir_set);
         assert_string_equal(c->group, "sharedlink");
         assert_int_equal(c->n_links, 4);
         assert_int_equal(c->n_vars, 12);
@@ -251,6 +252,7 @@ static void test_defaults(void **state)
         (void)state;
         assert_string_equal(c->instance, CONFIG_INSTANCE_DEFAULT);
         assert_string_equal(c->runtime_dir, CONFIG_RUNTIME_DIR_DEFAULT);
+        assert_false(c->runtime_dir_set);
         assert_string_equal(c->group, "");
         assert_int_equal(c->n_vars, 0);
         assert_int_equal(l->serial.baud, CONFIG_BAUD_DEFAULT);

@@ -1,0 +1,20 @@
+/*
+ * The protocol -> engine table (link.h: link_ops_for). A protocol whose engine is not part of
+ * this build maps to NULL, and the daemon refuses a configuration naming it ("protocol X not
+ * available in this build") instead of starting a link that would do nothing.
+ */
+#include "daemon/link.h"
+
+#include <stddef.h>
+
+const struct link_ops *link_ops_for(enum config_protocol protocol)
+{
+        switch (protocol) {
+        case CONFIG_PROTOCOL_SHAREDLINK:
+                return NULL;    /* link_sharedlink_ops: not merged yet */
+        case CONFIG_PROTOCOL_CIRCE:
+                return NULL;    /* link_circe_ops: not merged yet */
+        default:
+                return NULL;
+        }
+}

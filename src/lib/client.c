@@ -326,16 +326,6 @@ int client_closed(const struct sl_client *c)
         return atomic_load_explicit(&c->map->in->state, memory_order_acquire) != SHM_STATE_LIVE;
 }
 
-static int needs_refresh(const struct sl_client *c)
-{
-        const struct shm_in_header *h = c->map->in;
-
-        return client_closed(c) ||
-               atomic_load_explicit(&h->count, memory_order_acquire) != c->synced ||
-               atomic_load_explicit(&h->out_generation, memory_order_acquire) != c->out_generation ||
-               (!c->out && c->out_error == -EAGAIN);
-}
-
 /* Write lock held: follow a daemon restart, new names, a recreated .out. */
 static void refresh(struct sl_client *c)
 {
@@ -369,20 +359,19 @@ static void refresh(struct sl_client *c)
  * decrement empties the count while a writer waits wakes it; the writer re-checks the count
  * before each sleep (FUTEX_WAIT compares it), so the wake-up cannot be lost.
  */
-static void read_leave(struct sl_client *c)
+void client_unlock_wake(struct sl_client *c)
 {
-        if (atomic_fetch_sub_explicit(&c->readers, 1u, memory_order_release) == 1u &&
-            atomic_load_explicit(&c->writer, memory_order_seq_cst) != 0)
-                shm_futex_wake_private(&c->readers, 1);
+        shm_futex_wake_private(&c->readers, 1);
 }
 
+/* Enters as a reader once no writer is in or waiting. */
 static void read_enter(struct sl_client *c)
 {
         for (;;) {
                 atomic_fetch_add_explicit(&c->readers, 1u, memory_order_seq_cst);
                 if (atomic_load_explicit(&c->writer, memory_order_seq_cst) == 0)
                         return;
-                read_leave(c);
+                client_unlock(c);
                 while (atomic_load_explicit(&c->writer, memory_order_acquire) != 0)
                         shm_futex_wait_private(&c->writer, 1u, -1);
         }
@@ -405,30 +394,18 @@ void client_wrunlock(struct sl_client *c)
         pthread_mutex_unlock(&c->writers);
 }
 
-void client_rdlock(struct sl_client *c)
+void client_rdlock_slow(struct sl_client *c)
 {
         for (int attempt = 0;; attempt++) {
                 read_enter(c);
                 /* Bounded: with the daemon gone for good, serve the last values (flagged stale). */
-                if (attempt == CLIENT_REFRESH_TRIES || !needs_refresh(c))
+                if (attempt == CLIENT_REFRESH_TRIES || !client_needs_refresh(c))
                         return;
-                read_leave(c);
+                client_unlock(c);
                 client_wrlock(c);
                 refresh(c);
                 client_wrunlock(c);
         }
-}
-
-void client_unlock(struct sl_client *c)
-{
-        read_leave(c);
-}
-
-int client_index(const struct sl_client *c, int id)
-{
-        if (id < 0 || (uint32_t)id >= c->nids || c->id_index[id] < 0)
-                return -ENOENT;
-        return c->id_index[id];
 }
 
 int client_alive(const struct sl_client *c, uint64_t now_mono, uint64_t *ret_age)

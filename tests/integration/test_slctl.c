@@ -3,9 +3,13 @@
  * and stats against real tables, usage errors (exit 2), bad input (exit 1), no daemon (exit 3),
  * and JSON that parses.
  *
- * The tables are made by this test process with the daemon's own table module (src/shm/table.h),
+ * Most tables are made by this test process with the daemon's own table module (src/shm/table.h),
  * so the test plays the daemon's side of the shared memory: it publishes values and events,
  * marks them stale, and reads what slctl wrote to .out with the daemon's outbound scan.
+ *
+ * The commands (circe, query) and the library's control-socket client run end to end against the
+ * real sharedlinkd (started by the harness) with a CIRCE controller and the built-in mediator
+ * emulator joined by a pty, as `make demo` does; skipped when the build has no CIRCE engine.
  */
 #define _GNU_SOURCE     /* pipe2 */
 #include <errno.h>
@@ -24,6 +28,8 @@
 
 #include <cmocka.h>
 
+#include <sharedlink.h>
+
 #include "common/harness.h"
 #include "common/shmtest.h"
 #include "shm/table.h"
@@ -33,6 +39,9 @@
 #define OUT_SIZE        65536
 #define ERR_SIZE        4096
 #define ARGV_MAX        32
+#define START_MS        15000   /* READY=1 from the ASan daemon */
+#define WAIT_MS         10000   /* one awaited value or event */
+#define CONFIG_MAX      4096
 
 enum { LAT, LON, THROTTLE, STATE, QUOTE, NEVER, NVARS };
 
@@ -47,14 +56,15 @@ static const struct shm_var vars[NVARS] = {
         [NEVER] = { "NeverSet", SHM_DIR_IN, SHM_TYPE_LONG, SHM_LINK_NONE, NULL, SHM_POSITION_NONE },
 };
 
-static const struct shm_link_def links[] = {
+static const struct shm_link_def table_links[] = {
         { "vehicle", "sharedlink" },
         { "agility", "circe" },
 };
 
 struct fixture {
         struct harness h;
-        struct shm_table *t;
+        struct shm_table *t;            /* the test's own tables, or NULL */
+        struct sl_client *c;            /* a client of the real daemon's tables, or NULL */
         char out[OUT_SIZE];
         char err[ERR_SIZE];
 };
@@ -62,7 +72,7 @@ struct fixture {
 static int make_table(struct fixture *f, uint32_t event_capacity, struct shm_table **ret)
 {
         struct shm_table_config cfg = {
-                .instance = f->h.instance, .vars = vars, .nvars = NVARS, .links = links,
+                .instance = f->h.instance, .vars = vars, .nvars = NVARS, .links = table_links,
                 .nlinks = 2, .adhoc_capacity = 4, .event_capacity = event_capacity,
         };
 
@@ -101,6 +111,7 @@ static int teardown(void **state)
 {
         struct fixture *f = *state;
 
+        sl_close(f->c);
         shm_table_destroy(f->t);
         harness_cleanup(&f->h);
         free(f);
@@ -865,6 +876,292 @@ static void test_dead_daemon(void **state)
         shmtest_unlink(f->h.instance);
 }
 
+
+/* ---- against the real daemon: commands ----------------------------------------------------- */
+
+/* Starts sharedlinkd on links (YAML list items); skips the test when the build lacks an engine. */
+static void daemon_start(struct fixture *f, const char *links)
+{
+        char text[CONFIG_MAX], path[HARNESS_PATH_MAX];
+        int st = 0;
+
+        snprintf(text, sizeof(text), "instance: %s\nlinks:\n%s", f->h.instance, links);
+        assert_int_equal(harness_write_file(&f->h, "slctl.yaml", text, path), 0);
+        f->h.capture_log = 1;
+        if (harness_start_daemon(&f->h, path, START_MS, &st, NULL) != 0) {
+                if (harness_log_contains(&f->h, "not available in this build") == 1)
+                        skip();
+                fail_msg("sharedlinkd did not start (status %d)", st);
+        }
+        assert_int_equal(sl_open(f->h.instance, &f->c), 0);
+        /* The daemon runs with SHAREDLINK_RUNTIME_DIR set; this process does not have it. */
+        assert_int_equal(sl_set_runtime_dir(f->c, f->h.dir), 0);
+}
+
+/* The `make demo` CIRCE pair: the emulator "arena" and the controller "agility" on its pty. */
+static void daemon_start_circe(struct fixture *f)
+{
+        char links[CONFIG_MAX];
+
+        snprintf(links, sizeof(links),
+                 "  - name: arena\n"
+                 "    protocol: circe\n"
+                 "    role: mediator\n"
+                 "    transport: pty\n"
+                 "    device: %s/arena.tty\n"
+                 "    version: \"0.2.3\"\n"
+                 "    emulate:\n"
+                 "      - {address: E1E1E1, capabilities: 32, signal: 150, battery: 200}\n"
+                 "      - {address: AAAAAA, capabilities: 31}\n"
+                 "      - {address: D15D15, capabilities: 64}\n"
+                 "  - name: agility\n"
+                 "    protocol: circe\n"
+                 "    role: controller\n"
+                 "    transport: serial\n"
+                 "    device: %s/arena.tty\n",
+                 f->h.dir, f->h.dir);
+        daemon_start(f, links);
+}
+
+static int value_is(struct fixture *f, const char *name, const char *want)
+{
+        char buf[SL_VALUE_SIZE];
+        int id = sl_find(f->c, name);
+
+        return id >= 0 && sl_read(f->c, id, buf, sizeof(buf), NULL) >= 0 && strcmp(buf, want) == 0;
+}
+
+/* Waits (sl_wait, not sleeping) until name reads want. */
+static void wait_value(struct fixture *f, const char *name, const char *want)
+{
+        uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * 1000000u;
+        uint32_t cursor = 0;
+
+        while (!value_is(f, name, want)) {
+                if (harness_now_ns() > deadline)
+                        fail_msg("%s never became \"%s\"", name, want);
+                sl_wait(f->c, &cursor, 200);
+        }
+}
+
+static void wait_circe_up(struct fixture *f)
+{
+        wait_value(f, "agility.state", "connected");
+        wait_value(f, "agility.device.E1E1E1.online", "1");
+        wait_value(f, "agility.device.AAAAAA.online", "1");
+        wait_value(f, "agility.device.D15D15.online", "1");
+}
+
+/* The slctl commands, mapped onto the control requests, and what they do to the emulator. */
+static void test_daemon_circe(void **state)
+{
+        struct fixture *f = *state;
+        char want[64];
+
+        daemon_start_circe(f);
+        wait_circe_up(f);
+
+        /* Lower-case addresses are taken; success prints nothing. */
+        assert_int_equal(RUN(f, "circe", "agility", "alert", "e1e1e1"), 0);
+        assert_string_equal(f->out, "");
+        assert_int_equal(RUN(f, "circe", "agility", "network-setup", "E1E1E1", "--join",
+                             "--roles", "2"), 0);
+        wait_value(f, "arena.device.E1E1E1.membership", "1");
+        wait_value(f, "agility.device.E1E1E1.roles", "2");
+        assert_int_equal(RUN(f, "circe", "agility", "network-setup", "E1E1E1", "--leave",
+                             "--roles", "0"), 0);
+        wait_value(f, "arena.device.E1E1E1.membership", "0");
+
+        assert_int_equal(RUN(f, "circe", "agility", "visualize", "D15D15", "--current", "12",
+                             "--next", "13", "--start-timer", "--primary", "1234", "--secondary",
+                             "5678", "--faults", "1", "--refusals", "2", "--eliminated", "1",
+                             "--placement", "3"), 0);
+        wait_value(f, "arena.device.D15D15.current_competitor", "12");
+        assert_true(value_is(f, "arena.device.D15D15.next_competitor", "13"));
+        assert_true(value_is(f, "arena.device.D15D15.primary_time", "1234"));
+        assert_true(value_is(f, "arena.device.D15D15.timer_running", "0"));  /* primary stops it */
+        assert_true(value_is(f, "arena.device.D15D15.secondary_time", "5678"));
+        assert_true(value_is(f, "arena.device.D15D15.faults", "1"));
+        assert_true(value_is(f, "arena.device.D15D15.refusals", "2"));
+        assert_true(value_is(f, "arena.device.D15D15.eliminated", "1"));
+        assert_true(value_is(f, "arena.device.D15D15.placement", "3"));
+
+        /* A gate passage on the emulator is an action event of the controller. */
+        assert_int_equal(RUN(f, "circe", "arena", "emulate", "action", "E1E1E1", "--keys",
+                             "8192", "--sensor-time", "5000"), 0);
+        wait_value(f, "agility.device.E1E1E1.sensor_time", "5000");
+        assert_int_equal(RUN(f, "events"), 0);
+        assert_non_null(strstr(f->out, " agility action device=E1E1E1 keys=8192 "
+                               "sensor_time=5000\n"));
+        assert_non_null(strstr(f->out, " agility device-online device=D15D15 "));
+        assert_true(strncmp(f->out, "1 ", 2) == 0);     /* from the first, in order */
+
+        /* Clock synchronisation: one line per device. */
+        assert_int_equal(RUN(f, "circe", "agility", "sync-clocks"), 0);
+        assert_int_equal(count_lines(f->out), 3);
+        for (const char *const *a = (const char *const[]){ "E1E1E1", "AAAAAA", "D15D15", NULL };
+             *a; a++) {
+                snprintf(want, sizeof(want), "%s succeeded\n", *a);
+                assert_non_null(strstr(f->out, want));
+        }
+
+        /* Device setup last: it gives the remote control a new address. */
+        assert_int_equal(RUN(f, "circe", "agility", "device-setup", "--assign", "ABCDEF",
+                             "--dest", "AAAAAA", "--capabilities", "31"), 0);
+        wait_value(f, "agility.device.ABCDEF.online", "1");
+}
+
+/* What the daemon refuses: exit 1 with its message, never 3 (it is running). */
+static void test_daemon_refusals(void **state)
+{
+        static const char *const refused[][8] = {
+                { "circe", "nosuch", "alert", "E1E1E1" },               /* ERR ENOENT */
+                { "circe", "arena", "alert", "E1E1E1" },                /* a mediator */
+                { "circe", "agility", "emulate", "action", "E1E1E1" },  /* a controller */
+                { "circe", "arena", "emulate", "action", "123456" },    /* no such device */
+                { "query", "agility", "A", "AutoGpsLat" },              /* not SharedLink */
+                { "query", "nosuch", "A", "AutoGpsLat" },
+        };
+        struct fixture *f = *state;
+
+        daemon_start_circe(f);
+        wait_circe_up(f);
+        for (size_t i = 0; i < sizeof(refused) / sizeof(refused[0]); i++) {
+                int code = run_argv(f, refused[i]);
+
+                if (code != 1)
+                        fail_msg("slctl %s %s %s: exit %d, not 1 (%s)", refused[i][0],
+                                 refused[i][1], refused[i][2], code, f->err);
+                assert_string_equal(f->out, "");
+                assert_true(strncmp(f->err, "slctl: ", 7) == 0 && strlen(f->err) > 12);
+        }
+        assert_int_equal(RUN(f, "circe", "arena", "alert", "E1E1E1"), 1);
+        assert_non_null(strstr(f->err, "mediator"));
+        assert_int_equal(RUN(f, "circe", "arena", "emulate", "action", "123456"), 1);
+        assert_non_null(strstr(f->err, "123456"));
+}
+
+/* A link that never comes up: ERR ENOTCONN at once, or after --wait. */
+static void test_daemon_link_down(void **state)
+{
+        struct fixture *f = *state;
+        char links[CONFIG_MAX];
+
+        snprintf(links, sizeof(links),
+                 "  - name: agility\n"
+                 "    protocol: circe\n"
+                 "    role: controller\n"
+                 "    transport: serial\n"
+                 "    device: %s/nothing-here.tty\n", f->h.dir);
+        daemon_start(f, links);
+        assert_int_equal(RUN(f, "circe", "agility", "alert", "E1E1E1"), 1);
+        assert_non_null(strstr(f->err, "not connected"));
+        assert_int_equal(RUN(f, "circe", "agility", "alert", "E1E1E1", "--wait", "50"), 1);
+        assert_int_equal(RUN(f, "circe", "agility", "sync-clocks", "--wait", "50"), 1);
+}
+
+/* Counts DATA lines; stops at the first when arg says so (the count is then negative). */
+static int data_line(const char *text, void *arg)
+{
+        int *n = arg;
+
+        assert_true(text[0] != '\0');
+        if (*n < 0)
+                return -ECANCELED;
+        (*n)++;
+        return 0;
+}
+
+/* Counts sync-clocks results: [0] timed out, [1] succeeded. */
+static int sync_result(const char *addr, int succeeded, void *arg)
+{
+        int *results = arg;
+
+        assert_int_equal(strlen(addr), 6);
+        results[succeeded ? 1 : 0]++;
+        return 0;
+}
+
+/* The library's side: sl_request with DATA lines, the typed calls, the daemon going away. */
+static void test_daemon_library(void **state)
+{
+        struct fixture *f = *state;
+        char reply[SL_REPLY_LINE_MAX + 1], want[64];
+        struct sl_daemon_info d = { .size = sizeof(d) };
+        int results[2] = { 0, 0 }, n;
+        static const char *const dests[] = { "D15D15" };
+        struct sl_circe_visualize v = {
+                .size = sizeof(v), .dests = dests, .dest_count = 1, .has_current = 1,
+                .current = 99,
+        };
+
+        daemon_start_circe(f);
+        wait_circe_up(f);
+        assert_int_equal(sl_daemon_info(f->c, &d), 0);
+        assert_int_equal(sl_request(f->c, "ping", 0, NULL, NULL, reply, sizeof(reply)), 0);
+        snprintf(want, sizeof(want), "%d ", (int)f->h.pid);
+        assert_true(strncmp(reply, want, strlen(want)) == 0);
+        /* The epoch the daemon says is the tables' epoch. */
+        assert_int_equal(strtoull(reply + strlen(want), NULL, 10) == d.epoch ||
+                         strtoull(reply + strlen(want), NULL, 16) == d.epoch, 1);
+
+        /* DATA lines (the core's own stats request) go to the callback, which can stop them. */
+        n = 0;
+        assert_int_equal(sl_request(f->c, "stats", 0, data_line, &n, reply, sizeof(reply)), 0);
+        assert_true(n >= 2);
+        n = -1;
+        assert_int_equal(sl_request(f->c, "stats", 0, data_line, &n, reply, sizeof(reply)),
+                         -ECANCELED);
+        assert_true(reply[0] != '\0');
+
+        assert_int_equal(sl_circe_visualize(f->c, "agility", &v, reply, sizeof(reply)), 0);
+        wait_value(f, "arena.device.D15D15.current_competitor", "99");
+        assert_int_equal(sl_circe_sync_clocks(f->c, "agility", sync_result, results, reply,
+                                              sizeof(reply)), 0);
+        assert_int_equal(results[1], 3);        /* three devices succeeded */
+        assert_int_equal(results[0], 0);
+        /* The daemon's errno comes back as is, its message with it. */
+        assert_int_equal(sl_circe_alert(f->c, "nosuch", "E1E1E1", reply, sizeof(reply)),
+                         -ENOENT);
+        assert_true(reply[0] != '\0');
+        assert_int_equal(sl_circe_alert(f->c, "arena", "E1E1E1", reply, sizeof(reply)),
+                         -EOPNOTSUPP);
+        assert_true(sl_query(f->c, "agility", "A", "X", 0, reply, sizeof(reply)) < 0);
+        /* A request the daemon does not know is an error from it, not from us. */
+        assert_int_equal(sl_request(f->c, "dance", 0, NULL, NULL, reply, sizeof(reply)) < 0, 1);
+
+        /* Stopped: nothing listens any more. */
+        assert_int_equal(harness_stop_daemon(&f->h, SIGTERM, WAIT_MS), 0);
+        assert_int_equal(sl_circe_alert(f->c, "agility", "E1E1E1", reply, sizeof(reply)),
+                         -ECONNREFUSED);
+        assert_int_equal(RUN(f, "circe", "agility", "alert", "E1E1E1"), 3);
+        assert_non_null(strstr(f->err, "not running"));
+        assert_int_equal(RUN(f, "list"), 3);
+}
+
+/* The table commands on the real daemon's tables. */
+static void test_daemon_tables(void **state)
+{
+        struct fixture *f = *state;
+
+        daemon_start_circe(f);
+        wait_circe_up(f);
+        assert_int_equal(RUN(f, "get", "agility.state", "agility.mediator.version"), 0);
+        assert_string_equal(f->out, "connected\n0.2.3\n");
+        assert_int_equal(RUN(f, "list", "--json"), 0);
+        assert_json(f, f->out);
+        assert_non_null(strstr(f->out, "\"name\":\"agility.device.E1E1E1.battery\""));
+        assert_int_equal(RUN(f, "stats", "--json"), 0);
+        assert_json(f, f->out);
+        assert_non_null(strstr(f->out, "\"name\":\"agility\",\"protocol\":\"circe\""));
+        assert_int_equal(RUN(f, "stats"), 0);
+        assert_non_null(strstr(f->out, "link agility (circe): connected for "));
+        assert_int_equal(RUN(f, "events", "--count", "1"), 0);
+        assert_int_equal(count_lines(f->out), 1);
+        /* Inbound variables are the daemon's. */
+        assert_int_equal(RUN(f, "set", "agility.state", "x"), 1);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -882,6 +1179,11 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_bad_input, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_not_running, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_dead_daemon, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_daemon_circe, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_daemon_refusals, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_daemon_link_down, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_daemon_library, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_daemon_tables, setup_bare, teardown),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

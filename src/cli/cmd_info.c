@@ -89,8 +89,10 @@ int cmd_info_events(struct slctl *s, int argc, char **argv)
         ev = calloc(EVENTS_BATCH, sizeof(*ev));
         if (!ev)
                 return slctl_error(s, "out of memory");
-        if (a.given[O_FOLLOW])
+        if (a.given[O_FOLLOW]) {
                 setvbuf(stdout, NULL, _IOLBF, 0);
+                slctl_interruptible();
+        }
         if (timeout_ms >= 0)
                 deadline = now_mono_ns() + (uint64_t)timeout_ms * NS_PER_MS;
         if (a.given[O_NEW])

@@ -4,6 +4,7 @@
 #include "cli/cmd_vars.h"
 
 #include <errno.h>
+#include <signal.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -325,8 +326,6 @@ struct watched {
         const char *name;               /* argv, or NULL: from sl_info */
         int known;                      /* a first value was printed */
         int fresh;                      /* appeared while watching: its first value is a change */
-        uint64_t sequence;
-        uint64_t mono_ns;
         uint32_t flags;
         char value[SL_VALUE_SIZE];
 };
@@ -378,15 +377,18 @@ static int watch_grow(struct slctl *s, struct watch *w, int fresh)
         return 0;
 }
 
-/* Reads one variable; prints a line when it changed. Returns 1 if a change was printed. */
+/*
+ * Reads one variable; prints a line when its value or its state (valid, stale) changed. A
+ * periodic refresh that rewrites the same value is not a change. Returns 1 if a change (not the
+ * first value) was printed.
+ */
 static int watch_one(struct slctl *s, struct watched *v)
 {
         struct sl_meta meta = { .size = sizeof(meta) };
         struct sl_var_info info = { .size = sizeof(info) };
         char value[SL_VALUE_SIZE], when[TIME_SIZE];
         const char *name = v->name;
-        uint64_t real;
-        int r, changed;
+        int r, new_value;
 
         r = slctl_read(s, v->id, value, sizeof(value), &meta);
         if (r < 0)
@@ -396,13 +398,12 @@ static int watch_one(struct slctl *s, struct watched *v)
                         return 0;
                 name = info.name;
         }
-        changed = !v->known || meta.sequence != v->sequence || meta.flags != v->flags ||
-                  strcmp(value, v->value) != 0;
-        if (!changed)
+        new_value = !v->known || strcmp(value, v->value) != 0;
+        if (!new_value && meta.flags == v->flags)
                 return 0;
-        /* A new update carries its own time; a change of flags only, the time it was seen. */
-        real = meta.mono_ns != v->mono_ns && meta.real_ns ? meta.real_ns : now_ns(CLOCK_REALTIME);
-        format_time(when, sizeof(when), real);
+        /* A new value carries the time it was updated; a change of state, the time it was seen. */
+        format_time(when, sizeof(when),
+                    new_value && meta.real_ns ? meta.real_ns : now_ns(CLOCK_REALTIME));
         if (!(meta.flags & SL_FLAG_VALID))
                 printf("%s %s [invalid]%s\n", when, name,
                        meta.flags & SL_FLAG_STALE ? " [stale]" : "");
@@ -411,8 +412,6 @@ static int watch_one(struct slctl *s, struct watched *v)
                        meta.flags & SL_FLAG_STALE ? " [stale]" : "");
         r = v->known || v->fresh;
         v->known = 1;
-        v->sequence = meta.sequence;
-        v->mono_ns = meta.mono_ns;
         v->flags = meta.flags;
         memcpy(v->value, value, sizeof(value));
         return r;
@@ -460,6 +459,7 @@ int cmd_vars_watch(struct slctl *s, int argc, char **argv)
         if (code >= 0)
                 return code;
         setvbuf(stdout, NULL, _IOLBF, 0);       /* a reader on a pipe sees each change at once */
+        slctl_interruptible();
         if (timeout_ms >= 0)
                 deadline = now_ns(CLOCK_MONOTONIC) + (uint64_t)timeout_ms * NS_PER_MS;
         code = watch_setup(s, &a, &w);

@@ -4,6 +4,7 @@
 #include "cli/slctl.h"
 
 #include <errno.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -65,11 +66,12 @@ static const struct command commands[] = {
           "Usage: slctl [-i INSTANCE] watch [--count N] [--timeout MS] [NAME...]\n"
           "\n"
           "Prints the current value of each variable (all of them when no NAME is given), then\n"
-          "one line per change until interrupted:\n"
+          "one line per change of value or of state (valid, stale) until interrupted:\n"
           "  TIME NAME VALUE [stale]        TIME NAME [invalid]\n"
-          "TIME is when the value was updated (local time, ISO 8601 with milliseconds); a\n"
-          "change of state alone (e.g. becoming stale) carries the time it was seen. The\n"
-          "[stale] and [invalid] markers cannot be part of a value (values never contain [ ]).\n"
+          "A refresh that rewrites the same value is not a change. TIME is when the value was\n"
+          "updated (local time, ISO 8601 with milliseconds); a change of state alone (e.g.\n"
+          "becoming stale) carries the time it was seen. The [stale] and [invalid] markers\n"
+          "cannot be part of a value (values never contain [ ]).\n"
           "Variables created while watching (ad hoc names) are followed too when no NAME is\n"
           "given.\n"
           "\n"
@@ -269,6 +271,16 @@ int slctl_count_timeout(struct slctl *s, const char *count_text, const char *tim
                 return slctl_error(s, "bad --timeout \"%s\": milliseconds expected (at most "
                                    "%d digits)", timeout_text, ARGS_DIGITS_MAX);
         return -1;
+}
+
+void slctl_interruptible(void)
+{
+        struct sigaction sa;
+
+        memset(&sa, 0, sizeof(sa));
+        sa.sa_handler = SIG_DFL;
+        sigemptyset(&sa.sa_mask);
+        sigaction(SIGINT, &sa, NULL);
 }
 
 int slctl_read(struct slctl *s, int id, char *buf, size_t size, struct sl_meta *meta)

@@ -59,6 +59,13 @@ int slctl_open(struct slctl *s, int allow_dead);
 int slctl_count_timeout(struct slctl *s, const char *count_text, const char *timeout_text,
                         long *count, long *timeout_ms);
 
+/*
+ * Makes SIGINT end the process even when it was started with SIGINT ignored: a non-interactive
+ * shell starts background jobs that way, and "watch until interrupted" must still stop on
+ * `kill -INT`. For the commands that run until interrupted (watch, events --follow).
+ */
+void slctl_interruptible(void);
+
 /* sl_read with retries on -EAGAIN. */
 int slctl_read(struct slctl *s, int id, char *buf, size_t size, struct sl_meta *meta);
 

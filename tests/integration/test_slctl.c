@@ -8,8 +8,9 @@
  * marks them stale, and reads what slctl wrote to .out with the daemon's outbound scan.
  *
  * The commands (circe, query) and the library's control-socket client run end to end against the
- * real sharedlinkd (started by the harness) with a CIRCE controller and the built-in mediator
- * emulator joined by a pty, as `make demo` does; skipped when the build has no CIRCE engine.
+ * real sharedlinkd (started by the harness) with links joined back to back by a pty, as `make
+ * demo` does: a CIRCE controller and the built-in mediator emulator; SharedLink nodes A and B.
+ * Each is skipped when the build lacks that engine.
  */
 #define _GNU_SOURCE     /* pipe2 */
 #include <errno.h>
@@ -67,6 +68,7 @@ struct fixture {
         struct sl_client *c;            /* a client of the real daemon's tables, or NULL */
         char out[OUT_SIZE];
         char err[ERR_SIZE];
+        int ignore_sigint;              /* start slctl with SIGINT ignored (as `cmd &` in sh) */
 };
 
 static int make_table(struct fixture *f, uint32_t event_capacity, struct shm_table **ret)
@@ -146,6 +148,8 @@ static void proc_start(struct fixture *f, const char *const *args, struct proc *
 
                 setenv("SHAREDLINK_INSTANCE", f->h.instance, 1);
                 setenv("SHAREDLINK_RUNTIME_DIR", f->h.dir, 1);
+                if (f->ignore_sigint)
+                        signal(SIGINT, SIG_IGN);
                 dup2(out[1], STDOUT_FILENO);
                 dup2(err[1], STDERR_FILENO);
                 execv(u.m[0], u.m);
@@ -593,6 +597,8 @@ static void test_watch(void **state)
         proc_line(&p, line, sizeof(line));
         assert_non_null(strstr(line, " AutoGpsLon -113.5\n"));
 
+        /* The same value again (a periodic refresh) is not a change: the next line is 41.5. */
+        shm_table_set_str(f->t, LAT, "40.12345678");
         shm_table_set_str(f->t, LAT, "41.5");
         proc_line(&p, line, sizeof(line));
         assert_non_null(strstr(line, " AutoGpsLat 41.5\n"));
@@ -613,6 +619,28 @@ static void test_watch(void **state)
         assert_int_equal(RUN(f, "watch", "NoSuchThing"), 1);
         assert_int_equal(RUN(f, "watch", "--count", "0"), 1);
         assert_int_equal(RUN(f, "watch", "--timeout", "soon"), 1);
+}
+
+/* "Until interrupted", also when started the way `slctl watch &` is in a script. */
+static void test_watch_interrupted(void **state)
+{
+        const char *const watch[] = { "watch", "AutoGpsLat", NULL };
+        const char *const follow[] = { "events", "--follow", NULL };
+        struct fixture *f = *state;
+        char line[512], out[256] = "", err[256] = "";
+        struct proc p;
+
+        f->ignore_sigint = 1;
+        proc_start(f, watch, &p);
+        proc_line(&p, line, sizeof(line));
+        assert_int_equal(kill(p.pid, SIGINT), 0);
+        assert_int_equal(proc_finish(&p, out, sizeof(out), err, sizeof(err)), 128 + SIGINT);
+        shm_table_event(f->t, SHM_EVENT_DAEMON, SHM_LINK_NONE, "started");
+        proc_start(f, follow, &p);
+        proc_line(&p, line, sizeof(line));
+        assert_string_equal(line, "1 - daemon started\n");
+        assert_int_equal(kill(p.pid, SIGINT), 0);
+        assert_int_equal(proc_finish(&p, out, sizeof(out), err, sizeof(err)), 128 + SIGINT);
 }
 
 static void test_watch_new_names(void **state)
@@ -1139,6 +1167,73 @@ static void test_daemon_library(void **state)
         assert_int_equal(RUN(f, "list"), 3);
 }
 
+
+/* SharedLink nodes A and B of one daemon, back to back over a pty; B also knows a silent C. */
+static void daemon_start_sharedlink(struct fixture *f)
+{
+        char links[CONFIG_MAX];
+
+        snprintf(links, sizeof(links),
+                 "  - name: node_a\n"
+                 "    protocol: sharedlink\n"
+                 "    transport: pty\n"
+                 "    device: %s/node-a.tty\n"
+                 "    address: A\n"
+                 "    peers:\n"
+                 "      - address: B\n"
+                 "        period_ms: 100\n"
+                 "        outbound: [a.Lat, a.Head]\n"
+                 "        inbound: [a.Cmd]\n"
+                 "  - name: node_b\n"
+                 "    protocol: sharedlink\n"
+                 "    transport: serial\n"
+                 "    device: %s/node-a.tty\n"
+                 "    address: B\n"
+                 "    peers:\n"
+                 "      - address: A\n"
+                 "        period_ms: 100\n"
+                 "        outbound: [b.Cmd]\n"
+                 "        inbound: [b.Lat, b.Head]\n"
+                 "      - address: C\n"
+                 "        period_ms: 100\n"
+                 "        outbound: [b.ForC]\n",
+                 f->h.dir, f->h.dir);
+        daemon_start(f, links);
+}
+
+/* slctl query: the peer's answer, through the daemon and the wire. */
+static void test_daemon_query(void **state)
+{
+        struct fixture *f = *state;
+        char reply[SL_VALUE_SIZE];
+
+        daemon_start_sharedlink(f);
+        assert_int_equal(RUN(f, "set", "a.Lat", "40.5"), 0);
+        assert_int_equal(RUN(f, "set", "a.Head", "north by east"), 0);
+        /* --wait: the link may still be coming up. */
+        assert_int_equal(RUN(f, "query", "--wait", "10000", "node_b", "A", "a.Lat"), 0);
+        assert_string_equal(f->out, "40.5\n");
+        assert_int_equal(RUN(f, "query", "--wait", "10000", "--timeout", "5000", "node_b", "A",
+                             "a.Head"), 0);
+        assert_string_equal(f->out, "north by east\n");
+        /* A name the peer does not know: an empty answer. */
+        assert_int_equal(RUN(f, "query", "--wait", "10000", "node_b", "A", "NoSuchName"), 0);
+        assert_string_equal(f->out, "\n");
+        /* A peer that never answers; one the link does not have. */
+        assert_int_equal(RUN(f, "query", "--timeout", "100", "node_b", "C", "x"), 1);
+        assert_true(f->err[0] != '\0');
+        assert_int_equal(RUN(f, "query", "node_b", "D", "x"), 1);
+        assert_int_equal(RUN(f, "circe", "node_b", "alert", "E1E1E1"), 1);     /* not CIRCE */
+
+        /* The library: the value's length, or -ENOBUFS when it does not fit. */
+        assert_int_equal(sl_set_command_wait(f->c, 10000), 0);
+        assert_int_equal(sl_query(f->c, "node_b", "A", "a.Lat", 0, reply, sizeof(reply)), 4);
+        assert_string_equal(reply, "40.5");
+        assert_int_equal(sl_query(f->c, "node_b", "A", "a.Lat", 0, reply, 4), -ENOBUFS);
+        assert_int_equal(sl_query(f->c, "node_b", "C", "x", 100, reply, sizeof(reply)),
+                         -ETIMEDOUT);
+}
+
 /* The table commands on the real daemon's tables. */
 static void test_daemon_tables(void **state)
 {
@@ -1170,6 +1265,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_get, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_set, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_watch, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_watch_interrupted, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_watch_new_names, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_events_ring, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_events_follow, setup, teardown),
@@ -1184,6 +1280,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_daemon_link_down, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_library, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_tables, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_daemon_query, setup_bare, teardown),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

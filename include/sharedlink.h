@@ -253,10 +253,11 @@ const char *sl_strerror(int err);
  * the argument refused here, or what failed locally), ready to show to a user.
  *
  * Errors: -EINVAL (bad argument), -ECONNREFUSED (nobody listens on the socket: the daemon is not
- * running, or uses another runtime directory), -EACCES (this user may not use the socket), -ETIMEDOUT
- * (no complete reply in time), -ECONNRESET (the daemon closed the connection early), -EPROTO (a
- * reply not understood), or the errno of the daemon's answer, e.g. -ENOENT (no such link), -ENOTCONN
- * (the link is down), -EOPNOTSUPP (a command for another protocol or role), -EBUSY.
+ * running, or uses another runtime directory), -EACCES (this user may not use the socket),
+ * -ETIMEDOUT (no complete reply in time), -ECONNRESET (the daemon closed the connection early),
+ * -EPROTO (a reply not understood), or the errno of the daemon's answer, e.g. -ENOENT (no such
+ * link), -ENOTCONN (the link is down), -EOPNOTSUPP (a command for another protocol or role),
+ * -EBUSY.
  */
 
 #define SL_RUNTIME_DIR_DEFAULT  "/run/sharedlink"
@@ -302,7 +303,7 @@ struct sl_circe_visualize {
 /* Sets the control socket's directory (NULL: back to $SHAREDLINK_RUNTIME_DIR or the default). */
 int sl_set_runtime_dir(struct sl_client *c, const char *dir);
 
-/* Commands to a link that is down wait up to wait_ms (0..SL_WAIT_MAX_MS) for it; 0: fail at once. */
+/* Commands to a link that is down wait up to wait_ms (0..SL_WAIT_MAX_MS) for it; 0: no wait. */
 int sl_set_command_wait(struct sl_client *c, int wait_ms);
 
 /*

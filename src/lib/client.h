@@ -4,9 +4,10 @@
  * that makes one handle usable from many threads.
  *
  * Locking: every call holds the handle's lock for reading (client_rdlock) while it touches the
- * mappings; only a refresh (daemon restart, new names, recreated .out) takes it for writing. sl_wait
- * must not hold the lock while it sleeps, so it pins the current .in mapping with a reference
- * instead (struct client_map). The lock is not recursive: never take it twice in one thread.
+ * mappings; only a refresh (daemon restart, new names, recreated .out) takes it for writing.
+ * sl_wait must not hold the lock while it sleeps, so it pins the current .in mapping with a
+ * reference instead (struct client_map). The lock is not recursive: never take it twice in one
+ * thread.
  */
 #ifndef SL_CLIENT_H
 #define SL_CLIENT_H
@@ -22,7 +23,7 @@
 
 #define CLIENT_IDS_MAX          (4u * SHM_CAPACITY_MAX)  /* ids a handle hands out in its life */
 #define CLIENT_HEARTBEAT_MISSES 3u      /* heartbeat older than this many intervals: not alive */
-#define CLIENT_RUNTIME_DIR_SIZE 108     /* sizeof(sun_path): the socket path must fit in it anyway */
+#define CLIENT_RUNTIME_DIR_SIZE 108     /* sizeof(sun_path): the socket path must fit it anyway */
 
 /* One mapping of .in, shared by the handle and any sl_wait sleeping on it. */
 struct client_map {
@@ -68,7 +69,7 @@ struct sl_client {
         locale_t c_locale;              /* numbers are formatted and parsed in the C locale */
         /* control socket (request.c): "<runtime_dir>/<instance>.sock", under the lock */
         char instance[SHM_INSTANCE_MAX + 1];
-        char runtime_dir[CLIENT_RUNTIME_DIR_SIZE];      /* "": unusable, runtime_dir_error says why */
+        char runtime_dir[CLIENT_RUNTIME_DIR_SIZE];      /* "": runtime_dir_error says why */
         int runtime_dir_error;
         _Atomic int command_wait_ms;    /* "wait=MS" on query/circe requests; 0: none */
 };
@@ -98,10 +99,11 @@ static inline int client_needs_refresh(const struct sl_client *c)
 {
         const struct shm_in_header *h = c->map->in;
 
+        uint32_t out_generation = atomic_load_explicit(&h->out_generation, memory_order_acquire);
+
         return atomic_load_explicit(&h->state, memory_order_acquire) != SHM_STATE_LIVE ||
                atomic_load_explicit(&h->count, memory_order_acquire) != c->synced ||
-               atomic_load_explicit(&h->out_generation, memory_order_acquire) != c->out_generation ||
-               (!c->out && c->out_error == -EAGAIN);
+               out_generation != c->out_generation || (!c->out && c->out_error == -EAGAIN);
 }
 
 /* Releases a read lock. */

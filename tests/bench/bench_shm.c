@@ -304,7 +304,8 @@ static void section_means(struct shm_table *t, struct sl_client *c)
         printf("plain slot copy        %8.1f ns\n", base);
         printf("seqlock slot read      %8.1f ns   %.2fx plain\n", seq, seq / base);
         printf("sl_read                %8.1f ns   %.2fx plain\n", rd, rd / base);
-        printf("sl_read with meta      %8.1f ns   %.2fx plain (+ clock_gettime)\n", rdm, rdm / base);
+        printf("sl_read with meta      %8.1f ns   %.2fx plain (+ clock_gettime)\n", rdm,
+               rdm / base);
         printf("sl_write (+FUTEX_WAKE) %8.1f ns   %.2fx sl_read\n", wr, wr / rd);
         printf("publish (set+commit)   %8.1f ns   %.2fx sl_read\n", pub, pub / rd);
         free(slot);
@@ -759,8 +760,9 @@ int main(void)
         b.ns_per_tick = ticks_calibrate();
         b.timer_ticks = timer_overhead();
         shm_table_set(b.t, VAR_IN, value63, sizeof(value63) - 1);
-        printf("\n2. per operation, 63-byte value (%s; sl_read, sl_write: means of batches of %u)\n",
-               b.pinned ? "this process on CPU 0, others on CPU 1" : "not pinned", BATCH_OPS);
+        printf("\n2. per operation, 63-byte value (%s; sl_read, sl_write: means of batches "
+               "of %u)\n", b.pinned ? "this process on CPU 0, others on CPU 1" : "not pinned",
+               BATCH_OPS);
         printf("%-40s %10s %10s\n", "", "median ns", "p99 ns");
         read0 = timed_reads(&b);
         print_figure("sl_read, uncontended", read0, NULL);

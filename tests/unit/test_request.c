@@ -57,7 +57,8 @@ static int setup(void **state)
         cfg.instance = f->instance;
         snprintf(f->dir, sizeof(f->dir), "/tmp/sltest-req.XXXXXX");
         *state = f;
-        if (!mkdtemp(f->dir) || shm_table_create(&cfg, &f->t) < 0 || sl_open(f->instance, &f->c) < 0)
+        if (!mkdtemp(f->dir) || shm_table_create(&cfg, &f->t) < 0 ||
+            sl_open(f->instance, &f->c) < 0)
                 return -1;
         if (snprintf(f->sock, sizeof(f->sock), "%s/%s.sock", f->dir, f->instance) >=
             (int)sizeof(f->sock))

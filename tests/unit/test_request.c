@@ -611,12 +611,18 @@ static void test_settings(void **state)
         assert_int_equal(sl_set_command_wait(f->c, SL_WAIT_MAX_MS + 1), -EINVAL);
         assert_int_equal(sl_set_command_wait(f->c, SL_WAIT_MAX_MS), 0);
 
-        /* Every new error has its own message. */
-        assert_string_not_equal(sl_strerror(-ECONNREFUSED), sl_strerror(-EHOSTDOWN));
-        assert_string_not_equal(sl_strerror(-ETIMEDOUT), sl_strerror(-EHOSTDOWN));
-        assert_string_not_equal(sl_strerror(-ECONNRESET), sl_strerror(-EHOSTDOWN));
-        assert_string_not_equal(sl_strerror(-ENAMETOOLONG), sl_strerror(-EHOSTDOWN));
-        assert_string_not_equal(sl_strerror(-EOPNOTSUPP), sl_strerror(-EHOSTDOWN));
+        /* Every error of the commands has its own message. */
+        {
+                static const int codes[] = { ECONNREFUSED, ETIMEDOUT, ECONNRESET, ENAMETOOLONG,
+                                             EOPNOTSUPP, ENOTCONN, EPROTO, EACCES, EINVAL };
+
+                for (size_t i = 0; i < sizeof(codes) / sizeof(codes[0]); i++) {
+                        assert_string_not_equal(sl_strerror(-codes[i]), "unexpected error");
+                        for (size_t j = 0; j < i; j++)
+                                assert_string_not_equal(sl_strerror(-codes[i]),
+                                                        sl_strerror(-codes[j]));
+                }
+        }
 }
 
 int main(void)

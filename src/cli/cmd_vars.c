@@ -34,21 +34,36 @@ static const char *type_name(int type)
         }
 }
 
-/* Name of link index link into buf ("" when none or unknown). */
-static void link_name(struct slctl *s, int link, char *buf, size_t size)
-{
-        struct sl_link_info *info;
+/* Link names by index, read once (links are few: their count is bounded by the layout). */
+struct link_names {
+        int n;
+        char (*name)[SL_LINK_NAME_SIZE];
+};
 
-        buf[0] = '\0';
-        if (link < 0)
+static void link_names_load(struct slctl *s, struct link_names *ln)
+{
+        struct sl_link_info *info = calloc(1, sizeof(*info));
+        int n = sl_link_count(s->c);
+
+        ln->n = 0;
+        ln->name = n > 0 ? calloc((size_t)n, sizeof(*ln->name)) : NULL;
+        if (!info || !ln->name) {
+                free(info);
                 return;
-        info = calloc(1, sizeof(*info));
-        if (!info)
-                return;
-        info->size = sizeof(*info);
-        if (sl_link_info(s->c, link, info) == 0)
-                snprintf(buf, size, "%s", info->name);
+        }
+        for (int i = 0; i < n; i++) {
+                info->size = sizeof(*info);
+                if (sl_link_info(s->c, i, info) == 0)
+                        snprintf(ln->name[i], sizeof(ln->name[i]), "%s", info->name);
+        }
+        ln->n = n;
         free(info);
+}
+
+/* The name of link index link, "" when none or unknown. */
+static const char *link_names_get(const struct link_names *ln, int link)
+{
+        return link >= 0 && link < ln->n ? ln->name[link] : "";
 }
 
 /* "valid,stale,..." or "-". */
@@ -91,6 +106,7 @@ struct row {
 static int rows_collect(struct slctl *s, struct row **ret_rows)
 {
         int count = sl_count(s->c), n = 0;
+        struct link_names ln;
         struct row *rows;
 
         if (count < 0)
@@ -98,6 +114,7 @@ static int rows_collect(struct slctl *s, struct row **ret_rows)
         rows = calloc((size_t)count + 1u, sizeof(*rows));
         if (!rows)
                 return -1;
+        link_names_load(s, &ln);
         for (int id = 0; id < count; id++) {
                 struct row *r = &rows[n];
                 int len;
@@ -109,11 +126,12 @@ static int rows_collect(struct slctl *s, struct row **ret_rows)
                 len = slctl_read(s, id, r->value, sizeof(r->value), &r->meta);
                 if (len < 0)
                         continue;
-                link_name(s, r->info.link, r->link, sizeof(r->link));
+                snprintf(r->link, sizeof(r->link), "%s", link_names_get(&ln, r->info.link));
                 slctl_format_age(r->age, sizeof(r->age), r->meta.age_ns, r->meta.mono_ns != 0);
                 flags_text(r->flags, sizeof(r->flags), r->meta.flags, r->info.flags);
                 n++;
         }
+        free(ln.name);
         *ret_rows = rows;
         return n;
 }

@@ -42,8 +42,8 @@
  * handlers. Readers only map the daemon's read-only table and are not exposed to this. The extensible structs below start with a `size` member that the caller sets
  * to sizeof(the struct); the library fills only what fits, so newer fields never break old callers.
  *
- * Commands to the daemon (CIRCE operations, SharedLink queries) go through its control socket and
- * will be added to this header as their own functions; they do not change anything here.
+ * Commands to the daemon (CIRCE operations, SharedLink queries) go through its control socket:
+ * see "Commands" at the end of this header.
  */
 #ifndef SHAREDLINK_H
 #define SHAREDLINK_H
@@ -176,7 +176,8 @@ int sl_info(struct sl_client *c, int id, struct sl_var_info *ret);
  * Copies the value of variable id (NUL-terminated) into buf; meta may be NULL. Returns its length
  * (0 and no SL_FLAG_VALID when it was never set), -ENOENT, -ENOBUFS (size < length + 1), or
  * -EAGAIN when a writer kept it busy for every bounded attempt (try again). An outbound variable
- * reads as what was last written to it.
+ * reads as what was last written to it. On failure buf holds nothing meaningful (a buffer of
+ * SL_VALUE_SIZE bytes or more is used as scratch space by the read: the fastest path).
  */
 int sl_read(struct sl_client *c, int id, char *buf, size_t size, struct sl_meta *meta);
 
@@ -231,6 +232,125 @@ int sl_daemon_alive(struct sl_client *c);
 
 /* A static English message for a value returned by any sl_* function (negative or not). */
 const char *sl_strerror(int err);
+
+/*
+ * ---- Commands: the daemon's control socket ------------------------------------------------------
+ *
+ * SharedLink queries and CIRCE operations go to the daemon over a Unix stream socket,
+ * "<runtime_dir>/<instance>.sock": one connection, one request line and one reply per call. A
+ * command is a round trip through the daemon (and often the peer): milliseconds, not the
+ * nanoseconds of sl_read. Use them for operations, never to poll data.
+ *
+ * The runtime directory is $SHAREDLINK_RUNTIME_DIR as it was at sl_open, else
+ * SL_RUNTIME_DIR_DEFAULT. The daemon uses the same variable unless its configuration sets
+ * runtime_dir: with such a configuration, pass that directory to sl_set_runtime_dir (or set the
+ * variable for the client too).
+ *
+ * Every argument is checked here before anything is sent, with the ranges of the protocol
+ * (PROTOCOLS.md 2.3 for CIRCE): a bad one fails with -EINVAL and nothing reaches the daemon. Each
+ * call takes reply/reply_size (NULL/0 allowed): on success it receives the answer's text ("" for
+ * most commands; the value for sl_query), on failure one line that says why (the daemon's message,
+ * the argument refused here, or what failed locally), ready to show to a user.
+ *
+ * Errors: -EINVAL (bad argument), -ECONNREFUSED (nobody listens on the socket: the daemon is not
+ * running, or uses another runtime directory), -EACCES (this user may not use the socket),
+ * -ETIMEDOUT (no complete reply in time), -ECONNRESET (the daemon closed the connection early),
+ * -EPROTO (a reply not understood), or the errno of the daemon's answer, e.g. -ENOENT (no such
+ * link), -ENOTCONN (the link is down), -EOPNOTSUPP (a command for another protocol or role),
+ * -EBUSY.
+ */
+
+#define SL_RUNTIME_DIR_DEFAULT  "/run/sharedlink"
+#define SL_REQUEST_LINE_MAX     1023    /* bytes of a request line, without its '\n' */
+#define SL_REQUEST_WORDS_MAX    32      /* words of a request line */
+#define SL_REPLY_LINE_MAX       4095    /* bytes of a reply line, without its '\n' */
+#define SL_REQUEST_TIMEOUT_MS   5000    /* sl_request with timeout_ms 0; margin of the others */
+#define SL_WAIT_MAX_MS          60000   /* sl_set_command_wait */
+#define SL_QUERY_TIMEOUT_MAX_MS 60000   /* sl_query */
+#define SL_CIRCE_ADDRESS_SIZE   7       /* "E1E1E1" + NUL: six uppercase hex digits, not FFFFFF */
+#define SL_CIRCE_DESTS_MAX      92      /* destinations of one Visualize */
+
+/* Receives the text of one "DATA" line; returns 0 to go on, or a negative errno to stop. */
+typedef int (*sl_data_fn)(const char *text, void *arg);
+
+/* Receives one device's result of sl_circe_sync_clocks; returns 0, or a negative errno to stop. */
+typedef int (*sl_sync_fn)(const char *addr, int succeeded, void *arg);
+
+/* A CIRCE Visualize (sl_circe_visualize): the destinations and the display fields to set. */
+struct sl_circe_visualize {
+        size_t size;                    /* set by the caller: sizeof(struct sl_circe_visualize) */
+        const char *const *dests;       /* dest_count addresses (1..SL_CIRCE_DESTS_MAX) */
+        unsigned dest_count;
+        int has_current;                /* set at least one has_* (or start_timer) */
+        int current;                    /* current competitor, 0..999 */
+        int has_next;
+        int next;                       /* next competitor, 0..999 */
+        int start_timer;                /* 1: start the timer */
+        int has_primary;
+        long primary_ms;                /* primary timer, 0..999999 ms */
+        int has_secondary;
+        long secondary_ms;              /* secondary timer, 0..999999 ms */
+        int has_faults;
+        int faults;                     /* 0..99 */
+        int has_refusals;
+        int refusals;                   /* 0..99 */
+        int has_eliminated;
+        int eliminated;                 /* 0 or 1 */
+        int has_placement;
+        int placement;                  /* previous placement, 0..999 */
+};
+
+/* Sets the control socket's directory (NULL: back to $SHAREDLINK_RUNTIME_DIR or the default). */
+int sl_set_runtime_dir(struct sl_client *c, const char *dir);
+
+/* Commands to a link that is down wait up to wait_ms (0..SL_WAIT_MAX_MS) for it; 0: no wait. */
+int sl_set_command_wait(struct sl_client *c, int wait_ms);
+
+/*
+ * Sends one request line (words of printable ASCII separated by single spaces, no '\n'; see
+ * src/daemon/control.h) and reads the reply: on_data (may be NULL) gets each DATA line, reply the
+ * final text. timeout_ms bounds the whole exchange (0: SL_REQUEST_TIMEOUT_MS; < 0: no limit).
+ * Returns 0 on "OK", or a negative errno (above).
+ */
+int sl_request(struct sl_client *c, const char *line, int timeout_ms, sl_data_fn on_data,
+               void *arg, char *reply, size_t reply_size);
+
+/*
+ * SharedLink query: asks peer (a node address, "A".."P") on link for its variable name, waiting at
+ * most timeout_ms for the answer (0: the daemon's default; at most SL_QUERY_TIMEOUT_MAX_MS).
+ * Returns the value's length with the value in reply, -ENOBUFS when it does not fit, -ETIMEDOUT
+ * when the peer did not answer, or another negative errno (above).
+ */
+int sl_query(struct sl_client *c, const char *link, const char *peer, const char *name,
+             int timeout_ms, char *reply, size_t reply_size);
+
+/* CIRCE Alert: makes device addr signal itself. 0 or a negative errno. */
+int sl_circe_alert(struct sl_client *c, const char *link, const char *addr, char *reply,
+                   size_t reply_size);
+
+/* CIRCE Network Setup: device addr joins (join 1) or leaves (0) the network with roles 0..127. */
+int sl_circe_network_setup(struct sl_client *c, const char *link, const char *addr, int join,
+                           int roles, char *reply, size_t reply_size);
+
+/* CIRCE Device Setup: assigns address assign to the device at dest (if has_dest; else the
+ * unconfigured one), with capabilities 0..127 if has_caps. */
+int sl_circe_device_setup(struct sl_client *c, const char *link, const char *assign, int has_dest,
+                          const char *dest, int has_caps, int caps, char *reply,
+                          size_t reply_size);
+
+/* CIRCE Synchronize Clocks: on_result (may be NULL) gets each device's outcome, then 0 returns. */
+int sl_circe_sync_clocks(struct sl_client *c, const char *link, sl_sync_fn on_result, void *arg,
+                         char *reply, size_t reply_size);
+
+/* CIRCE Visualize: shows v's fields on v's displays. 0 or a negative errno. */
+int sl_circe_visualize(struct sl_client *c, const char *link, const struct sl_circe_visualize *v,
+                       char *reply, size_t reply_size);
+
+/* Mediator role (emulator): makes emulated device addr report an action (input keys 0..65535,
+ * sensor time 0..999999 ms, each when its has_* is set). */
+int sl_circe_emulate_action(struct sl_client *c, const char *link, const char *addr, int has_keys,
+                            int keys, int has_sensor_time, long sensor_time_ms, char *reply,
+                            size_t reply_size);
 
 #ifdef __cplusplus
 }

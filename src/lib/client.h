@@ -3,13 +3,16 @@
  * the user may), the id translation that keeps ids stable across daemon restarts, and the lock
  * that makes one handle usable from many threads.
  *
- * Locking: every call holds c->lock for reading while it touches the mappings; only a refresh
- * (daemon restart, new names, recreated .out) takes it for writing. sl_wait must not hold the lock
- * while it sleeps, so it pins the current .in mapping with a reference instead (struct client_map).
+ * Locking: every call holds the handle's lock for reading (client_rdlock) while it touches the
+ * mappings; only a refresh (daemon restart, new names, recreated .out) takes it for writing.
+ * sl_wait must not hold the lock while it sleeps, so it pins the current .in mapping with a
+ * reference instead (struct client_map). The lock is not recursive: never take it twice in one
+ * thread.
  */
 #ifndef SL_CLIENT_H
 #define SL_CLIENT_H
 
+#include <errno.h>
 #include <locale.h>
 #include <pthread.h>
 #include <stdatomic.h>
@@ -20,6 +23,7 @@
 
 #define CLIENT_IDS_MAX          (4u * SHM_CAPACITY_MAX)  /* ids a handle hands out in its life */
 #define CLIENT_HEARTBEAT_MISSES 3u      /* heartbeat older than this many intervals: not alive */
+#define CLIENT_RUNTIME_DIR_SIZE 108     /* sizeof(sun_path): the socket path must fit it anyway */
 
 /* One mapping of .in, shared by the handle and any sl_wait sleeping on it. */
 struct client_map {
@@ -38,7 +42,10 @@ struct client_map {
 };
 
 struct sl_client {
-        pthread_rwlock_t lock;
+        /* the handle's lock (client.c): readers inside, a writer wanting in, writers in turn */
+        _Atomic uint32_t readers;
+        _Atomic uint32_t writer;
+        pthread_mutex_t writers;
         char in_name[SHM_OBJECT_NAME_SIZE];
         char out_name[SHM_OBJECT_NAME_SIZE];
         struct client_map *map;
@@ -60,19 +67,71 @@ struct sl_client {
         uint32_t name_hash_size;
         uint32_t pid;                   /* written into .out lock words */
         locale_t c_locale;              /* numbers are formatted and parsed in the C locale */
+        /* control socket (request.c): "<runtime_dir>/<instance>.sock", under the lock */
+        char instance[SHM_INSTANCE_MAX + 1];
+        char runtime_dir[CLIENT_RUNTIME_DIR_SIZE];      /* "": runtime_dir_error says why */
+        int runtime_dir_error;
+        _Atomic int command_wait_ms;    /* "wait=MS" on query/circe requests; 0: none */
 };
 
-/* Takes c->lock for reading, first refreshing the view if the tables changed underneath. */
-void client_rdlock(struct sl_client *c);
+/* Takes the lock for writing (no refresh): waits for the readers inside to leave. */
+void client_wrlock(struct sl_client *c);
 
-/* Releases c->lock. */
-void client_unlock(struct sl_client *c);
+/* Releases the write lock. */
+void client_wrunlock(struct sl_client *c);
+
+/* client_rdlock's slow path: waits out a writer, refreshes the view when needed (no lock held). */
+void client_rdlock_slow(struct sl_client *c);
+
+/* client_unlock's slow path: wakes the writer waiting for the last reader to leave. */
+void client_unlock_wake(struct sl_client *c);
 
 /* Id ever given to name by this handle (read lock held), or -ENOENT. */
 int client_id_lookup(const struct sl_client *c, const char *name);
 
+/*
+ * The read side is inline: sl_read is a few dependent loads and two atomic increments, and calls
+ * into client.c cost a quarter of it (see client.c for the lock and its memory ordering).
+ */
+
+/* 1 when the tables changed underneath the view (read lock held). */
+static inline int client_needs_refresh(const struct sl_client *c)
+{
+        const struct shm_in_header *h = c->map->in;
+
+        uint32_t out_generation = atomic_load_explicit(&h->out_generation, memory_order_acquire);
+
+        return atomic_load_explicit(&h->state, memory_order_acquire) != SHM_STATE_LIVE ||
+               atomic_load_explicit(&h->count, memory_order_acquire) != c->synced ||
+               out_generation != c->out_generation || (!c->out && c->out_error == -EAGAIN);
+}
+
+/* Releases a read lock. */
+static inline void client_unlock(struct sl_client *c)
+{
+        if (atomic_fetch_sub_explicit(&c->readers, 1u, memory_order_release) == 1u &&
+            atomic_load_explicit(&c->writer, memory_order_seq_cst) != 0)
+                client_unlock_wake(c);
+}
+
+/* Takes the lock for reading, first refreshing the view if the tables changed underneath. */
+static inline void client_rdlock(struct sl_client *c)
+{
+        atomic_fetch_add_explicit(&c->readers, 1u, memory_order_seq_cst);
+        if (atomic_load_explicit(&c->writer, memory_order_seq_cst) == 0 &&
+            !client_needs_refresh(c))
+                return;
+        client_unlock(c);
+        client_rdlock_slow(c);
+}
+
 /* Directory index of id in the current map (read lock held), or -ENOENT. */
-int client_index(const struct sl_client *c, int id);
+static inline int client_index(const struct sl_client *c, int id)
+{
+        if (id < 0 || (uint32_t)id >= c->nids || c->id_index[id] < 0)
+                return -ENOENT;
+        return c->id_index[id];
+}
 
 /* 1 when the current .in was closed by its daemon (shut down or superseded, no successor yet). */
 int client_closed(const struct sl_client *c);

@@ -17,18 +17,26 @@ SL_EXPORT const char *sl_strerror(int err)
         case EINVAL:    return "invalid argument, or a value the wire cannot carry "
                                "(printable ASCII except | [ ], at most 63 bytes)";
         case EPERM:     return "not an outbound variable: only the daemon writes it";
-        case EACCES:    return "permission denied (writing needs the daemon's group)";
+        case EACCES:    return "permission denied (writes and commands need the daemon's group)";
         case EAGAIN:    return "busy: the value kept changing or the tables are being set up; try again";
         case EBUSY:     return "another writer kept the variable busy; try again";
         case ECANCELED: return "write abandoned: the daemon took the slot back from a stalled writer";
-        case ENOTCONN:  return "the daemon is not running";
+        case ENOTCONN:  return "not connected: the daemon is not running (for a command: its "
+                               "link is down)";
         case ENOBUFS:   return "buffer too small for the value";
         case ENODATA:   return "no valid value";
         case EDOM:      return "the value is not a number of that type";
         case ERANGE:    return "the value is out of range";
-        case EPROTO:    return "shared-memory layout not understood (library and daemon versions differ?)";
+        case EPROTO:    return "shared-memory layout or control reply not understood (library "
+                               "and daemon versions differ?)";
         case ENOSPC:    return "too many variables";
         case ENOMEM:    return "out of memory";
+        case ECONNREFUSED: return "the daemon's control socket does not answer (is sharedlinkd "
+                                  "running? is $SHAREDLINK_RUNTIME_DIR its runtime_dir?)";
+        case ETIMEDOUT: return "timed out waiting for the answer";
+        case ECONNRESET: return "the daemon closed the connection before answering";
+        case ENAMETOOLONG: return "the control socket path is too long";
+        case EOPNOTSUPP: return "not supported by this link (protocol or role)";
         default:        return "unexpected error";
         }
 }

@@ -130,11 +130,12 @@ static int read_out_slot(const struct sl_client *c, const struct shm_dir_entry *
 }
 
 /*
- * One consistent, validated copy of variable id's value, plus the flags that apply to it. Fills
- * *copy in place (a scratch buffer of the caller: unspecified on failure), to spare the hot path
- * another copy of it.
+ * One consistent, validated copy of variable id's value, plus the flags that apply to it: the
+ * value NUL-terminated in value[0..SHM_VALUE_SIZE) (the caller's buffer, or copy->value; either is
+ * scratch space, unspecified on failure), the rest in *copy. Reading straight into the caller's
+ * buffer spares the hot path a second copy of the value (see shm_slot_read_to).
  */
-static int read_copy(struct sl_client *c, int id, struct shm_slot_copy *copy,
+static int read_copy(struct sl_client *c, int id, struct shm_slot_copy *copy, char *value,
                      uint64_t *ret_sequence, uint32_t *ret_extra, uint64_t now)
 {
         const struct shm_dir_entry *e;
@@ -148,11 +149,14 @@ static int read_copy(struct sl_client *c, int id, struct shm_slot_copy *copy,
                 return index;
         }
         e = &c->map->dir[index];
-        if (e->direction == SHM_DIR_OUT)
+        if (e->direction == SHM_DIR_OUT) {
                 r = read_out_slot(c, e, copy, &sequence);
+                if (r == 1 && value != copy->value)
+                        memcpy(value, copy->value, SHM_VALUE_SIZE);
+        }
         if (r == 0) {
                 /* .in: the daemon's own value, or its mirror of the last accepted outbound one */
-                r = shm_slot_read(&c->map->slots[index], copy);
+                r = shm_slot_read_to(&c->map->slots[index], copy, value);
                 if (r == 0) {
                         sequence = copy->word / 2u;
                         if (copy->length > SHM_VALUE_MAX || !(copy->flags & SHM_SLOT_VALID))
@@ -163,7 +167,7 @@ static int read_copy(struct sl_client *c, int id, struct shm_slot_copy *copy,
         client_unlock(c);
         if (r < 0)
                 return r;
-        copy->value[copy->length] = '\0';
+        value[copy->length] = '\0';
         *ret_sequence = sequence;
         return 0;
 }
@@ -173,18 +177,23 @@ SL_EXPORT int sl_read(struct sl_client *c, int id, char *buf, size_t size, struc
         struct shm_slot_copy copy;
         uint64_t sequence, now;
         uint32_t extra;
+        char *value;
         int r;
 
         if (!c || !buf || (meta && meta->size < SL_META_SIZE_V1))
                 return -EINVAL;
         /* The clock (~20-30 ns) only matters for the metadata: age, and stale by heartbeat. */
         now = meta ? client_now(CLOCK_MONOTONIC) : 0;
-        r = read_copy(c, id, &copy, &sequence, &extra, now);
+        /* A buffer that holds any value is read into directly; a smaller one gets a copy. */
+        value = size >= SHM_VALUE_SIZE ? buf : copy.value;
+        r = read_copy(c, id, &copy, value, &sequence, &extra, now);
         if (r < 0)
                 return r;
-        if (size < (size_t)copy.length + 1u)
-                return -ENOBUFS;
-        memcpy(buf, copy.value, copy.length + 1u);
+        if (value != buf) {
+                if (size < (size_t)copy.length + 1u)
+                        return -ENOBUFS;
+                memcpy(buf, copy.value, copy.length + 1u);
+        }
         if (meta)
                 meta_fill(meta, &copy, sequence, extra, now);
         return (int)copy.length;

@@ -9,8 +9,11 @@
 
 #include "shm/seqlock.h"
 
-/* Relaxed word-wise copy of the payload; the caller brackets it with read_begin/read_retry. */
-static void slot_copy_payload(const struct shm_slot *slot, struct shm_slot_copy *c)
+/*
+ * Relaxed word-wise copy of the payload, the value to value[0..SHM_VALUE_SIZE); the caller
+ * brackets it with read_begin/read_retry.
+ */
+static void slot_copy_payload(const struct shm_slot *slot, struct shm_slot_copy *c, char *value)
 {
         c->mono_ns = atomic_load_explicit(&slot->mono_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
         c->real_ns = atomic_load_explicit(&slot->real_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
@@ -19,11 +22,12 @@ static void slot_copy_payload(const struct shm_slot *slot, struct shm_slot_copy 
         for (unsigned i = 0; i < SHM_VALUE_WORDS; i++) {
                 uint64_t w = atomic_load_explicit(&slot->value[i], SHM_SEQLOCK_PAYLOAD_LOAD);
 
-                memcpy(c->value + 8u * i, &w, sizeof(w));       /* one 8-byte store */
+                memcpy(value + 8u * i, &w, sizeof(w));          /* one 8-byte store */
         }
 }
 
-int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *copy)
+/* The bounded reader behind shm_slot_read and shm_slot_read_to. */
+static int slot_read(const struct shm_slot *slot, struct shm_slot_copy *copy, char *value)
 {
         for (unsigned attempt = 0; attempt < SHM_SEQLOCK_TRIES; attempt++) {
                 uint64_t start = shm_seqlock_read_begin(&slot->seq);
@@ -32,13 +36,23 @@ int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *copy)
                         shm_seqlock_relax();
                         continue;
                 }
-                slot_copy_payload(slot, copy);
+                slot_copy_payload(slot, copy, value);
                 if (shm_seqlock_read_retry(&slot->seq, start))
                         continue;
                 copy->word = start;
                 return 0;
         }
         return -EAGAIN;
+}
+
+int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *copy)
+{
+        return slot_read(slot, copy, copy->value);
+}
+
+int shm_slot_read_to(const struct shm_slot *slot, struct shm_slot_copy *copy, char *value)
+{
+        return slot_read(slot, copy, value);
 }
 
 uint64_t shm_slot_word(const struct shm_slot *slot)

@@ -291,6 +291,39 @@ static void test_slot_write_read(void **state)
         free(slot);
 }
 
+/* shm_slot_read_to: the value goes to the caller's buffer, the rest to the copy. */
+static void test_slot_read_to(void **state)
+{
+        struct shm_slot *slot = aligned_alloc(64, sizeof(*slot));
+        struct shm_slot_copy c;
+        char value[SHM_VALUE_SIZE];
+        uint64_t word;
+
+        (void)state;
+        memset(slot, 0, sizeof(*slot));
+        shm_slot_write(slot, "a much longer value than the next", 33, SHM_SLOT_VALID, 11, 22);
+        shm_slot_write(slot, "40.5", 4, SHM_SLOT_VALID, 33, 44);
+        memset(&c, 'x', sizeof(c));
+        memset(value, 'y', sizeof(value));
+        assert_int_equal(shm_slot_read_to(slot, &c, value), 0);
+        assert_int_equal(c.word, 4);
+        assert_int_equal(c.length, 4);
+        assert_int_equal(c.mono_ns, 33);
+        assert_int_equal(c.real_ns, 44);
+        assert_int_equal(c.flags, SHM_SLOT_VALID);
+        assert_memory_equal(value, "40.5", 5);
+        for (unsigned i = 4; i < SHM_VALUE_SIZE; i++)
+                assert_int_equal(value[i], 0);
+        for (unsigned i = 0; i < SHM_VALUE_SIZE; i++)
+                assert_int_equal(c.value[i], 'x');      /* left alone */
+        /* Odd for every attempt: -EAGAIN, as shm_slot_read. */
+        assert_int_equal(shm_slot_claim(slot, 7, &word), 0);
+        assert_int_equal(shm_slot_read_to(slot, &c, value), -EAGAIN);
+        assert_int_equal(shm_slot_publish(slot, word), 0);
+        assert_int_equal(shm_slot_read_to(slot, &c, value), 0);
+        free(slot);
+}
+
 static void test_slot_odd_never_handed_out(void **state)
 {
         struct shm_slot *slot = aligned_alloc(64, sizeof(*slot));
@@ -644,6 +677,7 @@ int main(void)
                 cmocka_unit_test(test_seqlock_single_writer),
                 cmocka_unit_test(test_seqlock_claim),
                 cmocka_unit_test(test_slot_write_read),
+                cmocka_unit_test(test_slot_read_to),
                 cmocka_unit_test(test_slot_odd_never_handed_out),
                 cmocka_unit_test(test_slot_claim_publish_repair),
                 cmocka_unit_test(test_slot_copy_check),

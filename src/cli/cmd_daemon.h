@@ -1,0 +1,16 @@
+/*
+ * slctl commands that go through the daemon's control socket: query and circe (help texts in
+ * slctl.c).
+ */
+#ifndef SLCTL_CMD_DAEMON_H
+#define SLCTL_CMD_DAEMON_H
+
+struct slctl;
+
+/* slctl query [--timeout MS] [--wait MS] LINK PEER NAME */
+int cmd_daemon_query(struct slctl *s, int argc, char **argv);
+
+/* slctl circe LINK OPERATION ... */
+int cmd_daemon_circe(struct slctl *s, int argc, char **argv);
+
+#endif

@@ -1,0 +1,361 @@
+/*
+ * slctl: look at and drive a running sharedlinkd (DESIGN.md 2.7). Global options, dispatch, help.
+ */
+#include "cli/slctl.h"
+
+#include <errno.h>
+#include <signal.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli/cmd_daemon.h"
+#include "cli/cmd_info.h"
+#include "cli/cmd_vars.h"
+
+#ifndef SHAREDLINK_VERSION
+#define SHAREDLINK_VERSION "unknown"
+#endif
+
+#define SLCTL_ERR_SIZE          256
+
+struct command {
+        const char *name;
+        int (*run)(struct slctl *s, int argc, char **argv);
+        const char *synopsis;           /* one line for the overview */
+        const char *help;               /* what `slctl NAME --help` prints */
+};
+
+static const struct command commands[] = {
+        { "list", cmd_vars_list, "list [--json]",
+          "Usage: slctl [-i INSTANCE] list [--json]\n"
+          "\n"
+          "Lists every variable of the instance, one per line:\n"
+          "  NAME DIR LINK PEER TYPE AGE FLAGS VALUE\n"
+          "DIR is \"in\" (published by the daemon, read only) or \"out\" (written by clients,\n"
+          "sent by the daemon). AGE is the time since the last update (\"-\": never). FLAGS are\n"
+          "valid, stale, outbound, repaired, adhoc, comma-separated (\"-\": none). LINK and PEER\n"
+          "are \"-\" when the variable has none. VALUE comes last: it may contain spaces.\n"
+          "\n"
+          "  --json   one JSON object: {\"instance\": ..., \"variables\": [{\"name\",\n"
+          "           \"direction\", \"link\", \"peer\", \"type\", \"position\", \"value\",\n"
+          "           \"valid\", \"stale\", \"outbound\", \"repaired\", \"adhoc\", \"age_ns\",\n"
+          "           \"sequence\", \"updated_real_ns\"}, ...]} (link, peer, position,\n"
+          "           age_ns: null when none)\n" },
+        { "get", cmd_vars_get, "get [--strict] NAME...",
+          "Usage: slctl [-i INSTANCE] get [--strict] NAME...\n"
+          "\n"
+          "Prints the value of each variable, one per line, in the order given. A variable\n"
+          "that was never set prints an empty line; a stale one (link down, peer silent) prints\n"
+          "its last value. An unknown name is an error (exit 1, nothing printed).\n"
+          "\n"
+          "  --strict   fail (exit 1, nothing printed) when a value is not valid or is stale\n"
+          "\n"
+          "Example: slctl get AutoGpsLat AutoGpsLon\n" },
+        { "set", cmd_vars_set, "set NAME VALUE",
+          "Usage: slctl [-i INSTANCE] set NAME VALUE\n"
+          "\n"
+          "Writes VALUE to the outbound variable NAME; the daemon sends it to the peer. Values\n"
+          "are printable ASCII without | [ ], at most 63 bytes. Only outbound variables (DIR\n"
+          "\"out\" in `slctl list`) can be written, and only by the daemon's group.\n"
+          "A value that starts with '-' followed by a digit is taken as a value; use -- before\n"
+          "any other value that starts with '-'.\n"
+          "\n"
+          "Example: slctl set CmdThrottle 0.25\n" },
+        { "watch", cmd_vars_watch, "watch [--count N] [--timeout MS] [NAME...]",
+          "Usage: slctl [-i INSTANCE] watch [--count N] [--timeout MS] [NAME...]\n"
+          "\n"
+          "Prints the current value of each variable (all of them when no NAME is given), then\n"
+          "one line per change of value or of state (valid, stale) until interrupted:\n"
+          "  TIME NAME VALUE [stale]        TIME NAME [invalid]\n"
+          "A refresh that rewrites the same value is not a change. TIME is when the value was\n"
+          "updated (local time, ISO 8601 with milliseconds); a change of state alone (e.g.\n"
+          "becoming stale) carries the time it was seen. The [stale] and [invalid] markers\n"
+          "cannot be part of a value (values never contain [ ]).\n"
+          "Variables created while watching (ad hoc names) are followed too when no NAME is\n"
+          "given.\n"
+          "\n"
+          "  --count N      stop after N changes (the initial values do not count)\n"
+          "  --timeout MS   stop after MS milliseconds; with --count, not reaching N changes\n"
+          "                 in time is an error (exit 1)\n" },
+        { "events", cmd_info_events, "events [--follow] [--new] [--count N] [--timeout MS]",
+          "Usage: slctl [-i INSTANCE] events [--follow] [--new] [--count N] [--timeout MS]\n"
+          "\n"
+          "Prints the events the daemon keeps in its ring (CIRCE actions, devices coming and\n"
+          "going, link state changes, query answers...), oldest first, one per line:\n"
+          "  SEQ LINK TYPE key=value ...\n"
+          "e.g. \"17 agility action device=E1E1E1 sensor_time=5000\". LINK is \"-\" for daemon\n"
+          "events. When events were overwritten before they could be read, a line\n"
+          "\"- - overrun lost=N\" comes first; after a daemon restart, \"- - restart\".\n"
+          "A cut text ends with \"truncated=1\".\n"
+          "\n"
+          "  --follow       keep waiting for new events after the retained ones\n"
+          "  --new          skip the retained events: only events from now on\n"
+          "  --count N      stop after N events\n"
+          "  --timeout MS   with --follow: stop after MS milliseconds; with --count, not\n"
+          "                 reaching N events in time is an error (exit 1)\n" },
+        { "stats", cmd_info_stats, "stats [--json]",
+          "Usage: slctl [-i INSTANCE] stats [--json]\n"
+          "\n"
+          "Prints the daemon (pid, running or not, epoch, heartbeat age, start time, its own\n"
+          "counters) and, per link, its protocol, state (and for how long) and every counter by\n"
+          "name: frames, bytes, and errors by reason. Works on the tables a crashed daemon left\n"
+          "behind too (they say \"not running\"; the exit code is then 3).\n"
+          "\n"
+          "  --json   one JSON object: {\"instance\", \"daemon\": {\"pid\", \"alive\",\n"
+          "           \"epoch\" (hex string), \"heartbeat_age_ns\", \"heartbeat_interval_ms\",\n"
+          "           \"started_real_ns\", \"counters\": {name: n}}, \"links\": [{\"name\",\n"
+          "           \"protocol\", \"state\", \"state_name\", \"state_age_ns\",\n"
+          "           \"counters\": {name: n}}]}\n" },
+        { "query", cmd_daemon_query, "query [--timeout MS] [--wait MS] LINK PEER NAME",
+          "Usage: slctl [-i INSTANCE] query [--timeout MS] [--wait MS] LINK PEER NAME\n"
+          "\n"
+          "Asks the SharedLink node PEER (an address A..P) on LINK for the value of its variable\n"
+          "NAME (a Q frame) and prints the answer.\n"
+          "\n"
+          "  --timeout MS   how long the peer has to answer (default: the daemon's, 1000 ms;\n"
+          "                 at most 60000)\n"
+          "  --wait MS      if LINK is down, wait up to MS for it instead of failing at once\n"
+          "\n"
+          "Example: slctl query vehicle A AutoGpsLat\n" },
+        { "circe", cmd_daemon_circe, "circe LINK OPERATION ...",
+          "Usage:\n"
+          "  slctl [-i INSTANCE] circe LINK alert ADDR\n"
+          "  slctl [-i INSTANCE] circe LINK network-setup ADDR (--join|--leave) --roles N\n"
+          "  slctl [-i INSTANCE] circe LINK device-setup --assign ADDR [--dest ADDR]\n"
+          "                                [--capabilities N]\n"
+          "  slctl [-i INSTANCE] circe LINK sync-clocks\n"
+          "  slctl [-i INSTANCE] circe LINK visualize ADDR[,ADDR...] [--current N] [--next N]\n"
+          "        [--start-timer] [--primary MS] [--secondary MS] [--faults N] [--refusals N]\n"
+          "        [--eliminated 0|1] [--placement N]\n"
+          "  slctl [-i INSTANCE] circe LINK emulate action ADDR [--keys N] [--sensor-time MS]\n"
+          "\n"
+          "Sends a CIRCE operation through the controller link LINK (emulate: through a link in\n"
+          "the mediator role, as if device ADDR had reported an action). ADDR is a device\n"
+          "address, six hex digits (FFFFFF is reserved). Ranges: competitor numbers 0..999,\n"
+          "times 0..999999 ms, faults and refusals 0..99, placement 0..999; bit masks:\n"
+          "  --roles          1 keypad, 2 start timer, 4 finish timer, 8/16/32 intermediate\n"
+          "                   timer 1/2/3, 64 display (0..127)\n"
+          "  --capabilities   1 control keypad, 2 numeric keypad, 4 start sensor, 8 finish\n"
+          "                   sensor, 16 intermediate sensor, 32 time sensor, 64 display\n"
+          "  --keys           1..256 keys 1..9, 512 enter current, 1024 enter next, 2048 key 0,\n"
+          "                   4096 pass finish, 8192 pass start, 16384 reset run, 32768 ready\n"
+          "\n"
+          "  alert           make the device signal itself\n"
+          "  network-setup   make the device join or leave the network with these roles\n"
+          "  device-setup    give address --assign to the device at --dest (default: the\n"
+          "                  unconfigured one, 000000), optionally with --capabilities\n"
+          "  sync-clocks     synchronise the devices' clocks; prints one line per device:\n"
+          "                  \"ADDR succeeded\" or \"ADDR timed-out\"\n"
+          "  visualize       show these fields on the displays ADDR,...; at least one field\n"
+          "  emulate action  (mediator role) report a gate passage or key press of device ADDR\n"
+          "\n"
+          "  --wait MS       if LINK is not connected, wait up to MS for it instead of failing\n"
+          "\n"
+          "Example: slctl circe agility visualize D15D15 --current 12 --start-timer\n" },
+};
+
+#define NCOMMANDS (sizeof(commands) / sizeof(commands[0]))
+
+static const char overview_tail[] =
+        "\n"
+        "Options:\n"
+        "  -i INSTANCE    the daemon's instance (default: $SHAREDLINK_INSTANCE, else \"default\")\n"
+        "  -h, --help     this help; `slctl COMMAND --help` (or `slctl help COMMAND`) for one\n"
+        "                 command\n"
+        "  --version      print the version\n"
+        "\n"
+        "Environment:\n"
+        "  SHAREDLINK_INSTANCE      default instance\n"
+        "  SHAREDLINK_RUNTIME_DIR   where the daemon's control socket is (query, circe), when\n"
+        "                           its configuration does not set runtime_dir elsewhere\n"
+        "                           (default " SL_RUNTIME_DIR_DEFAULT ")\n"
+        "\n"
+        "Exit status: 0 ok; 1 error from the daemon or bad input (message on stderr); 2 usage;\n"
+        "3 the daemon is not running.\n";
+
+static const struct command *find_command(const char *name)
+{
+        for (size_t i = 0; i < NCOMMANDS; i++)
+                if (strcmp(commands[i].name, name) == 0)
+                        return &commands[i];
+        return NULL;
+}
+
+int slctl_help(const char *command)
+{
+        const struct command *cmd = command ? find_command(command) : NULL;
+
+        if (cmd) {
+                fputs(cmd->help, stdout);
+                return SLCTL_EXIT_OK;
+        }
+        printf("Usage: slctl [-i INSTANCE] COMMAND [ARGUMENTS]\n"
+               "\n"
+               "Shows and changes the shared variables of a running sharedlinkd, follows its\n"
+               "events, and sends commands through its links.\n"
+               "\n"
+               "Commands:\n");
+        for (size_t i = 0; i < NCOMMANDS; i++)
+                printf("  %s\n", commands[i].synopsis);
+        fputs(overview_tail, stdout);
+        return SLCTL_EXIT_OK;
+}
+
+int slctl_error(struct slctl *s, const char *fmt, ...)
+{
+        va_list ap;
+
+        (void)s;
+        fflush(stdout);
+        fputs("slctl: ", stderr);
+        va_start(ap, fmt);
+        vfprintf(stderr, fmt, ap);
+        va_end(ap);
+        fputc('\n', stderr);
+        return SLCTL_EXIT_ERROR;
+}
+
+int slctl_usage(struct slctl *s, const char *fmt, ...)
+{
+        const char *cmd = s ? s->command : NULL;
+        va_list ap;
+
+        fflush(stdout);
+        fprintf(stderr, "slctl%s%s: ", cmd ? " " : "", cmd ? cmd : "");
+        va_start(ap, fmt);
+        vfprintf(stderr, fmt, ap);
+        va_end(ap);
+        fprintf(stderr, "\nTry 'slctl %s%s--help'.\n", cmd ? cmd : "", cmd ? " " : "");
+        return SLCTL_EXIT_USAGE;
+}
+
+int slctl_not_running(struct slctl *s, const char *why)
+{
+        fflush(stdout);
+        fprintf(stderr, "slctl: sharedlinkd (instance \"%s\") is not running: %s\n", s->instance,
+                why);
+        return SLCTL_EXIT_NOT_RUNNING;
+}
+
+int slctl_args(struct slctl *s, int argc, char **argv, const struct args_opt *opts,
+               struct args *ret)
+{
+        char err[SLCTL_ERR_SIZE];
+
+        if (args_parse(argc - 1, argv + 1, opts, ret, err, sizeof(err)) < 0)
+                return slctl_usage(s, "%s", err);
+        if (ret->help)
+                return slctl_help(s->command);
+        return -1;
+}
+
+int slctl_open(struct slctl *s, int allow_dead)
+{
+        int r = sl_open(s->instance, &s->c);
+
+        if (r == -ENOENT)
+                return slctl_not_running(s, "its shared memory does not exist");
+        if (r == -EINVAL)
+                return slctl_error(s, "bad instance name \"%s\" (letters, digits, '_', '-', '.')",
+                                   s->instance);
+        if (r < 0)
+                return slctl_error(s, "cannot open instance \"%s\": %s", s->instance,
+                                   sl_strerror(r));
+        if (!allow_dead && sl_daemon_alive(s->c) == 0)
+                return slctl_not_running(s, "its tables are left over from a daemon that is gone");
+        return -1;
+}
+
+int slctl_count_timeout(struct slctl *s, const char *count_text, const char *timeout_text,
+                        long *count, long *timeout_ms)
+{
+        *count = 0;
+        *timeout_ms = -1;
+        if (count_text && (args_number(count_text, count) < 0 || *count == 0))
+                return slctl_error(s, "bad --count \"%s\": a number from 1 up", count_text);
+        if (timeout_text && args_number(timeout_text, timeout_ms) < 0)
+                return slctl_error(s, "bad --timeout \"%s\": milliseconds expected (at most "
+                                   "%d digits)", timeout_text, ARGS_DIGITS_MAX);
+        return -1;
+}
+
+void slctl_interruptible(void)
+{
+        struct sigaction sa;
+
+        memset(&sa, 0, sizeof(sa));
+        sa.sa_handler = SIG_DFL;
+        sigemptyset(&sa.sa_mask);
+        sigaction(SIGINT, &sa, NULL);
+}
+
+int slctl_read(struct slctl *s, int id, char *buf, size_t size, struct sl_meta *meta)
+{
+        int r = -EAGAIN;
+
+        for (int i = 0; i < SLCTL_READ_TRIES && r == -EAGAIN; i++)
+                r = sl_read(s->c, id, buf, size, meta);
+        return r;
+}
+
+void slctl_format_age(char *buf, size_t size, uint64_t age_ns, int known)
+{
+        if (!known)
+                snprintf(buf, size, "-");
+        else
+                snprintf(buf, size, "%.3fs", (double)age_ns / 1e9);
+}
+
+static int version(void)
+{
+        printf("slctl (sharedlink) %s\n", SHAREDLINK_VERSION);
+        return SLCTL_EXIT_OK;
+}
+
+int main(int argc, char **argv)
+{
+        struct slctl s = { 0 };
+        const struct command *cmd;
+        int i, code;
+
+        for (i = 1; i < argc && argv[i][0] == '-'; i++) {
+                if (strcmp(argv[i], "-h") == 0 || strcmp(argv[i], "--help") == 0)
+                        return slctl_help(NULL);
+                if (strcmp(argv[i], "--version") == 0)
+                        return version();
+                if (strcmp(argv[i], "-i") == 0) {
+                        if (++i == argc || !*argv[i])
+                                return slctl_usage(NULL, "-i needs an instance name");
+                        s.instance = argv[i];
+                } else if (strncmp(argv[i], "-i", 2) == 0) {
+                        s.instance = argv[i] + 2;
+                } else {
+                        return slctl_usage(NULL, "unknown option %s", argv[i]);
+                }
+        }
+        if (i == argc)
+                return slctl_usage(NULL, "no command given");
+        if (strcmp(argv[i], "help") == 0) {
+                if (i + 1 < argc && !find_command(argv[i + 1]))
+                        return slctl_usage(NULL, "no command called \"%s\"", argv[i + 1]);
+                return slctl_help(i + 1 < argc ? argv[i + 1] : NULL);
+        }
+        cmd = find_command(argv[i]);
+        if (!cmd)
+                return slctl_usage(NULL, "unknown command \"%s\"", argv[i]);
+        if (!s.instance || !*s.instance)
+                s.instance = getenv("SHAREDLINK_INSTANCE");
+        if (!s.instance || !*s.instance)
+                s.instance = "default";
+        s.command = cmd->name;
+        code = cmd->run(&s, argc - i, argv + i);
+        sl_close(s.c);
+        if (fflush(stdout) != 0 || ferror(stdout)) {
+                fprintf(stderr, "slctl: writing the output failed\n");
+                if (code == SLCTL_EXIT_OK)
+                        code = SLCTL_EXIT_ERROR;
+        }
+        return code;
+}

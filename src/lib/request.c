@@ -1,0 +1,899 @@
+/*
+ * Commands through the daemon's control socket (wire format: src/daemon/control.h): one
+ * connection per request, every word checked before it is sent, the reply read line by line
+ * within one deadline. Nothing here touches the shared-memory tables.
+ */
+#include "lib/request.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <unistd.h>
+
+#include <sharedlink.h>
+
+#include "daemon/control.h"
+#include "lib/client.h"
+#include "lib/export.h"
+
+#define REQUEST_RUNTIME_DIR_ENV "SHAREDLINK_RUNTIME_DIR"
+#define REQUEST_SOCKET_SUFFIX   ".sock"
+#define REQUEST_ERRNO_MAX       4095    /* what the kernel calls an errno (MAX_ERRNO) */
+#define REQUEST_READ_CHUNK      1024
+#define REQUEST_BACKLOG_PAUSE_MS 5      /* connect found the daemon's backlog full: try again */
+#define REQUEST_SYNC_EXTRA_MS   10000   /* sync-clocks follows devices for 3 s, plus slack */
+#define NS_PER_MS               1000000ull
+
+/* CIRCE ranges (PROTOCOLS.md 2.3). */
+#define CIRCE_ROLES_MAX         127
+#define CIRCE_CAPABILITIES_MAX  127
+#define CIRCE_COMPETITOR_MAX    999
+#define CIRCE_TIME_MS_MAX       999999L
+#define CIRCE_COUNT_MAX         99
+#define CIRCE_PLACEMENT_MAX     999
+#define CIRCE_KEYS_MAX          65535
+#define CIRCE_ADDRESS_DIGITS    6
+
+/* SharedLink node addresses (PROTOCOLS.md 1.1). */
+#define SL_NODE_FIRST           'A'
+#define SL_NODE_LAST            'P'
+
+/* The public limits are the daemon's, word for word (control.h). */
+_Static_assert(SL_REQUEST_LINE_MAX + 1 == CONTROL_LINE_MAX, "request line limit");
+_Static_assert(SL_REQUEST_WORDS_MAX == CONTROL_ARGS_MAX, "request word limit");
+_Static_assert(SL_CIRCE_ADDRESS_SIZE == CIRCE_ADDRESS_DIGITS + 1, "address size");
+
+#define SL_VISUALIZE_SIZE_V1    sizeof(struct sl_circe_visualize)
+
+/* ---- messages ------------------------------------------------------------------------------ */
+
+static void say(char *buf, size_t size, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+
+/* Writes a message into a caller's buffer (NULL/0 allowed), cut to fit. */
+static void say(char *buf, size_t size, const char *fmt, ...)
+{
+        va_list ap;
+
+        if (!buf || size == 0)
+                return;
+        va_start(ap, fmt);
+        vsnprintf(buf, size, fmt, ap);
+        va_end(ap);
+}
+
+/* Copies text[0..len) into a caller's buffer (NULL/0 allowed), cut to fit. */
+static void say_text(char *buf, size_t size, const char *text, size_t len)
+{
+        if (!buf || size == 0)
+                return;
+        if (len > size - 1u)
+                len = size - 1u;
+        memcpy(buf, text, len);
+        buf[len] = '\0';
+}
+
+/* ---- where the socket is ------------------------------------------------------------------- */
+
+/* Stores dir as the runtime directory (lock held, or the handle not shared yet). */
+static int runtime_dir_store(struct sl_client *c, const char *dir)
+{
+        struct sockaddr_un sa;
+        size_t need = strlen(dir) + 1u + strlen(c->instance) + sizeof(REQUEST_SOCKET_SUFFIX);
+
+        if (need > sizeof(sa.sun_path) || strlen(dir) >= sizeof(c->runtime_dir)) {
+                c->runtime_dir[0] = '\0';
+                c->runtime_dir_error = -ENAMETOOLONG;
+                return -ENAMETOOLONG;
+        }
+        strcpy(c->runtime_dir, dir);
+        c->runtime_dir_error = 0;
+        return 0;
+}
+
+static const char *runtime_dir_default(void)
+{
+        const char *env = getenv(REQUEST_RUNTIME_DIR_ENV);
+
+        return env && *env ? env : SL_RUNTIME_DIR_DEFAULT;
+}
+
+void request_init(struct sl_client *c, const char *instance)
+{
+        snprintf(c->instance, sizeof(c->instance), "%s", instance);
+        atomic_init(&c->command_wait_ms, 0);
+        runtime_dir_store(c, runtime_dir_default());
+}
+
+SL_EXPORT int sl_set_runtime_dir(struct sl_client *c, const char *dir)
+{
+        int r;
+
+        if (!c || (dir && !*dir))
+                return -EINVAL;
+        client_wrlock(c);
+        r = runtime_dir_store(c, dir ? dir : runtime_dir_default());
+        client_wrunlock(c);
+        return r;
+}
+
+SL_EXPORT int sl_set_command_wait(struct sl_client *c, int wait_ms)
+{
+        if (!c || wait_ms < 0 || wait_ms > SL_WAIT_MAX_MS)
+                return -EINVAL;
+        atomic_store_explicit(&c->command_wait_ms, wait_ms, memory_order_relaxed);
+        return 0;
+}
+
+/* The socket address of c's daemon; 0 or -ENAMETOOLONG. */
+static int socket_address(struct sl_client *c, struct sockaddr_un *ret_sa)
+{
+        struct sockaddr_un sa = { .sun_family = AF_UNIX };
+        int r;
+
+        client_rdlock(c);
+        r = c->runtime_dir_error;
+        if (r == 0) {
+                int n = snprintf(sa.sun_path, sizeof(sa.sun_path), "%s/%s%s", c->runtime_dir,
+                                 c->instance, REQUEST_SOCKET_SUFFIX);
+
+                if (n < 0 || (size_t)n >= sizeof(sa.sun_path))
+                        r = -ENAMETOOLONG;      /* not reached: runtime_dir_store checked it */
+        }
+        client_unlock(c);
+        if (r < 0)
+                return r;
+        *ret_sa = sa;
+        return 0;
+}
+
+/* ---- checking what is sent ----------------------------------------------------------------- */
+
+static int is_word_byte(unsigned char ch)
+{
+        return ch > ' ' && ch < 0x7f;
+}
+
+int request_line_check(const char *line, char *why, size_t why_size)
+{
+        size_t len, words = 1;
+
+        if (!line || !*line) {
+                say(why, why_size, "empty request");
+                return -EINVAL;
+        }
+        len = strnlen(line, SL_REQUEST_LINE_MAX + 1u);
+        if (len > SL_REQUEST_LINE_MAX) {
+                say(why, why_size, "request longer than %d bytes", SL_REQUEST_LINE_MAX);
+                return -EINVAL;
+        }
+        for (size_t i = 0; i < len; i++) {
+                unsigned char ch = (unsigned char)line[i];
+
+                if (ch == ' ' && i > 0 && i + 1u < len && line[i - 1] != ' ') {
+                        words++;
+                        continue;
+                }
+                if (ch == ' ') {
+                        say(why, why_size, "request has a leading, trailing or double space");
+                        return -EINVAL;
+                }
+                if (!is_word_byte(ch)) {
+                        say(why, why_size, "request byte %zu (0x%02x) is not printable ASCII",
+                            i, ch);
+                        return -EINVAL;
+                }
+        }
+        if (words > SL_REQUEST_WORDS_MAX) {
+                say(why, why_size, "request has more than %d words", SL_REQUEST_WORDS_MAX);
+                return -EINVAL;
+        }
+        return 0;
+}
+
+/* A request under construction: words appended one by one, each checked. */
+struct builder {
+        char line[SL_REQUEST_LINE_MAX + 1];
+        size_t len;
+        unsigned words;
+};
+
+/* Appends one word (printable ASCII, no space) called `what` in messages; 0 or -EINVAL. */
+static int add_word(struct builder *b, const char *what, const char *word, char *why,
+                    size_t why_size)
+{
+        size_t len = strnlen(word, SL_REQUEST_LINE_MAX + 1u);
+
+        if (len == 0) {
+                say(why, why_size, "%s is empty", what);
+                return -EINVAL;
+        }
+        for (size_t i = 0; i < len; i++) {
+                if (!is_word_byte((unsigned char)word[i])) {
+                        say(why, why_size, "%s contains a space or a byte that is not printable "
+                            "ASCII", what);
+                        return -EINVAL;
+                }
+        }
+        if (b->len + (b->len ? 1u : 0u) + len > SL_REQUEST_LINE_MAX ||
+            b->words >= SL_REQUEST_WORDS_MAX) {
+                say(why, why_size, "request too long (at %s)", what);
+                return -EINVAL;
+        }
+        if (b->len)
+                b->line[b->len++] = ' ';
+        memcpy(b->line + b->len, word, len);
+        b->len += len;
+        b->line[b->len] = '\0';
+        b->words++;
+        return 0;
+}
+
+static int add_wordf(struct builder *b, const char *what, char *why, size_t why_size,
+                     const char *fmt, ...) __attribute__((format(printf, 5, 6)));
+
+static int add_wordf(struct builder *b, const char *what, char *why, size_t why_size,
+                     const char *fmt, ...)
+{
+        char word[SL_REQUEST_LINE_MAX + 1];
+        va_list ap;
+
+        va_start(ap, fmt);
+        vsnprintf(word, sizeof(word), fmt, ap);
+        va_end(ap);
+        return add_word(b, what, word, why, why_size);
+}
+
+static int check_link(const char *link, char *why, size_t why_size)
+{
+        size_t len;
+
+        if (!link) {
+                say(why, why_size, "no link name");
+                return -EINVAL;
+        }
+        len = strnlen(link, SL_LINK_NAME_SIZE);
+        if (len == 0 || len >= SL_LINK_NAME_SIZE) {
+                say(why, why_size, "bad link name: 1..%d bytes expected", SL_LINK_NAME_SIZE - 1);
+                return -EINVAL;
+        }
+        return 0;       /* the bytes are checked as a word */
+}
+
+/* A CIRCE address: six uppercase hex digits, FFFFFF reserved (PROTOCOLS.md 2.3). */
+static int check_address(const char *what, const char *addr, char *why, size_t why_size)
+{
+        size_t len = addr ? strnlen(addr, CIRCE_ADDRESS_DIGITS + 1u) : 0;
+
+        if (len == CIRCE_ADDRESS_DIGITS && strcmp(addr, "FFFFFF") != 0 &&
+            strspn(addr, "0123456789ABCDEF") == CIRCE_ADDRESS_DIGITS)
+                return 0;
+        if (addr && len == CIRCE_ADDRESS_DIGITS && strcmp(addr, "FFFFFF") == 0)
+                say(why, why_size, "bad %s FFFFFF: the address is reserved", what);
+        else
+                say(why, why_size, "bad %s \"%.*s\": six uppercase hex digits expected", what,
+                    (int)len, addr ? addr : "");
+        return -EINVAL;
+}
+
+static int check_range(const char *what, long v, long min, long max, char *why, size_t why_size)
+{
+        if (v >= min && v <= max)
+                return 0;
+        say(why, why_size, "bad %s %ld: %ld..%ld expected", what, v, min, max);
+        return -EINVAL;
+}
+
+/* ---- the exchange -------------------------------------------------------------------------- */
+
+int request_reply_parse(const char *line, size_t len, const char **ret_text, int *ret_err)
+{
+        const char *text;
+        char *end;
+        long err = 0;
+        int kind;
+
+        if (strlen(line) != len)
+                return -EPROTO;         /* an embedded NUL */
+        for (size_t i = 0; i < len; i++) {
+                unsigned char ch = (unsigned char)line[i];
+
+                if ((ch < ' ' && ch != '\t') || ch == 0x7f)
+                        return -EPROTO;
+        }
+        if (strncmp(line, "DATA", 4) == 0 && (line[4] == '\0' || line[4] == ' ')) {
+                kind = REQUEST_REPLY_DATA;
+                text = line[4] ? line + 5 : line + 4;
+        } else if (strncmp(line, "OK", 2) == 0 && (line[2] == '\0' || line[2] == ' ')) {
+                kind = REQUEST_REPLY_OK;
+                text = line[2] ? line + 3 : line + 2;
+        } else if (strncmp(line, "ERR ", 4) == 0 && line[4] >= '1' && line[4] <= '9') {
+                kind = REQUEST_REPLY_ERR;
+                errno = 0;
+                err = strtol(line + 4, &end, 10);
+                if (errno || err > REQUEST_ERRNO_MAX || (*end != '\0' && *end != ' '))
+                        return -EPROTO;
+                text = *end ? end + 1 : end;
+        } else {
+                return -EPROTO;
+        }
+        *ret_text = text;
+        if (kind == REQUEST_REPLY_ERR)
+                *ret_err = (int)err;
+        return kind;
+}
+
+/* Milliseconds left before deadline (0: none), -1 for no deadline. */
+static int time_left(uint64_t deadline)
+{
+        uint64_t now;
+
+        if (!deadline)
+                return -1;
+        now = client_now(CLOCK_MONOTONIC);
+        if (now >= deadline)
+                return 0;
+        return (int)((deadline - now + NS_PER_MS - 1u) / NS_PER_MS);
+}
+
+/* Waits for events on fd until the deadline: 1 ready, 0 timed out, -errno. */
+static int wait_fd(int fd, short events, uint64_t deadline)
+{
+        for (;;) {
+                struct pollfd p = { .fd = fd, .events = events };
+                int left = time_left(deadline), r;
+
+                if (left == 0)
+                        return 0;
+                r = poll(&p, 1, left);
+                if (r > 0)
+                        return 1;
+                if (r < 0 && errno != EINTR)
+                        return -errno;
+        }
+}
+
+/* Connects to the daemon's socket; returns the fd (CLOEXEC, non-blocking) or -errno. */
+static int connect_daemon(const struct sockaddr_un *sa, uint64_t deadline, char *why,
+                          size_t why_size)
+{
+        int fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+        int r;
+
+        if (fd < 0) {
+                r = -errno;
+                say(why, why_size, "socket: %s", strerror(-r));
+                return r;
+        }
+        for (;;) {
+                if (connect(fd, (const struct sockaddr *)sa, sizeof(*sa)) == 0)
+                        return fd;
+                r = -errno;
+                /* A Unix socket's connect never goes in progress; EAGAIN is a full backlog. */
+                if (r == -EAGAIN && time_left(deadline) != 0) {
+                        poll(NULL, 0, REQUEST_BACKLOG_PAUSE_MS);
+                        continue;
+                }
+                if (r != -EINTR)
+                        break;
+        }
+        close(fd);
+        switch (-r) {
+        case ENOENT:
+        case ENOTDIR:
+        case ECONNREFUSED:
+                say(why, why_size, "sharedlinkd is not running (nothing listens on %s)",
+                    sa->sun_path);
+                return -ECONNREFUSED;
+        case EACCES:
+        case EPERM:
+                say(why, why_size, "permission denied on %s (commands need the daemon's group)",
+                    sa->sun_path);
+                return -EACCES;
+        case EAGAIN:
+                say(why, why_size, "timed out connecting to %s", sa->sun_path);
+                return -ETIMEDOUT;
+        default:
+                say(why, why_size, "connect %s: %s", sa->sun_path, strerror(-r));
+                return r;
+        }
+}
+
+/* Sends all of buf; 0, -ETIMEDOUT, or -errno (-EPIPE: the daemon closed its end). */
+static int send_all(int fd, const char *buf, size_t len, uint64_t deadline)
+{
+        while (len > 0) {
+                ssize_t n = send(fd, buf, len, MSG_NOSIGNAL);
+
+                if (n > 0) {
+                        buf += n;
+                        len -= (size_t)n;
+                        continue;
+                }
+                if (n < 0 && errno == EINTR)
+                        continue;
+                if (n < 0 && errno != EAGAIN)
+                        return -errno;
+                n = wait_fd(fd, POLLOUT, deadline);
+                if (n <= 0)
+                        return n == 0 ? -ETIMEDOUT : (int)n;
+        }
+        return 0;
+}
+
+/* What the reading of one reply needs. */
+struct exchange {
+        int fd;
+        uint64_t deadline;
+        sl_data_fn on_data;
+        void *arg;
+        char *reply;
+        size_t reply_size;
+        char line[SL_REPLY_LINE_MAX + 1];
+        size_t len;
+};
+
+/* Handles one complete line: 1 to read on, 0 (OK) or -errno when the reply is complete. */
+static int exchange_line(struct exchange *x)
+{
+        const char *text;
+        int err = 0, kind, r;
+
+        x->line[x->len] = '\0';
+        kind = request_reply_parse(x->line, x->len, &text, &err);
+        switch (kind) {
+        case REQUEST_REPLY_DATA:
+                r = x->on_data ? x->on_data(text, x->arg) : 0;
+                if (r < 0) {
+                        say(x->reply, x->reply_size, "at the reply line \"%.200s\": %s", text,
+                            strerror(-r));
+                        return r;
+                }
+                return 1;
+        case REQUEST_REPLY_OK:
+                say_text(x->reply, x->reply_size, text, strlen(text));
+                return 0;
+        case REQUEST_REPLY_ERR:
+                if (*text)
+                        say_text(x->reply, x->reply_size, text, strlen(text));
+                else
+                        say(x->reply, x->reply_size, "%s", strerror(err));
+                return -err;
+        default:
+                say(x->reply, x->reply_size, "reply not understood: \"%.80s\"", x->line);
+                return -EPROTO;
+        }
+}
+
+/* Reads reply lines until the final one; 0 or -errno. */
+static int exchange_read(struct exchange *x)
+{
+        char chunk[REQUEST_READ_CHUNK];
+
+        for (;;) {
+                ssize_t n = recv(x->fd, chunk, sizeof(chunk), 0);
+
+                if (n < 0 && errno == EINTR)
+                        continue;
+                if (n < 0 && errno == EAGAIN) {
+                        int w = wait_fd(x->fd, POLLIN, x->deadline);
+
+                        if (w == 0) {
+                                say(x->reply, x->reply_size, "no complete reply in time");
+                                return -ETIMEDOUT;
+                        }
+                        if (w < 0)
+                                return w;
+                        continue;
+                }
+                if (n < 0 && errno != ECONNRESET) {
+                        int r = -errno;
+
+                        say(x->reply, x->reply_size, "reading the reply: %s", strerror(-r));
+                        return r;
+                }
+                if (n <= 0) {
+                        say(x->reply, x->reply_size, "the daemon closed the connection before "
+                            "its reply was complete");
+                        return -ECONNRESET;
+                }
+                for (ssize_t i = 0; i < n; i++) {
+                        int r;
+
+                        if (chunk[i] != '\n') {
+                                if (x->len == SL_REPLY_LINE_MAX) {
+                                        say(x->reply, x->reply_size, "reply line longer than "
+                                            "%d bytes", SL_REPLY_LINE_MAX);
+                                        return -EPROTO;
+                                }
+                                x->line[x->len++] = chunk[i];
+                                continue;
+                        }
+                        r = exchange_line(x);
+                        x->len = 0;
+                        if (r <= 0)
+                                return r;       /* bytes after the final line are ignored */
+                }
+        }
+}
+
+SL_EXPORT int sl_request(struct sl_client *c, const char *line, int timeout_ms,
+                         sl_data_fn on_data, void *arg, char *reply, size_t reply_size)
+{
+        struct exchange *x;
+        struct sockaddr_un sa;
+        uint64_t deadline = 0;
+        size_t len;
+        int r;
+
+        if (!c) {
+                say(reply, reply_size, "no handle");
+                return -EINVAL;
+        }
+        r = request_line_check(line, reply, reply_size);
+        if (r < 0)
+                return r;
+        r = socket_address(c, &sa);
+        if (r < 0) {
+                say(reply, reply_size, "the runtime directory is too long for a socket path");
+                return r;
+        }
+        if (timeout_ms == 0)
+                timeout_ms = SL_REQUEST_TIMEOUT_MS;
+        if (timeout_ms > 0)
+                deadline = client_now(CLOCK_MONOTONIC) + (uint64_t)timeout_ms * NS_PER_MS;
+        x = calloc(1, sizeof(*x));      /* ~4 KiB: not on the caller's stack */
+        if (!x) {
+                say(reply, reply_size, "out of memory");
+                return -ENOMEM;
+        }
+        x->deadline = deadline;
+        x->on_data = on_data;
+        x->arg = arg;
+        x->reply = reply;
+        x->reply_size = reply_size;
+        x->fd = connect_daemon(&sa, deadline, reply, reply_size);
+        if (x->fd < 0) {
+                r = x->fd;
+                free(x);
+                return r;
+        }
+        len = strlen(line);
+        memcpy(x->line, line, len);
+        x->line[len++] = '\n';
+        r = send_all(x->fd, x->line, len, deadline);
+        x->len = 0;
+        /* A daemon that refuses us (credentials) answers and closes: its answer says why. */
+        if (r == 0 || r == -EPIPE || r == -ECONNRESET)
+                r = exchange_read(x);
+        else
+                say(reply, reply_size, "sending the request: %s", strerror(-r));
+        close(x->fd);
+        free(x);
+        return r;
+}
+
+/* ---- typed commands ------------------------------------------------------------------------ */
+
+/* Sends a built request with the handle's wait=MS, within base_ms plus the wait. */
+static int command(struct sl_client *c, struct builder *b, int base_ms, sl_data_fn on_data,
+                   void *arg, char *reply, size_t reply_size)
+{
+        int wait_ms = atomic_load_explicit(&c->command_wait_ms, memory_order_relaxed);
+        int r;
+
+        if (wait_ms > 0) {
+                r = add_wordf(b, "wait", reply, reply_size, "wait=%d", wait_ms);
+                if (r < 0)
+                        return r;
+        }
+        return sl_request(c, b->line, base_ms + wait_ms, on_data, arg, reply, reply_size);
+}
+
+/* Starts "circe LINK OPERATION". */
+static int circe_begin(struct sl_client *c, struct builder *b, const char *link, const char *op,
+                       char *reply, size_t reply_size)
+{
+        int r;
+
+        memset(b, 0, sizeof(*b));
+        if (!c) {
+                say(reply, reply_size, "no handle");
+                return -EINVAL;
+        }
+        r = check_link(link, reply, reply_size);
+        if (r == 0)
+                r = add_word(b, "operation", "circe", reply, reply_size);
+        if (r == 0)
+                r = add_word(b, "link name", link, reply, reply_size);
+        if (r == 0)
+                r = add_word(b, "operation", op, reply, reply_size);
+        return r;
+}
+
+/* Receives the query's answer: "OK <value>". */
+SL_EXPORT int sl_query(struct sl_client *c, const char *link, const char *peer, const char *name,
+                       int timeout_ms, char *reply, size_t reply_size)
+{
+        char value[SL_REPLY_LINE_MAX + 1];
+        struct builder b;
+        size_t len;
+        int r;
+
+        memset(&b, 0, sizeof(b));
+        if (!c || !reply || reply_size == 0) {
+                say(reply, reply_size, "no handle or no buffer for the value");
+                return -EINVAL;
+        }
+        r = check_link(link, reply, reply_size);
+        if (r < 0)
+                return r;
+        if (!peer || peer[0] < SL_NODE_FIRST || peer[0] > SL_NODE_LAST || peer[1] != '\0') {
+                say(reply, reply_size, "bad peer \"%.16s\": a node address A..P expected",
+                    peer ? peer : "");
+                return -EINVAL;
+        }
+        if (!name || shm_layout_name_check(name) < 0) {
+                say(reply, reply_size, "bad variable name \"%.48s\": 1..%d bytes of printable "
+                    "ASCII without space, |, [ or ]", name ? name : "", SL_NAME_SIZE - 1);
+                return -EINVAL;
+        }
+        r = check_range("query timeout (ms)", timeout_ms, 0, SL_QUERY_TIMEOUT_MAX_MS, reply,
+                        reply_size);
+        if (r == 0)
+                r = add_word(&b, "operation", "query", reply, reply_size);
+        if (r == 0)
+                r = add_word(&b, "link name", link, reply, reply_size);
+        if (r == 0)
+                r = add_word(&b, "peer", peer, reply, reply_size);
+        if (r == 0)
+                r = add_word(&b, "variable name", name, reply, reply_size);
+        if (r == 0 && timeout_ms > 0)
+                r = add_wordf(&b, "timeout", reply, reply_size, "%d", timeout_ms);
+        if (r < 0)
+                return r;
+        r = command(c, &b, (timeout_ms ? timeout_ms : SL_REQUEST_TIMEOUT_MS) +
+                    SL_REQUEST_TIMEOUT_MS, NULL, NULL, value, sizeof(value));
+        if (r < 0) {
+                say_text(reply, reply_size, value, strlen(value));
+                return r;
+        }
+        len = strlen(value);
+        if (len + 1u > reply_size) {
+                say(reply, reply_size, "buffer too small for the value");
+                return -ENOBUFS;
+        }
+        memcpy(reply, value, len + 1u);
+        return (int)len;
+}
+
+SL_EXPORT int sl_circe_alert(struct sl_client *c, const char *link, const char *addr, char *reply,
+                             size_t reply_size)
+{
+        struct builder b;
+        int r = circe_begin(c, &b, link, "alert", reply, reply_size);
+
+        if (r == 0)
+                r = check_address("address", addr, reply, reply_size);
+        if (r == 0)
+                r = add_word(&b, "address", addr, reply, reply_size);
+        if (r < 0)
+                return r;
+        return command(c, &b, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
+}
+
+SL_EXPORT int sl_circe_network_setup(struct sl_client *c, const char *link, const char *addr,
+                                     int join, int roles, char *reply, size_t reply_size)
+{
+        struct builder b;
+        int r = circe_begin(c, &b, link, "network-setup", reply, reply_size);
+
+        if (r == 0)
+                r = check_address("address", addr, reply, reply_size);
+        if (r == 0)
+                r = check_range("join", join, 0, 1, reply, reply_size);
+        if (r == 0)
+                r = check_range("roles", roles, 0, CIRCE_ROLES_MAX, reply, reply_size);
+        if (r == 0)
+                r = add_word(&b, "address", addr, reply, reply_size);
+        if (r == 0)
+                r = add_word(&b, "membership", join ? "join" : "leave", reply, reply_size);
+        if (r == 0)
+                r = add_wordf(&b, "roles", reply, reply_size, "%d", roles);
+        if (r < 0)
+                return r;
+        return command(c, &b, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
+}
+
+SL_EXPORT int sl_circe_device_setup(struct sl_client *c, const char *link, const char *assign,
+                                    int has_dest, const char *dest, int has_caps, int caps,
+                                    char *reply, size_t reply_size)
+{
+        struct builder b;
+        int r = circe_begin(c, &b, link, "device-setup", reply, reply_size);
+
+        if (r == 0)
+                r = check_address("address to assign", assign, reply, reply_size);
+        if (r == 0 && has_dest)
+                r = check_address("destination", dest, reply, reply_size);
+        if (r == 0 && has_caps)
+                r = check_range("capabilities", caps, 0, CIRCE_CAPABILITIES_MAX, reply,
+                                reply_size);
+        if (r == 0)
+                r = add_word(&b, "address to assign", assign, reply, reply_size);
+        if (r == 0 && (has_dest || has_caps))
+                r = add_word(&b, "destination", has_dest ? dest : "-", reply, reply_size);
+        if (r == 0 && has_caps)
+                r = add_wordf(&b, "capabilities", reply, reply_size, "%d", caps);
+        if (r < 0)
+                return r;
+        return command(c, &b, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
+}
+
+/* Where sync-clocks results go. */
+struct sync_results {
+        sl_sync_fn fn;
+        void *arg;
+};
+
+/* "ADDR succeeded" or "ADDR timed-out". */
+static int sync_line(const char *text, void *arg)
+{
+        const struct sync_results *s = arg;
+        char addr[SL_CIRCE_ADDRESS_SIZE];
+        int succeeded;
+
+        if (strlen(text) <= CIRCE_ADDRESS_DIGITS || text[CIRCE_ADDRESS_DIGITS] != ' ')
+                return -EPROTO;
+        memcpy(addr, text, CIRCE_ADDRESS_DIGITS);
+        addr[CIRCE_ADDRESS_DIGITS] = '\0';
+        if (check_address("address", addr, NULL, 0) < 0)
+                return -EPROTO;
+        if (strcmp(text + CIRCE_ADDRESS_DIGITS + 1, "succeeded") == 0)
+                succeeded = 1;
+        else if (strcmp(text + CIRCE_ADDRESS_DIGITS + 1, "timed-out") == 0)
+                succeeded = 0;
+        else
+                return -EPROTO;
+        return s->fn ? s->fn(addr, succeeded, s->arg) : 0;
+}
+
+SL_EXPORT int sl_circe_sync_clocks(struct sl_client *c, const char *link, sl_sync_fn on_result,
+                                   void *arg, char *reply, size_t reply_size)
+{
+        struct sync_results s = { .fn = on_result, .arg = arg };
+        struct builder b;
+        int r = circe_begin(c, &b, link, "sync-clocks", reply, reply_size);
+
+        if (r < 0)
+                return r;
+        return command(c, &b, SL_REQUEST_TIMEOUT_MS + REQUEST_SYNC_EXTRA_MS, sync_line, &s,
+                       reply, reply_size);
+}
+
+/* Appends the comma-separated destination list of a Visualize. */
+static int add_destinations(struct builder *b, const struct sl_circe_visualize *v, char *reply,
+                            size_t reply_size)
+{
+        char list[SL_CIRCE_DESTS_MAX * SL_CIRCE_ADDRESS_SIZE];
+        size_t len = 0;
+        int r;
+
+        if (!v->dests || v->dest_count < 1 || v->dest_count > SL_CIRCE_DESTS_MAX) {
+                say(reply, reply_size, "bad destination count %u: 1..%d expected",
+                    v->dests ? v->dest_count : 0u, SL_CIRCE_DESTS_MAX);
+                return -EINVAL;
+        }
+        for (unsigned i = 0; i < v->dest_count; i++) {
+                r = check_address("destination", v->dests[i], reply, reply_size);
+                if (r < 0)
+                        return r;
+                if (i)
+                        list[len++] = ',';
+                memcpy(list + len, v->dests[i], CIRCE_ADDRESS_DIGITS);
+                len += CIRCE_ADDRESS_DIGITS;
+        }
+        list[len] = '\0';
+        return add_word(b, "destinations", list, reply, reply_size);
+}
+
+/* One optional display field of a Visualize: "key=value" when has is set. */
+struct vis_field {
+        const char *key;
+        int has;
+        long value;
+        long max;
+};
+
+SL_EXPORT int sl_circe_visualize(struct sl_client *c, const char *link,
+                                 const struct sl_circe_visualize *v, char *reply,
+                                 size_t reply_size)
+{
+        struct sl_circe_visualize full;
+        struct builder b;
+        int r, given;
+
+        if (!v || v->size < SL_VISUALIZE_SIZE_V1) {
+                say(reply, reply_size, "no visualize fields, or their size is not set");
+                return -EINVAL;
+        }
+        /* Fields past the caller's size (a newer header than the caller's) read as absent. */
+        memset(&full, 0, sizeof(full));
+        memcpy(&full, v, v->size < sizeof(full) ? v->size : sizeof(full));
+        r = circe_begin(c, &b, link, "visualize", reply, reply_size);
+        if (r == 0)
+                r = add_destinations(&b, &full, reply, reply_size);
+        if (r < 0)
+                return r;
+        {
+                /* In the order of the control request (control.h). */
+                const struct vis_field fields[] = {
+                        { "current", full.has_current, full.current, CIRCE_COMPETITOR_MAX },
+                        { "next", full.has_next, full.next, CIRCE_COMPETITOR_MAX },
+                        { "start-timer", full.start_timer, full.start_timer, 1 },
+                        { "primary", full.has_primary, full.primary_ms, CIRCE_TIME_MS_MAX },
+                        { "secondary", full.has_secondary, full.secondary_ms, CIRCE_TIME_MS_MAX },
+                        { "faults", full.has_faults, full.faults, CIRCE_COUNT_MAX },
+                        { "refusals", full.has_refusals, full.refusals, CIRCE_COUNT_MAX },
+                        { "eliminated", full.has_eliminated, full.eliminated, 1 },
+                        { "placement", full.has_placement, full.placement, CIRCE_PLACEMENT_MAX },
+                };
+
+                given = 0;
+                for (size_t i = 0; i < sizeof(fields) / sizeof(fields[0]); i++) {
+                        const struct vis_field *f = &fields[i];
+
+                        if (!f->has)
+                                continue;
+                        given++;
+                        r = check_range(f->key, f->value, 0, f->max, reply, reply_size);
+                        if (r < 0)
+                                return r;
+                        if (strcmp(f->key, "start-timer") == 0)
+                                r = add_word(&b, f->key, f->key, reply, reply_size);
+                        else
+                                r = add_wordf(&b, f->key, reply, reply_size, "%s=%ld", f->key,
+                                              f->value);
+                        if (r < 0)
+                                return r;
+                }
+        }
+        if (given == 0) {
+                say(reply, reply_size, "visualize needs at least one display field");
+                return -EINVAL;
+        }
+        return command(c, &b, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
+}
+
+SL_EXPORT int sl_circe_emulate_action(struct sl_client *c, const char *link, const char *addr,
+                                      int has_keys, int keys, int has_sensor_time,
+                                      long sensor_time_ms, char *reply, size_t reply_size)
+{
+        struct builder b;
+        int r = circe_begin(c, &b, link, "emulate", reply, reply_size);
+
+        if (r == 0)
+                r = add_word(&b, "operation", "action", reply, reply_size);
+        if (r == 0)
+                r = check_address("device", addr, reply, reply_size);
+        if (r == 0 && has_keys)
+                r = check_range("keys", keys, 0, CIRCE_KEYS_MAX, reply, reply_size);
+        if (r == 0 && has_sensor_time)
+                r = check_range("sensor time (ms)", sensor_time_ms, 0, CIRCE_TIME_MS_MAX, reply,
+                                reply_size);
+        if (r == 0)
+                r = add_word(&b, "device", addr, reply, reply_size);
+        if (r == 0 && has_keys)
+                r = add_wordf(&b, "keys", reply, reply_size, "keys=%d", keys);
+        if (r == 0 && has_sensor_time)
+                r = add_wordf(&b, "sensor time", reply, reply_size, "sensor-time=%ld",
+                              sensor_time_ms);
+        if (r < 0)
+                return r;
+        return command(c, &b, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
+}

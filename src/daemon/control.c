@@ -539,8 +539,9 @@ static void request_finish(struct control_request *req)
         }
         if (cl) {
                 cl->pending = NULL;
-                if (!cl->busy && !client_settle(cl) &&
-                    (cl->eof || memchr(cl->in, '\n', cl->in_len)))
+                /* Buffered input (a next line, an overlong one, a last one before EOF) is
+                 * taken up from the loop, not from inside the engine's reply call. */
+                if (!cl->busy && !client_settle(cl) && (cl->eof || cl->in_len > 0))
                         evloop_timer_arm(&cl->ctl->kick, 0, 0);
         }
         free(req);

@@ -111,11 +111,41 @@ kill -INT "$watcher" 2>/dev/null || true
 wait "$watcher" 2>/dev/null || true
 
 # --- CIRCE: controller (agility) <-> mediator emulator (arena) ---------------------------------
-# Added by the engine-circe piece: e.g. wait for agility.state = connected, list the emulated
-# devices (agility.device.*), inject a gate passage with `slctl circe arena emulate action
-# E1E1E1 --sensor-time 5000` and show it arrive as an `action` event (`slctl events`).
+# The controller logs in to the emulator over the pty, the emulated devices appear in the
+# controller's table, a gate passage injected on the emulator arrives as an `action` event, a
+# visualize command from the controller changes the emulated display, and a clock
+# synchronisation succeeds for every device.
+# `slctl events` prints "SEQ LINK TYPE key=value ...".
+# grep reads all of it (no -q): slctl must not die of SIGPIPE under pipefail.
+event_seen() { "$slctl" events 2>/dev/null | grep -- "$1" >/dev/null; }
 if [ "$have_circe" = 1 ]; then
-        say "CIRCE: (demo steps to come with the CIRCE engine)"
+        say "CIRCE: the controller (agility) logs in to the mediator emulator (arena)"
+        until_ok value_is agility.state connected || fail "agility never connected"
+        run "$slctl" get agility.state agility.mediator.version arena.state
+
+        say "CIRCE: the emulated gate, remote and display appear on the controller"
+        until_ok value_is agility.device.D15D15.online 1 || fail "the emulated devices never appeared"
+        run "$slctl" get agility.device.E1E1E1.capabilities agility.device.E1E1E1.signal \
+                agility.device.E1E1E1.battery agility.device.AAAAAA.capabilities \
+                agility.device.D15D15.capabilities
+        "$slctl" events | grep ' agility device-online ' || true
+
+        say "CIRCE: a gate passage on the emulated gate arrives as an action event"
+        run "$slctl" circe arena emulate action E1E1E1 --sensor-time 5000
+        until_ok event_seen " agility action device=E1E1E1 sensor_time=5000" ||
+                fail "the gate passage never arrived as an event"
+        "$slctl" events | grep ' agility action '
+        run "$slctl" get agility.device.E1E1E1.sensor_time
+
+        say "CIRCE: the controller changes what the emulated display shows"
+        run "$slctl" circe agility visualize D15D15 --current 12 --next 13 --start-timer
+        until_ok value_is arena.device.D15D15.current_competitor 12 ||
+                fail "the emulated display never showed competitor 12"
+        run "$slctl" get arena.device.D15D15.current_competitor \
+                arena.device.D15D15.next_competitor arena.device.D15D15.timer_running
+
+        say "CIRCE: synchronise the clocks of every device"
+        run "$slctl" circe agility sync-clocks
 fi
 # --- end of the CIRCE part ----------------------------------------------------------------------
 

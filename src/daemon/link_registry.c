@@ -7,13 +7,15 @@
 
 #include <stddef.h>
 
+#include "daemon/link_circe.h"
+
 const struct link_ops *link_ops_for(enum config_protocol protocol)
 {
         switch (protocol) {
         case CONFIG_PROTOCOL_SHAREDLINK:
                 return NULL;    /* link_sharedlink_ops: not merged yet */
         case CONFIG_PROTOCOL_CIRCE:
-                return NULL;    /* link_circe_ops: not merged yet */
+                return &link_circe_ops;
         default:
                 return NULL;
         }

@@ -475,8 +475,6 @@ static void client_read(struct control_client *cl)
                 }
                 if (n == 0) {
                         cl->eof = true;
-                        if (peer_hung_up(cl->fd))
-                                cl->broken = true;
                         break;
                 }
                 if (errno == EINTR)
@@ -500,7 +498,12 @@ static void client_on_event(struct evloop *loop, int fd, unsigned revents, void 
                         client_flush(cl);
                 if (revents & (POLLIN | POLLHUP))
                         client_read(cl);
+                /* Lines that arrived whole are handed out even if their client has left since
+                 * (a command is not cancelled by closing early); only then is a client that is
+                 * gone for good (not just half-closed) dropped, orphaning what it sent. */
                 client_process(cl);
+                if (cl->eof && !cl->broken && peer_hung_up(cl->fd))
+                        cl->broken = true;
         }
         client_settle(cl);
 }

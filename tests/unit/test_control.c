@@ -365,6 +365,26 @@ static void test_orphan(void **state)
         assert_int_equal(st.clients, 0);
 }
 
+/* A client that sends and closes at once: its request is still carried out (handed to the
+ * handler), then orphaned. */
+static void test_send_and_close(void **state)
+{
+        struct fixture *f = *state;
+        struct control_stats st;
+        int fd = client_connect(f);
+
+        f->mode = MODE_HOLD;
+        client_send(fd, "fire and forget\n");
+        close(fd);
+        pump_until(f, orphaned_n, (void *)1);
+        assert_int_equal(f->n_held, 1);
+        assert_false(control_request_alive(f->held[0]));
+        control_reply_ok(f->held[0], NULL);
+        control_get_stats(f->ctl, &st);
+        assert_int_equal(st.orphan_answers, 1);
+        assert_int_equal(st.requests, 1);
+}
+
 /* The server goes first: a request an engine still holds stays valid until answered. */
 static void test_server_freed_first(void **state)
 {
@@ -545,6 +565,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_partial_writes, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_async_in_order, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_orphan, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_send_and_close, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_server_freed_first, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_half_close, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_overlong, setup, teardown),

@@ -8,12 +8,13 @@
 #include <stddef.h>
 
 #include "daemon/link_circe.h"
+#include "daemon/link_sharedlink.h"
 
 const struct link_ops *link_ops_for(enum config_protocol protocol)
 {
         switch (protocol) {
         case CONFIG_PROTOCOL_SHAREDLINK:
-                return NULL;    /* link_sharedlink_ops: not merged yet */
+                return &link_sharedlink_ops;
         case CONFIG_PROTOCOL_CIRCE:
                 return &link_circe_ops;
         default:

@@ -742,6 +742,27 @@ int shm_table_set(struct shm_table *t, uint32_t id, const char *value, size_t le
         return 0;
 }
 
+int shm_table_get(const struct shm_table *t, uint32_t id, char *buf, size_t size,
+                  uint32_t *ret_flags)
+{
+        struct shm_slot_copy c;
+
+        if (id >= t->count)
+                return -ENOENT;
+        /* Our own slot: this thread is its only writer, so the read never finds it odd. */
+        if (shm_slot_read(&t->slots[id], &c) < 0)
+                return -EAGAIN;
+        if (c.length > SHM_VALUE_MAX)
+                c.length = 0;
+        if (size < (size_t)c.length + 1u)
+                return -ENOBUFS;
+        memcpy(buf, c.value, c.length);
+        buf[c.length] = '\0';
+        if (ret_flags)
+                *ret_flags = t->vars[id].flags;
+        return (int)c.length;
+}
+
 int shm_table_set_str(struct shm_table *t, uint32_t id, const char *value)
 {
         if (!value)

@@ -102,6 +102,14 @@ void shm_table_begin(struct shm_table *t);
 void shm_table_begin_at(struct shm_table *t, uint64_t mono_ns, uint64_t real_ns);
 
 /*
+ * Copies the value of variable id as published in .in (for an outbound variable: the last value
+ * accepted from a client) into buf, NUL-terminated. Returns its length (0, and no SHM_SLOT_VALID
+ * in *ret_flags, when never set), -ENOENT or -ENOBUFS (size < length + 1). ret_flags may be NULL.
+ */
+int shm_table_get(const struct shm_table *t, uint32_t id, char *buf, size_t size,
+                  uint32_t *ret_flags);
+
+/*
  * Sets variable id to value[0..len) (valid, fresh). Outside a batch it is a batch of its own.
  * Returns 0, -ENOENT (id) or -EINVAL (more than 63 bytes, or a byte outside the wire charset).
  */

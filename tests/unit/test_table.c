@@ -581,6 +581,34 @@ static void test_stale(void **state)
         view_close(&v);
 }
 
+/* shm_table_get reads back what was published: inbound values, outbound mirrors, flags. */
+static void test_get(void **state)
+{
+        struct fixture *f = *state;
+        char buf[SHM_VALUE_SIZE], small[2];
+        uint32_t flags = 0xffu;
+
+        assert_int_equal(shm_table_get(f->t, LAT, buf, sizeof(buf), &flags), 0);
+        assert_string_equal(buf, "");
+        assert_int_equal(flags, 0);                     /* never set: not valid */
+        assert_int_equal(shm_table_set_str(f->t, LAT, "40.12345678"), 0);
+        assert_int_equal(shm_table_get(f->t, LAT, buf, sizeof(buf), &flags), 11);
+        assert_string_equal(buf, "40.12345678");
+        assert_int_equal(flags, SHM_SLOT_VALID);
+        assert_int_equal(shm_table_set_stale(f->t, LAT, 1), 0);
+        assert_int_equal(shm_table_get(f->t, LAT, buf, sizeof(buf), &flags), 11);
+        assert_int_equal(flags, SHM_SLOT_VALID | SHM_SLOT_STALE);
+        /* An outbound variable reads as its mirror; flags may be left out. */
+        assert_int_equal(shm_table_set_str(f->t, THROTTLE, "0.5"), 0);
+        assert_int_equal(shm_table_get(f->t, THROTTLE, buf, sizeof(buf), NULL), 3);
+        assert_string_equal(buf, "0.5");
+        /* Errors leave the out-parameters alone. */
+        flags = 0xffu;
+        assert_int_equal(shm_table_get(f->t, LAT, small, sizeof(small), &flags), -ENOBUFS);
+        assert_int_equal(shm_table_get(f->t, 99, buf, sizeof(buf), &flags), -ENOENT);
+        assert_int_equal(flags, 0xffu);
+}
+
 static void test_adhoc(void **state)
 {
         struct fixture *f = *state;
@@ -1109,6 +1137,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_batch_change_word, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_commit_wakes_other_process, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_stale, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_get, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_adhoc, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_links_counters, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_heartbeat_and_events, setup, teardown),

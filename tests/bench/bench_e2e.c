@@ -1,0 +1,642 @@
+/*
+ * End-to-end latency and idle cost of a real sharedlinkd (SharedLink links over pty pairs whose
+ * master the benchmark holds), measured side by side in one run:
+ *
+ *   floor     a frame written into a pty master -> a thread blocked in read() on the slave has
+ *             its last byte (what any program pays to get bytes through a pty);
+ *   wake-up   one futex wake-up from a thread to another (what handing a value from the daemon
+ *             to a client costs at least, on top of the floor);
+ *   inbound   a frame written into the master of the daemon's link -> a client thread blocked
+ *             in sl_wait() reads the new value (pty + daemon decode + table + futex wake); the
+ *             value's own time stamp splits it at the moment the daemon applied the frame;
+ *   outbound  sl_write() with on_change and min_interval_ms 0 -> the frame's last byte is read
+ *             on the master by a thread blocked in poll();
+ *   idle      a second daemon with 4 SharedLink links and no periodic send, left alone for
+ *             IDLE_S seconds: its CPU time (/proc/PID/stat) and its threads' context switches
+ *             (/proc/PID/task/N/status), and the loop's own wakeup counters from the control
+ *             socket's `stats` request when the daemon answers it.
+ *
+ * The latency probes take one sample each in turn (interleaved), so a machine whose load changes
+ * during the run weighs on all of them alike.
+ *
+ * Targets (the issue): inbound median within 1.5x of the floor, outbound p99 under 1 ms, no
+ * wakeups beyond the configured timers when idle. Prints the figures and the ratios; the exit
+ * code is 0 unless something failed to run (a benchmark does not judge).
+ *
+ * Needs the optimised daemon: `make bench` runs it with SHAREDLINK_BUILD=build.
+ */
+#define _GNU_SOURCE
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <poll.h>
+#include <pthread.h>
+#include <semaphore.h>
+#include <signal.h>
+#include <stdatomic.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/socket.h>
+#include <sys/un.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <sharedlink.h>
+
+#include "common/harness.h"
+
+#define SAMPLES         3000
+#define WARMUP          200
+#define GAP_US          300             /* between samples: no queueing between them */
+#define IDLE_LINKS      4
+#define IDLE_S          10
+#define START_MS        10000
+#define WAIT_MS         2000            /* one sample must not take longer */
+#define FRAME_MAX       128
+#define LINE_MAX_BENCH  1024
+#define NS_PER_US       1000ull
+
+struct sample_set {
+        uint64_t v[SAMPLES];
+        size_t n;
+};
+
+static uint64_t now_ns(void)
+{
+        return harness_now_ns();
+}
+
+static int cmp_u64(const void *a, const void *b)
+{
+        uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+
+        return (x > y) - (x < y);
+}
+
+static void percentiles(struct sample_set *s, double *ret_med_us, double *ret_p99_us)
+{
+        qsort(s->v, s->n, sizeof(s->v[0]), cmp_u64);
+        *ret_med_us = (double)s->v[s->n / 2] / NS_PER_US;
+        *ret_p99_us = (double)s->v[(s->n * 99) / 100] / NS_PER_US;
+}
+
+/* "[:" dst src "|" body "|C" hh "]\r\n" */
+static size_t make_frame(char *out, size_t size, char dst, char src, const char *body)
+{
+        unsigned sum = ':' + dst + src + '|' + '|' + 'C';
+
+        for (const char *p = body; *p; p++)
+                sum += (unsigned char)*p;
+        return (size_t)snprintf(out, size, "[:%c%c|%s|C%02X]\r\n", dst, src, body, sum & 0xffu);
+}
+
+static int write_all(int fd, const char *buf, size_t len)
+{
+        return harness_write_all(fd, buf, len, WAIT_MS);
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * A thread that waits for one event per sample and stamps it. */
+
+struct waiter {
+        pthread_t thread;
+        sem_t go, done;
+        _Atomic int stop;
+        _Atomic uint64_t stamp;         /* when the event was seen */
+        _Atomic uint64_t mid;           /* inbound: the daemon's time stamp of the value */
+        char expect[64];                /* what the event must carry */
+        int fd;                         /* floor: pty slave; outbound: the link's master */
+        struct sl_client *client;       /* inbound */
+        int id;
+        int failed;
+        int started;
+};
+
+/* Floor: read the slave until the frame's last byte. */
+static void *floor_thread(void *arg)
+{
+        struct waiter *w = arg;
+        char buf[FRAME_MAX];
+
+        while (sem_wait(&w->go) == 0 && !atomic_load(&w->stop)) {
+                size_t len = 0;
+
+                for (;;) {
+                        struct pollfd p = { .fd = w->fd, .events = POLLIN };
+                        ssize_t n;
+
+                        if (poll(&p, 1, WAIT_MS) <= 0) {
+                                w->failed = 1;
+                                break;
+                        }
+                        n = read(w->fd, buf + len, sizeof(buf) - len);
+                        if (n <= 0)
+                                continue;
+                        len += (size_t)n;
+                        if (buf[len - 1] == '\n' || len == sizeof(buf))
+                                break;
+                }
+                atomic_store(&w->stamp, now_ns());
+                sem_post(&w->done);
+        }
+        return NULL;
+}
+
+/* Wake-up hop: a thread blocked on a futex (a semaphore) woken by another thread. */
+static sem_t hop_sem;
+
+static void *hop_thread(void *arg)
+{
+        struct waiter *w = arg;
+
+        while (sem_wait(&w->go) == 0 && !atomic_load(&w->stop)) {
+                while (sem_wait(&hop_sem) < 0 && errno == EINTR)
+                        ;
+                atomic_store(&w->stamp, now_ns());
+                sem_post(&w->done);
+        }
+        return NULL;
+}
+
+static int cause_hop(void *arg, unsigned i)
+{
+        (void)arg;
+        (void)i;
+        return sem_post(&hop_sem) < 0 ? -errno : 0;
+}
+
+/* Inbound: a client blocked in sl_wait until the value is the expected one. */
+static void *inbound_thread(void *arg)
+{
+        struct waiter *w = arg;
+        uint32_t cursor = 0;
+        char value[SL_VALUE_SIZE];
+
+        sl_wait(w->client, &cursor, 0);
+        while (sem_wait(&w->go) == 0 && !atomic_load(&w->stop)) {
+                uint64_t deadline = now_ns() + (uint64_t)WAIT_MS * 1000000u;
+
+                for (;;) {
+                        struct sl_meta meta = { .size = sizeof(meta) };
+
+                        if (sl_read(w->client, w->id, value, sizeof(value), &meta) >= 0 &&
+                            strcmp(value, w->expect) == 0) {
+                                /* The daemon stamps a frame's values when it starts applying
+                                 * them (CLOCK_MONOTONIC, like ours). */
+                                atomic_store(&w->mid, meta.mono_ns);
+                                break;
+                        }
+                        if (now_ns() > deadline) {
+                                w->failed = 1;
+                                break;
+                        }
+                        sl_wait(w->client, &cursor, WAIT_MS);
+                }
+                atomic_store(&w->stamp, now_ns());
+                sem_post(&w->done);
+        }
+        return NULL;
+}
+
+/* Outbound: read the master until a frame carrying the value has been read whole. */
+static void *outbound_thread(void *arg)
+{
+        struct waiter *w = arg;
+        char buf[4096], needle[80];
+        size_t len = 0;
+
+        while (sem_wait(&w->go) == 0 && !atomic_load(&w->stop)) {
+                snprintf(needle, sizeof(needle), "|D%s|", w->expect);
+                for (;;) {
+                        struct pollfd p = { .fd = w->fd, .events = POLLIN };
+                        char *found, *end;
+                        ssize_t n;
+
+                        found = len ? memmem(buf, len, needle, strlen(needle)) : NULL;
+                        end = found ? memchr(found, '\n', len - (size_t)(found - buf)) : NULL;
+                        if (end) {
+                                len = 0;        /* frames before it are stale ones */
+                                break;
+                        }
+                        if (len > sizeof(buf) / 2)
+                                len = 0;
+                        if (poll(&p, 1, WAIT_MS) <= 0) {
+                                w->failed = 1;
+                                break;
+                        }
+                        n = read(w->fd, buf + len, sizeof(buf) - len);
+                        if (n > 0)
+                                len += (size_t)n;
+                }
+                atomic_store(&w->stamp, now_ns());
+                sem_post(&w->done);
+        }
+        return NULL;
+}
+
+static int waiter_start(struct waiter *w, void *(*fn)(void *))
+{
+        int r;
+
+        sem_init(&w->go, 0, 0);
+        sem_init(&w->done, 0, 0);
+        atomic_store(&w->stop, 0);
+        r = -pthread_create(&w->thread, NULL, fn, w);
+        w->started = r == 0;
+        return r;
+}
+
+static void waiter_stop(struct waiter *w)
+{
+        if (!w->started)
+                return;
+        w->started = 0;
+        atomic_store(&w->stop, 1);
+        sem_post(&w->go);
+        pthread_join(w->thread, NULL);
+        sem_destroy(&w->go);
+        sem_destroy(&w->done);
+}
+
+/* One sample: arm the waiter, take t0, cause the event, wait for the stamp. Returns the delay
+ * in ns (and the daemon's stamp relative to t0 in *ret_mid when asked), or -errno. */
+static int64_t sample_one(struct waiter *w, int (*cause)(void *, unsigned), void *arg,
+                          unsigned i, uint64_t *ret_mid)
+{
+        uint64_t t0;
+        int r;
+
+        snprintf(w->expect, sizeof(w->expect), "v%u", i);
+        sem_post(&w->go);
+        usleep(GAP_US);         /* the waiter is blocked again before t0 */
+        t0 = now_ns();
+        r = cause(arg, i);
+        if (r < 0)
+                return r;
+        sem_wait(&w->done);
+        if (w->failed)
+                return -ETIMEDOUT;
+        if (ret_mid)
+                *ret_mid = atomic_load(&w->mid) - t0;
+        return (int64_t)(atomic_load(&w->stamp) - t0);
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Causes */
+
+struct frame_cause {
+        int fd;
+        char dst, src;
+};
+
+static int cause_frame(void *arg, unsigned i)
+{
+        struct frame_cause *c = arg;
+        char body[32], frame[FRAME_MAX];
+        size_t n;
+
+        snprintf(body, sizeof(body), "N0|Dv%u", i);
+        n = make_frame(frame, sizeof(frame), c->dst, c->src, body);
+        return write_all(c->fd, frame, n);
+}
+
+struct write_cause {
+        struct sl_client *client;
+        int id;
+};
+
+static int cause_write(void *arg, unsigned i)
+{
+        struct write_cause *c = arg;
+        char v[16];
+
+        snprintf(v, sizeof(v), "v%u", i);
+        return sl_write(c->client, c->id, v);
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Daemon helpers */
+
+static int daemon_start(struct harness *h, const char *tag, unsigned links, int *masters,
+                        int *slaves)
+{
+        char yaml[8192], path[HARNESS_PATH_MAX], dev[HARNESS_PATH_MAX + 16];
+        char pts[HARNESS_PATH_MAX];
+        size_t n;
+        int r;
+
+        r = harness_init(h, tag);
+        if (r < 0)
+                return r;
+        n = (size_t)snprintf(yaml, sizeof(yaml), "instance: %s\nruntime_dir: %s\nlinks:\n",
+                             h->instance, h->dir);
+        for (unsigned i = 0; i < links; i++) {
+                r = harness_openpty(&masters[i], &slaves[i], pts);
+                if (r < 0)
+                        return r;
+                snprintf(dev, sizeof(dev), "%s/tty%u", h->dir, i);
+                if (symlink(pts, dev) < 0)
+                        return -errno;
+                n += (size_t)snprintf(yaml + n, sizeof(yaml) - n,
+                        "  - name: l%u\n"
+                        "    protocol: sharedlink\n"
+                        "    transport: serial\n"
+                        "    device: %s\n"
+                        "    address: B\n"
+                        "    peers:\n"
+                        "      - address: A\n"
+                        "        period_ms: 0\n"
+                        "        stale_ms: 0\n"
+                        "        on_change: true\n"
+                        "        min_interval_ms: 0\n"
+                        "        outbound: [Out%u]\n"
+                        "        inbound: [In%u]\n", i, dev, i, i);
+        }
+        r = harness_write_file(h, "bench.yaml", yaml, path);
+        if (r < 0)
+                return r;
+        return harness_start_daemon(h, path, START_MS, NULL, NULL);
+}
+
+/* Drains whatever the daemon sent so far (the full list at link up). */
+static void drain(int fd)
+{
+        char buf[4096];
+
+        while (read(fd, buf, sizeof(buf)) > 0)
+                ;
+}
+
+/* utime + stime of a process, in clock ticks. */
+static long long cpu_ticks(pid_t pid)
+{
+        char path[64], buf[2048], *p;
+        unsigned long long ut, st;
+        FILE *f;
+
+        snprintf(path, sizeof(path), "/proc/%d/stat", (int)pid);
+        f = fopen(path, "re");
+        if (!f)
+                return -1;
+        p = fgets(buf, sizeof(buf), f) ? strrchr(buf, ')') : NULL;
+        fclose(f);
+        /* After "(comm)": state is field 3; utime and stime are fields 14 and 15. */
+        if (!p || sscanf(p + 2, "%*c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %llu %llu", &ut,
+                         &st) != 2)
+                return -1;
+        return (long long)(ut + st);
+}
+
+/* Context switches (voluntary + involuntary) of every thread of a process. */
+static long long ctx_switches(pid_t pid)
+{
+        char path[320], line[256];
+        long long sum = 0;
+        struct dirent *e;
+        DIR *d;
+
+        snprintf(path, sizeof(path), "/proc/%d/task", (int)pid);
+        d = opendir(path);
+        if (!d)
+                return -1;
+        while ((e = readdir(d))) {
+                FILE *f;
+
+                if (e->d_name[0] == '.')
+                        continue;
+                snprintf(path, sizeof(path), "/proc/%d/task/%s/status", (int)pid, e->d_name);
+                f = fopen(path, "re");
+                if (!f)
+                        continue;
+                while (fgets(line, sizeof(line), f)) {
+                        long long v;
+
+                        if (sscanf(line, "voluntary_ctxt_switches: %lld", &v) == 1 ||
+                            sscanf(line, "nonvoluntary_ctxt_switches: %lld", &v) == 1)
+                                sum += v;
+                }
+                fclose(f);
+        }
+        closedir(d);
+        return sum;
+}
+
+/* Sends one control request and copies the reply lines (DATA ... OK/ERR) into out. */
+static int control_request(struct harness *h, const char *req, char *out, size_t size)
+{
+        struct sockaddr_un sa = { .sun_family = AF_UNIX };
+        size_t len = 0;
+        int fd, r = -EIO;
+
+        if (strlen(h->dir) + strlen(h->instance) + sizeof("/.sock") > sizeof(sa.sun_path))
+                return -ENAMETOOLONG;
+        snprintf(sa.sun_path, sizeof(sa.sun_path), "%.*s/%.*s.sock", (int)strlen(h->dir), h->dir,
+                 (int)strlen(h->instance), h->instance);
+        fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+        if (fd < 0)
+                return -errno;
+        if (connect(fd, (struct sockaddr *)&sa, sizeof(sa)) < 0 ||
+            write(fd, req, strlen(req)) != (ssize_t)strlen(req)) {
+                r = -errno;
+                close(fd);
+                return r;
+        }
+        out[0] = '\0';
+        while (len < size - 1) {
+                ssize_t n = harness_read_until(fd, out + len, size - len, '\n', WAIT_MS);
+                char *last;
+
+                if (n <= 0)
+                        break;
+                last = out + len;
+                len += (size_t)n;
+                if (strncmp(last, "OK", 2) == 0 || strncmp(last, "ERR", 3) == 0) {
+                        r = strncmp(last, "OK", 2) == 0 ? 0 : -EPROTO;
+                        break;
+                }
+        }
+        close(fd);
+        return r;
+}
+
+/* "key=N" in text, or -1. */
+static long long stat_field(const char *text, const char *key)
+{
+        char pat[64];
+        const char *p;
+
+        snprintf(pat, sizeof(pat), " %s=", key);
+        p = strstr(text, pat);
+        return p ? atoll(p + strlen(pat)) : -1;
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Runs */
+
+static int run_latency(void)
+{
+        static struct sample_set floor_s, hop_s, in_s, mid_s, out_s;
+        struct harness h;
+        struct waiter wf, wh, wi, wo;
+        struct frame_cause fc, ffc;
+        struct write_cause wc;
+        struct sl_client *c = NULL;
+        double fmed, fp99, hmed, hp99, imed, ip99, mmed, mp99, omed, op99;
+        int master, slave, fm, fs, r;
+        char pts[HARNESS_PATH_MAX];
+
+        r = daemon_start(&h, "e2e", 1, &master, &slave);
+        if (r < 0) {
+                fprintf(stderr, "bench_e2e: daemon start: %s\n", strerror(-r));
+                harness_cleanup(&h);
+                return r;
+        }
+        r = sl_open(h.instance, &c);
+        if (r < 0)
+                goto out;
+        usleep(100000);
+        drain(master);
+
+        /* The four probes run interleaved, one sample of each in turn, so that whatever else
+         * the machine does weighs on all of them alike. */
+        r = harness_openpty(&fm, &fs, pts);
+        if (r < 0)
+                goto out;
+        fcntl(fs, F_SETFL, fcntl(fs, F_GETFL) | O_NONBLOCK);
+        sem_init(&hop_sem, 0, 0);
+        /* Floor: a pty pair of our own, the same frame bytes. */
+        wf = (struct waiter){ .fd = fs };
+        ffc = (struct frame_cause){ .fd = fm, .dst = 'B', .src = 'A' };
+        /* One futex wake-up between two threads: what the table adds to the pty, at least. */
+        wh = (struct waiter){ 0 };
+        /* Inbound through the daemon. */
+        wi = (struct waiter){ .client = c, .id = sl_find(c, "In0") };
+        fc = (struct frame_cause){ .fd = master, .dst = 'B', .src = 'A' };
+        /* Outbound, on_change with no rate limit. */
+        wo = (struct waiter){ .fd = master };
+        wc = (struct write_cause){ .client = c, .id = sl_find(c, "Out0") };
+        r = wi.id < 0 ? wi.id : wc.id < 0 ? wc.id : 0;
+        if (r == 0)
+                r = waiter_start(&wf, floor_thread);
+        if (r == 0)
+                r = waiter_start(&wh, hop_thread);
+        if (r == 0)
+                r = waiter_start(&wi, inbound_thread);
+        if (r == 0)
+                r = waiter_start(&wo, outbound_thread);
+        for (unsigned i = 0; r == 0 && i < WARMUP + SAMPLES; i++) {
+                int64_t d[4];
+                uint64_t mid = 0;
+
+                d[0] = sample_one(&wf, cause_frame, &ffc, i, NULL);
+                d[1] = sample_one(&wh, cause_hop, NULL, i, NULL);
+                d[2] = sample_one(&wi, cause_frame, &fc, i, &mid);
+                d[3] = sample_one(&wo, cause_write, &wc, i, NULL);
+                for (int k = 0; k < 4; k++)
+                        if (d[k] < 0)
+                                r = (int)d[k];
+                if (r < 0 || i < WARMUP)
+                        continue;
+                floor_s.v[floor_s.n++] = (uint64_t)d[0];
+                hop_s.v[hop_s.n++] = (uint64_t)d[1];
+                in_s.v[in_s.n++] = (uint64_t)d[2];
+                mid_s.v[mid_s.n++] = mid;
+                out_s.v[out_s.n++] = (uint64_t)d[3];
+        }
+        waiter_stop(&wf);
+        waiter_stop(&wh);
+        waiter_stop(&wi);
+        waiter_stop(&wo);
+        sem_destroy(&hop_sem);
+        close(fm);
+        close(fs);
+        if (r < 0)
+                goto out;
+
+        percentiles(&floor_s, &fmed, &fp99);
+        percentiles(&hop_s, &hmed, &hp99);
+        percentiles(&in_s, &imed, &ip99);
+        percentiles(&mid_s, &mmed, &mp99);
+        percentiles(&out_s, &omed, &op99);
+        printf("latency, %d samples each (us)          median      p99\n", SAMPLES);
+        printf("  floor: pty master -> slave reader  %8.1f %8.1f\n", fmed, fp99);
+        printf("  futex wake-up, thread to thread    %8.1f %8.1f   (floor + this = %.2fx floor)\n",
+               hmed, hp99, (fmed + hmed) / fmed);
+        printf("  inbound: pty -> sl_wait client     %8.1f %8.1f   median %.2fx floor "
+               "(target <= 1.5x)\n", imed, ip99, imed / fmed);
+        printf("    of which pty -> daemon applies   %8.1f %8.1f\n", mmed, mp99);
+        printf("  outbound: sl_write -> pty master   %8.1f %8.1f   p99 %s 1 ms target\n", omed,
+               op99, op99 < 1000.0 ? "under" : "OVER");
+out:
+        if (r < 0)
+                fprintf(stderr, "bench_e2e: latency run failed: %s\n", strerror(-r));
+        sl_close(c);
+        close(master);
+        close(slave);
+        harness_cleanup(&h);
+        return r;
+}
+
+static int run_idle(void)
+{
+        int masters[IDLE_LINKS], slaves[IDLE_LINKS], r;
+        long long cpu0, cpu1, cs0, cs1, w0 = -1, w1 = -1, t0 = -1, t1 = -1, i0 = -1, i1 = -1;
+        char reply[LINE_MAX_BENCH * 4];
+        struct harness h;
+        long hz = sysconf(_SC_CLK_TCK);
+
+        r = daemon_start(&h, "idle", IDLE_LINKS, masters, slaves);
+        if (r < 0) {
+                fprintf(stderr, "bench_e2e: idle daemon start: %s\n", strerror(-r));
+                harness_cleanup(&h);
+                return r;
+        }
+        usleep(200000);         /* let start-up settle: full lists sent, nothing pending */
+        if (control_request(&h, "stats\n", reply, sizeof(reply)) == 0) {
+                w0 = stat_field(reply, "wakeups");
+                t0 = stat_field(reply, "timer_fires");
+                i0 = stat_field(reply, "idle_wakeups");
+        }
+        cpu0 = cpu_ticks(h.pid);
+        cs0 = ctx_switches(h.pid);
+        sleep(IDLE_S);
+        cpu1 = cpu_ticks(h.pid);
+        cs1 = ctx_switches(h.pid);
+        if (control_request(&h, "stats\n", reply, sizeof(reply)) == 0) {
+                w1 = stat_field(reply, "wakeups");
+                t1 = stat_field(reply, "timer_fires");
+                i1 = stat_field(reply, "idle_wakeups");
+        }
+        printf("idle daemon, %d SharedLink links without periodic send, %d s\n", IDLE_LINKS,
+               IDLE_S);
+        printf("  cpu: %.3f s (%.3f%% of one core)\n", (double)(cpu1 - cpu0) / (double)hz,
+               100.0 * (double)(cpu1 - cpu0) / (double)hz / IDLE_S);
+        printf("  context switches, all threads: %.1f /s\n", (double)(cs1 - cs0) / IDLE_S);
+        if (w0 >= 0 && w1 >= 0)
+                /* The two stats requests themselves wake the loop (accept, read, reply). */
+                printf("  loop wakeups: %.1f /s, timer fires %.1f /s, idle wakeups %lld; "
+                       "beyond timers: %lld (the stats request's own)\n",
+                       (double)(w1 - w0) / IDLE_S, (double)(t1 - t0) / IDLE_S, i1 - i0,
+                       (w1 - w0) - (t1 - t0));
+        else
+                printf("  loop wakeups: (the daemon does not answer `stats`)\n");
+        for (unsigned i = 0; i < IDLE_LINKS; i++) {
+                close(masters[i]);
+                close(slaves[i]);
+        }
+        harness_cleanup(&h);
+        return 0;
+}
+
+int main(void)
+{
+        int r;
+
+        signal(SIGPIPE, SIG_IGN);
+        r = run_latency();
+        if (run_idle() < 0)
+                r = -1;
+        return r < 0 ? 1 : 0;
+}

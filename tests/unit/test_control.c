@@ -18,6 +18,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -33,6 +34,8 @@
 #define BUF_MAX         8192
 #define BIG_LINE        4000    /* one DATA line of the slow-reader test */
 #define BIG_LINES       400     /* 1.6 MB: more than any socket buffer plus CONTROL_REPLY_MAX */
+#define FILLERS_MAX     4096    /* fds the out-of-fds test may hold */
+#define PAUSES          3       /* accept pauses the out-of-fds test sits through */
 
 enum mode {
         MODE_ECHO,              /* OK <argc> <argv...> at once */
@@ -557,6 +560,56 @@ static void test_path_taken(void **state)
         assert_null(control_free(NULL));
 }
 
+static int timer_fires_n(struct fixture *f, void *arg)
+{
+        struct evloop_stats st;
+
+        evloop_get_stats(f->loop, &st);
+        return st.timer_fires >= *(uint64_t *)arg;
+}
+
+/* Out of fds, accept() fails while the connection stays pending: the server must pause instead
+ * of spinning on a readable socket, and take the client once an fd is free again. */
+static void test_accept_out_of_fds(void **state)
+{
+        struct fixture *f = *state;
+        static int fillers[FILLERS_MAX];
+        struct evloop_stats before, after;
+        struct rlimit old, lim;
+        struct rx r;
+        uint64_t want;
+        int n = 0, low = dup(0);                        /* the lowest free fd */
+
+        assert_true(low >= 0);
+        close(low);
+        assert_int_equal(getrlimit(RLIMIT_NOFILE, &old), 0);
+        lim = old;
+        lim.rlim_cur = (rlim_t)low + 16;                /* a little room above what is open */
+        assert_int_equal(setrlimit(RLIMIT_NOFILE, &lim), 0);
+        while (n < FILLERS_MAX && (fillers[n] = dup(0)) >= 0)
+                n++;
+        assert_int_equal(errno, EMFILE);
+        close(fillers[--n]);                            /* one fd left: the client's */
+
+        memset(&r, 0, sizeof(r));
+        r.fd = client_connect(f);
+        evloop_get_stats(f->loop, &before);
+        want = before.timer_fires + PAUSES;
+        pump_until(f, timer_fires_n, &want);            /* PAUSES pauses of 100 ms */
+        evloop_get_stats(f->loop, &after);
+        /* One failed accept per pause, not thousands. */
+        assert_true(after.fd_events - before.fd_events <= PAUSES + 1);
+
+        close(fillers[--n]);                            /* an fd for the server */
+        pump_until(f, clients_n, (void *)1);
+        exchange(f, &r, "ping\n", 1);
+        assert_string_equal(r.buf, "OK 1 ping\n");
+        close(r.fd);
+        while (n > 0)
+                close(fillers[--n]);
+        assert_int_equal(setrlimit(RLIMIT_NOFILE, &old), 0);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -572,6 +625,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_slow_reader, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_clients_max, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_path_taken, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_accept_out_of_fds, setup, teardown),
         };
 
         signal(SIGPIPE, SIG_IGN);

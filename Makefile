@@ -12,6 +12,7 @@
 #   tests/fuzz/fuzz_*.c            libFuzzer targets; corpus in tests/fuzz/corpus/<name>/
 #   tests/bench/bench_*.c          benchmarks, built optimised by `make bench`
 #   examples/*.c                   programs built only on <sharedlink.h> and pkg-config
+#   man/*.[1-8]                    man pages, installed by `make install` (section = suffix)
 #
 # Build variants: `make` -> build/ (optimised, hardened); SAN=asan -> build/asan/ (ASan+UBSan);
 # SAN=tsan -> build/tsan/.  `make check` = the asan build + every test.
@@ -31,6 +32,10 @@ LIBDIR     ?= $(PREFIX)/lib
 INCDIR     ?= $(PREFIX)/include
 SYSCONFDIR ?= /etc
 UNITDIR    ?= $(PREFIX)/lib/systemd/system
+MANDIR     ?= $(PREFIX)/share/man
+PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
+SYSUSERSDIR  ?= $(PREFIX)/lib/sysusers.d
+TMPFILESDIR  ?= $(PREFIX)/lib/tmpfiles.d
 
 CC         ?= cc
 SAN        ?=
@@ -50,7 +55,7 @@ ifeq ($(WITH_SYSTEMD),1)
 PC_REQUIRED += libsystemd
 endif
 
-NODEPS_GOALS := deps deps-extra clean help
+NODEPS_GOALS := deps deps-extra clean help uninstall
 ifeq ($(filter-out $(NODEPS_GOALS),$(or $(MAKECMDGOALS),all)),)
 else
 ifneq ($(shell pkg-config --exists $(PC_REQUIRED) 2>/dev/null && echo ok),ok)
@@ -265,6 +270,91 @@ $(PCFILE): Makefile
 
 $(SLCTL): $(call obj,$(CLI_SRC)) $(LIBSL_A)
 	$(CC) $(LDFLAGS_EXE) -o $@ $^ -lpthread
+
+# ---------------------------------------------------------------------------------------------
+# Install (DESIGN.md §2.1): `make install PREFIX=/usr/local DESTDIR=`, and `make uninstall`.
+# Paths come from the variables at the top; DESTDIR is prepended to each and recorded nowhere.
+# Two kinds of files carry the configured paths: sharedlink.pc (rebuilt whenever PREFIX, LIBDIR or
+# INCDIR differ from the last build's, through a stamp holding them) and the systemd units (the
+# files in systemd/ name /usr/local/sbin and /etc; ExecStart= is rewritten here, and the install
+# fails if it was not). The configuration is installed only where none exists yet.
+
+.PHONY: install uninstall FORCE
+
+INSTALL      ?= install
+LDCONFIG     ?= ldconfig
+MAN_PAGES    := $(wildcard man/*.[1-8])
+mandir_of     = $(DESTDIR)$(MANDIR)/man$(subst .,,$(suffix $(1)))
+# One alias page per exported function, so that `man sl_read` opens libsharedlink(3).
+MAN_ALIASES   = $(shell sed -n 's/^[[:space:]]*\(sl_[a-z0-9_]*\);$$/\1/p' $(LIBSL_SYM))
+UNIT_FILES   := $(wildcard systemd/*.service)
+UNIT_SED     := -e 's|^ExecStart=/usr/local/sbin/sharedlinkd |ExecStart=$(SBINDIR)/sharedlinkd |' \
+                -e 's|^\(ExecStart=.* -c \)/etc/sharedlink/|\1$(SYSCONFDIR)/sharedlink/|'
+TMPFILES_SED := -e 's|^d /etc/sharedlink |d $(SYSCONFDIR)/sharedlink |'
+CONF_DEST    := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlinkd.yaml
+PC_STAMP     := $(O)/install-paths
+
+ifneq ($(filter install,$(MAKECMDGOALS)),)
+ifneq ($(SAN),)
+$(error make install installs the optimised build: run it without SAN=)
+endif
+endif
+
+# Touched only when the paths changed, so the .pc file is remade only then.
+$(PC_STAMP): FORCE
+	@mkdir -p $(@D)
+	@printf '%s\n' '$(PREFIX)' '$(LIBDIR)' '$(INCDIR)' > $@.tmp; \
+	    if cmp -s $@.tmp $@; then rm -f $@.tmp; else mv -f $@.tmp $@; fi
+$(PCFILE): $(PC_STAMP)
+FORCE:
+
+install: all
+	$(INSTALL) -d $(DESTDIR)$(SBINDIR) $(DESTDIR)$(BINDIR) $(DESTDIR)$(LIBDIR) \
+	    $(DESTDIR)$(PKGCONFIGDIR) $(DESTDIR)$(INCDIR) $(DESTDIR)$(UNITDIR) \
+	    $(DESTDIR)$(SYSUSERSDIR) $(DESTDIR)$(TMPFILESDIR) $(DESTDIR)$(SYSCONFDIR)/sharedlink \
+	    $(sort $(foreach p,$(MAN_PAGES),$(call mandir_of,$(p))))
+	$(INSTALL) -m 0755 $(SHAREDLINKD) $(DESTDIR)$(SBINDIR)/sharedlinkd
+	$(if $(CLI_SRC),$(INSTALL) -m 0755 $(SLCTL) $(DESTDIR)$(BINDIR)/slctl)
+	$(INSTALL) -m 0755 $(LIBSL_SO) $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION)
+	ln -sf libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so
+	$(INSTALL) -m 0644 $(LIBSL_A) $(DESTDIR)$(LIBDIR)/libsharedlink.a
+	$(INSTALL) -m 0644 $(PCFILE) $(DESTDIR)$(PKGCONFIGDIR)/sharedlink.pc
+	$(INSTALL) -m 0644 include/sharedlink.h $(DESTDIR)$(INCDIR)/sharedlink.h
+	$(foreach p,$(MAN_PAGES),$(INSTALL) -m 0644 $(p) $(call mandir_of,$(p))/$(notdir $(p)) &&) true
+	@for f in $(MAN_ALIASES); do \
+	    echo '.so man3/libsharedlink.3' > $(DESTDIR)$(MANDIR)/man3/$$f.3 || exit 1; \
+	done; echo "man3: an alias of libsharedlink.3 for each of $(words $(MAN_ALIASES)) functions"
+	@set -e; for u in $(UNIT_FILES); do \
+	    d=$(DESTDIR)$(UNITDIR)/$${u##*/}; \
+	    sed $(UNIT_SED) $$u > $$d.tmp; \
+	    if ! grep -qF 'ExecStart=$(SBINDIR)/sharedlinkd ' $$d.tmp; then \
+	        echo "make install: $$u: ExecStart= does not name /usr/local/sbin/sharedlinkd" >&2; \
+	        rm -f $$d.tmp; exit 1; \
+	    fi; \
+	    chmod 0644 $$d.tmp; mv -f $$d.tmp $$d; echo "$$d: $$(grep '^ExecStart=' $$d)"; \
+	done
+	$(INSTALL) -m 0644 systemd/sharedlink.sysusers $(DESTDIR)$(SYSUSERSDIR)/sharedlink.conf
+	sed $(TMPFILES_SED) systemd/sharedlink.tmpfiles > $(DESTDIR)$(TMPFILESDIR)/sharedlink.conf
+	chmod 0644 $(DESTDIR)$(TMPFILESDIR)/sharedlink.conf
+	@if [ -e $(CONF_DEST) ]; then echo "$(CONF_DEST): exists, kept"; \
+	else $(INSTALL) -m 0644 conf/sharedlinkd.yaml $(CONF_DEST) && echo "$(CONF_DEST): installed"; fi
+	@# A library installed straight into the system is found by the loader only after this.
+	@if [ -z "$(DESTDIR)" ] && [ "$$(id -u)" = 0 ] && command -v $(LDCONFIG) >/dev/null; then \
+	    echo $(LDCONFIG); $(LDCONFIG); fi
+
+# Removes what install put there; the configuration only when it is still the one shipped.
+uninstall:
+	rm -f $(DESTDIR)$(SBINDIR)/sharedlinkd $(DESTDIR)$(BINDIR)/slctl \
+	    $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so \
+	    $(DESTDIR)$(LIBDIR)/libsharedlink.a $(DESTDIR)$(PKGCONFIGDIR)/sharedlink.pc \
+	    $(DESTDIR)$(INCDIR)/sharedlink.h \
+	    $(addprefix $(DESTDIR)$(UNITDIR)/,$(notdir $(UNIT_FILES))) \
+	    $(DESTDIR)$(SYSUSERSDIR)/sharedlink.conf $(DESTDIR)$(TMPFILESDIR)/sharedlink.conf \
+	    $(foreach p,$(MAN_PAGES),$(call mandir_of,$(p))/$(notdir $(p))) \
+	    $(foreach f,$(MAN_ALIASES),$(DESTDIR)$(MANDIR)/man3/$(f).3)
+	@if cmp -s conf/sharedlinkd.yaml $(CONF_DEST); then rm -f $(CONF_DEST); \
+	    rmdir $(DESTDIR)$(SYSCONFDIR)/sharedlink 2>/dev/null || true; \
+	elif [ -e $(CONF_DEST) ]; then echo "$(CONF_DEST): changed since install, kept"; fi
 
 # ---------------------------------------------------------------------------------------------
 # Tests

@@ -48,6 +48,7 @@
 #define CONTROL_GROUPS_STACK    64      /* peer groups looked at without allocating */
 #define CONTROL_GROUPS_MAX      65536   /* NGROUPS_MAX on Linux */
 #define CONTROL_PW_BUF          16384   /* getpwuid_r buffer */
+#define CONTROL_ACCEPT_PAUSE_MS 100     /* out of fds: stop accepting this long (no spinning) */
 
 #define CONTROL_ERR_DENIED      "ERR 13 permission denied\n"
 #define CONTROL_ERR_BUSY        "ERR 87 too many control connections\n"
@@ -89,6 +90,8 @@ struct control {
         control_request_fn fn;
         void *arg;
         struct evloop_timer kick;       /* resumes clients whose answer came asynchronously */
+        struct evloop_timer resume;     /* accepting again after running out of fds */
+        struct log_ratelimit accept_rl;
         struct control_client *clients[CONTROL_CLIENTS_MAX];
         struct control_request *orphans;        /* requests whose client left, unanswered */
         struct control_stats stats;
@@ -475,8 +478,6 @@ static void client_read(struct control_client *cl)
                 }
                 if (n == 0) {
                         cl->eof = true;
-                        if (peer_hung_up(cl->fd))
-                                cl->broken = true;
                         break;
                 }
                 if (errno == EINTR)
@@ -500,7 +501,12 @@ static void client_on_event(struct evloop *loop, int fd, unsigned revents, void 
                         client_flush(cl);
                 if (revents & (POLLIN | POLLHUP))
                         client_read(cl);
+                /* Lines that arrived whole are handed out even if their client has left since
+                 * (a command is not cancelled by closing early); only then is a client that is
+                 * gone for good (not just half-closed) dropped, orphaning what it sent. */
                 client_process(cl);
+                if (cl->eof && !cl->broken && peer_hung_up(cl->fd))
+                        cl->broken = true;
         }
         client_settle(cl);
 }
@@ -539,8 +545,9 @@ static void request_finish(struct control_request *req)
         }
         if (cl) {
                 cl->pending = NULL;
-                if (!cl->busy && !client_settle(cl) &&
-                    (cl->eof || memchr(cl->in, '\n', cl->in_len)))
+                /* Buffered input (a next line, an overlong one, a last one before EOF) is
+                 * taken up from the loop, not from inside the engine's reply call. */
+                if (!cl->busy && !client_settle(cl) && (cl->eof || cl->in_len > 0))
                         evloop_timer_arm(&cl->ctl->kick, 0, 0);
         }
         free(req);
@@ -663,13 +670,27 @@ static void control_on_accept(struct evloop *loop, int fd, unsigned revents, voi
                 int cfd = accept4(fd, NULL, NULL, SOCK_NONBLOCK | SOCK_CLOEXEC);
 
                 if (cfd < 0) {
-                        if (errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR &&
-                            errno != ECONNABORTED)
-                                log_warn("control: accept");
+                        if (errno == EAGAIN || errno == EWOULDBLOCK || errno == EINTR ||
+                            errno == ECONNABORTED)
+                                return;
+                        /* EMFILE and the like: the connection stays pending and the socket
+                         * readable, so polling it now would spin. Pause, then try again. */
+                        log_ratelimited(&c->accept_rl, LOG_PRIO_WARNING, "control: accept: %s",
+                                        strerror(errno));
+                        evloop_mod_fd(c->loop, c->fd, 0);
+                        evloop_timer_arm(&c->resume, CONTROL_ACCEPT_PAUSE_MS, 0);
                         return;
                 }
                 control_accept_one(c, cfd);
         }
+}
+
+static void control_on_resume(struct evloop *loop, struct evloop_timer *t, void *arg)
+{
+        struct control *c = arg;
+
+        (void)t;
+        evloop_mod_fd(loop, c->fd, POLLIN);
 }
 
 /* Whether path is a socket nobody listens on any more (a dead daemon's): 1 stale, 0 alive or
@@ -728,6 +749,9 @@ int control_new(struct evloop *loop, const char *path, gid_t group, int has_grou
         c->fn = fn;
         c->arg = arg;
         evloop_timer_init(&c->kick, loop, control_on_kick, c);
+        evloop_timer_init(&c->resume, loop, control_on_resume, c);
+        log_ratelimit_init(&c->accept_rl, "control accept", LOG_RATELIMIT_INTERVAL_MS,
+                           LOG_RATELIMIT_BURST);
         c->fd = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
         if (c->fd < 0) {
                 r = -errno;
@@ -795,6 +819,7 @@ struct control *control_free(struct control *c)
         for (struct control_request *req = c->orphans; req; req = req->next)
                 req->ctl = NULL;
         evloop_timer_cancel(&c->kick);
+        evloop_timer_cancel(&c->resume);
         evloop_del_fd(c->loop, c->fd);
         close(c->fd);
         if (lstat(c->path, &st) == 0 && st.st_dev == c->dev && st.st_ino == c->ino)

@@ -5,7 +5,8 @@
  * Wire format (the library's sl_request() speaks it; keep the two in step):
  *   request  one line, at most CONTROL_LINE_MAX bytes including the '\n', words separated by
  *            single spaces; words are printable ASCII (0x21-0x7E). A client may send several
- *            requests on one connection; they are answered in order, one at a time.
+ *            requests on one connection; they are answered in order, one at a time. A request
+ *            received whole is carried out even if its client closes before the answer.
  *   reply    zero or more "DATA <text>\n" lines, then exactly one final line:
  *            "OK[ <text>]\n" or "ERR <errno> <message>\n" (errno as a positive decimal number,
  *            e.g. "ERR 110 no answer from peer B within 1000 ms").

@@ -43,6 +43,16 @@ WERROR     ?= 1
 WITH_SYSTEMD ?= 1
 FUZZ_TIME  ?= 600
 TEST_TIMEOUT ?= 300
+V          ?= 0
+
+# Quiet build lines ("  CC  src/x.c"); V=1 prints the full commands.
+ifeq ($(V),0)
+Q     := @
+quiet  = @printf '  %-4s %s\n' '$(1)' '$@';
+else
+Q     :=
+quiet  =
+endif
 
 DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev
 DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
@@ -224,12 +234,12 @@ clean:
 
 $(O)/obj/%.o: %.c
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS_ALL) $(CPPFLAGS) $(CFLAGS_ALL) $(if $(filter tests/% examples/%,$<),$(TEST_CFLAGS)) -c -o $@ $<
+	$(call quiet,CC)$(CC) $(CPPFLAGS_ALL) $(CPPFLAGS) $(CFLAGS_ALL) $(if $(filter tests/% examples/%,$<),$(TEST_CFLAGS)) -c -o $@ $<
 
 $(O)/internal/%.a:
 	@mkdir -p $(@D)
-	rm -f $@
-	$(AR) rcs $@ $^ $(if $^,,$(O)/obj/empty.o)
+	$(call quiet,AR)rm -f $@
+	$(Q)$(AR) rcs $@ $^ $(if $^,,$(O)/obj/empty.o)
 
 $(A_PROTO): $(call obj,$(PROTO_SRC))
 $(A_SHM): $(call obj,$(SHM_SRC))
@@ -241,7 +251,7 @@ $(A_TCOMMON): $(call obj,$(TCOMMON_SRC))
 $(INTERNAL_ARCHIVES): | $(O)/obj/empty.o
 $(O)/obj/empty.o:
 	@mkdir -p $(@D)
-	echo 'typedef int sharedlink_empty_unit;' | $(CC) -x c -c -o $@ -
+	$(call quiet,CC)echo 'typedef int sharedlink_empty_unit;' | $(CC) -x c -c -o $@ -
 
 LINK_INTERNAL = -Wl,--start-group $(INTERNAL_ARCHIVES) -Wl,--end-group $(SYS_LIBS)
 
@@ -249,27 +259,27 @@ LINK_INTERNAL = -Wl,--start-group $(INTERNAL_ARCHIVES) -Wl,--end-group $(SYS_LIB
 # Programs and the library
 
 $(SHAREDLINKD): $(call obj,$(DAEMON_MAIN)) $(A_DAEMON) $(A_PROTO) $(A_SHM)
-	$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) -Wl,--start-group $(A_DAEMON) $(A_PROTO) $(A_SHM) \
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) -Wl,--start-group $(A_DAEMON) $(A_PROTO) $(A_SHM) \
 	    -Wl,--end-group $(SYS_LIBS)
 
 $(LIBSL_SO): $(call obj,$(LIB_SRC) $(SHM_SRC)) $(LIBSL_SYM)
-	$(CC) $(LDFLAGS_ALL) -shared -Wl,-soname,libsharedlink.so.$(SOVERSION) \
+	$(call quiet,LD)$(CC) $(LDFLAGS_ALL) -shared -Wl,-soname,libsharedlink.so.$(SOVERSION) \
 	    -Wl,--version-script=$(LIBSL_SYM) -o $@ $(filter %.o,$^) -lpthread
-	ln -sf libsharedlink.so.$(SOVERSION) $(O)/libsharedlink.so
+	$(Q)ln -sf libsharedlink.so.$(SOVERSION) $(O)/libsharedlink.so
 
 $(LIBSL_A): $(call obj,$(LIB_SRC) $(SHM_SRC))
-	rm -f $@
-	$(AR) rcs $@ $^
+	$(call quiet,AR)rm -f $@
+	$(Q)$(AR) rcs $@ $^
 
 $(PCFILE): Makefile
 	@mkdir -p $(@D)
-	printf '%s\n' 'prefix=$(PREFIX)' 'libdir=$(LIBDIR)' 'includedir=$(INCDIR)' '' \
+	$(call quiet,GEN)printf '%s\n' 'prefix=$(PREFIX)' 'libdir=$(LIBDIR)' 'includedir=$(INCDIR)' '' \
 	    'Name: sharedlink' 'Description: client library for sharedlinkd shared variables' \
 	    'Version: $(VERSION)' 'Libs: -L$${libdir} -lsharedlink' 'Libs.private: -lpthread' \
 	    'Cflags: -I$${includedir}' > $@
 
 $(SLCTL): $(call obj,$(CLI_SRC)) $(LIBSL_A)
-	$(CC) $(LDFLAGS_EXE) -o $@ $^ -lpthread
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $^ -lpthread
 
 # ---------------------------------------------------------------------------------------------
 # Install (DESIGN.md §2.1): `make install PREFIX=/usr/local DESTDIR=`, and `make uninstall`.
@@ -361,17 +371,17 @@ uninstall:
 
 $(O)/tests/%: $(O)/obj/tests/%.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)
-	$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL) $(CMOCKA_LIBS)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL) $(CMOCKA_LIBS)
 
 # Fuzz targets replayed over their saved corpus with the test compiler.
 $(O)/tests/fuzz/%-replay: $(O)/obj/tests/fuzz/%.o $(O)/obj/tests/fuzz/replay_main.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)
-	$(CC) $(LDFLAGS_EXE) -o $@ $< $(O)/obj/tests/fuzz/replay_main.o $(LINK_INTERNAL)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $< $(O)/obj/tests/fuzz/replay_main.o $(LINK_INTERNAL)
 
 # Examples link the installed way: the public header and libsharedlink only.
 $(O)/examples/%: examples/%.c $(LIBSL_A)
 	@mkdir -p $(@D)
-	$(CC) -std=c11 $(OPT) $(WARN) $(SANFLAGS) -Iinclude -o $@ $< $(LIBSL_A) -lpthread
+	$(call quiet,LD)$(CC) -std=c11 $(OPT) $(WARN) $(SANFLAGS) -Iinclude -o $@ $< $(LIBSL_A) -lpthread
 
 # ---------------------------------------------------------------------------------------------
 # libFuzzer (clang) and benchmarks (optimised, no sanitizers)
@@ -403,7 +413,7 @@ bench:
 BENCH_BIN := $(patsubst tests/bench/%.c,$(O)/bench/%,$(BENCH_SRC))
 $(O)/bench/%: $(O)/obj/tests/bench/%.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)
-	$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL)
 
 bench-run: all $(BENCH_BIN)
 	@set -e; for b in $(BENCH_BIN); do echo "== $$b"; SHAREDLINK_BUILD=$(O) $$b; done

@@ -98,6 +98,9 @@ sleep 0.3
 kill -INT "$watcher" 2>/dev/null || true
 wait "$watcher" 2>/dev/null || true
 
+say "node B asks node A for a variable by name (SharedLink Q, answered with R/D)"
+run "$slctl" query node_b A a.AutoGpsHead
+
 # --- CIRCE: controller (agility) <-> mediator emulator (arena) ---------------------------------
 # The controller logs in to the emulator over the pty, the emulated devices appear in the
 # controller's table, a gate passage injected on the emulator arrives as an `action` event, a

@@ -13,6 +13,8 @@
 #include <netinet/in.h>
 #include <poll.h>
 #include <setjmp.h>
+#include <signal.h>
+#include <stdbool.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -27,11 +29,16 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "proto/sharedlink.h"
 
 #define START_MS        20000
 #define WAIT_MS         10000
 #define YAML_MAX        4096
 #define LINE_MAX_T      1024
+#define STATS_MAX       16384           /* `slctl stats --json` output */
+#define POS_MAX         16              /* outbound positions a test list has */
+#define MEM_MAX         8               /* buffers one test allocates through test_alloc() */
+#define NOISE_BLOCK     (1024 * 1024)   /* the random block between valid frames */
 
 struct it {
         struct harness h;
@@ -40,6 +47,10 @@ struct it {
         char dev[HARNESS_PATH_MAX + 8];
         int udp;                        /* the test's UDP socket, -1 when none */
         uint16_t udp_port;
+        struct sl_decoder *dec;         /* the real codec, decoding what the daemon sends */
+        uint8_t rbuf[4096];             /* bytes read from the master, not fed yet */
+        size_t roff, rlen;
+        void *mem[MEM_MAX];             /* test buffers, freed by teardown (also on failure) */
 };
 
 static int setup(void **state)
@@ -65,6 +76,9 @@ static int teardown(void **state)
                 close(t->slave);
         if (t->udp >= 0)
                 close(t->udp);
+        free(t->dec);
+        for (int i = 0; i < MEM_MAX; i++)
+                free(t->mem[i]);
         free(t);
         return 0;
 }
@@ -80,6 +94,19 @@ static size_t mkraw(char *out, size_t size, const char *text, int crlf)
         n = snprintf(out, size, "[%s|C%02X]%s", text, sum & 0xffu, crlf ? "\r\n" : "");
         assert_true(n > 0 && (size_t)n < size);
         return (size_t)n;
+}
+
+/* Zeroed memory that teardown frees, so a failing assertion leaks nothing. */
+static void *test_alloc(struct it *t, size_t size)
+{
+        for (int i = 0; i < MEM_MAX; i++)
+                if (!t->mem[i]) {
+                        t->mem[i] = calloc(1, size);
+                        assert_non_null(t->mem[i]);
+                        return t->mem[i];
+                }
+        fail_msg("test_alloc: more than %d buffers", MEM_MAX);
+        return NULL;
 }
 
 /* A new pty pair behind <dir>/tty0 (the link's device). */
@@ -420,12 +447,662 @@ static void test_udp_loopback(void **state)
         assert_string_equal(buf, want);
 }
 
+/* ---------------------------------------------------------------------------------------------
+ * What the daemon sends, through the real codec (src/proto/sharedlink.h) */
+
+/* The frame's own checksum, recomputed here: exactly two uppercase hex digits (PROTOCOLS.md
+ * §1.3 Decision) equal to the 8-bit sum of ':' through 'C'. */
+static void check_raw(const struct sl_frame *f)
+{
+        const char *raw = f->raw;
+        size_t len = f->raw_len;
+        unsigned sum = 0, want;
+
+        assert_true(len >= 9);
+        assert_int_equal(raw[0], '[');
+        assert_int_equal(raw[len - 1], ']');
+        assert_int_equal(raw[len - 5], '|');
+        assert_int_equal(raw[len - 4], 'C');
+        for (size_t i = len - 3; i < len - 1; i++)
+                assert_true((raw[i] >= '0' && raw[i] <= '9') || (raw[i] >= 'A' && raw[i] <= 'F'));
+        for (size_t i = 1; i <= len - 4; i++)
+                sum += (unsigned char)raw[i];
+        assert_int_equal(sscanf(raw + len - 3, "%2X", &want), 1);
+        assert_int_equal(sum & 0xffu, want);
+        assert_int_equal(f->unknown_fields, 0);
+        assert_int_equal(f->empty_fields, 0);
+}
+
+/* The next frame the daemon sent on the master, decoded by the real codec; any byte the codec
+ * rejects fails the test (CR LF between frames is whitespace, not noise). Valid until the next
+ * call. */
+static const struct sl_frame *next_frame(struct it *t)
+{
+        uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * 1000000u;
+        struct sl_decode_result r;
+
+        if (!t->dec) {
+                t->dec = malloc(sizeof(*t->dec));
+                assert_non_null(t->dec);
+                assert_int_equal(sl_decoder_init(t->dec, SL_FRAME_MAX), 0);
+        }
+        for (;;) {
+                struct pollfd p = { .fd = t->master, .events = POLLIN };
+                uint64_t now = harness_now_ns();
+                ssize_t n;
+
+                while (t->roff < t->rlen) {
+                        t->roff += sl_decoder_feed(t->dec, t->rbuf + t->roff, t->rlen - t->roff,
+                                                   &r);
+                        if (r.kind == SL_RESULT_REJECT)
+                                fail_msg("the daemon sent %zu bad bytes: %s", r.bytes,
+                                         sl_decode_reason_str(r.reason));
+                        if (r.kind == SL_RESULT_FRAME) {
+                                check_raw(r.frame);
+                                return r.frame;
+                        }
+                }
+                if (now >= deadline)
+                        fail_msg("no frame from the daemon");
+                assert_true(poll(&p, 1, (int)((deadline - now) / 1000000u) + 1) >= 0);
+                n = read(t->master, t->rbuf, sizeof(t->rbuf));
+                if (n < 0 && errno == EAGAIN)
+                        continue;
+                assert_true(n > 0);
+                t->roff = 0;
+                t->rlen = (size_t)n;
+        }
+}
+
+/* One pass of an outbound list as received: values by position, frames it took. */
+struct list_rx {
+        size_t nframes;
+        size_t nonempty;                        /* positions sent with a value */
+        char value[POS_MAX][SL_VALUE_MAX + 1];  /* "" for an empty D */
+        size_t first_n[POS_MAX];                /* the N of each frame */
+};
+
+/* Reads frames until positions 0..count-1 of a list from `src` to `dst` came once: the first
+ * frame must start at N0, every frame has exactly one N, first, at the position where the
+ * previous frame stopped; every frame fits max_frame with its CR LF. */
+static void read_list(struct it *t, char dst, char src, size_t count, size_t max_frame,
+                      struct list_rx *ret)
+{
+        size_t pos = 0;
+
+        memset(ret, 0, sizeof(*ret));
+        while (pos < count) {
+                const struct sl_frame *f = next_frame(t);
+
+                assert_int_equal(f->dst, dst);
+                assert_int_equal(f->src, src);
+                assert_true(f->raw_len + 2 <= max_frame);
+                assert_true(f->nfields >= 2);
+                assert_int_equal(f->fields[0].type, SL_FIELD_N);
+                assert_int_equal(f->fields[0].index, pos);
+                assert_true(ret->nframes < POS_MAX);
+                ret->first_n[ret->nframes++] = pos;
+                for (size_t i = 1; i < f->nfields; i++) {
+                        const struct sl_field *fd = &f->fields[i];
+
+                        assert_int_equal(fd->type, SL_FIELD_D);
+                        assert_true(pos < count);
+                        assert_true(fd->len <= SL_VALUE_MAX);
+                        memcpy(ret->value[pos], fd->value, fd->len);
+                        ret->value[pos][fd->len] = '\0';
+                        ret->nonempty += fd->len > 0;
+                        pos++;
+                }
+        }
+}
+
+/* Expects the next frame to be exactly "N<n>|D<value>" from B to A. */
+static void expect_single(struct it *t, uint32_t n, const char *value)
+{
+        const struct sl_frame *f = next_frame(t);
+
+        assert_int_equal(f->dst, 'A');
+        assert_int_equal(f->src, 'B');
+        assert_int_equal(f->nfields, 2);
+        assert_int_equal(f->fields[0].type, SL_FIELD_N);
+        assert_int_equal(f->fields[0].index, n);
+        assert_int_equal(f->fields[1].type, SL_FIELD_D);
+        assert_int_equal(f->fields[1].len, strlen(value));
+        assert_memory_equal(f->fields[1].value, value, strlen(value));
+}
+
+/* Runs slctl with args (NULL-terminated, at most 6) and expects exit code 0; output to out. */
+static void slctl(struct it *t, char *out, size_t size, const char *a1, const char *a2,
+                  const char *a3)
+{
+        const char *argv[] = { harness_slctl_path(), a1, a2, a3, NULL };
+        int r = harness_run(&t->h, out, size, WAIT_MS, argv);
+
+        if (r != 0)
+                fail_msg("slctl %s %s: exit %d: %s", a1, a2 ? a2 : "", r, out);
+}
+
+/* The link counter `name` from `slctl stats --json` (the first link's section). */
+static uint64_t stat_of(const char *json, const char *name)
+{
+        const char *links = strstr(json, "\"links\"");
+        char key[64];
+        const char *p;
+
+        assert_non_null(links);
+        snprintf(key, sizeof(key), "\"%s\":", name);
+        p = strstr(links, key);
+        if (!p)
+                fail_msg("no counter %s in %s", name, json);
+        return strtoull(p + strlen(key), NULL, 10);
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * More tests: the issue's list against the real daemon */
+
+/* The PROTOCOLS.md §1.3 worked examples, verbatim, through the real daemon: the daemon is A,
+ * the test is B. The list frame sets all four values, the compressed one only position 2, and
+ * the query is answered with exactly the spec's answer frame. */
+static void test_spec_examples(void **state)
+{
+        static const char fmt[] =
+                "  - name: veh\n"
+                "    protocol: sharedlink\n"
+                "    transport: serial\n"
+                "    device: %s\n"
+                "    address: A\n"
+                "    peers:\n"
+                "      - address: B\n"
+                "        period_ms: 0\n"
+                "        on_change: true\n"
+                "        min_interval_ms: 0\n"
+                "        stale_ms: 0\n"
+                "        outbound: [AutoGpsLat]\n"
+                "        inbound: [g.lat, g.lon, g.head, g.speed]\n";
+        static const char list[] = "[:AB|N0|D40.12345678|D-113.12345678|D85.6|D22.1|CD4]\r\n";
+        static const char compressed[] = "[:AB|N0|D|D|D85.7|D|C48]\r\n";
+        static const char query[] = "[:AB|QAutoGpsLat|C2D]\r\n";
+        static const char answer[] = "[:BA|RAutoGpsLat|D40.12345678|C24]";
+        struct it *t = *state;
+        char links[YAML_MAX], out[LINE_MAX_T];
+        struct sl_meta meta = { .size = sizeof(meta) };
+        char buf[SL_VALUE_SIZE];
+        const struct sl_frame *f;
+
+        plug(t);
+        snprintf(links, sizeof(links), fmt, t->dev);
+        start(t, links);
+        wait_state(t, 0, "up");
+
+        assert_int_equal(harness_write_all(t->master, list, strlen(list), WAIT_MS), 0);
+        wait_value(t, "g.speed", "22.1");
+        wait_value(t, "g.lat", "40.12345678");
+        wait_value(t, "g.lon", "-113.12345678");
+        wait_value(t, "g.head", "85.6");
+        assert_true(sl_read(t->c, sl_find(t->c, "g.lon"), buf, sizeof(buf), &meta) >= 0);
+        assert_true(meta.flags & SL_FLAG_VALID);
+        assert_false(meta.flags & SL_FLAG_STALE);
+        slctl(t, out, sizeof(out), "get", "g.lat", "g.lon");
+        assert_string_equal(out, "40.12345678\n-113.12345678\n");
+
+        /* Compressed: empty D leaves a value alone. */
+        assert_int_equal(harness_write_all(t->master, compressed, strlen(compressed), WAIT_MS), 0);
+        wait_value(t, "g.head", "85.7");
+        slctl(t, out, sizeof(out), "get", "g.lat", "g.speed");
+        assert_string_equal(out, "40.12345678\n22.1\n");
+
+        /* The query; the daemon's answer is the spec's third example, byte for byte. The
+         * on_change frame of the write (after the up list) says the daemon has the value. */
+        client_write(t, "AutoGpsLat", "40.12345678");
+        do
+                f = next_frame(t);
+        while (f->nfields != 2 || f->fields[1].len == 0);
+        assert_int_equal(f->fields[0].type, SL_FIELD_N);
+        assert_int_equal(f->fields[0].index, 0);
+        assert_memory_equal(f->fields[1].value, "40.12345678", 11);
+        assert_int_equal(harness_write_all(t->master, query, strlen(query), WAIT_MS), 0);
+        f = next_frame(t);
+        if (f->raw_len != strlen(answer) || memcmp(f->raw, answer, f->raw_len) != 0)
+                fail_msg("answer %.*s, want %s", (int)f->raw_len, f->raw, answer);
+}
+
+/* Periodic sending with compression, decoded frame by frame: max_frame 64 splits the full
+ * list of six 10-byte values into N0 (4 values) and N4 (2 values); unchanged periods go as one
+ * frame of six empty D; with period_ms 50 and refresh_ms 200 exactly every 4th list is full.
+ * The cadence is counted in lists, never timed. */
+static void test_periodic_split_compress_refresh(void **state)
+{
+        static const char fmt[] =
+                "  - name: veh\n"
+                "    protocol: sharedlink\n"
+                "    transport: serial\n"
+                "    device: %s\n"
+                "    address: B\n"
+                "    peers:\n"
+                "      - address: A\n"
+                "        period_ms: 50\n"
+                "        refresh_ms: 200\n"
+                "        compression: true\n"
+                "        on_change: false\n"
+                "        max_frame: 64\n"
+                "        stale_ms: 0\n"
+                "        outbound: [o0, o1, o2, o3, o4, o5]\n"
+                "        inbound: [i0]\n";
+        static const char *const vals[] = { "value0.123", "value1.123", "value2.123",
+                                            "value3.123", "value4.123", "value5.123" };
+        enum { COUNT = 6, LISTS = 13, MAX_FRAME = 64, EVERY = 4, SKIP_MAX = 40 };
+        struct it *t = *state;
+        char links[YAML_MAX];
+        struct list_rx lr;
+        int first_full = -1, fulls = 0, i;
+
+        plug(t);
+        snprintf(links, sizeof(links), fmt, t->dev);
+        start(t, links);
+        wait_state(t, 0, "up");
+        for (i = 0; i < COUNT; i++) {
+                char name[16];
+
+                snprintf(name, sizeof(name), "o%d", i);
+                client_write(t, name, vals[i]);
+        }
+        /* Lists from before the writes carry only empty D; skip to the first with a value,
+         * then to the first that is all empty again: every write has been sent by then. */
+        for (i = 0; i < SKIP_MAX; i++) {
+                read_list(t, 'A', 'B', COUNT, MAX_FRAME, &lr);
+                if (lr.nonempty > 0)
+                        break;
+        }
+        assert_true(i < SKIP_MAX);
+        for (i = 0; i < SKIP_MAX; i++) {
+                read_list(t, 'A', 'B', COUNT, MAX_FRAME, &lr);
+                if (lr.nonempty == 0)
+                        break;
+        }
+        assert_true(i < SKIP_MAX);
+
+        for (i = 0; i < LISTS; i++) {
+                read_list(t, 'A', 'B', COUNT, MAX_FRAME, &lr);
+                if (lr.nonempty == 0) {
+                        assert_int_equal(lr.nframes, 1);        /* six empty D fit in one */
+                        if (first_full >= 0)
+                                assert_int_not_equal((i - first_full) % EVERY, 0);
+                        continue;
+                }
+                assert_int_equal(lr.nonempty, COUNT);           /* full: every value */
+                assert_int_equal(lr.nframes, 2);
+                assert_int_equal(lr.first_n[0], 0);
+                assert_int_equal(lr.first_n[1], 4);
+                for (int k = 0; k < COUNT; k++)
+                        assert_string_equal(lr.value[k], vals[k]);
+                if (first_full < 0)
+                        first_full = i;
+                assert_int_equal((i - first_full) % EVERY, 0);
+                fulls++;
+        }
+        /* 13 lists after a compressed one hold 3 or 4 full ones, 4 apart. */
+        assert_true(first_full >= 0 && first_full < EVERY);
+        assert_int_equal(fulls, (LISTS - 1 - first_full) / EVERY + 1);
+}
+
+/* on_change with period_ms 60000: after the up list, no periodic frame can come during the
+ * test, so a frame carrying the value after `slctl set` (and after sl_write) can only be the
+ * on_change frame: exactly "N<pos>|D<value>". */
+static void test_on_change_frame(void **state)
+{
+        static const char fmt[] =
+                "  - name: veh\n"
+                "    protocol: sharedlink\n"
+                "    transport: serial\n"
+                "    device: %s\n"
+                "    address: B\n"
+                "    peers:\n"
+                "      - address: A\n"
+                "        period_ms: 60000\n"
+                "        refresh_ms: 600000\n"
+                "        compression: true\n"
+                "        on_change: true\n"
+                "        min_interval_ms: 0\n"
+                "        stale_ms: 0\n"
+                "        outbound: [o0, o1, o2]\n"
+                "        inbound: [i0]\n";
+        struct it *t = *state;
+        char links[YAML_MAX], out[LINE_MAX_T];
+        struct list_rx lr;
+
+        plug(t);
+        snprintf(links, sizeof(links), fmt, t->dev);
+        start(t, links);
+        read_list(t, 'A', 'B', 3, SL_FRAME_DEFAULT, &lr);       /* up: the full list */
+        assert_int_equal(lr.nonempty, 0);
+        assert_int_equal(lr.nframes, 1);
+
+        slctl(t, out, sizeof(out), "set", "o1", "hello");
+        expect_single(t, 1, "hello");
+        client_write(t, "o2", "-7.25");
+        expect_single(t, 2, "-7.25");
+        client_write(t, "o0", "0");
+        expect_single(t, 0, "0");
+}
+
+/* Garbage between valid frames: the counters the daemon should show, tallied by feeding every
+ * byte the test sends through the real codec with the daemon's max_frame, mapped as
+ * link_sharedlink.h documents (link B, its one peer A, two inbound positions). */
+enum tally_counter {
+        TC_FRAMES_IN, TC_BYTES_IN, TC_NOISE_BYTES, TC_BAD_CHECKSUM, TC_RESYNC, TC_OVERLONG,
+        TC_BAD_HEADER, TC_BAD_ADDRESS, TC_BAD_FIELD, TC_UNKNOWN_FIELD, TC_EMPTY_FIELD,
+        TC_LIST_MISMATCH, TC_NOT_FOR_US, TC_UNKNOWN_PEER, TC_COUNT
+};
+
+static const char *const tally_name[TC_COUNT] = {
+        [TC_FRAMES_IN] = "frames_in", [TC_BYTES_IN] = "bytes_in",
+        [TC_NOISE_BYTES] = "noise_bytes", [TC_BAD_CHECKSUM] = "bad_checksum",
+        [TC_RESYNC] = "resync", [TC_OVERLONG] = "overlong", [TC_BAD_HEADER] = "bad_header",
+        [TC_BAD_ADDRESS] = "bad_address", [TC_BAD_FIELD] = "bad_field",
+        [TC_UNKNOWN_FIELD] = "unknown_field", [TC_EMPTY_FIELD] = "empty_field",
+        [TC_LIST_MISMATCH] = "list_mismatch", [TC_NOT_FOR_US] = "not_for_us",
+        [TC_UNKNOWN_PEER] = "unknown_peer",
+};
+
+#define TALLY_INBOUND   2
+
+struct tally {
+        struct sl_decoder dec;
+        uint64_t c[TC_COUNT];
+        size_t frames;                  /* valid frames seen, wherever they were going */
+};
+
+static void tally_frame(struct tally *y, const struct sl_frame *f)
+{
+        size_t pos = 0;
+
+        y->frames++;
+        y->c[TC_FRAMES_IN]++;
+        if (f->dst != 'B') {
+                y->c[TC_NOT_FOR_US]++;
+                return;
+        }
+        if (f->src != 'A') {
+                y->c[TC_UNKNOWN_PEER]++;
+                return;
+        }
+        y->c[TC_UNKNOWN_FIELD] += f->unknown_fields;
+        y->c[TC_EMPTY_FIELD] += f->empty_fields;
+        for (size_t i = 0; i < f->nfields; i++) {
+                if (f->fields[i].type == SL_FIELD_N)
+                        pos = f->fields[i].index;
+                else if (f->fields[i].type == SL_FIELD_D && pos++ >= TALLY_INBOUND)
+                        y->c[TC_LIST_MISMATCH]++;
+        }
+}
+
+static void tally_reject(struct tally *y, const struct sl_decode_result *r)
+{
+        switch (r->reason) {
+        case SL_REASON_NOISE:
+                y->c[TC_NOISE_BYTES] += r->bytes;
+                break;
+        case SL_REASON_RESYNC:
+        case SL_REASON_TRUNCATED:
+                y->c[TC_RESYNC]++;
+                break;
+        case SL_REASON_OVERLONG:
+                y->c[TC_OVERLONG]++;
+                break;
+        case SL_REASON_NO_CHECKSUM:
+        case SL_REASON_BAD_CHECKSUM_SYNTAX:
+        case SL_REASON_BAD_CHECKSUM:
+                y->c[TC_BAD_CHECKSUM]++;
+                break;
+        case SL_REASON_BAD_HEADER:
+                y->c[TC_BAD_HEADER]++;
+                break;
+        case SL_REASON_BAD_ADDRESS:
+                y->c[TC_BAD_ADDRESS]++;
+                break;
+        default:
+                y->c[TC_BAD_FIELD]++;
+                break;
+        }
+}
+
+/* Tallies buf, then writes it to the daemon. */
+static void tally_send(struct it *t, struct tally *y, const void *buf, size_t len)
+{
+        const uint8_t *p = buf;
+        size_t off = 0;
+
+        y->c[TC_BYTES_IN] += len;
+        while (off < len) {
+                struct sl_decode_result r;
+
+                off += sl_decoder_feed(&y->dec, p + off, len - off, &r);
+                if (r.kind == SL_RESULT_FRAME)
+                        tally_frame(y, r.frame);
+                else if (r.kind == SL_RESULT_REJECT)
+                        tally_reject(y, &r);
+        }
+        assert_int_equal(harness_write_all(t->master, buf, len, WAIT_MS), 0);
+}
+
+static void tally_frame_text(struct it *t, struct tally *y, const char *text)
+{
+        char buf[512];
+        size_t n = mkraw(buf, sizeof(buf), text, 1);
+
+        tally_send(t, y, buf, n);
+}
+
+/* A valid frame setting both inbound values to round-specific values, then waits for them. */
+static void tally_round(struct it *t, struct tally *y, int round)
+{
+        char text[128], v0[16], v1[16];
+        size_t before = y->frames;
+
+        snprintf(v0, sizeof(v0), "r%d", round);
+        snprintf(v1, sizeof(v1), "-%d.5", round);
+        snprintf(text, sizeof(text), ":BA|N0|D%s|D%s", v0, v1);
+        tally_frame_text(t, y, text);
+        assert_int_equal(y->frames, before + 1);
+        wait_value(t, "in0", v0);
+        wait_value(t, "in1", v1);
+}
+
+static void stats_json(struct it *t, char *out, size_t size)
+{
+        slctl(t, out, size, "stats", "--json", NULL);
+}
+
+/* Noise, bad checksums, an overlong frame, frames for another address and from an unknown peer,
+ * unknown and empty fields, a D beyond the list, and 1 MiB of random bytes, each followed by a
+ * valid frame: the daemon survives, applies every valid frame, and `slctl stats --json` shows
+ * exactly the counts the real codec finds in what was sent. */
+static void test_garbage_counters(void **state)
+{
+        static const char fmt[] =
+                "  - name: veh\n"
+                "    protocol: sharedlink\n"
+                "    transport: serial\n"
+                "    device: %s\n"
+                "    address: B\n"
+                "    peers:\n"
+                "      - address: A\n"
+                "        period_ms: 0\n"
+                "        on_change: false\n"
+                "        stale_ms: 0\n"
+                "        outbound: [out0]\n"
+                "        inbound: [in0, in1]\n";
+        static const char noise[] = "line noise \x01\x02\x7f\xff between frames";
+        struct it *t = *state;
+        struct tally *y = test_alloc(t, sizeof(*y));
+        char links[YAML_MAX], buf[2048];
+        char *json0 = test_alloc(t, STATS_MAX), *json1 = test_alloc(t, STATS_MAX);
+        uint8_t *rnd = test_alloc(t, NOISE_BLOCK);
+        uint64_t x = 0x9e3779b97f4a7c15u;
+        size_t n, frames_before;
+        int round = 0;
+
+        assert_int_equal(sl_decoder_init(&y->dec, SL_FRAME_DEFAULT), 0);
+        plug(t);
+        snprintf(links, sizeof(links), fmt, t->dev);
+        start(t, links);
+        wait_state(t, 0, "up");
+        stats_json(t, json0, STATS_MAX);
+
+        tally_round(t, y, ++round);
+        tally_send(t, y, noise, sizeof(noise) - 1);
+        tally_round(t, y, ++round);
+        /* Bad checksum: a valid frame with its checksum's last digit changed. */
+        n = mkraw(buf, sizeof(buf), ":BA|N0|Dbad|Dbad", 1);
+        buf[n - 4] = buf[n - 4] == '0' ? '1' : '0';
+        tally_send(t, y, buf, n);
+        tally_frame_text(t, y, ":BA|N0|Dbad|Dbad|Cxy");         /* malformed checksum */
+        tally_round(t, y, ++round);
+        /* Overlong: longer than max_frame (1024); the rest of it is noise. */
+        n = (size_t)snprintf(buf, sizeof(buf), "[:BA|N0|D");
+        memset(buf + n, 'x', 1500);
+        n += 1500;
+        n += (size_t)snprintf(buf + n, sizeof(buf) - n, "|C00]\r\n");
+        tally_send(t, y, buf, n);
+        tally_round(t, y, ++round);
+        /* Valid frames the daemon must ignore: for another node, from an unknown peer. */
+        tally_frame_text(t, y, ":CA|N0|Dother|Dother");
+        tally_frame_text(t, y, ":BD|N0|Dstranger|Dstranger");
+        tally_round(t, y, ++round);
+        /* Unknown and empty fields are skipped, the rest applies; a D beyond the list is
+         * dropped. */
+        tally_frame_text(t, y, ":BA|N0|Xfoo||Dunk0|Zbar|Dunk1|D2");
+        wait_value(t, "in0", "unk0");
+        wait_value(t, "in1", "unk1");
+        tally_round(t, y, ++round);
+        /* A bad header and a bad address, with good checksums. */
+        tally_frame_text(t, y, "AB|N0|D1");
+        tally_frame_text(t, y, ":BZ|N0|D1");
+        tally_round(t, y, ++round);
+        /* 1 MiB of random bytes (fixed seed: the same bytes every run). */
+        for (size_t i = 0; i < NOISE_BLOCK; i++) {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                rnd[i] = (uint8_t)(x >> 24);
+        }
+        frames_before = y->frames;
+        tally_send(t, y, rnd, NOISE_BLOCK);
+        assert_int_equal(y->frames, frames_before);     /* no valid frame by chance */
+        tally_round(t, y, ++round);
+        tally_send(t, y, noise, sizeof(noise) - 1);
+        tally_round(t, y, ++round);
+
+        /* Alive, and the counters moved by exactly the tally. */
+        assert_int_equal(kill(t->h.pid, 0), 0);
+        stats_json(t, json1, STATS_MAX);
+        for (int c = 0; c < TC_COUNT; c++) {
+                uint64_t got = stat_of(json1, tally_name[c]) - stat_of(json0, tally_name[c]);
+
+                if (got != y->c[c])
+                        fail_msg("%s: daemon %llu, sent %llu", tally_name[c],
+                                 (unsigned long long)got, (unsigned long long)y->c[c]);
+        }
+        /* The tally is not trivially zero where the test meant to provoke something. */
+        assert_true(y->c[TC_NOISE_BYTES] > NOISE_BLOCK / 4);
+        assert_true(y->c[TC_BAD_CHECKSUM] >= 2);
+        assert_true(y->c[TC_OVERLONG] >= 1);
+        assert_int_equal(y->c[TC_NOT_FOR_US], 1);
+        assert_int_equal(y->c[TC_UNKNOWN_PEER], 1);
+        assert_int_equal(y->c[TC_LIST_MISMATCH], 1);
+        assert_true(y->c[TC_UNKNOWN_FIELD] >= 2);
+        assert_true(y->c[TC_EMPTY_FIELD] >= 1);
+        assert_true(y->c[TC_BAD_HEADER] >= 1);
+        assert_true(y->c[TC_BAD_ADDRESS] >= 1);
+}
+
+/* Waits (on the change word) until name's stale flag equals want. */
+static void wait_stale(struct it *t, const char *name, bool want)
+{
+        uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * 1000000u;
+        uint32_t cursor = 0;
+
+        while (harness_now_ns() < deadline) {
+                if (!!(read_flags(t, name) & SL_FLAG_STALE) == want)
+                        return;
+                sl_wait(t->c, &cursor, 100);
+        }
+        fail_msg("%s never became %s", name, want ? "stale" : "fresh");
+}
+
+/* The `slctl list` line of name. */
+static void list_line(struct it *t, const char *name, char *line, size_t size)
+{
+        char out[STATS_MAX];
+        const char *p = out;
+
+        slctl(t, out, sizeof(out), "list", NULL, NULL);
+        for (;;) {
+                size_t len = strcspn(p, "\n");
+
+                if (strncmp(p, name, strlen(name)) == 0 && p[strlen(name)] == ' ') {
+                        snprintf(line, size, "%.*s", (int)len, p);
+                        return;
+                }
+                if (!p[len])
+                        break;
+                p += len + 1;
+        }
+        fail_msg("%s not in slctl list: %s", name, out);
+}
+
+/* Stale: the peer goes silent longer than stale_ms; its values turn stale (meta flag and
+ * `slctl list`), and fresh again with its next frame. */
+static void test_stale_and_fresh(void **state)
+{
+        static const char fmt[] =
+                "  - name: veh\n"
+                "    protocol: sharedlink\n"
+                "    transport: serial\n"
+                "    device: %s\n"
+                "    address: B\n"
+                "    peers:\n"
+                "      - address: A\n"
+                "        period_ms: 0\n"
+                "        stale_ms: 300\n"
+                "        outbound: [out0]\n"
+                "        inbound: [in0]\n";
+        struct it *t = *state;
+        char links[YAML_MAX], line[LINE_MAX_T];
+
+        plug(t);
+        snprintf(links, sizeof(links), fmt, t->dev);
+        start(t, links);
+        wait_state(t, 0, "up");
+        send_frame(t->master, ":BA|N0|D7");
+        wait_value(t, "in0", "7");
+        wait_stale(t, "in0", false);
+
+        /* Silence: nothing is sent until the flag is up. */
+        wait_stale(t, "in0", true);
+        list_line(t, "in0", line, sizeof(line));
+        assert_non_null(strstr(line, "stale"));
+
+        send_frame(t->master, ":BA|N0|D8");
+        wait_value(t, "in0", "8");
+        wait_stale(t, "in0", false);
+        list_line(t, "in0", line, sizeof(line));
+        assert_null(strstr(line, "stale"));
+        assert_non_null(strstr(line, "valid"));
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
                 cmocka_unit_test_setup_teardown(test_peer_on_pty, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_back_to_back, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_udp_loopback, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_spec_examples, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_periodic_split_compress_refresh, setup,
+                                                teardown),
+                cmocka_unit_test_setup_teardown(test_on_change_frame, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_garbage_counters, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_stale_and_fresh, setup, teardown),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

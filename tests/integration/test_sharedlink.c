@@ -50,6 +50,7 @@ struct it {
         struct sl_decoder *dec;         /* the real codec, decoding what the daemon sends */
         uint8_t rbuf[4096];             /* bytes read from the master, not fed yet */
         size_t roff, rlen;
+        size_t crlf_due;                /* bytes of the last frame's CR LF not checked yet */
         void *mem[MEM_MAX];             /* test buffers, freed by teardown (also on failure) */
 };
 
@@ -474,8 +475,8 @@ static void check_raw(const struct sl_frame *f)
 }
 
 /* The next frame the daemon sent on the master, decoded by the real codec; any byte the codec
- * rejects fails the test (CR LF between frames is whitespace, not noise). Valid until the next
- * call. */
+ * rejects fails the test, and so does a frame not followed by exactly CR LF (which the codec
+ * would take as whitespace). Valid until the next call. */
 static const struct sl_frame *next_frame(struct it *t)
 {
         uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * 1000000u;
@@ -491,7 +492,9 @@ static const struct sl_frame *next_frame(struct it *t)
                 uint64_t now = harness_now_ns();
                 ssize_t n;
 
-                while (t->roff < t->rlen) {
+                for (; t->crlf_due > 0 && t->roff < t->rlen; t->crlf_due--)
+                        assert_int_equal(t->rbuf[t->roff++], "\r\n"[2 - t->crlf_due]);
+                while (t->crlf_due == 0 && t->roff < t->rlen) {
                         t->roff += sl_decoder_feed(t->dec, t->rbuf + t->roff, t->rlen - t->roff,
                                                    &r);
                         if (r.kind == SL_RESULT_REJECT)
@@ -499,6 +502,7 @@ static const struct sl_frame *next_frame(struct it *t)
                                          sl_decode_reason_str(r.reason));
                         if (r.kind == SL_RESULT_FRAME) {
                                 check_raw(r.frame);
+                                t->crlf_due = 2;
                                 return r.frame;
                         }
                 }
@@ -571,7 +575,7 @@ static void expect_single(struct it *t, uint32_t n, const char *value)
         assert_memory_equal(f->fields[1].value, value, strlen(value));
 }
 
-/* Runs slctl with args (NULL-terminated, at most 6) and expects exit code 0; output to out. */
+/* Runs `slctl a1 [a2 [a3]]` (NULL ends the list) and expects exit code 0; stdout to out. */
 static void slctl(struct it *t, char *out, size_t size, const char *a1, const char *a2,
                   const char *a3)
 {
@@ -1003,6 +1007,16 @@ static void test_garbage_counters(void **state)
                         fail_msg("%s: daemon %llu, sent %llu", tally_name[c],
                                  (unsigned long long)got, (unsigned long long)y->c[c]);
         }
+        print_message("sent %llu bytes: %llu frames, %llu noise bytes, %llu bad checksum, "
+                      "%llu resync, %llu overlong, %llu bad header, %llu bad address, "
+                      "%llu bad field\n", (unsigned long long)y->c[TC_BYTES_IN],
+                      (unsigned long long)y->c[TC_FRAMES_IN],
+                      (unsigned long long)y->c[TC_NOISE_BYTES],
+                      (unsigned long long)y->c[TC_BAD_CHECKSUM],
+                      (unsigned long long)y->c[TC_RESYNC], (unsigned long long)y->c[TC_OVERLONG],
+                      (unsigned long long)y->c[TC_BAD_HEADER],
+                      (unsigned long long)y->c[TC_BAD_ADDRESS],
+                      (unsigned long long)y->c[TC_BAD_FIELD]);
         /* The tally is not trivially zero where the test meant to provoke something. */
         assert_true(y->c[TC_NOISE_BYTES] > NOISE_BLOCK / 4);
         assert_true(y->c[TC_BAD_CHECKSUM] >= 2);

@@ -51,6 +51,7 @@ struct it {
         uint8_t rbuf[4096];             /* bytes read from the master, not fed yet */
         size_t roff, rlen;
         size_t crlf_due;                /* bytes of the last frame's CR LF not checked yet */
+        uint64_t frames_seen, bytes_seen;       /* what next_frame() got, CR LF included */
         void *mem[MEM_MAX];             /* test buffers, freed by teardown (also on failure) */
 };
 
@@ -503,6 +504,8 @@ static const struct sl_frame *next_frame(struct it *t)
                         if (r.kind == SL_RESULT_FRAME) {
                                 check_raw(r.frame);
                                 t->crlf_due = 2;
+                                t->frames_seen++;
+                                t->bytes_seen += r.frame->raw_len + 2;
                                 return r.frame;
                         }
                 }
@@ -599,6 +602,11 @@ static uint64_t stat_of(const char *json, const char *name)
         if (!p)
                 fail_msg("no counter %s in %s", name, json);
         return strtoull(p + strlen(key), NULL, 10);
+}
+
+static void stats_json(struct it *t, char *out, size_t size)
+{
+        slctl(t, out, size, "stats", "--json", NULL);
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -771,7 +779,7 @@ static void test_on_change_frame(void **state)
                 "        outbound: [o0, o1, o2]\n"
                 "        inbound: [i0]\n";
         struct it *t = *state;
-        char links[YAML_MAX], out[LINE_MAX_T];
+        char links[YAML_MAX], out[STATS_MAX];
         struct list_rx lr;
 
         plug(t);
@@ -787,6 +795,16 @@ static void test_on_change_frame(void **state)
         expect_single(t, 2, "-7.25");
         client_write(t, "o0", "0");
         expect_single(t, 0, "0");
+
+        /* The daemon counted exactly the frames and bytes the test decoded. bytes_out is
+         * published with the channel's counters on receive, link up/down and heartbeat, so a
+         * frame from the peer (its value seen) brings it up to date. */
+        send_frame(t->master, ":BA|N0|D1");
+        wait_value(t, "i0", "1");
+        stats_json(t, out, sizeof(out));
+        assert_int_equal(stat_of(out, "frames_out"), t->frames_seen);
+        assert_int_equal(stat_of(out, "bytes_out"), t->bytes_seen);
+        assert_int_equal(t->frames_seen, 4);
 }
 
 /* Garbage between valid frames: the counters the daemon should show, tallied by feeding every
@@ -910,11 +928,6 @@ static void tally_round(struct it *t, struct tally *y, int round)
         assert_int_equal(y->frames, before + 1);
         wait_value(t, "in0", v0);
         wait_value(t, "in1", v1);
-}
-
-static void stats_json(struct it *t, char *out, size_t size)
-{
-        slctl(t, out, size, "stats", "--json", NULL);
 }
 
 /* Noise, bad checksums, an overlong frame, frames for another address and from an unknown peer,
@@ -1096,6 +1109,20 @@ static void test_stale_and_fresh(void **state)
         wait_stale(t, "in0", true);
         list_line(t, "in0", line, sizeof(line));
         assert_non_null(strstr(line, "stale"));
+
+        /* An empty D is "unchanged", not a fresh value: still stale. The Q in the same frame
+         * is the event: once its answer is here, the whole frame has been applied. */
+        send_frame(t->master, ":BA|N0|D|Qout0");
+        {
+                const struct sl_frame *f;
+
+                do
+                        f = next_frame(t);
+                while (f->fields[0].type == SL_FIELD_N);        /* the up list */
+                assert_int_equal(f->fields[0].type, SL_FIELD_R);
+                assert_memory_equal(f->fields[0].value, "out0", 4);
+        }
+        assert_true(read_flags(t, "in0") & SL_FLAG_STALE);
 
         send_frame(t->master, ":BA|N0|D8");
         wait_value(t, "in0", "8");

@@ -2,6 +2,8 @@
  * SharedLink links end to end: the real sharedlinkd (tests/common/harness.h), the test playing
  * the peer on pty masters and a loopback UDP socket, values checked through the client library,
  * queries through the control socket (raw requests, as the wire format in control.h says).
+ * Frames from the daemon are decoded with the real codec (proto/sharedlink.h) and their checksum
+ * recomputed; counters are read with `slctl stats --json` and compared with what the test sent.
  *
  * Every wait is for an event (a byte on a master, a change word, a notify datagram) with a
  * timeout; nothing sleeps to let things happen.

@@ -46,7 +46,7 @@
 #define PATH_BUF        512
 #define PTYS            2       /* pty pairs of the test as the mediator: dev0, dev1 */
 #define PKT_MAX         512     /* one packet the test sends or expects (spec sessions) */
-#define SLCTL_ARGS_MAX  16
+#define SLCTL_ARGS_MAX  32
 #define EVENTS_MAX      16384   /* an `slctl events` listing */
 #define STATS_MAX       16384   /* an `slctl stats --json` document */
 
@@ -554,8 +554,10 @@ static void slctl_spawn(struct fx *f, const char *const *words)
         pid_t pid;
 
         argv[n++] = harness_slctl_path();
-        for (size_t i = 0; words[i] && n < SLCTL_ARGS_MAX - 1; i++)
+        for (size_t i = 0; words[i]; i++) {
+                assert_true(n < SLCTL_ARGS_MAX - 1);
                 argv[n++] = words[i];
+        }
         argv[n] = NULL;
         assert_int_equal(pipe2(fds, O_CLOEXEC), 0);
         pid = fork();
@@ -914,6 +916,40 @@ static void test_bad_input(void **state)
         assert_get(f, "agility.state", "connected");
 }
 
+/* Operations on the wire as slctl sends them: refused (with the daemon's reason, nothing sent)
+ * while the mediator has not answered, sent once it has when the request may wait, Visualize's
+ * fields in the precedence order of PROTOCOLS.md 2.2 and one 014 per display. */
+static void test_commands_on_the_wire(void **state)
+{
+        struct fx *f = *state;
+        char out[REPLY_MAX], err[REPLY_MAX];
+
+        need_slctl();
+        mediator_start(f, "1.2", 60000);
+        assert_int_equal(SLCTL_ERR(f, out, err, "circe", "agility", "alert", "E1E1E1"), 1);
+        assert_string_equal(err, "slctl: link agility is not connected (state connecting)\n");
+        assert_int_equal(SLCTL_ERR(f, out, err, "circe", "agility", "alert", "E1E1E"), 1);
+        assert_non_null(strstr(err, "E1E1E"));
+        /* A request that may wait goes out as soon as the mediator answers. */
+        slctl_spawn(f, (const char *const[]){ "circe", "agility", "visualize", "D15D15",
+                                              "--current", "7", "--wait", "5000", NULL });
+        put(f, 0, CIRCE_S_KA);
+        assert_int_equal(slctl_collect(f, out, sizeof(out)), 0);
+        expect(f, 0, "07\t028:7\t014:D15D15\t");
+        assert_int_equal(SLCTL(f, out, "circe", "agility", "visualize", "D15D15", "--next", "13",
+                               "--current", "12", "--start-timer", "--eliminated", "0"), 0);
+        expect(f, 0, "07\t034:0\t028:12\t029:13\t030:1\t014:D15D15\t");
+        assert_int_equal(SLCTL(f, out, "circe", "agility", "visualize", "D15D15,E1E1E1",
+                               "--placement", "3", "--refusals", "2", "--faults", "1",
+                               "--secondary", "999999", "--primary", "31250", "--eliminated",
+                               "1"), 0);
+        expect(f, 0, "07\t034:1\t031:31250\t038:999999\t032:1\t033:2\t035:3\t014:D15D15\t"
+                     "014:E1E1E1\t");
+        expect_nothing(f, 0);
+        /* Login and the three Visualize: nothing for the refused ones. */
+        assert_int_equal(counter(f, "agility", "frames_out"), 4);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -927,6 +963,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_idle_timeout_reconnect, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_version_mismatch, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_bad_input, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_commands_on_the_wire, setup, teardown),
         };
 
         return cmocka_run_group_tests_name("circe (integration)", tests, NULL, NULL);

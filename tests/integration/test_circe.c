@@ -436,6 +436,8 @@ static int slctl_run(struct fx *f, char *out, size_t size, char *err, size_t err
 
 #define SLCTL(f, out, ...) \
         slctl_run((f), (out), sizeof(out), NULL, 0, (const char *const[]){ __VA_ARGS__, NULL })
+#define SLCTL_N(f, out, size, ...) \
+        slctl_run((f), (out), (size), NULL, 0, (const char *const[]){ __VA_ARGS__, NULL })
 #define SLCTL_ERR(f, out, err, ...) \
         slctl_run((f), (out), sizeof(out), (err), sizeof(err), \
                   (const char *const[]){ __VA_ARGS__, NULL })
@@ -498,6 +500,29 @@ static void wait_events(struct fx *f, const char *text, char *out)
 
         snprintf(needle, sizeof(needle), " %s\n", text);
         slctl_wait(f, (const char *const[]){ "events", NULL }, needle, false, out, EVENTS_MAX);
+}
+
+/* Waits until `slctl events` shows the line "SEQ then" after the line "SEQ first". */
+static void wait_events_after(struct fx *f, const char *first, const char *then, char *out)
+{
+        uint64_t deadline = harness_now_ns() + (uint64_t)T_WAIT_MS * 1000000u;
+        char n1[SL_EVENT_TEXT_SIZE + 8], n2[SL_EVENT_TEXT_SIZE + 8];
+        uint32_t cursor = 0;
+
+        snprintf(n1, sizeof(n1), " %s\n", first);
+        snprintf(n2, sizeof(n2), " %s\n", then);
+        sl_wait(f->cl, &cursor, 0);
+        for (;;) {
+                const char *p;
+
+                assert_int_equal(SLCTL_N(f, out, EVENTS_MAX, "events"), 0);
+                p = strstr(out, n1);
+                if (p && strstr(p + strlen(n1), n2))
+                        return;
+                if (harness_now_ns() > deadline)
+                        fail_msg("no event \"%s\" after \"%s\" in:\n%s", then, first, out);
+                sl_wait(f->cl, &cursor, 200);
+        }
 }
 
 /* Where " text\n" is in an events listing; fails when it is not there. */
@@ -791,13 +816,14 @@ static void test_idle_timeout_reconnect(void **state)
         put(f, 0, CIRCE_S_LOG_ALIVE);
         expect(f, 0, CIRCE_S_LOGOUT);
         expect(f, 1, CIRCE_S_LOGIN);
-        wait_events(f, "agility link-state state=disconnected reason=idle-timeout", events);
-        assert_true(event_at(events, "agility link-state state=connecting") <
-                    event_at(events, "agility link-state state=disconnected reason=idle-timeout"));
+        wait_events_after(f, "agility link-state state=disconnected reason=idle-timeout",
+                          "agility link-state state=connecting", events);
         assert_int_equal(counter(f, "agility", "timeouts"), 1);
         assert_true(counter(f, "agility", "log_messages") >= 1);
         put(f, 1, CIRCE_S_KA_023);
         wait_get(f, "agility.state", "connected");
+        wait_events_after(f, "agility link-state state=disconnected reason=idle-timeout",
+                          "agility link-state state=connected version=0.2.3 status=0", events);
 }
 
 /* A mediator speaking another major.minor: reported, Logout, the next port; a later patch level
@@ -818,6 +844,9 @@ static void test_version_mismatch(void **state)
         put(f, 1, CIRCE_S_KA_029);
         wait_get(f, "agility.state", "connected");
         assert_get(f, "agility.mediator.version", "0.2.9");
+        wait_events_after(f, "agility link-state state=version-mismatch version=1.2.34 status=0 "
+                             "expected=0.2",
+                          "agility link-state state=connected version=0.2.9 status=0", events);
         expect_nothing(f, 0);
 }
 

@@ -10,8 +10,9 @@
  * durations (timers are driven by running the loop, and timing rules are checked as counts and
  * orders of events).
  *
- * Spec sessions ("Example sessions" of the CIRCE specification) are replayed byte for byte. They
- * use protocol version 1.2.34, so those tests expect "1.2".
+ * Spec sessions ("Example sessions" of the CIRCE specification) are replayed byte for byte, from
+ * tests/common/circe_sessions.h (tests/integration/test_circe.c replays them against the real
+ * daemon). They use protocol version 1.2.34, so those tests expect "1.2".
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -33,6 +34,7 @@
 
 #include <sharedlink.h>
 
+#include "common/circe_sessions.h"
 #include "common/harness.h"
 #include "daemon/config.h"
 #include "daemon/control.h"
@@ -692,14 +694,11 @@ static const char *const ctl_yaml_fast =
         "    login_timeout_ms: 200\n"
         "    idle_timeout_ms: 300\n";
 
-#define KA_SPEC         "51\t010:1.2.34\t012:0\t"
-#define KA_SPEC_UNCONF  "51\t010:1.2.34\t012:1\t"
-
 /* Starts a controller and answers its Login on dev0. */
 static void ctl_logged_in(struct fx *f, const char *yaml, const char *keep_alive)
 {
         start(f, yaml);
-        expect(f, 0, "01\t");
+        expect(f, 0, CIRCE_S_LOGIN);
         wait_value(f, "agility.state", "connecting");
         put(f, 0, keep_alive);
 }
@@ -712,7 +711,7 @@ static void test_ctl_example_assigning_addresses(void **state)
 {
         struct fx *f = *state;
 
-        ctl_logged_in(f, ctl_yaml_spec, KA_SPEC_UNCONF);
+        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA_UNCONF);
         wait_value(f, "agility.state", "unconfigured");
         assert_string_equal(link_state(f, 0), "unconfigured");
         assert_value(f, "agility.mediator.version", "1.2.34");
@@ -721,14 +720,14 @@ static void test_ctl_example_assigning_addresses(void **state)
 
         /* Operations work on an unconfigured mediator: that is how it gets configured. */
         assert_string_equal(request(f, "circe agility device-setup 123456"), "OK\n");
-        expect(f, 0, "05\t026:123456\t");
-        put(f, 0, KA_SPEC);
+        expect(f, 0, CIRCE_S_ASSIGN_MEDIATOR);
+        put(f, 0, CIRCE_S_KA);
         wait_value(f, "agility.state", "connected");
         assert_value(f, "agility.mediator.status", "0");
 
         assert_string_equal(request(f, "circe agility device-setup 222222 - 32"), "OK\n");
-        expect(f, 0, "05\t026:222222\t019:32\t");
-        put(f, 0, "52\t015:222222\t016:0\t019:32\t020:0\t021:150\t");
+        expect(f, 0, CIRCE_S_ASSIGN_GATE);
+        put(f, 0, CIRCE_S_ASSIGN_GATE_STATUS);
         wait_value(f, "agility.device.222222.online", "1");
         assert_value(f, "agility.device.222222.membership", "0");
         assert_value(f, "agility.device.222222.capabilities", "32");
@@ -743,7 +742,7 @@ static void test_ctl_example_assigning_addresses(void **state)
 
         /* Stopping the link ends the session the spec's way. */
         engines_stop(f);
-        expect(f, 0, "02\t");
+        expect(f, 0, CIRCE_S_LOGOUT);
 }
 
 /* "Forming a logical network": devices appear, the controller alerts one and builds the
@@ -752,11 +751,11 @@ static void test_ctl_example_forming_network(void **state)
 {
         struct fx *f = *state;
 
-        ctl_logged_in(f, ctl_yaml_spec, KA_SPEC);
+        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
         wait_value(f, "agility.state", "connected");
-        put(f, 0, "52\t015:AAAAAA\t016:0\t019:1\t020:0\t021:200\t");
-        put(f, 0, "52\t015:E1E1E1\t016:0\t019:32\t020:0\t021:150\t");
-        put(f, 0, "52\t015:E2E2E2\t016:0\t019:32\t020:0\t021:130\t");
+        put(f, 0, CIRCE_S_NET_STATUS_AAAAAA);
+        put(f, 0, CIRCE_S_NET_STATUS_E1E1E1);
+        put(f, 0, CIRCE_S_NET_STATUS_E2E2E2);
         wait_event(f, "device-online", "device=E2E2E2");
         assert_int_equal(count_events(f, "device-online", "device="), 3);
         assert_value(f, "agility.device.AAAAAA.capabilities", "1");
@@ -765,13 +764,13 @@ static void test_ctl_example_forming_network(void **state)
         assert_value(f, "agility.device.E2E2E2.signal", "130");
 
         assert_string_equal(request(f, "circe agility alert E1E1E1"), "OK\n");
-        expect(f, 0, "03\t014:E1E1E1\t");
+        expect(f, 0, CIRCE_S_NET_ALERT_E1E1E1);
         assert_string_equal(request(f, "circe agility network-setup AAAAAA join 1"), "OK\n");
-        expect(f, 0, "04\t014:AAAAAA\t017:1\t020:1\t");
+        expect(f, 0, CIRCE_S_NET_JOIN_AAAAAA);
         assert_string_equal(request(f, "circe agility network-setup E1E1E1 join 2"), "OK\n");
-        expect(f, 0, "04\t014:E1E1E1\t017:1\t020:2\t");
+        expect(f, 0, CIRCE_S_NET_JOIN_E1E1E1);
         assert_string_equal(request(f, "circe agility network-setup E2E2E2 join 4"), "OK\n");
-        expect(f, 0, "04\t014:E2E2E2\t017:1\t020:4\t");
+        expect(f, 0, CIRCE_S_NET_JOIN_E2E2E2);
         assert_int_equal(counter(f, 0, "frames_out"), 5);
 }
 
@@ -782,14 +781,14 @@ static void test_ctl_example_clock_sync(void **state)
         struct fx *f = *state;
         const char *r;
 
-        ctl_logged_in(f, ctl_yaml_spec, KA_SPEC);
-        put(f, 0, "52\t015:AAAAAA\t016:0\t019:31\t020:3\t021:200\t");
-        put(f, 0, "52\t015:E1E1E1\t016:0\t019:32\t020:4\t021:150\t027:1\t");
+        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        put(f, 0, CIRCE_S_SYNC_STATUS_AAAAAA);
+        put(f, 0, CIRCE_S_SYNC_STATUS_E1E1E1);
         wait_value(f, "agility.device.E1E1E1.clock_sync", "1");
         request_start(f, "circe agility sync-clocks");
-        expect(f, 0, "06\t");
-        put(f, 0, "52\t015:AAAAAA\t016:0\t019:31\t020:3\t021:200\t027:2\t");
-        put(f, 0, "52\t015:E1E1E1\t016:0\t019:32\t020:4\t021:150\t027:2\t");
+        expect(f, 0, CIRCE_S_SYNC_CLOCKS);
+        put(f, 0, CIRCE_S_SYNC_DONE_AAAAAA);
+        put(f, 0, CIRCE_S_SYNC_DONE_E1E1E1);
         r = request_wait(f, WAIT_MS);
         assert_string_equal(r, "DATA AAAAAA succeeded\nDATA E1E1E1 succeeded\nOK\n");
         assert_value(f, "agility.device.E1E1E1.clock_sync", "2");
@@ -804,11 +803,11 @@ static void test_ctl_example_race(void **state)
         struct fx *f = *state;
         unsigned a, b, c, d;
 
-        ctl_logged_in(f, ctl_yaml_spec, KA_SPEC);
-        put(f, 0, "53\t015:AAAAAA\t024:32768\t");
-        put(f, 0, "53\t015:AAAAAA\t024:0\t");
-        put(f, 0, "53\t015:E1E1E1\t025:5000\t");
-        put(f, 0, "53\t015:E2E2E2\t025:32000\t");
+        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        put(f, 0, CIRCE_S_RACE_READY_DOWN);
+        put(f, 0, CIRCE_S_RACE_READY_UP);
+        put(f, 0, CIRCE_S_RACE_START);
+        put(f, 0, CIRCE_S_RACE_FINISH);
         a = wait_event(f, "action", "device=AAAAAA keys=32768");
         b = wait_event(f, "action", "device=AAAAAA keys=0");
         c = wait_event(f, "action", "device=E1E1E1 sensor_time=5000");
@@ -834,13 +833,13 @@ static void test_ctl_sync_sequence_and_timeout(void **state)
         struct fx *f = *state;
         const char *r;
 
-        ctl_logged_in(f, ctl_yaml_spec, KA_SPEC);
+        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
         put(f, 0, "52\t015:AAAAAA\t016:1\t019:1\t020:1\t021:200\t");
         put(f, 0, "52\t015:E1E1E1\t016:1\t019:32\t020:2\t021:150\t027:2\t");
         put(f, 0, "52\t015:E2E2E2\t016:1\t019:32\t020:4\t021:150\t027:1\t");
         wait_value(f, "agility.device.E2E2E2.online", "1");
         request_start(f, "circe agility sync-clocks");
-        expect(f, 0, "06\t");
+        expect(f, 0, CIRCE_S_SYNC_CLOCKS);
         /* PROTOCOLS.md 2.4 sequence: a status without 027, then 027:2. */
         put(f, 0, "52\t015:E2E2E2\t016:1\t019:32\t020:4\t021:150\t");
         put(f, 0, "52\t015:E2E2E2\t016:1\t019:32\t020:4\t021:150\t027:2\t");
@@ -856,7 +855,7 @@ static void test_ctl_sync_sequence_and_timeout(void **state)
         put(f, 0, "52\t015:E2E2E2\t016:1\t019:32\t020:4\t021:150\t");
         wait_value(f, "agility.device.E2E2E2.online", "1");
         request_start(f, "circe agility sync-clocks");
-        expect(f, 0, "06\t");
+        expect(f, 0, CIRCE_S_SYNC_CLOCKS);
         assert_string_equal(request_other(f, "circe agility sync-clocks"),
                             "ERR 16 a clock synchronisation is running on link agility\n");
 }
@@ -868,14 +867,14 @@ static void test_ctl_login_timeout_next_port(void **state)
         unsigned i;
 
         start(f, ctl_yaml_fast);
-        expect(f, 0, "01\t");
-        expect(f, 0, "02\t");
-        expect(f, 1, "01\t");
+        expect(f, 0, CIRCE_S_LOGIN);
+        expect(f, 0, CIRCE_S_LOGOUT);
+        expect(f, 1, CIRCE_S_LOGIN);
         i = wait_event(f, "link-state", "state=disconnected reason=login-timeout");
         wait_event_from(f, i, "link-state", "state=connecting", WAIT_MS);
         assert_int_equal(counter(f, 0, "timeouts"), 1);
         /* Answered in time on the second port: connected there. */
-        put(f, 1, "51\t010:0.2.3\t012:0\t");
+        put(f, 1, CIRCE_S_KA_023);
         wait_value(f, "agility.state", "connected");
         assert_value(f, "agility.mediator.version", "0.2.3");
         assert_int_equal(f->rx_len[0], 0);
@@ -889,27 +888,27 @@ static void test_ctl_idle_timeout_reconnect(void **state)
         unsigned i;
 
         start(f, ctl_yaml_fast);
-        expect(f, 0, "01\t");
-        put(f, 0, "51\t010:0.2.3\t012:0\t");
+        expect(f, 0, CIRCE_S_LOGIN);
+        put(f, 0, CIRCE_S_KA_023);
         wait_value(f, "agility.state", "connected");
         i = wait_event(f, "link-state", "state=connected");
         /* Keep it alive for a while with Keep Alives, each answered before the timeout. */
         for (int k = 0; k < 5; k++) {
                 run_for(f, 100);
-                put(f, 0, "51\t010:0.2.3\t012:0\t");
+                put(f, 0, CIRCE_S_KA_023);
         }
         assert_int_equal(count_events(f, "link-state", "reason=idle-timeout"), 0);
         assert_int_equal(f->rx_len[0], 0);
         /* Only Logs now: diagnostic, never "alive" (PROTOCOLS.md 2.4). */
-        put(f, 0, "54\t036:414C495645\t");
-        expect(f, 0, "02\t");
-        put(f, 0, "54\t036:414C495645\t");
-        expect(f, 1, "01\t");
+        put(f, 0, CIRCE_S_LOG_ALIVE);
+        expect(f, 0, CIRCE_S_LOGOUT);
+        put(f, 0, CIRCE_S_LOG_ALIVE);
+        expect(f, 1, CIRCE_S_LOGIN);
         i = wait_event_from(f, i, "link-state", "state=disconnected reason=idle-timeout", WAIT_MS);
         wait_event_from(f, i, "link-state", "state=connecting", WAIT_MS);
         assert_int_equal(counter(f, 0, "timeouts"), 1);
         assert_true(counter(f, 0, "log_messages") >= 1);
-        put(f, 1, "51\t010:0.2.3\t012:0\t");
+        put(f, 1, CIRCE_S_KA_023);
         wait_value(f, "agility.state", "connected");
 }
 
@@ -919,16 +918,16 @@ static void test_ctl_version_mismatch(void **state)
         struct fx *f = *state;
 
         start(f, ctl_yaml_fast);
-        expect(f, 0, "01\t");
-        put(f, 0, KA_SPEC);
-        expect(f, 0, "02\t");
+        expect(f, 0, CIRCE_S_LOGIN);
+        put(f, 0, CIRCE_S_KA);
+        expect(f, 0, CIRCE_S_LOGOUT);
         wait_event(f, "link-state", "state=version-mismatch version=1.2.34 status=0 expected=0.2");
         assert_value(f, "agility.mediator.version", "1.2.34");
         assert_string_equal(request(f, "circe agility alert E1E1E1"),
                             "ERR 107 link agility is not connected (state version-mismatch)\n");
-        expect(f, 1, "01\t");
+        expect(f, 1, CIRCE_S_LOGIN);
         /* Patch levels may differ: 0.2.9 is fine for "0.2". */
-        put(f, 1, "51\t010:0.2.9\t012:0\t");
+        put(f, 1, CIRCE_S_KA_029);
         wait_value(f, "agility.state", "connected");
         assert_value(f, "agility.mediator.version", "0.2.9");
 }
@@ -940,7 +939,7 @@ static void test_ctl_device_offline(void **state)
         struct fx *f = *state;
         unsigned on, off;
 
-        ctl_logged_in(f, ctl_yaml_spec, KA_SPEC);
+        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
         put(f, 0, "52\t015:E1E1E1\t016:1\t019:32\t020:2\t021:150\t022:200\t023:1\t037:0\t");
         on = wait_event(f, "device-online", "device=E1E1E1");
         wait_value(f, "agility.device.E1E1E1.online", "1");
@@ -966,7 +965,7 @@ static void test_ctl_bad_input(void **state)
         uint8_t pkt[CIRCE_PACKET_MAX * 2];
         size_t n;
 
-        ctl_logged_in(f, ctl_yaml_spec, KA_SPEC);
+        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
         wait_value(f, "agility.state", "connected");
 
         /* noise between packets: 7 bytes, plus a stray ETX */
@@ -1010,7 +1009,7 @@ static void test_ctl_bad_input(void **state)
         put(f, 0, "52\t015:C00003\t016:0\t019:65\t020:0\t021:1\t");
         put(f, 0, "52\t015:000000\t016:0\t019:32\t020:0\t021:1\t");
         /* an operation of the controller's own, from the mediator */
-        put(f, 0, "03\t014:E1E1E1\t");
+        put(f, 0, CIRCE_S_NET_ALERT_E1E1E1);
         put(f, 0, "52\t015:A00007\t016:0\t019:96\t020:0\t021:1\t");       /* 96 = 64|32: no */
         put(f, 0, "52\t015:A00008\t016:0\t019:31\t020:0\t021:1\t");
 
@@ -1057,7 +1056,7 @@ static void test_ctl_log(void **state)
         ssize_t n;
         int fd;
 
-        ctl_logged_in(f, ctl_yaml_spec, KA_SPEC);
+        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
         put(f, 0, "54\t036:48656C6C6F0A\t");
         wait_event(f, "log", "bytes=6 data=48656C6C6F0A");
         for (int k = 0; k < 30; k++)
@@ -1088,7 +1087,7 @@ static void test_ctl_commands(void **state)
         struct fx *f = *state;
 
         start(f, ctl_yaml_spec);
-        expect(f, 0, "01\t");
+        expect(f, 0, CIRCE_S_LOGIN);
         assert_string_equal(request(f, "circe agility alert E1E1E1"),
                             "ERR 107 link agility is not connected (state connecting)\n");
         assert_string_equal(request(f, "circe agility alert E1E1E1 wait=100"),
@@ -1103,7 +1102,7 @@ static void test_ctl_commands(void **state)
         request_start(f, "circe agility visualize D15D15 current=7 wait=5000");
         run_for(f, 50);
         assert_int_equal(f->reply_len, 0);
-        put(f, 0, KA_SPEC);
+        put(f, 0, CIRCE_S_KA);
         assert_string_equal(request_wait(f, WAIT_MS), "OK\n");
         expect(f, 0, "07\t028:7\t014:D15D15\t");
         /* Nothing was sent for the refused ones. */
@@ -1136,20 +1135,20 @@ static void test_emu_example_assigning_addresses(void **state)
         wait_value(f, "arena.state", "connecting");
         assert_value(f, "arena.mediator.status", "1");
         assert_value(f, "arena.mediator.address", "");
-        put(f, 0, "01\t");
-        expect(f, 0, KA_SPEC_UNCONF);
+        put(f, 0, CIRCE_S_LOGIN);
+        expect(f, 0, CIRCE_S_KA_UNCONF);
         wait_value(f, "arena.state", "unconfigured");
-        put(f, 0, "05\t026:123456\t");
-        expect(f, 0, KA_SPEC);
+        put(f, 0, CIRCE_S_ASSIGN_MEDIATOR);
+        expect(f, 0, CIRCE_S_KA);
         wait_value(f, "arena.mediator.address", "123456");
         assert_value(f, "arena.mediator.status", "0");
         wait_value(f, "arena.state", "connected");
-        put(f, 0, "05\t026:222222\t019:32\t");
-        expect(f, 0, "52\t015:222222\t016:0\t019:32\t020:0\t021:150\t");
+        put(f, 0, CIRCE_S_ASSIGN_GATE);
+        expect(f, 0, CIRCE_S_ASSIGN_GATE_STATUS);
         wait_value(f, "arena.device.222222.capabilities", "32");
         assert_value(f, "arena.device.222222.online", "1");
         assert_value(f, "arena.device.000000.online", "0");
-        put(f, 0, "02\t");
+        put(f, 0, CIRCE_S_LOGOUT);
         wait_value(f, "arena.state", "connecting");
         /* After Logout the mediator says nothing until the next Login (status period passes). */
         f->rx_len[0] = 0;
@@ -1178,16 +1177,16 @@ static void test_emu_example_forming_network(void **state)
         struct fx *f = *state;
 
         start(f, emu_yaml_network);
-        put(f, 0, "01\t");
-        expect(f, 0, KA_SPEC);
-        expect(f, 0, "52\t015:AAAAAA\t016:0\t019:1\t020:0\t021:200\t");
-        expect(f, 0, "52\t015:E1E1E1\t016:0\t019:32\t020:0\t021:150\t");
-        expect(f, 0, "52\t015:E2E2E2\t016:0\t019:32\t020:0\t021:130\t");
-        put(f, 0, "03\t014:E1E1E1\t");
+        put(f, 0, CIRCE_S_LOGIN);
+        expect(f, 0, CIRCE_S_KA);
+        expect(f, 0, CIRCE_S_NET_STATUS_AAAAAA);
+        expect(f, 0, CIRCE_S_NET_STATUS_E1E1E1);
+        expect(f, 0, CIRCE_S_NET_STATUS_E2E2E2);
+        put(f, 0, CIRCE_S_NET_ALERT_E1E1E1);
         wait_value(f, "arena.device.E1E1E1.alerts", "1");
-        put(f, 0, "04\t014:AAAAAA\t017:1\t020:1\t");
-        put(f, 0, "04\t014:E1E1E1\t017:1\t020:2\t");
-        put(f, 0, "04\t014:E2E2E2\t017:1\t020:4\t");
+        put(f, 0, CIRCE_S_NET_JOIN_AAAAAA);
+        put(f, 0, CIRCE_S_NET_JOIN_E1E1E1);
+        put(f, 0, CIRCE_S_NET_JOIN_E2E2E2);
         wait_value(f, "arena.device.E2E2E2.roles", "4");
         assert_value(f, "arena.device.E2E2E2.membership", "1");
         assert_value(f, "arena.device.AAAAAA.roles", "1");
@@ -1227,15 +1226,15 @@ static void test_emu_example_clock_sync(void **state)
         struct fx *f = *state;
 
         start(f, emu_yaml_sync);
-        put(f, 0, "01\t");
-        expect(f, 0, KA_SPEC);
-        expect(f, 0, "52\t015:AAAAAA\t016:0\t019:31\t020:3\t021:200\t");
+        put(f, 0, CIRCE_S_LOGIN);
+        expect(f, 0, CIRCE_S_KA);
+        expect(f, 0, CIRCE_S_SYNC_STATUS_AAAAAA);
         expect(f, 0, "52\t015:E1E1E1\t016:1\t019:32\t020:4\t021:150\t027:1\t");
-        put(f, 0, "06\t");
+        put(f, 0, CIRCE_S_SYNC_CLOCKS);
         /* PROTOCOLS.md 2.4: one status without 027 at once, then 027:2. */
-        expect(f, 0, "52\t015:AAAAAA\t016:0\t019:31\t020:3\t021:200\t");
+        expect(f, 0, CIRCE_S_SYNC_STATUS_AAAAAA);
         expect(f, 0, "52\t015:E1E1E1\t016:1\t019:32\t020:4\t021:150\t");
-        expect(f, 0, "52\t015:AAAAAA\t016:0\t019:31\t020:3\t021:200\t027:2\t");
+        expect(f, 0, CIRCE_S_SYNC_DONE_AAAAAA);
         expect(f, 0, "52\t015:E1E1E1\t016:1\t019:32\t020:4\t021:150\t027:2\t");
         assert_value(f, "arena.device.E1E1E1.clock_sync", "2");
 }
@@ -1266,18 +1265,18 @@ static void test_emu_example_race(void **state)
         start(f, emu_yaml_race);
         assert_string_equal(request(f, "circe arena emulate action AAAAAA keys=32768"),
                             "ERR 107 link arena is not connected (state connecting)\n");
-        put(f, 0, "01\t");
-        expect(f, 0, KA_SPEC);
+        put(f, 0, CIRCE_S_LOGIN);
+        expect(f, 0, CIRCE_S_KA);
         assert_string_equal(request(f, "circe arena emulate action AAAAAA keys=32768"), "OK\n");
-        expect_skip(f, 0, "53\t015:AAAAAA\t024:32768\t");
+        expect_skip(f, 0, CIRCE_S_RACE_READY_DOWN);
         assert_string_equal(request(f, "circe arena emulate action AAAAAA keys=0"), "OK\n");
-        expect_skip(f, 0, "53\t015:AAAAAA\t024:0\t");
+        expect_skip(f, 0, CIRCE_S_RACE_READY_UP);
         assert_string_equal(request(f, "circe arena emulate action E1E1E1 sensor-time=5000"),
                             "OK\n");
-        expect_skip(f, 0, "53\t015:E1E1E1\t025:5000\t");
+        expect_skip(f, 0, CIRCE_S_RACE_START);
         assert_string_equal(request(f, "circe arena emulate action E2E2E2 sensor-time=32000"),
                             "OK\n");
-        expect_skip(f, 0, "53\t015:E2E2E2\t025:32000\t");
+        expect_skip(f, 0, CIRCE_S_RACE_FINISH);
         wait_value(f, "arena.device.E2E2E2.sensor_time", "32000");
         assert_value(f, "arena.device.AAAAAA.keys", "0");
 
@@ -1311,8 +1310,8 @@ static void test_emu_visualize(void **state)
         struct fx *f = *state;
 
         start(f, emu_yaml_race);
-        put(f, 0, "01\t");
-        expect(f, 0, KA_SPEC);
+        put(f, 0, CIRCE_S_LOGIN);
+        expect(f, 0, CIRCE_S_KA);
         assert_value(f, "arena.device.D15D15.current_competitor", "");
         assert_null(value(f, "arena.device.E1E1E1.current_competitor"));
         put(f, 0, "07\t034:0\t028:12\t029:13\t030:1\t014:D15D15\t");
@@ -1356,15 +1355,15 @@ static void test_emu_keepalive(void **state)
         start(f, yaml);
         run_for(f, 300);
         assert_int_equal(f->rx_len[0], 0);
-        put(f, 0, "01\t");
-        wn = pkt_build("51\t010:0.2.3\t012:0\t", false, want);
+        put(f, 0, CIRCE_S_LOGIN);
+        wn = pkt_build(CIRCE_S_KA_023, false, want);
         for (int k = 0; k < 6; k++) {
                 size_t gn = next_packet(f, 0, got, WAIT_MS);
 
                 assert_int_equal(gn, wn);
                 assert_memory_equal(got, want, wn);
         }
-        put(f, 0, "02\t");
+        put(f, 0, CIRCE_S_LOGOUT);
         wait_value(f, "arena.state", "connecting");
         assert_true(counter(f, 0, "frames_out") >= 6);
 }
@@ -1388,8 +1387,8 @@ static void test_emu_status_period(void **state)
         struct fx *f = *state;
 
         start(f, yaml);
-        put(f, 0, "01\t");
-        expect(f, 0, "51\t010:0.2.3\t012:0\t");
+        put(f, 0, CIRCE_S_LOGIN);
+        expect(f, 0, CIRCE_S_KA_023);
         for (int k = 0; k < 3; k++)
                 expect(f, 0, "52\t015:E1E1E1\t016:0\t019:32\t020:0\t021:150\t022:200\t");
 }
@@ -1401,12 +1400,12 @@ static void test_emu_bad_input(void **state)
 
         start(f, emu_yaml_network);
         put_raw(f, 0, "\x03noise\x02" "01\tZZ\x03", 13);
-        put(f, 0, "51\t010:0.2.3\t012:0\t");            /* a mediator operation */
+        put(f, 0, CIRCE_S_KA_023);            /* a mediator operation */
         put(f, 0, "04\t014:AAAAAA\t017:1\t");           /* 020 missing */
-        put(f, 0, "03\t014:E1E1E1\t");                  /* before Login: ignored */
-        put(f, 0, "01\t");
-        expect_skip(f, 0, KA_SPEC);
-        put(f, 0, "03\t014:E1E1E1\t");
+        put(f, 0, CIRCE_S_NET_ALERT_E1E1E1);                  /* before Login: ignored */
+        put(f, 0, CIRCE_S_LOGIN);
+        expect_skip(f, 0, CIRCE_S_KA);
+        put(f, 0, CIRCE_S_NET_ALERT_E1E1E1);
         wait_value(f, "arena.device.E1E1E1.alerts", "1");
         assert_int_equal(counter(f, 0, "noise_bytes"), 6);
         assert_int_equal(counter(f, 0, "bad_checksum"), 1);

@@ -181,6 +181,7 @@ help:
 	@echo "make fuzz       libFuzzer (clang) on every target for FUZZ_TIME seconds (default 600)"
 	@echo "make demo       run the no-hardware demo"
 	@echo "make deps       install the build dependencies with apt-get (root) or print the command"
+	@echo "make install    install into PREFIX (/usr/local) under DESTDIR; make uninstall removes it"
 
 # Builds the asan variant of everything and the tsan variant of the stress tests, then runs every
 # test binary once, with one total at the end.

@@ -311,11 +311,12 @@ $(error make install installs the optimised build: run it without SAN=)
 endif
 endif
 
-# Touched only when the paths changed, so the .pc file is remade only then.
+# Written only when the paths changed (a read-only build tree stays untouched), so the .pc
+# file is remade only then.
 $(PC_STAMP): FORCE
 	@mkdir -p $(@D)
-	@printf '%s\n' '$(PREFIX)' '$(LIBDIR)' '$(INCDIR)' > $@.tmp; \
-	    if cmp -s $@.tmp $@; then rm -f $@.tmp; else mv -f $@.tmp $@; fi
+	@want=$$(printf '%s\n' '$(PREFIX)' '$(LIBDIR)' '$(INCDIR)'); \
+	    [ "$$(cat $@ 2>/dev/null)" = "$$want" ] || printf '%s\n' "$$want" > $@
 $(PCFILE): $(PC_STAMP)
 FORCE:
 

@@ -217,56 +217,55 @@ static int read_text(struct sl_client *c, int id, char *text, struct sl_meta *me
         return 0;
 }
 
-SL_EXPORT int sl_read_double(struct sl_client *c, int id, double *ret, struct sl_meta *meta)
+/*
+ * Reads id's value as a number: strtod (is_double) or base-10 strtol, in the C locale whatever the
+ * program's (strtod follows LC_NUMERIC, and other locales may accept other forms of integers; the
+ * wire has only one). -EDOM when the text is not one whole number, -ERANGE when it overflows.
+ */
+static int read_number(struct sl_client *c, int id, int is_double, double *ret_double,
+                       long *ret_long, struct sl_meta *meta)
 {
         char text[SHM_VALUE_SIZE], *end;
         locale_t old;
-        double v;
-        int r;
+        double d = 0;
+        long l = 0;
+        int r, err;
 
-        if (!ret)
-                return -EINVAL;
         r = read_text(c, id, text, meta);
         if (r < 0)
                 return r;
-        /* strtod follows LC_NUMERIC; the wire always uses '.', whatever the program's locale. */
         old = uselocale(c->c_locale);
         errno = 0;
-        v = strtod(text, &end);
-        r = errno;
+        if (is_double)
+                d = strtod(text, &end);
+        else
+                l = strtol(text, &end, 10);
+        err = errno;
         uselocale(old);
         if (end == text || *end != '\0')
                 return -EDOM;
-        if (r == ERANGE && (v == HUGE_VAL || v == -HUGE_VAL))
+        /* strtod also sets ERANGE on underflow, where its result is still usable */
+        if (err == ERANGE && (!is_double || d == HUGE_VAL || d == -HUGE_VAL))
                 return -ERANGE;
-        *ret = v;
+        if (is_double)
+                *ret_double = d;
+        else
+                *ret_long = l;
         return 0;
+}
+
+SL_EXPORT int sl_read_double(struct sl_client *c, int id, double *ret, struct sl_meta *meta)
+{
+        if (!ret)
+                return -EINVAL;
+        return read_number(c, id, 1, ret, NULL, meta);
 }
 
 SL_EXPORT int sl_read_long(struct sl_client *c, int id, long *ret, struct sl_meta *meta)
 {
-        char text[SHM_VALUE_SIZE], *end;
-        locale_t old;
-        long v;
-        int r;
-
         if (!ret)
                 return -EINVAL;
-        r = read_text(c, id, text, meta);
-        if (r < 0)
-                return r;
-        /* Other locales may accept other forms of integers; the wire has only one. */
-        old = uselocale(c->c_locale);
-        errno = 0;
-        v = strtol(text, &end, 10);
-        r = errno;
-        uselocale(old);
-        if (end == text || *end != '\0')
-                return -EDOM;
-        if (r == ERANGE)
-                return -ERANGE;
-        *ret = v;
-        return 0;
+        return read_number(c, id, 0, NULL, ret, meta);
 }
 
 /* Writes a checked value into the .out slot of id (read lock held). */

@@ -476,8 +476,15 @@ static int exchange_read(struct exchange *x)
         char chunk[REQUEST_READ_CHUNK];
 
         for (;;) {
-                ssize_t n = recv(x->fd, chunk, sizeof(chunk), 0);
+                ssize_t n;
 
+                /* Checked on every chunk, not only when the socket runs dry: a daemon that keeps
+                 * sending never lets recv say EAGAIN. */
+                if (time_left(x->deadline) == 0) {
+                        say(x->reply, x->reply_size, "no complete reply in time");
+                        return -ETIMEDOUT;
+                }
+                n = recv(x->fd, chunk, sizeof(chunk), 0);
                 if (n < 0 && errno == EINTR)
                         continue;
                 if (n < 0 && errno == EAGAIN) {

@@ -12,6 +12,7 @@
 #include <pthread.h>
 #include <setjmp.h>
 #include <stdarg.h>
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -580,6 +581,63 @@ static void test_no_answer(void **state)
         assert_true(reply[0] != '\0');
 }
 
+/* A daemon that never stops answering: every DATA line consumed makes another one arrive, so the
+ * socket is never empty when the client reads. */
+struct flooder {
+        int listen_fd;
+        _Atomic int fd;
+        size_t lines;
+};
+
+static void *flood_accept(void *arg)
+{
+        struct flooder *fl = arg;
+        char ch;
+        int fd = accept(fl->listen_fd, NULL, NULL);
+
+        if (fd < 0)
+                return NULL;
+        while (read(fd, &ch, 1) == 1 && ch != '\n')
+                ;
+        atomic_store(&fl->fd, fd);
+        if (send(fd, "DATA x\n", 7, MSG_NOSIGNAL) != 7)
+                atomic_store(&fl->fd, -1);
+        return NULL;
+}
+
+static int flood_more(const char *text, void *arg)
+{
+        struct flooder *fl = arg;
+        int fd = atomic_load(&fl->fd);
+
+        (void)text;
+        fl->lines++;
+        if (fd >= 0 && send(fd, "DATA x\n", 7, MSG_NOSIGNAL) != 7)
+                return -EIO;
+        return 0;
+}
+
+static void test_reply_flood(void **state)
+{
+        struct fixture *f = *state;
+        struct flooder fl = { .fd = -1 };
+        char reply[REPLY_SIZE];
+        pthread_t th;
+        int fd;
+
+        f->listen_fd = bind_socket(f, 1);
+        fl.listen_fd = f->listen_fd;
+        assert_int_equal(pthread_create(&th, NULL, flood_accept, &fl), 0);
+        /* The deadline holds even though data never stops coming. */
+        assert_int_equal(sl_request(f->c, "ping", SHORT_MS, flood_more, &fl, reply,
+                                    sizeof(reply)), -ETIMEDOUT);
+        pthread_join(th, NULL);
+        assert_true(fl.lines > 0);
+        fd = atomic_load(&fl.fd);
+        if (fd >= 0)
+                close(fd);
+}
+
 static void test_settings(void **state)
 {
         struct fixture *f = *state;
@@ -635,6 +693,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_wire_words, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_not_running, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_no_answer, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_reply_flood, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_settings, setup, teardown),
         };
 

@@ -546,6 +546,25 @@ static void test_events(void **state)
         assert_string_equal(ev[0].text, "keys=3");
         assert_string_equal(ev[0].link_name, "vehicle");
 
+        /* Forged cursors (another run's tag, a number ahead of the ring, all ones): never a
+         * wrap or a bogus loss count: the read restarts at the oldest record and says so. */
+        {
+                const uint64_t tag = now >> 48, mask = (UINT64_C(1) << 48) - 1u;
+                const uint64_t forged[] = { UINT64_MAX, (tag << 48) | mask,
+                                            (tag << 48) | ((now & mask) + 1000u),
+                                            ((tag ^ 1u) << 48) | (now & mask) };
+
+                for (size_t i = 0; i < sizeof(forged) / sizeof(forged[0]); i++) {
+                        uint64_t c = forged[i];
+
+                        assert_int_equal(sl_events_read(f->c, &c, ev, 1), 1);
+                        assert_int_equal(ev[0].seq, 44 - 16 + 1);
+                        assert_int_equal(ev[0].lost, 44 - 16);      /* as from cursor 0 */
+                        assert_int_equal(ev[0].flags & SL_EVENT_RESTARTED, SL_EVENT_RESTARTED);
+                        assert_int_equal(c >> 48, tag);
+                }
+        }
+
         ev[0].size = 8;
         assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), -EINVAL);
         ev[0].size = sizeof(ev[0]);

@@ -12,6 +12,9 @@
 #include "shm/events.h"
 #include "shm/futex.h"
 
+static_assert(SL_EVENT_TEXT_SIZE == SHM_EVENT_TEXT_SIZE,
+              "sl_event.text copies the shm event text whole");
+
 #define NS_PER_MS               1000000ull
 /* Longest single futex sleep: in between, sl_wait checks whether the table was replaced behind
  * its back (normally the replacing daemon wakes it at once; this covers a removed object). */
@@ -111,6 +114,7 @@ static void event_fill(const struct sl_client *c, const struct shm_event_copy *e
                                   sizeof(m->links[e->link].name));
         }
         ev.flags = flags | ((e->flags & SHM_EVENT_TRUNCATED) ? SL_EVENT_TRUNCATED : 0u);
+        /* The public and the shm text sizes are the same by construction (asserted below). */
         memcpy(ev.text, e->text, sizeof(ev.text));
         client_struct_out(ret, &ev, sizeof(ev));
 }

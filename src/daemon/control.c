@@ -505,7 +505,9 @@ static void client_on_event(struct evloop *loop, int fd, unsigned revents, void 
                  * (a command is not cancelled by closing early); only then is a client that is
                  * gone for good (not just half-closed) dropped, orphaning what it sent. */
                 client_process(cl);
-                if (cl->eof && !cl->broken && peer_hung_up(cl->fd))
+                /* POLLHUP without EOF: the input buffer is full behind a pending request and
+                 * cannot be read to EOF; poll reports POLLHUP always, so waiting would spin. */
+                if ((cl->eof || (revents & POLLHUP)) && !cl->broken && peer_hung_up(cl->fd))
                         cl->broken = true;
         }
         client_settle(cl);

@@ -405,7 +405,13 @@ static void client_handle_line(struct control_client *cl, const char *line, size
         }
         memcpy(req->line, line, len);
         req->line[len] = '\0';
-        r = request_split(req, &why);
+        /* A NUL would end the line early for request_split(): "ping\0rm" is not "ping". */
+        if (memchr(req->line, '\0', len)) {
+                why = "request contains a byte outside printable ASCII";
+                r = -EINVAL;
+        } else {
+                r = request_split(req, &why);
+        }
         if (r < 0) {
                 c->stats.bad_requests++;
                 client_send_error(cl, r, why);

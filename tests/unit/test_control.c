@@ -301,6 +301,12 @@ static void test_lines(void **state)
                 exchange(f, &r, line_cases[i].request, 1);
                 assert_string_equal(r.buf, line_cases[i].reply);
         }
+        /* A NUL inside the line (not expressible in the table): refused, not cut short. */
+        r.len = 0;
+        r.buf[0] = '\0';
+        assert_int_equal(send(r.fd, "ping\0rm -x\n", 12, MSG_NOSIGNAL), 12);
+        exchange(f, &r, NULL, 1);
+        assert_string_equal(r.buf, "ERR 22 request contains a byte outside printable ASCII\n");
         close(r.fd);
 }
 

@@ -405,7 +405,13 @@ static void client_handle_line(struct control_client *cl, const char *line, size
         }
         memcpy(req->line, line, len);
         req->line[len] = '\0';
-        r = request_split(req, &why);
+        /* A NUL would end the line early for request_split(): "ping\0rm" is not "ping". */
+        if (memchr(req->line, '\0', len)) {
+                why = "request contains a byte outside printable ASCII";
+                r = -EINVAL;
+        } else {
+                r = request_split(req, &why);
+        }
         if (r < 0) {
                 c->stats.bad_requests++;
                 client_send_error(cl, r, why);
@@ -505,7 +511,9 @@ static void client_on_event(struct evloop *loop, int fd, unsigned revents, void 
                  * (a command is not cancelled by closing early); only then is a client that is
                  * gone for good (not just half-closed) dropped, orphaning what it sent. */
                 client_process(cl);
-                if (cl->eof && !cl->broken && peer_hung_up(cl->fd))
+                /* POLLHUP without EOF: the input buffer is full behind a pending request and
+                 * cannot be read to EOF; poll reports POLLHUP always, so waiting would spin. */
+                if ((cl->eof || (revents & POLLHUP)) && !cl->broken && peer_hung_up(cl->fd))
                         cl->broken = true;
         }
         client_settle(cl);

@@ -422,8 +422,13 @@ static bool reply_add(struct lsl *l, const struct sl_field *fields, size_t n)
         size_t base = FRAME_OVERHEAD + (l->crlf ? CRLF_LEN : 0);
         size_t need = 0;
 
-        for (size_t i = 0; i < n; i++)
+        /* The decoder passes values over SL_VALUE_MAX (a ping's) that the encoder refuses:
+         * taken in, one would make the whole reply frame fail, answers before it included. */
+        for (size_t i = 0; i < n; i++) {
+                if (fields[i].len > SL_VALUE_MAX)
+                        return false;
                 need += 2u + fields[i].len;
+        }
         if (base + need > max)
                 return false;
         if (rp->frame_len + need > max || rp->nfields + n > REPLY_FIELDS_MAX)

@@ -301,6 +301,12 @@ static void test_lines(void **state)
                 exchange(f, &r, line_cases[i].request, 1);
                 assert_string_equal(r.buf, line_cases[i].reply);
         }
+        /* A NUL inside the line (not expressible in the table): refused, not cut short. */
+        r.len = 0;
+        r.buf[0] = '\0';
+        assert_int_equal(send(r.fd, "ping\0rm -x\n", 12, MSG_NOSIGNAL), 12);
+        exchange(f, &r, NULL, 1);
+        assert_string_equal(r.buf, "ERR 22 request contains a byte outside printable ASCII\n");
         close(r.fd);
 }
 
@@ -471,6 +477,30 @@ static void test_overlong(void **state)
         assert_int_equal(st.overlong, 2);
 }
 
+/* A client that fills its input buffer behind a pending request and hangs up: POLLHUP keeps
+ * coming while the full buffer cannot be read, so the client must be dropped (request
+ * orphaned), not polled again and again until the request is answered. */
+static void test_hangup_full_buffer(void **state)
+{
+        struct fixture *f = *state;
+        static char line[CONTROL_LINE_MAX + 2];
+        struct control_stats st;
+        int fd = client_connect(f);
+
+        f->mode = MODE_HOLD;
+        client_send(fd, "wait\n");
+        pump_until(f, held_n, (void *)1);
+        memset(line, 'a', CONTROL_LINE_MAX + 1);
+        client_send(fd, line);
+        close(fd);
+        pump_until(f, orphaned_n, (void *)1);
+        assert_false(control_request_alive(f->held[0]));
+        control_reply_ok(f->held[0], NULL);
+        control_get_stats(f->ctl, &st);
+        assert_int_equal(st.clients, 0);
+        assert_int_equal(st.orphan_answers, 1);
+}
+
 /* A client that does not read its replies is disconnected once CONTROL_REPLY_MAX is queued;
  * the server never blocks on it. */
 static void test_slow_reader(void **state)
@@ -622,6 +652,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_server_freed_first, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_half_close, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_overlong, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_hangup_full_buffer, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_slow_reader, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_clients_max, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_path_taken, setup, teardown),

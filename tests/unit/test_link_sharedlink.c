@@ -1425,6 +1425,18 @@ static void test_query_answers(void **state)
         /* The second link answers on its own wire, from its own address. */
         peer_frame(&fx->peers[1], ":AB|QCmdThrottle");
         expect_frame(wait_frames(fx, 1, 2), ":BA|RCmdThrottle|D55");
+
+        /* A ping value over SL_VALUE_MAX (the decoder passes it) cannot be echoed: counted,
+         * and the answers in the same frame still go out. */
+        bad = ctr(fx, 1, SHM_COUNTER_BAD_VALUE);
+        memset(longname, 'p', SL_VALUE_MAX + 1);
+        longname[SL_VALUE_MAX + 1] = '\0';
+        snprintf(text, sizeof(text), ":AB|P%s|QCmdThrottle", longname);
+        n = fx->peers[1].nrx;
+        peer_frame(&fx->peers[1], text);
+        assert_int_equal(sync_peer(fx, 1, 'B', 'A'), n + 1);
+        expect_frame(fx->peers[1].rx[n].text, ":BA|RCmdThrottle|D55");
+        assert_int_equal(ctr(fx, 1, SHM_COUNTER_BAD_VALUE) - bad, 1);
 }
 
 /* R|D from the peer: into the inbound variable, else an ad hoc one, bounded. */

@@ -2,8 +2,8 @@
  * SharedLink link engine (see link_sharedlink.h for the behaviour it promises).
  *
  * Data flows one way through each path (DESIGN.md §1):
- *     channel bytes -> sl_decoder -> frame_apply() -> shm_table_begin/set/commit, events, counters
- *     client write -> core's outbound scan -> lsl_outbound() -> sl_encode_list -> channel_send
+ *     channel bytes -> slp_decoder -> frame_apply() -> shm_table_begin/set/commit, events, counters
+ *     client write -> core's outbound scan -> lsl_outbound() -> slp_encode_list -> channel_send
  *     control "query" -> lsl_command() -> Q frame ... R|D frame -> control_reply_ok()
  *
  * Timers, all per peer and armed only while they have something to do, so an idle link with no
@@ -14,6 +14,7 @@
  */
 #include "daemon/link_sharedlink.h"
 
+#include <assert.h>
 #include <errno.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -29,15 +30,18 @@
 #define CRLF_LEN                2
 /* "[:AB" + "|C" + two hex digits + "]": a frame without fields. */
 #define FRAME_OVERHEAD          9
-#define REPLY_FIELDS_MAX        (SL_FRAME_MAX / 2)
+#define REPLY_FIELDS_MAX        (SLP_FRAME_MAX / 2)
 #define STATUS_MAX              (CHANNEL_REASON_MAX + 16)
-#define ADHOC_NAME_SIZE         (SL_VALUE_MAX + SHM_LINK_NAME_SIZE + 8)
+#define ADHOC_NAME_SIZE         (SLP_VALUE_MAX + SHM_LINK_NAME_SIZE + 8)
+/* A value the codec emits must fit a slot, and a slot's value must be sendable. */
+static_assert(SLP_VALUE_MAX == SHM_VALUE_MAX, "codec and shm agree on the longest value");
+
 #define WAIT_PREFIX             "wait="
 #define QUERY_ARGC_MIN          4       /* query LINK PEER NAME */
 #define QUERY_ARGC_MAX          5       /* ... TIMEOUT_MS */
 
 /* Node address letters as strings, for the directory's peer field (must outlive the config). */
-static const char *const addr_names[SL_ADDR_COUNT] = {
+static const char *const addr_names[SLP_ADDR_COUNT] = {
         "A", "B", "C", "D", "E", "F", "G", "H", "I", "J", "K", "L", "M", "N", "O", "P",
 };
 
@@ -52,7 +56,7 @@ struct lsl_peer {
         size_t n_out;
         uint32_t *out_ids;
         char (*out_values)[SHM_VALUE_SIZE];     /* last value a client wrote, "" before */
-        const char **out_ptrs;                  /* out_values[k], for struct sl_list */
+        const char **out_ptrs;                  /* out_values[k], for struct slp_list */
         bool *out_dirty;                        /* written (or never sent) since last sent */
 
         size_t n_in;
@@ -96,9 +100,9 @@ struct lsl_query {
 /* Answers and pongs to one received frame, packed into frames of the peer's max_frame. */
 struct lsl_reply {
         struct lsl_peer *peer;
-        struct sl_field fields[REPLY_FIELDS_MAX];
+        struct slp_field fields[REPLY_FIELDS_MAX];
         size_t nfields;
-        char text[SL_FRAME_MAX];                /* copies of the field values */
+        char text[SLP_FRAME_MAX];               /* copies of the field values */
         size_t text_used;
         size_t frame_len;                       /* encoded length of fields[0..nfields) */
 };
@@ -116,7 +120,7 @@ struct lsl {
 
         struct lsl_peer peers[CONFIG_PEERS_MAX];
         unsigned n_peers;
-        int peer_of_addr[SL_ADDR_COUNT];        /* peer index, -1 when not a peer */
+        int peer_of_addr[SLP_ADDR_COUNT];       /* peer index, -1 when not a peer */
 
         struct lsl_outref *outrefs;
         size_t n_outrefs;
@@ -128,8 +132,8 @@ struct lsl {
 
         struct log_ratelimit rl;
         struct lsl_reply reply;
-        char txbuf[SL_FRAME_MAX];
-        struct sl_decoder dec;                  /* about 40 KiB: the engine lives on the heap */
+        char txbuf[SLP_FRAME_MAX];
+        struct slp_decoder dec;                 /* about 40 KiB: the engine lives on the heap */
 };
 
 static void count(struct lsl *l, enum shm_counter c, uint64_t n)
@@ -234,7 +238,7 @@ static int send_frame(struct lsl *l, const char *buf, size_t len)
 static int peer_send_range(struct lsl *l, struct lsl_peer *p, size_t first, size_t end,
                            bool full)
 {
-        struct sl_list list = {
+        struct slp_list list = {
                 .dst = p->cfg->address,
                 .src = l->addr,
                 .values = p->out_ptrs,
@@ -250,7 +254,7 @@ static int peer_send_range(struct lsl *l, struct lsl_peer *p, size_t first, size
 
         while (cursor < end) {
                 size_t start = cursor;
-                int n = sl_encode_list(&list, &cursor, l->txbuf, sizeof(l->txbuf));
+                int n = slp_encode_list(&list, &cursor, l->txbuf, sizeof(l->txbuf));
 
                 if (n == 0)
                         break;
@@ -405,8 +409,8 @@ static void reply_flush(struct lsl *l)
 
         if (rp->nfields == 0)
                 return;
-        n = sl_frame_encode(l->txbuf, sizeof(l->txbuf), rp->peer->cfg->address, l->addr,
-                            rp->fields, rp->nfields, l->crlf ? SL_ENCODE_CRLF : 0);
+        n = slp_frame_encode(l->txbuf, sizeof(l->txbuf), rp->peer->cfg->address, l->addr,
+                             rp->fields, rp->nfields, l->crlf ? SLP_ENCODE_CRLF : 0);
         if (n > 0)
                 send_frame(l, l->txbuf, (size_t)n);
         else
@@ -415,17 +419,17 @@ static void reply_flush(struct lsl *l)
 }
 
 /* Adds fields that must travel in one frame (R and its D); false if they can never fit. */
-static bool reply_add(struct lsl *l, const struct sl_field *fields, size_t n)
+static bool reply_add(struct lsl *l, const struct slp_field *fields, size_t n)
 {
         struct lsl_reply *rp = &l->reply;
         size_t max = rp->peer->cfg->max_frame;
         size_t base = FRAME_OVERHEAD + (l->crlf ? CRLF_LEN : 0);
         size_t need = 0;
 
-        /* The decoder passes values over SL_VALUE_MAX (a ping's) that the encoder refuses:
+        /* The decoder passes values over SLP_VALUE_MAX (a ping's) that the encoder refuses:
          * taken in, one would make the whole reply frame fail, answers before it included. */
         for (size_t i = 0; i < n; i++) {
-                if (fields[i].len > SL_VALUE_MAX)
+                if (fields[i].len > SLP_VALUE_MAX)
                         return false;
                 need += 2u + fields[i].len;
         }
@@ -434,7 +438,7 @@ static bool reply_add(struct lsl *l, const struct sl_field *fields, size_t n)
         if (rp->frame_len + need > max || rp->nfields + n > REPLY_FIELDS_MAX)
                 reply_flush(l);
         for (size_t i = 0; i < n; i++) {
-                struct sl_field *f = &rp->fields[rp->nfields++];
+                struct slp_field *f = &rp->fields[rp->nfields++];
 
                 /* text_used <= frame_len <= max_frame <= sizeof(text): the copies fit. */
                 memcpy(rp->text + rp->text_used, fields[i].value, fields[i].len);
@@ -470,8 +474,8 @@ static void query_send(struct lsl *l, struct lsl_query *q)
         char why[64];
         int n, r;
 
-        n = sl_encode_query(l->txbuf, sizeof(l->txbuf), q->peer->cfg->address, l->addr, q->name,
-                            l->crlf ? SL_ENCODE_CRLF : 0);
+        n = slp_encode_query(l->txbuf, sizeof(l->txbuf), q->peer->cfg->address, l->addr, q->name,
+                             l->crlf ? SLP_ENCODE_CRLF : 0);
         r = n < 0 ? n : send_frame(l, l->txbuf, (size_t)n);
         if (r < 0) {
                 snprintf(why, sizeof(why), "cannot send the query: %s", strerror(-r));
@@ -600,7 +604,7 @@ static void lsl_command(void *engine, struct control_request *req, int argc, cha
                                     "usage: query LINK PEER NAME [TIMEOUT_MS] [wait=MS]");
                 return;
         }
-        pi = strlen(argv[2]) == 1 && argv[2][0] >= 'A' && argv[2][0] < 'A' + SL_ADDR_COUNT ?
+        pi = strlen(argv[2]) == 1 && argv[2][0] >= 'A' && argv[2][0] < 'A' + SLP_ADDR_COUNT ?
              l->peer_of_addr[argv[2][0] - 'A'] : -1;
         if (pi < 0) {
                 control_reply_error(req, EINVAL, "%s is not a peer of link %s", argv[2],
@@ -705,14 +709,14 @@ static int adhoc_id(struct lsl *l, struct lsl_peer *p, const char *name)
 }
 
 /* R<name>|D<value> from p. */
-static void answer_in(struct lsl *l, struct lsl_peer *p, const struct sl_field *r,
-                      const struct sl_field *d)
+static void answer_in(struct lsl *l, struct lsl_peer *p, const struct slp_field *r,
+                      const struct slp_field *d)
 {
-        char name[SL_VALUE_MAX + 1], value[SL_VALUE_MAX + 1];
+        char name[SLP_VALUE_MAX + 1], value[SLP_VALUE_MAX + 1];
         int id;
 
         count(l, SHM_COUNTER_ANSWERS_IN, 1);
-        if (r->len > SL_VALUE_MAX || d->len > SL_VALUE_MAX) {
+        if (r->len > SLP_VALUE_MAX || d->len > SLP_VALUE_MAX) {
                 count(l, SHM_COUNTER_BAD_VALUE, 1);
                 return;
         }
@@ -732,15 +736,15 @@ static void answer_in(struct lsl *l, struct lsl_peer *p, const struct sl_field *
 }
 
 /* Q<name> from p: answer R<name>|D<value>. */
-static void query_in(struct lsl *l, const struct sl_field *q)
+static void query_in(struct lsl *l, const struct slp_field *q)
 {
-        char name[SL_VALUE_MAX + 1], value[SHM_VALUE_SIZE];
-        struct sl_field pair[2];
+        char name[SLP_VALUE_MAX + 1], value[SHM_VALUE_SIZE];
+        struct slp_field pair[2];
         uint32_t flags = 0;
         int id, n = 0;
 
         count(l, SHM_COUNTER_QUERIES_IN, 1);
-        if (q->len > SL_VALUE_MAX) {
+        if (q->len > SLP_VALUE_MAX) {
                 count(l, SHM_COUNTER_BAD_VALUE, 1);
                 return;
         }
@@ -752,8 +756,8 @@ static void query_in(struct lsl *l, const struct sl_field *q)
         if (n < 0 || !(flags & SHM_SLOT_VALID))
                 n = 0;
         value[n] = '\0';
-        pair[0] = (struct sl_field){ .letter = 'R', .value = q->value, .len = q->len };
-        pair[1] = (struct sl_field){ .letter = 'D', .value = value, .len = (uint16_t)n };
+        pair[0] = (struct slp_field){ .letter = 'R', .value = q->value, .len = q->len };
+        pair[1] = (struct slp_field){ .letter = 'D', .value = value, .len = (uint16_t)n };
         if (reply_add(l, pair, 2))
                 count(l, SHM_COUNTER_ANSWERS_OUT, 1);
         else
@@ -761,7 +765,7 @@ static void query_in(struct lsl *l, const struct sl_field *q)
 }
 
 /* A positional D for position pos of p's list. */
-static void data_in(struct lsl *l, struct lsl_peer *p, uint32_t pos, const struct sl_field *d)
+static void data_in(struct lsl *l, struct lsl_peer *p, uint32_t pos, const struct slp_field *d)
 {
         if (pos >= p->n_in) {
                 /* Decision: dropped and counted; the rest of the frame still applies. */
@@ -782,24 +786,24 @@ enum next_data {
 };
 
 /* Walks the fields of a frame from p (see link_sharedlink.h for the meaning of each). */
-static void fields_apply(struct lsl *l, struct lsl_peer *p, const struct sl_frame *f)
+static void fields_apply(struct lsl *l, struct lsl_peer *p, const struct slp_frame *f)
 {
         enum next_data next = NEXT_POSITION;
-        const struct sl_field *answer = NULL;
+        const struct slp_field *answer = NULL;
         bool pos_valid = true, decl = false;
         uint32_t pos = 0;      /* Decision: a D with no preceding N starts at position 0 */
 
         for (size_t i = 0; i < f->nfields; i++) {
-                const struct sl_field *fl = &f->fields[i];
+                const struct slp_field *fl = &f->fields[i];
                 bool after_type = decl;
 
-                if (fl->type == SL_FIELD_D) {
+                if (fl->type == SLP_FIELD_D) {
                         if (next == NEXT_ANSWER) {
                                 answer_in(l, p, answer, fl);
                         } else if (next == NEXT_POSITION) {
                                 if (pos_valid) {
                                         data_in(l, p, pos, fl);
-                                        if (pos < SL_INDEX_MAX)
+                                        if (pos < SLP_INDEX_MAX)
                                                 pos++;
                                 } else {
                                         count(l, SHM_COUNTER_UNKNOWN_FIELD, 1);
@@ -814,15 +818,15 @@ static void fields_apply(struct lsl *l, struct lsl_peer *p, const struct sl_fram
                 next = NEXT_POSITION;
                 decl = false;
                 switch (fl->type) {
-                case SL_FIELD_N:
+                case SLP_FIELD_N:
                         /* Decision: several N fields are accepted; each resets the position. */
-                        pos_valid = fl->index != SL_INDEX_QUERY;
+                        pos_valid = fl->index != SLP_INDEX_QUERY;
                         if (pos_valid)
                                 pos = fl->index;
                         else
                                 count(l, SHM_COUNTER_UNKNOWN_FIELD, 1);         /* "N?" */
                         break;
-                case SL_FIELD_Q:
+                case SLP_FIELD_Q:
                         if (after_type) {
                                 /* Pronto4 declaration "T<n>|Q<name>[|D<v>]": not a query. */
                                 count(l, SHM_COUNTER_UNKNOWN_FIELD, 1);
@@ -831,27 +835,27 @@ static void fields_apply(struct lsl *l, struct lsl_peer *p, const struct sl_fram
                                 query_in(l, fl);
                         }
                         break;
-                case SL_FIELD_R:
+                case SLP_FIELD_R:
                         next = NEXT_ANSWER;
                         answer = fl;
                         break;
-                case SL_FIELD_P:
+                case SLP_FIELD_P:
                         /* Ping: pong with the same value ("P0" -> "G0"). */
-                        if (!reply_add(l, &(struct sl_field){ .letter = 'G', .value = fl->value,
+                        if (!reply_add(l, &(struct slp_field){ .letter = 'G', .value = fl->value,
                                                               .len = fl->len }, 1))
                                 count(l, SHM_COUNTER_BAD_VALUE, 1);
                         break;
-                case SL_FIELD_G:
+                case SLP_FIELD_G:
                         break;          /* a pong: the frame itself shows the peer is alive */
-                case SL_FIELD_T:
+                case SLP_FIELD_T:
                         count(l, SHM_COUNTER_UNKNOWN_FIELD, 1);
                         decl = true;
                         break;
-                case SL_FIELD_L:
+                case SLP_FIELD_L:
                         count(l, SHM_COUNTER_UNKNOWN_FIELD, 1);
                         pos_valid = false;
                         break;
-                case SL_FIELD_E:
+                case SLP_FIELD_E:
                         count(l, SHM_COUNTER_UNKNOWN_FIELD, 1);
                         next = NEXT_SKIP;
                         break;
@@ -865,7 +869,7 @@ static void fields_apply(struct lsl *l, struct lsl_peer *p, const struct sl_fram
                 count(l, SHM_COUNTER_BAD_FIELD, 1);
 }
 
-static void frame_apply(struct lsl *l, const struct sl_frame *f)
+static void frame_apply(struct lsl *l, const struct slp_frame *f)
 {
         struct lsl_peer *p;
         int pi;
@@ -896,69 +900,69 @@ static void frame_apply(struct lsl *l, const struct sl_frame *f)
         reply_flush(l);
 }
 
-static void result_count(struct lsl *l, const struct sl_decode_result *r)
+static void result_count(struct lsl *l, const struct slp_decode_result *r)
 {
         enum shm_counter c;
         uint64_t n = 1;
 
         switch (r->reason) {
-        case SL_REASON_NOISE:
+        case SLP_REASON_NOISE:
                 c = SHM_COUNTER_NOISE_BYTES;
                 n = r->bytes;
                 break;
-        case SL_REASON_RESYNC:
-        case SL_REASON_TRUNCATED:
+        case SLP_REASON_RESYNC:
+        case SLP_REASON_TRUNCATED:
                 c = SHM_COUNTER_RESYNC;
                 break;
-        case SL_REASON_OVERLONG:
+        case SLP_REASON_OVERLONG:
                 c = SHM_COUNTER_OVERLONG;
                 break;
-        case SL_REASON_NO_CHECKSUM:
-        case SL_REASON_BAD_CHECKSUM_SYNTAX:
-        case SL_REASON_BAD_CHECKSUM:
+        case SLP_REASON_NO_CHECKSUM:
+        case SLP_REASON_BAD_CHECKSUM_SYNTAX:
+        case SLP_REASON_BAD_CHECKSUM:
                 c = SHM_COUNTER_BAD_CHECKSUM;
                 break;
-        case SL_REASON_BAD_HEADER:
+        case SLP_REASON_BAD_HEADER:
                 c = SHM_COUNTER_BAD_HEADER;
                 break;
-        case SL_REASON_BAD_ADDRESS:
+        case SLP_REASON_BAD_ADDRESS:
                 c = SHM_COUNTER_BAD_ADDRESS;
                 break;
-        case SL_REASON_BAD_FIELD:
-        case SL_REASON_NO_FIELDS:
+        case SLP_REASON_BAD_FIELD:
+        case SLP_REASON_NO_FIELDS:
         default:
                 c = SHM_COUNTER_BAD_FIELD;
                 break;
         }
         count(l, c, n);
-        if (r->reason != SL_REASON_NOISE)
+        if (r->reason != SLP_REASON_NOISE)
                 log_ratelimited(&l->rl, LOG_PRIO_DEBUG, "link %s: dropped %zu bytes: %s",
-                                l->cfg->name, r->bytes, sl_decode_reason_str(r->reason));
+                                l->cfg->name, r->bytes, slp_decode_reason_str(r->reason));
 }
 
-static void handle_result(struct lsl *l, const struct sl_decode_result *r)
+static void handle_result(struct lsl *l, const struct slp_decode_result *r)
 {
-        if (r->kind == SL_RESULT_FRAME)
+        if (r->kind == SLP_RESULT_FRAME)
                 frame_apply(l, r->frame);
-        else if (r->kind == SL_RESULT_REJECT)
+        else if (r->kind == SLP_RESULT_REJECT)
                 result_count(l, r);
 }
 
 static void on_input(struct channel *ch, const uint8_t *data, size_t len, void *arg)
 {
         struct lsl *l = arg;
-        struct sl_decode_result r;
+        struct slp_decode_result r;
 
         (void)ch;
         while (len > 0) {
-                size_t n = sl_decoder_feed(&l->dec, data, len, &r);
+                size_t n = slp_decoder_feed(&l->dec, data, len, &r);
 
                 data += n;
                 len -= n;
                 handle_result(l, &r);
         }
         /* A datagram carries whole frames: a partial one at its end is dropped (PROTOCOLS 1.4). */
-        if (l->datagram && sl_decoder_end(&l->dec, &r))
+        if (l->datagram && slp_decoder_end(&l->dec, &r))
                 handle_result(l, &r);
         link_publish_channel_stats(&l->env, l->ch);
 }
@@ -978,7 +982,7 @@ static void peers_stop_timers(struct lsl *l)
 static void link_up(struct lsl *l)
 {
         log_info("link %s: up (%s)", l->cfg->name, channel_device(l->ch));
-        sl_decoder_reset(&l->dec);
+        slp_decoder_reset(&l->dec);
         state_set(l, LINK_SHAREDLINK_STATE_UP, NULL);
         for (unsigned i = 0; i < l->n_peers; i++) {
                 struct lsl_peer *p = &l->peers[i];
@@ -1050,7 +1054,7 @@ static int lsl_declare(const struct config_link *cfg, uint32_t link_index, struc
         for (unsigned i = 0; i < sl->n_peers; i++) {
                 char a = sl->peers[i].address;
 
-                if (a < 'A' || a >= 'A' + SL_ADDR_COUNT)
+                if (a < 'A' || a >= 'A' + SLP_ADDR_COUNT)
                         return -EINVAL;
                 need += (size_t)sl->peers[i].n_outbound + sl->peers[i].n_inbound;
         }
@@ -1188,7 +1192,7 @@ static int lsl_create(const struct link_env *env, void **ret_engine)
                 .input = on_input,
         };
         const struct config_link *cfg = env->cfg;
-        size_t max_frame = SL_FRAME_MIN;
+        size_t max_frame = SLP_FRAME_MIN;
         struct lsl *l;
         int r;
 
@@ -1206,7 +1210,7 @@ static int lsl_create(const struct link_env *env, void **ret_engine)
         l->state = LINK_SHAREDLINK_STATE_CONNECTING;
         snprintf(l->status, sizeof(l->status), "%s", state_word(l->state));
         log_ratelimit_init(&l->rl, cfg->name, LOG_RATELIMIT_INTERVAL_MS, LOG_RATELIMIT_BURST);
-        for (unsigned i = 0; i < SL_ADDR_COUNT; i++)
+        for (unsigned i = 0; i < SLP_ADDR_COUNT; i++)
                 l->peer_of_addr[i] = -1;
         for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++) {
                 l->queries[i].link = l;
@@ -1220,12 +1224,12 @@ static int lsl_create(const struct link_env *env, void **ret_engine)
                 if (cfg->sl.peers[i].max_frame > max_frame)
                         max_frame = cfg->sl.peers[i].max_frame;
         }
-        if (max_frame > SL_FRAME_MAX)
-                max_frame = SL_FRAME_MAX;
+        if (max_frame > SLP_FRAME_MAX)
+                max_frame = SLP_FRAME_MAX;
         r = outrefs_init(l);
         if (r < 0)
                 goto fail;
-        r = sl_decoder_init(&l->dec, max_frame);
+        r = slp_decoder_init(&l->dec, max_frame);
         if (r < 0)
                 goto fail;
         r = link_channel_new(env, &ch_ops, l, &l->ch);

@@ -6,7 +6,7 @@
  * Behaviour, beyond what PROTOCOLS.md fixes (these are the engine's decisions):
  *
  * Sending, per peer
- *   - Every period_ms (0: never) the whole outbound list goes out, split by sl_encode_list() into
+ *   - Every period_ms (0: never) the whole outbound list goes out, split by slp_encode_list() into
  *     frames of at most max_frame bytes (CR LF included on byte streams; UDP frames carry no CR
  *     LF). With compression, a position goes as an empty D unless a client wrote it since it was
  *     last sent to this peer; every refresh_ms / period_ms periods (at least 1) the list goes

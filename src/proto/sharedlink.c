@@ -17,8 +17,8 @@
  *
  *      IDLE   (len == 0)   Between frames. '[' starts a frame (-> FRAME). CR and LF are whitespace
  *                          in any order. Every other byte is noise: counted, and reported as one
- *                          NOISE result per run, when the next '[' arrives, at sl_decoder_end(),
- *                          or every SL_NOISE_RUN_MAX bytes so a garbage-only link still shows.
+ *                          NOISE result per run, when the next '[' arrives, at slp_decoder_end(),
+ *                          or every SLP_NOISE_RUN_MAX bytes so a garbage-only link still shows.
  *      FRAME  (len >= 1)   Copying the frame into d->buf, starting with its '['.
  *                          ']'  -> validate the whole frame -> FRAME or REJECT result; -> IDLE.
  *                          '['  -> RESYNC result for the partial frame; the new '[' starts a new
@@ -48,15 +48,15 @@
 #define SL_PRINT_MIN    0x20
 #define SL_PRINT_MAX    0x7e
 
-_Static_assert(SL_FRAME_MIN <= SL_FRAME_DEFAULT && SL_FRAME_DEFAULT <= SL_FRAME_MAX,
+_Static_assert(SLP_FRAME_MIN <= SLP_FRAME_DEFAULT && SLP_FRAME_DEFAULT <= SLP_FRAME_MAX,
                "frame limits out of order");
-_Static_assert(SL_FRAME_MAX <= UINT16_MAX, "sl_field.len is 16 bits");
+_Static_assert(SLP_FRAME_MAX <= UINT16_MAX, "slp_field.len is 16 bits");
 
 static const char sl_hex_upper[] = "0123456789ABCDEF";
 
 static bool is_addr(char c)
 {
-        return c >= 'A' && c < 'A' + SL_ADDR_COUNT;
+        return c >= 'A' && c < 'A' + SLP_ADDR_COUNT;
 }
 
 static bool is_type_letter(char c)
@@ -81,35 +81,35 @@ static bool is_value_byte(unsigned char c)
         return c >= SL_PRINT_MIN && c <= SL_PRINT_MAX && c != '|' && c != '[' && c != ']';
 }
 
-enum sl_field_type sl_field_type_of(char letter)
+enum slp_field_type slp_field_type_of(char letter)
 {
         switch (letter) {
         case 'N': case 'D': case 'Q': case 'R': case 'T':
         case 'L': case 'P': case 'G': case 'E': case 'C':
-                return (enum sl_field_type)letter;
+                return (enum slp_field_type)letter;
         default:
-                return SL_FIELD_UNKNOWN;
+                return SLP_FIELD_UNKNOWN;
         }
 }
 
-const char *sl_decode_reason_str(enum sl_decode_reason reason)
+const char *slp_decode_reason_str(enum slp_decode_reason reason)
 {
         switch (reason) {
-        case SL_REASON_NONE:                    return "none";
-        case SL_REASON_NOISE:                   return "noise";
-        case SL_REASON_RESYNC:                  return "resync";
-        case SL_REASON_OVERLONG:                return "overlong frame";
-        case SL_REASON_TRUNCATED:               return "truncated frame";
-        case SL_REASON_NO_CHECKSUM:             return "missing checksum";
-        case SL_REASON_BAD_CHECKSUM_SYNTAX:     return "malformed checksum";
-        case SL_REASON_BAD_CHECKSUM:            return "bad checksum";
-        case SL_REASON_BAD_HEADER:              return "bad header";
-        case SL_REASON_BAD_ADDRESS:             return "bad address";
-        case SL_REASON_BAD_FIELD:               return "bad field";
-        case SL_REASON_NO_FIELDS:               return "no fields";
-        case SL_REASON_UNKNOWN_FIELD:           return "unknown field type";
-        case SL_REASON_EMPTY_FIELD:             return "empty field";
-        case SL_REASON_COUNT:                   break;
+        case SLP_REASON_NONE:                    return "none";
+        case SLP_REASON_NOISE:                   return "noise";
+        case SLP_REASON_RESYNC:                  return "resync";
+        case SLP_REASON_OVERLONG:                return "overlong frame";
+        case SLP_REASON_TRUNCATED:               return "truncated frame";
+        case SLP_REASON_NO_CHECKSUM:             return "missing checksum";
+        case SLP_REASON_BAD_CHECKSUM_SYNTAX:     return "malformed checksum";
+        case SLP_REASON_BAD_CHECKSUM:            return "bad checksum";
+        case SLP_REASON_BAD_HEADER:              return "bad header";
+        case SLP_REASON_BAD_ADDRESS:             return "bad address";
+        case SLP_REASON_BAD_FIELD:               return "bad field";
+        case SLP_REASON_NO_FIELDS:               return "no fields";
+        case SLP_REASON_UNKNOWN_FIELD:           return "unknown field type";
+        case SLP_REASON_EMPTY_FIELD:             return "empty field";
+        case SLP_REASON_COUNT:                   break;
         }
         return "unknown reason";
 }
@@ -117,11 +117,11 @@ const char *sl_decode_reason_str(enum sl_decode_reason reason)
 /* ---------------------------------------------------------------------------------------------
  * Decoder */
 
-int sl_decoder_init(struct sl_decoder *d, size_t max_frame)
+int slp_decoder_init(struct slp_decoder *d, size_t max_frame)
 {
         if (max_frame == 0)
-                max_frame = SL_FRAME_DEFAULT;
-        if (max_frame < SL_FRAME_MIN || max_frame > SL_FRAME_MAX)
+                max_frame = SLP_FRAME_DEFAULT;
+        if (max_frame < SLP_FRAME_MIN || max_frame > SLP_FRAME_MAX)
                 return -EINVAL;
         memset(&d->frame, 0, sizeof(d->frame));
         d->max_frame = max_frame;
@@ -130,15 +130,15 @@ int sl_decoder_init(struct sl_decoder *d, size_t max_frame)
         return 0;
 }
 
-void sl_decoder_reset(struct sl_decoder *d)
+void slp_decoder_reset(struct slp_decoder *d)
 {
         d->len = 0;
         d->noise = 0;
 }
 
-static void result_reject(struct sl_decode_result *r, enum sl_decode_reason reason, size_t bytes)
+static void result_reject(struct slp_decode_result *r, enum slp_decode_reason reason, size_t bytes)
 {
-        r->kind = SL_RESULT_REJECT;
+        r->kind = SLP_RESULT_REJECT;
         r->reason = reason;
         r->bytes = bytes;
         r->frame = NULL;
@@ -146,7 +146,7 @@ static void result_reject(struct sl_decode_result *r, enum sl_decode_reason reas
 
 /*
  * N and L values: "?" (Pronto4: ask for the list) or decimal digits. Positions beyond
- * SL_INDEX_MAX saturate: they are beyond any list, which the engine counts as a list mismatch
+ * SLP_INDEX_MAX saturate: they are beyond any list, which the engine counts as a list mismatch
  * (Decision: the rest of the frame still applies), so they must not kill the frame here.
  */
 static bool parse_index(const char *v, size_t len, uint32_t *ret_index)
@@ -154,7 +154,7 @@ static bool parse_index(const char *v, size_t len, uint32_t *ret_index)
         uint64_t k = 0;
 
         if (len == 1 && v[0] == '?') {
-                *ret_index = SL_INDEX_QUERY;
+                *ret_index = SLP_INDEX_QUERY;
                 return true;
         }
         if (len == 0)
@@ -163,45 +163,45 @@ static bool parse_index(const char *v, size_t len, uint32_t *ret_index)
                 if (v[i] < '0' || v[i] > '9')
                         return false;
                 k = k * 10 + (uint64_t)(v[i] - '0');
-                if (k > SL_INDEX_MAX)
-                        k = SL_INDEX_MAX;
+                if (k > SLP_INDEX_MAX)
+                        k = SLP_INDEX_MAX;
         }
         *ret_index = (uint32_t)k;
         return true;
 }
 
 /* Checksum field b[lp+1 .. m): "C" and one or two hex digits, whose value goes to *ret_want. */
-static enum sl_decode_reason parse_checksum(const char *b, size_t m, size_t lp, unsigned *ret_want)
+static enum slp_decode_reason parse_checksum(const char *b, size_t m, size_t lp, unsigned *ret_want)
 {
         const char *f = b + lp + 1;
         size_t flen = m - lp - 1;
         unsigned want = 0;
 
         if (flen == 0 || f[0] != 'C')
-                return SL_REASON_NO_CHECKSUM;
-        if (flen < 2 || flen > SL_CHECKSUM_FIELD_MAX)
-                return SL_REASON_BAD_CHECKSUM_SYNTAX;
+                return SLP_REASON_NO_CHECKSUM;
+        if (flen < 2 || flen > SLP_CHECKSUM_FIELD_MAX)
+                return SLP_REASON_BAD_CHECKSUM_SYNTAX;
         for (size_t i = 1; i < flen; i++) {
                 int h = hex_value(f[i]);
                 if (h < 0)
-                        return SL_REASON_BAD_CHECKSUM_SYNTAX;
+                        return SLP_REASON_BAD_CHECKSUM_SYNTAX;
                 want = want * 16 + (unsigned)h;
         }
         *ret_want = want;
-        return SL_REASON_NONE;
+        return SLP_REASON_NONE;
 }
 
 /* Header ":" dst src "|"; b[lp] is the '|' before the checksum, so b[0 .. lp] is readable. */
-static enum sl_decode_reason check_header(const char *b, size_t lp)
+static enum slp_decode_reason check_header(const char *b, size_t lp)
 {
         if (b[0] != ':')
-                return SL_REASON_BAD_HEADER;
+                return SLP_REASON_BAD_HEADER;
         for (size_t i = 1; i <= 2; i++)
                 if (i >= lp || !is_addr(b[i]))
-                        return SL_REASON_BAD_ADDRESS;
+                        return SLP_REASON_BAD_ADDRESS;
         if (b[3] != '|')
-                return SL_REASON_BAD_HEADER;
-        return SL_REASON_NONE;
+                return SLP_REASON_BAD_HEADER;
+        return SLP_REASON_NONE;
 }
 
 /*
@@ -297,41 +297,42 @@ static unsigned scan_body(uint64_t *bars, const char *b, size_t n, bool *ret_pri
 }
 
 /* Stores the field b[pos .. end) (type letter and value) in d->fields, or says why it is bad. */
-static enum sl_decode_reason add_field(struct sl_decoder *d, const char *b, size_t pos, size_t end)
+static enum slp_decode_reason add_field(struct slp_decoder *d, const char *b, size_t pos,
+                                        size_t end)
 {
-        struct sl_frame *f = &d->frame;
-        struct sl_field *fl;
+        struct slp_frame *f = &d->frame;
+        struct slp_field *fl;
 
         if (end == pos) {
                 /* Field practice: "N0||D1" is seen in the field; skip and count. */
                 f->empty_fields++;
-                return SL_REASON_NONE;
+                return SLP_REASON_NONE;
         }
         /* The checksum is always the last field; one earlier is not a checksum. */
         if (!is_type_letter(b[pos]) || b[pos] == 'C')
-                return SL_REASON_BAD_FIELD;
-        /* Cannot trigger: each stored field takes >= 2 bytes of a <= SL_FRAME_MAX frame. */
-        if (f->nfields >= SL_FIELDS_MAX)
-                return SL_REASON_BAD_FIELD;
+                return SLP_REASON_BAD_FIELD;
+        /* Cannot trigger: each stored field takes >= 2 bytes of a <= SLP_FRAME_MAX frame. */
+        if (f->nfields >= SLP_FIELDS_MAX)
+                return SLP_REASON_BAD_FIELD;
         fl = &d->fields[f->nfields];
         fl->letter = b[pos];
-        fl->type = (uint8_t)sl_field_type_of(b[pos]);
+        fl->type = (uint8_t)slp_field_type_of(b[pos]);
         fl->value = b + pos + 1;
         fl->len = (uint16_t)(end - pos - 1);
         fl->index = 0;
-        if (fl->type == SL_FIELD_N || fl->type == SL_FIELD_L) {
+        if (fl->type == SLP_FIELD_N || fl->type == SLP_FIELD_L) {
                 if (!parse_index(fl->value, fl->len, &fl->index))
-                        return SL_REASON_BAD_FIELD;
-        } else if (fl->type == SL_FIELD_UNKNOWN) {
+                        return SLP_REASON_BAD_FIELD;
+        } else if (fl->type == SLP_FIELD_UNKNOWN) {
                 /* Decision: unknown types are skipped by the engine, never fatal. */
                 f->unknown_fields++;
         }
         f->nfields++;
-        return SL_REASON_NONE;
+        return SLP_REASON_NONE;
 }
 
 /* Splits b[SL_HEADER_LEN .. lp) into fields at the '|' marked in d->bars; b[lp] is the last. */
-static enum sl_decode_reason split_fields(struct sl_decoder *d, const char *b, size_t lp)
+static enum slp_decode_reason split_fields(struct slp_decoder *d, const char *b, size_t lp)
 {
         size_t pos = SL_HEADER_LEN;
 
@@ -342,23 +343,23 @@ static enum sl_decode_reason split_fields(struct sl_decoder *d, const char *b, s
                         bits &= ~0ull << SL_HEADER_LEN;         /* the header's own '|' */
                 for (; bits != 0 && pos <= lp; bits &= bits - 1) {
                         size_t end = w * 64 + (size_t)__builtin_ctzll(bits);
-                        enum sl_decode_reason r = add_field(d, b, pos, end);
+                        enum slp_decode_reason r = add_field(d, b, pos, end);
 
-                        if (r != SL_REASON_NONE)
+                        if (r != SLP_REASON_NONE)
                                 return r;
                         pos = end + 1;
                 }
         }
-        return d->frame.nfields > 0 ? SL_REASON_NONE : SL_REASON_NO_FIELDS;
+        return d->frame.nfields > 0 ? SLP_REASON_NONE : SLP_REASON_NO_FIELDS;
 }
 
 /* Validates the complete frame in d->buf[0 .. d->len) ('[' ... ']') and fills d->frame. */
-static enum sl_decode_reason frame_parse(struct sl_decoder *d)
+static enum slp_decode_reason frame_parse(struct slp_decoder *d)
 {
         const char *b = d->buf + 1;     /* body, after the '[' */
         size_t m = d->len - 2;          /* without '[' and ']' */
-        struct sl_frame *f = &d->frame;
-        enum sl_decode_reason r;
+        struct slp_frame *f = &d->frame;
+        enum slp_decode_reason r;
         size_t lp = m;
         unsigned want;
         bool printable;
@@ -367,20 +368,20 @@ static enum sl_decode_reason frame_parse(struct sl_decoder *d)
         while (lp > 0 && b[lp - 1] != '|')
                 lp--;
         if (lp == 0)
-                return SL_REASON_NO_CHECKSUM;
+                return SLP_REASON_NO_CHECKSUM;
         lp--;
         r = parse_checksum(b, m, lp, &want);
-        if (r != SL_REASON_NONE)
+        if (r != SLP_REASON_NONE)
                 return r;
         /* From ':' (b[0]) through the 'C' (b[lp + 1]) inclusive. */
         if (scan_body(d->bars, b, lp + 2, &printable) != want)
-                return SL_REASON_BAD_CHECKSUM;
+                return SLP_REASON_BAD_CHECKSUM;
         r = check_header(b, lp);
-        if (r != SL_REASON_NONE)
+        if (r != SLP_REASON_NONE)
                 return r;
         /* The header passed, so any unprintable byte is in a field. */
         if (!printable)
-                return SL_REASON_BAD_FIELD;
+                return SLP_REASON_BAD_FIELD;
 
         f->dst = b[1];
         f->src = b[2];
@@ -396,13 +397,13 @@ static enum sl_decode_reason frame_parse(struct sl_decoder *d)
 }
 
 /* ']' was just stored: report the frame or why it was dropped; back to IDLE. */
-static void frame_complete(struct sl_decoder *d, struct sl_decode_result *r)
+static void frame_complete(struct slp_decoder *d, struct slp_decode_result *r)
 {
-        enum sl_decode_reason reason = frame_parse(d);
+        enum slp_decode_reason reason = frame_parse(d);
 
-        if (reason == SL_REASON_NONE) {
-                r->kind = SL_RESULT_FRAME;
-                r->reason = SL_REASON_NONE;
+        if (reason == SLP_REASON_NONE) {
+                r->kind = SLP_RESULT_FRAME;
+                r->reason = SLP_REASON_NONE;
                 r->bytes = d->len;
                 r->frame = &d->frame;
         } else {
@@ -412,7 +413,8 @@ static void frame_complete(struct sl_decoder *d, struct sl_decode_result *r)
 }
 
 /* IDLE: consumes bytes up to and including a '['; returns the count, with a result if any. */
-static size_t feed_idle(struct sl_decoder *d, const uint8_t *p, size_t n, struct sl_decode_result *r)
+static size_t feed_idle(struct slp_decoder *d, const uint8_t *p, size_t n,
+                        struct slp_decode_result *r)
 {
         for (size_t i = 0; i < n; i++) {
                 uint8_t c = p[i];
@@ -421,15 +423,15 @@ static size_t feed_idle(struct sl_decoder *d, const uint8_t *p, size_t n, struct
                         d->buf[0] = '[';
                         d->len = 1;
                         if (d->noise > 0) {
-                                result_reject(r, SL_REASON_NOISE, d->noise);
+                                result_reject(r, SLP_REASON_NOISE, d->noise);
                                 d->noise = 0;
                         }
                         return i + 1;
                 }
                 if (c == '\r' || c == '\n')
                         continue;
-                if (++d->noise >= SL_NOISE_RUN_MAX) {
-                        result_reject(r, SL_REASON_NOISE, d->noise);
+                if (++d->noise >= SLP_NOISE_RUN_MAX) {
+                        result_reject(r, SLP_REASON_NOISE, d->noise);
                         d->noise = 0;
                         return i + 1;
                 }
@@ -438,7 +440,8 @@ static size_t feed_idle(struct sl_decoder *d, const uint8_t *p, size_t n, struct
 }
 
 /* FRAME: copies bytes up to ']', '[' or the length limit; returns the count consumed. */
-static size_t feed_frame(struct sl_decoder *d, const uint8_t *p, size_t n, struct sl_decode_result *r)
+static size_t feed_frame(struct slp_decoder *d, const uint8_t *p, size_t n,
+                         struct slp_decode_result *r)
 {
         /* Invariant: d->len <= max_frame - 1, so `room` more body bytes fit before the ']'. */
         size_t room = d->max_frame - 1 - d->len;
@@ -449,7 +452,7 @@ static size_t feed_frame(struct sl_decoder *d, const uint8_t *p, size_t n, struc
 
         if (open) {
                 k = (size_t)(open - p);
-                result_reject(r, SL_REASON_RESYNC, d->len + k);
+                result_reject(r, SLP_REASON_RESYNC, d->len + k);
                 d->buf[0] = '[';
                 d->len = 1;
                 return k + 1;
@@ -462,7 +465,7 @@ static size_t feed_frame(struct sl_decoder *d, const uint8_t *p, size_t n, struc
         }
         if (k > room) {
                 /* p[room] is a body byte where only ']' could still fit. */
-                result_reject(r, SL_REASON_OVERLONG, d->len + k);
+                result_reject(r, SLP_REASON_OVERLONG, d->len + k);
                 d->len = 0;
                 return k;
         }
@@ -471,16 +474,16 @@ static size_t feed_frame(struct sl_decoder *d, const uint8_t *p, size_t n, struc
         return k;
 }
 
-size_t sl_decoder_feed(struct sl_decoder *d, const uint8_t *buf, size_t len,
-                       struct sl_decode_result *ret_result)
+size_t slp_decoder_feed(struct slp_decoder *d, const uint8_t *buf, size_t len,
+                        struct slp_decode_result *ret_result)
 {
         size_t used = 0;
 
-        ret_result->kind = SL_RESULT_NONE;
-        ret_result->reason = SL_REASON_NONE;
+        ret_result->kind = SLP_RESULT_NONE;
+        ret_result->reason = SLP_REASON_NONE;
         ret_result->bytes = 0;
         ret_result->frame = NULL;
-        while (used < len && ret_result->kind == SL_RESULT_NONE) {
+        while (used < len && ret_result->kind == SLP_RESULT_NONE) {
                 if (d->len == 0)
                         used += feed_idle(d, buf + used, len - used, ret_result);
                 else
@@ -489,15 +492,15 @@ size_t sl_decoder_feed(struct sl_decoder *d, const uint8_t *buf, size_t len,
         return used;
 }
 
-bool sl_decoder_end(struct sl_decoder *d, struct sl_decode_result *ret_result)
+bool slp_decoder_end(struct slp_decoder *d, struct slp_decode_result *ret_result)
 {
         if (d->len > 0) {
-                result_reject(ret_result, SL_REASON_TRUNCATED, d->len);
+                result_reject(ret_result, SLP_REASON_TRUNCATED, d->len);
                 d->len = 0;
                 return true;
         }
         if (d->noise > 0) {
-                result_reject(ret_result, SL_REASON_NOISE, d->noise);
+                result_reject(ret_result, SLP_REASON_NOISE, d->noise);
                 d->noise = 0;
                 return true;
         }
@@ -511,7 +514,7 @@ static int check_value(char letter, const char *v, size_t len)
 {
         uint32_t index;
 
-        if (len > SL_VALUE_MAX)
+        if (len > SLP_VALUE_MAX)
                 return -EMSGSIZE;
         for (size_t i = 0; i < len; i++)
                 if (!is_value_byte((unsigned char)v[i]))
@@ -521,12 +524,12 @@ static int check_value(char letter, const char *v, size_t len)
         return 0;
 }
 
-/* Length of a NUL-terminated value, or SL_VALUE_MAX + 1 if longer. */
+/* Length of a NUL-terminated value, or SLP_VALUE_MAX + 1 if longer. */
 static size_t value_len(const char *v)
 {
         size_t n = 0;
 
-        while (n <= SL_VALUE_MAX && v[n] != '\0')
+        while (n <= SLP_VALUE_MAX && v[n] != '\0')
                 n++;
         return n;
 }
@@ -539,10 +542,10 @@ static int list_value_check(const char *v, size_t *ret_len)
 
         if (!v)
                 return -EINVAL;
-        for (; n <= SL_VALUE_MAX && v[n] != '\0'; n++)
+        for (; n <= SLP_VALUE_MAX && v[n] != '\0'; n++)
                 bad |= !is_value_byte((unsigned char)v[n]);
         *ret_len = n;
-        return n > SL_VALUE_MAX ? -EMSGSIZE : bad ? -EINVAL : 0;
+        return n > SLP_VALUE_MAX ? -EMSGSIZE : bad ? -EINVAL : 0;
 }
 
 static size_t put(char *buf, size_t at, const char *s, size_t n)
@@ -600,17 +603,17 @@ static size_t put_trailer(char *buf, size_t at, bool crlf)
         return at;
 }
 
-int sl_frame_encode(char *buf, size_t size, char dst, char src,
-                    const struct sl_field *fields, size_t nfields, unsigned flags)
+int slp_frame_encode(char *buf, size_t size, char dst, char src,
+                     const struct slp_field *fields, size_t nfields, unsigned flags)
 {
-        bool crlf = flags & SL_ENCODE_CRLF;
+        bool crlf = flags & SLP_ENCODE_CRLF;
         size_t total = SL_HEADER_LEN + SL_TRAILER_LEN + (crlf ? SL_CRLF_LEN : 0);
         size_t at;
 
         if (!is_addr(dst) || !is_addr(src) || nfields == 0)
                 return -EINVAL;
         for (size_t i = 0; i < nfields; i++) {
-                const struct sl_field *f = &fields[i];
+                const struct slp_field *f = &fields[i];
                 int r;
 
                 if (!is_type_letter(f->letter) || f->letter == 'C')
@@ -633,22 +636,22 @@ int sl_frame_encode(char *buf, size_t size, char dst, char src,
         return (int)at;
 }
 
-int sl_encode_query(char *buf, size_t size, char dst, char src, const char *name, unsigned flags)
+int slp_encode_query(char *buf, size_t size, char dst, char src, const char *name, unsigned flags)
 {
-        struct sl_field f = { .letter = 'Q', .value = name, .len = (uint16_t)value_len(name) };
+        struct slp_field f = { .letter = 'Q', .value = name, .len = (uint16_t)value_len(name) };
 
-        return sl_frame_encode(buf, size, dst, src, &f, 1, flags);
+        return slp_frame_encode(buf, size, dst, src, &f, 1, flags);
 }
 
-int sl_encode_answer(char *buf, size_t size, char dst, char src, const char *name,
-                     const char *value, unsigned flags)
+int slp_encode_answer(char *buf, size_t size, char dst, char src, const char *name,
+                      const char *value, unsigned flags)
 {
-        struct sl_field f[2] = {
+        struct slp_field f[2] = {
                 { .letter = 'R', .value = name, .len = (uint16_t)value_len(name) },
                 { .letter = 'D', .value = value, .len = (uint16_t)value_len(value) },
         };
 
-        return sl_frame_encode(buf, size, dst, src, f, 2, flags);
+        return slp_frame_encode(buf, size, dst, src, f, 2, flags);
 }
 
 /* Decimal digits of k into out (no terminator); returns the count. */
@@ -666,15 +669,15 @@ static size_t format_index(size_t k, char *out)
         return n;
 }
 
-int sl_encode_list(const struct sl_list *list, size_t *cursor, char *buf, size_t size)
+int slp_encode_list(const struct slp_list *list, size_t *cursor, char *buf, size_t size)
 {
-        size_t max_frame = list->max_frame ? list->max_frame : SL_FRAME_DEFAULT;
+        size_t max_frame = list->max_frame ? list->max_frame : SLP_FRAME_DEFAULT;
         size_t limit = max_frame < size ? max_frame : size;
         size_t start = *cursor, pos = start;
         char digits[24];
         size_t ndigits, total, at;
 
-        if (!is_addr(list->dst) || !is_addr(list->src) || max_frame > SL_FRAME_MAX)
+        if (!is_addr(list->dst) || !is_addr(list->src) || max_frame > SLP_FRAME_MAX)
                 return -EINVAL;
         if (start >= list->count)
                 return 0;

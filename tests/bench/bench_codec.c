@@ -114,7 +114,7 @@ enum slb_kind { SLB_LIST, SLB_QUERY_MSG, SLB_ANSWER_MSG, SLB_NOISE };
 
 struct slb_msg {
         enum slb_kind kind;
-        struct sl_list list;    /* SLB_LIST */
+        struct slp_list list;   /* SLB_LIST */
         const char *name;       /* SLB_QUERY_MSG, SLB_ANSWER_MSG */
         const char *value;      /* SLB_ANSWER_MSG */
         bool crlf;
@@ -168,9 +168,9 @@ static void slb_build(struct workload *w, unsigned variant)
                 }
                 count = variant == SLB_DATA4 ? 4 : variant == SLB_MIX ? 4 + rng() % 37 : 40;
                 m->kind = SLB_LIST;
-                m->list = (struct sl_list){
+                m->list = (struct slp_list){
                         .dst = 'A', .src = 'B', .values = values + nv, .changed = changed + nv,
-                        .count = count, .max_frame = SL_FRAME_DEFAULT, .crlf = m->crlf,
+                        .count = count, .max_frame = SLP_FRAME_DEFAULT, .crlf = m->crlf,
                         .compress = variant == SLB_COMPRESSED || (variant == SLB_MIX && pick < 3),
                 };
                 for (size_t i = 0; i < count; i++) {
@@ -202,22 +202,22 @@ static size_t slb_encode(const struct workload *w, char *out, size_t cap)
 
         for (size_t i = 0; i < w->nmsgs; i++) {
                 const struct slb_msg *m = &msgs[i];
-                unsigned flags = m->crlf ? SL_ENCODE_CRLF : 0;
+                unsigned flags = m->crlf ? SLP_ENCODE_CRLF : 0;
                 size_t cursor = 0;
                 int r = 0;
 
                 switch (m->kind) {
                 case SLB_LIST:
-                        while ((r = sl_encode_list(&m->list, &cursor, out + len, cap - len)) > 0)
+                        while ((r = slp_encode_list(&m->list, &cursor, out + len, cap - len)) > 0)
                                 len += (size_t)r;
                         break;
                 case SLB_QUERY_MSG:
-                        r = sl_encode_query(out + len, cap - len, 'A', 'B', m->name, flags);
+                        r = slp_encode_query(out + len, cap - len, 'A', 'B', m->name, flags);
                         len += r > 0 ? (size_t)r : 0;
                         break;
                 case SLB_ANSWER_MSG:
-                        r = sl_encode_answer(out + len, cap - len, 'B', 'A', m->name, m->value,
-                                             flags);
+                        r = slp_encode_answer(out + len, cap - len, 'B', 'A', m->name, m->value,
+                                              flags);
                         len += r > 0 ? (size_t)r : 0;
                         break;
                 case SLB_NOISE:
@@ -239,22 +239,22 @@ static size_t slb_encode(const struct workload *w, char *out, size_t cap)
 
 static size_t slb_decode(const struct workload *w)
 {
-        static struct sl_decoder d;
+        static struct slp_decoder d;
         const uint8_t *p = (const uint8_t *)w->wire;
         size_t left = w->wire_len, frames = 0, fields = 0;
 
-        sl_decoder_init(&d, SL_FRAME_DEFAULT);
+        slp_decoder_init(&d, SLP_FRAME_DEFAULT);
         while (left > 0) {
                 size_t chunk = left < w->read_size ? left : w->read_size;
 
                 left -= chunk;
                 while (chunk > 0) {
-                        struct sl_decode_result r;
-                        size_t used = sl_decoder_feed(&d, p, chunk, &r);
+                        struct slp_decode_result r;
+                        size_t used = slp_decoder_feed(&d, p, chunk, &r);
 
                         p += used;
                         chunk -= used;
-                        if (r.kind == SL_RESULT_FRAME) {
+                        if (r.kind == SLP_RESULT_FRAME) {
                                 frames++;
                                 fields += r.frame->nfields;
                         }

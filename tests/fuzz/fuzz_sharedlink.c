@@ -3,9 +3,9 @@
  *
  * Input layout (seeds in tests/fuzz/corpus/sharedlink/ follow it):
  *
- *      byte 0   flags: bits 0-1 decoder max_frame (0 default, 1 SL_FRAME_MIN, 2 from byte 3,
- *               3 SL_FRAME_MAX); bit 2 datagram mode (every chunk is a datagram, ended with
- *               sl_decoder_end()); bit 3 re-encode with CR LF; bits 4-7 list encoder: compress,
+ *      byte 0   flags: bits 0-1 decoder max_frame (0 default, 1 SLP_FRAME_MIN, 2 from byte 3,
+ *               3 SLP_FRAME_MAX); bit 2 datagram mode (every chunk is a datagram, ended with
+ *               slp_decoder_end()); bit 3 re-encode with CR LF; bits 4-7 list encoder: compress,
  *               full refresh, CR LF, make the values valid first.
  *      byte 1-2 seed of the chunk sizes
  *      byte 3   list max_frame (0: default, else 1 + 16 * byte) and decoder max_frame in mode 2
@@ -16,7 +16,7 @@
  *   - every frame is well formed and at most max_frame; every rejection has a reason and a size;
  *   - bytes reported (frames + rejections) + CR/LF between frames == bytes fed;
  *   - in stream mode, chunking does not change the results (compared with one whole feed);
- *   - every decoded frame re-encodes (or is refused for a value over SL_VALUE_MAX) and decodes
+ *   - every decoded frame re-encodes (or is refused for a value over SLP_VALUE_MAX) and decodes
  *     back to the same addresses and fields; a canonical frame re-encodes to the same bytes;
  *   - the list encoder covers every position once, in frames of at most max_frame with the
  *     right N offsets and values, and fails exactly when a value is invalid or cannot fit.
@@ -44,7 +44,7 @@ static void check_failed(const char *what, int line)
         abort();
 }
 
-static struct sl_decoder dec, redec;
+static struct slp_decoder dec, redec;
 
 struct run {
         uint64_t hash;          /* of every result, in order */
@@ -78,24 +78,24 @@ static bool printable_value(const char *v, size_t n)
         return true;
 }
 
-/* N and L: "?" or decimal digits, saturated at SL_INDEX_MAX; anything else is not decoded. */
+/* N and L: "?" or decimal digits, saturated at SLP_INDEX_MAX; anything else is not decoded. */
 static uint32_t expected_index(const char *v, size_t n)
 {
         uint64_t k = 0;
 
         if (n == 1 && v[0] == '?')
-                return SL_INDEX_QUERY;
+                return SLP_INDEX_QUERY;
         CHECK(n > 0);
         for (size_t i = 0; i < n; i++) {
                 CHECK(v[i] >= '0' && v[i] <= '9');
                 k = k * 10 + (uint64_t)(v[i] - '0');
-                if (k > SL_INDEX_MAX)
-                        k = SL_INDEX_MAX;
+                if (k > SLP_INDEX_MAX)
+                        k = SLP_INDEX_MAX;
         }
         return (uint32_t)k;
 }
 
-static void check_frame_shape(const struct sl_frame *f, size_t max_frame)
+static void check_frame_shape(const struct slp_frame *f, size_t max_frame)
 {
         size_t unknown = 0;
 
@@ -103,36 +103,36 @@ static void check_frame_shape(const struct sl_frame *f, size_t max_frame)
         CHECK(f->raw[0] == '[' && f->raw[f->raw_len - 1] == ']');
         CHECK(f->dst >= 'A' && f->dst <= 'P' && f->src >= 'A' && f->src <= 'P');
         CHECK(f->dst_index == f->dst - 'A' && f->src_index == f->src - 'A');
-        CHECK(f->nfields >= 1 && f->nfields <= SL_FIELDS_MAX);
+        CHECK(f->nfields >= 1 && f->nfields <= SLP_FIELDS_MAX);
         for (size_t i = 0; i < f->nfields; i++) {
-                const struct sl_field *fl = &f->fields[i];
+                const struct slp_field *fl = &f->fields[i];
 
                 CHECK(fl->letter >= 'A' && fl->letter <= 'Z' && fl->letter != 'C');
                 CHECK(fl->value > f->raw && fl->value + fl->len < f->raw + f->raw_len);
                 CHECK(printable_value(fl->value, fl->len));
-                if (fl->type == SL_FIELD_UNKNOWN)
+                if (fl->type == SLP_FIELD_UNKNOWN)
                         unknown++;
                 else
                         CHECK(fl->type == fl->letter);
-                if (fl->type == SL_FIELD_N || fl->type == SL_FIELD_L)
+                if (fl->type == SLP_FIELD_N || fl->type == SLP_FIELD_L)
                         CHECK(fl->index == expected_index(fl->value, fl->len));
         }
         CHECK(unknown == f->unknown_fields);
 }
 
 /* Re-encodes a decoded frame and decodes it again: same addresses, same fields. */
-static void check_reencode(const struct sl_frame *f, bool crlf)
+static void check_reencode(const struct slp_frame *f, bool crlf)
 {
-        static char out[SL_FRAME_MAX + 8];
-        struct sl_decode_result r;
+        static char out[SLP_FRAME_MAX + 8];
+        struct slp_decode_result r;
         bool long_value = false, canonical;
         size_t used;
         int n;
 
         for (size_t i = 0; i < f->nfields; i++)
-                long_value |= f->fields[i].len > SL_VALUE_MAX;
-        n = sl_frame_encode(out, sizeof(out), f->dst, f->src, f->fields, f->nfields,
-                            crlf ? SL_ENCODE_CRLF : 0);
+                long_value |= f->fields[i].len > SLP_VALUE_MAX;
+        n = slp_frame_encode(out, sizeof(out), f->dst, f->src, f->fields, f->nfields,
+                             crlf ? SLP_ENCODE_CRLF : 0);
         if (long_value) {
                 CHECK(n == -EMSGSIZE);
                 return;
@@ -149,44 +149,44 @@ static void check_reencode(const struct sl_frame *f, bool crlf)
         if (canonical)
                 CHECK((size_t)n - (crlf ? 2 : 0) == f->raw_len &&
                       memcmp(out, f->raw, f->raw_len) == 0);
-        if ((size_t)n - (crlf ? 2 : 0) > SL_FRAME_MAX)
-                return;         /* a one-digit checksum frame of SL_FRAME_MAX bytes, padded */
+        if ((size_t)n - (crlf ? 2 : 0) > SLP_FRAME_MAX)
+                return;         /* a one-digit checksum frame of SLP_FRAME_MAX bytes, padded */
 
-        CHECK(sl_decoder_init(&redec, SL_FRAME_MAX) == 0);
-        used = sl_decoder_feed(&redec, (const uint8_t *)out, (size_t)n, &r);
-        CHECK(r.kind == SL_RESULT_FRAME);
+        CHECK(slp_decoder_init(&redec, SLP_FRAME_MAX) == 0);
+        used = slp_decoder_feed(&redec, (const uint8_t *)out, (size_t)n, &r);
+        CHECK(r.kind == SLP_RESULT_FRAME);
         CHECK(used == (size_t)n - (crlf ? 2 : 0));
         CHECK(r.frame->dst == f->dst && r.frame->src == f->src);
         CHECK(r.frame->nfields == f->nfields);
         CHECK(r.frame->empty_fields == 0 && r.frame->unknown_fields == f->unknown_fields);
         for (size_t i = 0; i < f->nfields; i++) {
-                const struct sl_field *a = &f->fields[i], *b = &r.frame->fields[i];
+                const struct slp_field *a = &f->fields[i], *b = &r.frame->fields[i];
 
                 CHECK(a->letter == b->letter && a->type == b->type && a->index == b->index);
                 CHECK(a->len == b->len && memcmp(a->value, b->value, a->len) == 0);
         }
 }
 
-static void on_result(struct run *run, const struct sl_decode_result *r)
+static void on_result(struct run *run, const struct slp_decode_result *r)
 {
         hash_word(run, (uint64_t)r->kind << 32 | (uint64_t)r->reason);
         hash_word(run, r->bytes);
         run->reported += r->bytes;
-        if (r->kind == SL_RESULT_FRAME) {
-                const struct sl_frame *f = r->frame;
+        if (r->kind == SLP_RESULT_FRAME) {
+                const struct slp_frame *f = r->frame;
 
-                CHECK(r->reason == SL_REASON_NONE && r->bytes == f->raw_len);
+                CHECK(r->reason == SLP_REASON_NONE && r->bytes == f->raw_len);
                 check_frame_shape(f, dec.max_frame);
                 hash_bytes(run, f->raw, f->raw_len);
                 if (run->reencode)
                         check_reencode(f, run->crlf_flag);
                 return;
         }
-        CHECK(r->kind == SL_RESULT_REJECT && r->frame == NULL && r->bytes > 0);
-        CHECK(r->reason > SL_REASON_NONE && r->reason < SL_REASON_UNKNOWN_FIELD);
-        CHECK(strcmp(sl_decode_reason_str(r->reason), "unknown reason") != 0);
-        if (r->reason == SL_REASON_NOISE)
-                CHECK(r->bytes <= SL_NOISE_RUN_MAX);
+        CHECK(r->kind == SLP_RESULT_REJECT && r->frame == NULL && r->bytes > 0);
+        CHECK(r->reason > SLP_REASON_NONE && r->reason < SLP_REASON_UNKNOWN_FIELD);
+        CHECK(strcmp(slp_decode_reason_str(r->reason), "unknown reason") != 0);
+        if (r->reason == SLP_REASON_NOISE)
+                CHECK(r->bytes <= SLP_NOISE_RUN_MAX);
         else
                 CHECK(r->bytes <= dec.max_frame);
 }
@@ -197,11 +197,11 @@ static void feed(struct run *run, const uint8_t *p, size_t n)
                 run->crlf += p[i] == '\r' || p[i] == '\n';
         run->fed += n;
         while (n > 0) {
-                struct sl_decode_result r;
-                size_t used = sl_decoder_feed(&dec, p, n, &r);
+                struct slp_decode_result r;
+                size_t used = slp_decoder_feed(&dec, p, n, &r);
 
                 CHECK(used >= 1 && used <= n);
-                if (r.kind == SL_RESULT_NONE)
+                if (r.kind == SLP_RESULT_NONE)
                         CHECK(used == n);
                 else
                         on_result(run, &r);
@@ -212,11 +212,11 @@ static void feed(struct run *run, const uint8_t *p, size_t n)
 
 static void end(struct run *run)
 {
-        struct sl_decode_result r;
+        struct slp_decode_result r;
 
-        if (sl_decoder_end(&dec, &r))
+        if (slp_decoder_end(&dec, &r))
                 on_result(run, &r);
-        CHECK(!sl_decoder_end(&dec, &r));
+        CHECK(!slp_decoder_end(&dec, &r));
         CHECK(run->reported <= run->fed && run->fed - run->reported <= run->crlf);
 }
 
@@ -245,7 +245,7 @@ static size_t chunk_size(uint32_t *s, size_t left)
 
 static void fuzz_decoder(const uint8_t *data, size_t size, const uint8_t *wire, size_t len)
 {
-        static const size_t fixed[] = { SL_FRAME_DEFAULT, SL_FRAME_MIN, 0, SL_FRAME_MAX };
+        static const size_t fixed[] = { SLP_FRAME_DEFAULT, SLP_FRAME_MIN, 0, SLP_FRAME_MAX };
         size_t max_frame = fixed[data[0] & 3];
         bool datagrams = data[0] & 0x4;
         uint32_t seed = ((uint32_t)data[1] << 8 | data[2]) + 1;
@@ -255,8 +255,8 @@ static void fuzz_decoder(const uint8_t *data, size_t size, const uint8_t *wire, 
 
         (void)size;
         if (max_frame == 0)
-                max_frame = SL_FRAME_MIN + (size_t)data[3] * 8;
-        CHECK(sl_decoder_init(&dec, max_frame) == 0);
+                max_frame = SLP_FRAME_MIN + (size_t)data[3] * 8;
+        CHECK(slp_decoder_init(&dec, max_frame) == 0);
         while (off < len) {
                 size_t n = chunk_size(&seed, len - off);
 
@@ -270,7 +270,7 @@ static void fuzz_decoder(const uint8_t *data, size_t size, const uint8_t *wire, 
         if (datagrams)
                 return;
 
-        CHECK(sl_decoder_init(&dec, max_frame) == 0);
+        CHECK(slp_decoder_init(&dec, max_frame) == 0);
         feed(&whole, wire, len);
         end(&whole);
         CHECK(whole.hash == chunked.hash && whole.reported == chunked.reported);
@@ -279,7 +279,7 @@ static void fuzz_decoder(const uint8_t *data, size_t size, const uint8_t *wire, 
 /* ---------------------------------------------------------------------------------------------
  * List encoder */
 
-static char list_store[LIST_MAX][SL_VALUE_MAX + 2];
+static char list_store[LIST_MAX][SLP_VALUE_MAX + 2];
 static const char *list_values[LIST_MAX];
 static bool list_changed[LIST_MAX];
 
@@ -294,15 +294,15 @@ static size_t digits(size_t k)
         return n;
 }
 
-/* What sl_encode_list() must say about position p: 0 if it can be sent. */
-static int position_error(const struct sl_list *l, size_t p)
+/* What slp_encode_list() must say about position p: 0 if it can be sent. */
+static int position_error(const struct slp_list *l, size_t p)
 {
         bool sent = !l->compress || l->full || l->changed[p];
         const char *v = sent ? l->values[p] : "";
         size_t len = strlen(v);
-        size_t max = l->max_frame ? l->max_frame : SL_FRAME_DEFAULT;
+        size_t max = l->max_frame ? l->max_frame : SLP_FRAME_DEFAULT;
 
-        if (len > SL_VALUE_MAX)
+        if (len > SLP_VALUE_MAX)
                 return -EMSGSIZE;
         if (!printable_value(v, len))
                 return -EINVAL;
@@ -314,18 +314,18 @@ static int position_error(const struct sl_list *l, size_t p)
 
 static void fuzz_list(const uint8_t *data, const uint8_t *wire, size_t len)
 {
-        static char out[SL_FRAME_MAX];
-        struct sl_list l = {
+        static char out[SLP_FRAME_MAX];
+        struct slp_list l = {
                 .dst = 'A', .src = 'B', .values = list_values, .changed = list_changed,
                 .max_frame = data[3] ? 1 + (size_t)data[3] * 16 : 0,
                 .compress = data[0] & 0x10, .full = data[0] & 0x20, .crlf = data[0] & 0x40,
         };
-        size_t max = l.max_frame ? l.max_frame : SL_FRAME_DEFAULT;
+        size_t max = l.max_frame ? l.max_frame : SLP_FRAME_DEFAULT;
         bool sanitize = data[0] & 0x80;
         size_t count = 0, vlen = 0, cursor = 0, first_bad, frames = 0;
         int want = 0, r;
 
-        /* Values: the wire bytes split on ',' (at most SL_VALUE_MAX + 1 bytes each). */
+        /* Values: the wire bytes split on ',' (at most SLP_VALUE_MAX + 1 bytes each). */
         for (size_t i = 0; i <= len && count < LIST_MAX; i++) {
                 if (i == len || wire[i] == ',') {
                         list_store[count][vlen] = '\0';
@@ -335,7 +335,7 @@ static void fuzz_list(const uint8_t *data, const uint8_t *wire, size_t len)
                         vlen = 0;
                         continue;
                 }
-                if (vlen > SL_VALUE_MAX)
+                if (vlen > SLP_VALUE_MAX)
                         continue;
                 char c = (char)wire[i];
                 if (sanitize && !printable_value(&c, 1))
@@ -351,27 +351,27 @@ static void fuzz_list(const uint8_t *data, const uint8_t *wire, size_t len)
                         break;
         }
 
-        while ((r = sl_encode_list(&l, &cursor, out, sizeof(out))) > 0) {
-                struct sl_decode_result res;
+        while ((r = slp_encode_list(&l, &cursor, out, sizeof(out))) > 0) {
+                struct slp_decode_result res;
                 size_t start, n = (size_t)r, body = n - (l.crlf ? 2 : 0);
-                const struct sl_frame *f;
+                const struct slp_frame *f;
 
                 CHECK(++frames <= count);
                 CHECK(n <= max);
                 CHECK(cursor <= first_bad);
-                CHECK(sl_decoder_init(&redec, SL_FRAME_MAX) == 0);
-                CHECK(sl_decoder_feed(&redec, (const uint8_t *)out, body, &res) == body);
-                CHECK(res.kind == SL_RESULT_FRAME);
+                CHECK(slp_decoder_init(&redec, SLP_FRAME_MAX) == 0);
+                CHECK(slp_decoder_feed(&redec, (const uint8_t *)out, body, &res) == body);
+                CHECK(res.kind == SLP_RESULT_FRAME);
                 f = res.frame;
-                CHECK(f->dst == 'A' && f->src == 'B' && f->fields[0].type == SL_FIELD_N);
+                CHECK(f->dst == 'A' && f->src == 'B' && f->fields[0].type == SLP_FIELD_N);
                 start = f->fields[0].index;
                 CHECK(start < cursor && f->nfields == 1 + cursor - start);
                 for (size_t p = start; p < cursor; p++) {
-                        const struct sl_field *fl = &f->fields[1 + p - start];
+                        const struct slp_field *fl = &f->fields[1 + p - start];
                         bool sent = !l.compress || l.full || l.changed[p];
                         const char *v = sent ? l.values[p] : "";
 
-                        CHECK(fl->type == SL_FIELD_D && fl->len == strlen(v));
+                        CHECK(fl->type == SLP_FIELD_D && fl->len == strlen(v));
                         CHECK(memcmp(fl->value, v, fl->len) == 0);
                 }
                 if (cursor < first_bad) {

@@ -49,7 +49,7 @@ struct it {
         char dev[HARNESS_PATH_MAX + 8];
         int udp;                        /* the test's UDP socket, -1 when none */
         uint16_t udp_port;
-        struct sl_decoder *dec;         /* the real codec, decoding what the daemon sends */
+        struct slp_decoder *dec;        /* the real codec, decoding what the daemon sends */
         uint8_t rbuf[4096];             /* bytes read from the master, not fed yet */
         size_t roff, rlen;
         size_t crlf_due;                /* bytes of the last frame's CR LF not checked yet */
@@ -456,7 +456,7 @@ static void test_udp_loopback(void **state)
 
 /* The frame's own checksum, recomputed here: exactly two uppercase hex digits (PROTOCOLS.md
  * §1.3 Decision) equal to the 8-bit sum of ':' through 'C'. */
-static void check_raw(const struct sl_frame *f)
+static void check_raw(const struct slp_frame *f)
 {
         const char *raw = f->raw;
         size_t len = f->raw_len;
@@ -480,15 +480,15 @@ static void check_raw(const struct sl_frame *f)
 /* The next frame the daemon sent on the master, decoded by the real codec; any byte the codec
  * rejects fails the test, and so does a frame not followed by exactly CR LF (which the codec
  * would take as whitespace). Valid until the next call. */
-static const struct sl_frame *next_frame(struct it *t)
+static const struct slp_frame *next_frame(struct it *t)
 {
         uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * 1000000u;
-        struct sl_decode_result r;
+        struct slp_decode_result r;
 
         if (!t->dec) {
                 t->dec = malloc(sizeof(*t->dec));
                 assert_non_null(t->dec);
-                assert_int_equal(sl_decoder_init(t->dec, SL_FRAME_MAX), 0);
+                assert_int_equal(slp_decoder_init(t->dec, SLP_FRAME_MAX), 0);
         }
         for (;;) {
                 struct pollfd p = { .fd = t->master, .events = POLLIN };
@@ -498,12 +498,12 @@ static const struct sl_frame *next_frame(struct it *t)
                 for (; t->crlf_due > 0 && t->roff < t->rlen; t->crlf_due--)
                         assert_int_equal(t->rbuf[t->roff++], "\r\n"[2 - t->crlf_due]);
                 while (t->crlf_due == 0 && t->roff < t->rlen) {
-                        t->roff += sl_decoder_feed(t->dec, t->rbuf + t->roff, t->rlen - t->roff,
-                                                   &r);
-                        if (r.kind == SL_RESULT_REJECT)
+                        t->roff += slp_decoder_feed(t->dec, t->rbuf + t->roff, t->rlen - t->roff,
+                                                    &r);
+                        if (r.kind == SLP_RESULT_REJECT)
                                 fail_msg("the daemon sent %zu bad bytes: %s", r.bytes,
-                                         sl_decode_reason_str(r.reason));
-                        if (r.kind == SL_RESULT_FRAME) {
+                                         slp_decode_reason_str(r.reason));
+                        if (r.kind == SLP_RESULT_FRAME) {
                                 check_raw(r.frame);
                                 t->crlf_due = 2;
                                 t->frames_seen++;
@@ -527,7 +527,7 @@ static const struct sl_frame *next_frame(struct it *t)
 struct list_rx {
         size_t nframes;
         size_t nonempty;                        /* positions sent with a value */
-        char value[POS_MAX][SL_VALUE_MAX + 1];  /* "" for an empty D */
+        char value[POS_MAX][SLP_VALUE_MAX + 1]; /* "" for an empty D */
         size_t first_n[POS_MAX];                /* the N of each frame */
 };
 
@@ -541,22 +541,22 @@ static void read_list(struct it *t, char dst, char src, size_t count, size_t max
 
         memset(ret, 0, sizeof(*ret));
         while (pos < count) {
-                const struct sl_frame *f = next_frame(t);
+                const struct slp_frame *f = next_frame(t);
 
                 assert_int_equal(f->dst, dst);
                 assert_int_equal(f->src, src);
                 assert_true(f->raw_len + 2 <= max_frame);
                 assert_true(f->nfields >= 2);
-                assert_int_equal(f->fields[0].type, SL_FIELD_N);
+                assert_int_equal(f->fields[0].type, SLP_FIELD_N);
                 assert_int_equal(f->fields[0].index, pos);
                 assert_true(ret->nframes < POS_MAX);
                 ret->first_n[ret->nframes++] = pos;
                 for (size_t i = 1; i < f->nfields; i++) {
-                        const struct sl_field *fd = &f->fields[i];
+                        const struct slp_field *fd = &f->fields[i];
 
-                        assert_int_equal(fd->type, SL_FIELD_D);
+                        assert_int_equal(fd->type, SLP_FIELD_D);
                         assert_true(pos < count);
-                        assert_true(fd->len <= SL_VALUE_MAX);
+                        assert_true(fd->len <= SLP_VALUE_MAX);
                         memcpy(ret->value[pos], fd->value, fd->len);
                         ret->value[pos][fd->len] = '\0';
                         ret->nonempty += fd->len > 0;
@@ -568,14 +568,14 @@ static void read_list(struct it *t, char dst, char src, size_t count, size_t max
 /* Expects the next frame to be exactly "N<n>|D<value>" from B to A. */
 static void expect_single(struct it *t, uint32_t n, const char *value)
 {
-        const struct sl_frame *f = next_frame(t);
+        const struct slp_frame *f = next_frame(t);
 
         assert_int_equal(f->dst, 'A');
         assert_int_equal(f->src, 'B');
         assert_int_equal(f->nfields, 2);
-        assert_int_equal(f->fields[0].type, SL_FIELD_N);
+        assert_int_equal(f->fields[0].type, SLP_FIELD_N);
         assert_int_equal(f->fields[0].index, n);
-        assert_int_equal(f->fields[1].type, SL_FIELD_D);
+        assert_int_equal(f->fields[1].type, SLP_FIELD_D);
         assert_int_equal(f->fields[1].len, strlen(value));
         assert_memory_equal(f->fields[1].value, value, strlen(value));
 }
@@ -641,7 +641,7 @@ static void test_spec_examples(void **state)
         char links[YAML_MAX], out[LINE_MAX_T];
         struct sl_meta meta = { .size = sizeof(meta) };
         char buf[SL_VALUE_SIZE];
-        const struct sl_frame *f;
+        const struct slp_frame *f;
 
         plug(t);
         snprintf(links, sizeof(links), fmt, t->dev);
@@ -671,7 +671,7 @@ static void test_spec_examples(void **state)
         do
                 f = next_frame(t);
         while (f->nfields != 2 || f->fields[1].len == 0);
-        assert_int_equal(f->fields[0].type, SL_FIELD_N);
+        assert_int_equal(f->fields[0].type, SLP_FIELD_N);
         assert_int_equal(f->fields[0].index, 0);
         assert_memory_equal(f->fields[1].value, "40.12345678", 11);
         assert_int_equal(harness_write_all(t->master, query, strlen(query), WAIT_MS), 0);
@@ -787,7 +787,7 @@ static void test_on_change_frame(void **state)
         plug(t);
         snprintf(links, sizeof(links), fmt, t->dev);
         start(t, links);
-        read_list(t, 'A', 'B', 3, SL_FRAME_DEFAULT, &lr);       /* up: the full list */
+        read_list(t, 'A', 'B', 3, SLP_FRAME_DEFAULT, &lr);      /* up: the full list */
         assert_int_equal(lr.nonempty, 0);
         assert_int_equal(lr.nframes, 1);
 
@@ -831,12 +831,12 @@ static const char *const tally_name[TC_COUNT] = {
 #define TALLY_INBOUND   2
 
 struct tally {
-        struct sl_decoder dec;
+        struct slp_decoder dec;
         uint64_t c[TC_COUNT];
         size_t frames;                  /* valid frames seen, wherever they were going */
 };
 
-static void tally_frame(struct tally *y, const struct sl_frame *f)
+static void tally_frame(struct tally *y, const struct slp_frame *f)
 {
         size_t pos = 0;
 
@@ -853,35 +853,35 @@ static void tally_frame(struct tally *y, const struct sl_frame *f)
         y->c[TC_UNKNOWN_FIELD] += f->unknown_fields;
         y->c[TC_EMPTY_FIELD] += f->empty_fields;
         for (size_t i = 0; i < f->nfields; i++) {
-                if (f->fields[i].type == SL_FIELD_N)
+                if (f->fields[i].type == SLP_FIELD_N)
                         pos = f->fields[i].index;
-                else if (f->fields[i].type == SL_FIELD_D && pos++ >= TALLY_INBOUND)
+                else if (f->fields[i].type == SLP_FIELD_D && pos++ >= TALLY_INBOUND)
                         y->c[TC_LIST_MISMATCH]++;
         }
 }
 
-static void tally_reject(struct tally *y, const struct sl_decode_result *r)
+static void tally_reject(struct tally *y, const struct slp_decode_result *r)
 {
         switch (r->reason) {
-        case SL_REASON_NOISE:
+        case SLP_REASON_NOISE:
                 y->c[TC_NOISE_BYTES] += r->bytes;
                 break;
-        case SL_REASON_RESYNC:
-        case SL_REASON_TRUNCATED:
+        case SLP_REASON_RESYNC:
+        case SLP_REASON_TRUNCATED:
                 y->c[TC_RESYNC]++;
                 break;
-        case SL_REASON_OVERLONG:
+        case SLP_REASON_OVERLONG:
                 y->c[TC_OVERLONG]++;
                 break;
-        case SL_REASON_NO_CHECKSUM:
-        case SL_REASON_BAD_CHECKSUM_SYNTAX:
-        case SL_REASON_BAD_CHECKSUM:
+        case SLP_REASON_NO_CHECKSUM:
+        case SLP_REASON_BAD_CHECKSUM_SYNTAX:
+        case SLP_REASON_BAD_CHECKSUM:
                 y->c[TC_BAD_CHECKSUM]++;
                 break;
-        case SL_REASON_BAD_HEADER:
+        case SLP_REASON_BAD_HEADER:
                 y->c[TC_BAD_HEADER]++;
                 break;
-        case SL_REASON_BAD_ADDRESS:
+        case SLP_REASON_BAD_ADDRESS:
                 y->c[TC_BAD_ADDRESS]++;
                 break;
         default:
@@ -898,12 +898,12 @@ static void tally_send(struct it *t, struct tally *y, const void *buf, size_t le
 
         y->c[TC_BYTES_IN] += len;
         while (off < len) {
-                struct sl_decode_result r;
+                struct slp_decode_result r;
 
-                off += sl_decoder_feed(&y->dec, p + off, len - off, &r);
-                if (r.kind == SL_RESULT_FRAME)
+                off += slp_decoder_feed(&y->dec, p + off, len - off, &r);
+                if (r.kind == SLP_RESULT_FRAME)
                         tally_frame(y, r.frame);
-                else if (r.kind == SL_RESULT_REJECT)
+                else if (r.kind == SLP_RESULT_REJECT)
                         tally_reject(y, &r);
         }
         assert_int_equal(harness_write_all(t->master, buf, len, WAIT_MS), 0);
@@ -961,7 +961,7 @@ static void test_garbage_counters(void **state)
         size_t n, frames_before;
         int round = 0;
 
-        assert_int_equal(sl_decoder_init(&y->dec, SL_FRAME_DEFAULT), 0);
+        assert_int_equal(slp_decoder_init(&y->dec, SLP_FRAME_DEFAULT), 0);
         plug(t);
         snprintf(links, sizeof(links), fmt, t->dev);
         start(t, links);
@@ -1116,12 +1116,12 @@ static void test_stale_and_fresh(void **state)
          * is the event: once its answer is here, the whole frame has been applied. */
         send_frame(t->master, ":BA|N0|D|Qout0");
         {
-                const struct sl_frame *f;
+                const struct slp_frame *f;
 
                 do
                         f = next_frame(t);
-                while (f->fields[0].type == SL_FIELD_N);        /* the up list */
-                assert_int_equal(f->fields[0].type, SL_FIELD_R);
+                while (f->fields[0].type == SLP_FIELD_N);       /* the up list */
+                assert_int_equal(f->fields[0].type, SLP_FIELD_R);
                 assert_memory_equal(f->fields[0].value, "out0", 4);
         }
         assert_true(read_flags(t, "in0") & SL_FLAG_STALE);

@@ -49,7 +49,7 @@
 #define LINKS_MAX       3
 #define VARS_MAX        (CONFIG_VARS_MAX)
 #define RX_MAX          4096            /* frames kept per peer end */
-#define TEXT_MAX        (SL_FRAME_MAX + 16)
+#define TEXT_MAX        (SLP_FRAME_MAX + 16)
 #define YAML_MAX        8192
 #define READ_CHUNK      65536
 #define EVENTS_MAX      64
@@ -71,7 +71,7 @@ struct peer_end {
         uint16_t port;                  /* udp: our port */
         struct sockaddr_in engine;      /* udp: where the engine's datagrams come from */
         bool engine_known;
-        struct sl_decoder dec;
+        struct slp_decoder dec;
         struct rx_frame *rx;
         size_t nrx;
         uint64_t rx_bytes;              /* bytes read */
@@ -126,7 +126,7 @@ static size_t mkraw(char *out, size_t size, const char *text, bool crlf)
 /* ---------------------------------------------------------------------------------------------
  * Peer ends */
 
-static void peer_record(struct peer_end *pe, const struct sl_frame *f)
+static void peer_record(struct peer_end *pe, const struct slp_frame *f)
 {
         struct rx_frame *r;
 
@@ -142,22 +142,22 @@ static void peer_record(struct peer_end *pe, const struct sl_frame *f)
 
 static void peer_feed(struct peer_end *pe, const uint8_t *p, size_t n)
 {
-        struct sl_decode_result r;
+        struct slp_decode_result r;
 
         while (n > 0) {
-                size_t used = sl_decoder_feed(&pe->dec, p, n, &r);
+                size_t used = slp_decoder_feed(&pe->dec, p, n, &r);
 
                 p += used;
                 n -= used;
-                if (r.kind == SL_RESULT_FRAME)
+                if (r.kind == SLP_RESULT_FRAME)
                         peer_record(pe, r.frame);
-                else if (r.kind == SL_RESULT_REJECT)
+                else if (r.kind == SLP_RESULT_REJECT)
                         fail_msg("the engine sent bytes the codec rejects: %s (%zu bytes)",
-                                 sl_decode_reason_str(r.reason), r.bytes);
+                                 slp_decode_reason_str(r.reason), r.bytes);
         }
-        if (pe->datagram && sl_decoder_end(&pe->dec, &r))
+        if (pe->datagram && slp_decoder_end(&pe->dec, &r))
                 fail_msg("datagram from the engine with a partial frame or noise: %s",
-                         sl_decode_reason_str(r.reason));
+                         slp_decode_reason_str(r.reason));
 }
 
 static void peer_events(struct peer_end *pe)
@@ -271,7 +271,7 @@ static void peer_init(struct fx *fx, unsigned i)
         pe->fx = fx;
         pe->rx = calloc(RX_MAX, sizeof(*pe->rx));
         assert_non_null(pe->rx);
-        assert_int_equal(sl_decoder_init(&pe->dec, SL_FRAME_MAX), 0);
+        assert_int_equal(slp_decoder_init(&pe->dec, SLP_FRAME_MAX), 0);
 }
 
 static void device_path(const struct fx *fx, unsigned i, char *buf, size_t size)
@@ -300,7 +300,7 @@ static void fx_pty(struct fx *fx, unsigned i)
                 peer_init(fx, i);
         assert_int_equal(harness_openpty(&pe->fd, &pe->slave, pe->pts), 0);
         repoint(fx, i, pe->pts);
-        sl_decoder_reset(&pe->dec);
+        slp_decoder_reset(&pe->dec);
         pe->datagram = false;
         pe->tx_len = pe->tx_off = 0;
         assert_int_equal(evloop_add_fd(fx->loop, pe->fd, POLLIN, peer_on_io, pe), 0);
@@ -1426,11 +1426,11 @@ static void test_query_answers(void **state)
         peer_frame(&fx->peers[1], ":AB|QCmdThrottle");
         expect_frame(wait_frames(fx, 1, 2), ":BA|RCmdThrottle|D55");
 
-        /* A ping value over SL_VALUE_MAX (the decoder passes it) cannot be echoed: counted,
+        /* A ping value over SLP_VALUE_MAX (the decoder passes it) cannot be echoed: counted,
          * and the answers in the same frame still go out. */
         bad = ctr(fx, 1, SHM_COUNTER_BAD_VALUE);
-        memset(longname, 'p', SL_VALUE_MAX + 1);
-        longname[SL_VALUE_MAX + 1] = '\0';
+        memset(longname, 'p', SLP_VALUE_MAX + 1);
+        longname[SLP_VALUE_MAX + 1] = '\0';
         snprintf(text, sizeof(text), ":AB|P%s|QCmdThrottle", longname);
         n = fx->peers[1].nrx;
         peer_frame(&fx->peers[1], text);

@@ -23,7 +23,7 @@
 #define OUT_MAX         16384
 #define PIECES_MAX      4
 
-static struct sl_decoder dec;
+static struct slp_decoder dec;
 
 /* ---------------------------------------------------------------------------------------------
  * Result transcript */
@@ -47,33 +47,33 @@ static void out_add(struct out *o, const char *fmt, ...)
         o->n += (size_t)r;
 }
 
-static const char *reason_tag(enum sl_decode_reason r)
+static const char *reason_tag(enum slp_decode_reason r)
 {
-        static const char *const tags[SL_REASON_COUNT] = {
-                [SL_REASON_NONE] = "none",
-                [SL_REASON_NOISE] = "noise",
-                [SL_REASON_RESYNC] = "resync",
-                [SL_REASON_OVERLONG] = "overlong",
-                [SL_REASON_TRUNCATED] = "truncated",
-                [SL_REASON_NO_CHECKSUM] = "nocsum",
-                [SL_REASON_BAD_CHECKSUM_SYNTAX] = "csumsyntax",
-                [SL_REASON_BAD_CHECKSUM] = "badcsum",
-                [SL_REASON_BAD_HEADER] = "header",
-                [SL_REASON_BAD_ADDRESS] = "address",
-                [SL_REASON_BAD_FIELD] = "field",
-                [SL_REASON_NO_FIELDS] = "nofields",
-                [SL_REASON_UNKNOWN_FIELD] = "unknown",
-                [SL_REASON_EMPTY_FIELD] = "empty",
+        static const char *const tags[SLP_REASON_COUNT] = {
+                [SLP_REASON_NONE] = "none",
+                [SLP_REASON_NOISE] = "noise",
+                [SLP_REASON_RESYNC] = "resync",
+                [SLP_REASON_OVERLONG] = "overlong",
+                [SLP_REASON_TRUNCATED] = "truncated",
+                [SLP_REASON_NO_CHECKSUM] = "nocsum",
+                [SLP_REASON_BAD_CHECKSUM_SYNTAX] = "csumsyntax",
+                [SLP_REASON_BAD_CHECKSUM] = "badcsum",
+                [SLP_REASON_BAD_HEADER] = "header",
+                [SLP_REASON_BAD_ADDRESS] = "address",
+                [SLP_REASON_BAD_FIELD] = "field",
+                [SLP_REASON_NO_FIELDS] = "nofields",
+                [SLP_REASON_UNKNOWN_FIELD] = "unknown",
+                [SLP_REASON_EMPTY_FIELD] = "empty",
         };
 
-        assert_true(r >= 0 && r < SL_REASON_COUNT);
+        assert_true(r >= 0 && r < SLP_REASON_COUNT);
         return tags[r];
 }
 
 /* Checks what every decoded frame must satisfy, then writes it to the transcript. */
-static void describe_frame(struct out *o, const struct sl_decode_result *r)
+static void describe_frame(struct out *o, const struct slp_decode_result *r)
 {
-        const struct sl_frame *f = r->frame;
+        const struct slp_frame *f = r->frame;
         size_t unknown = 0;
 
         assert_non_null(f);
@@ -87,11 +87,11 @@ static void describe_frame(struct out *o, const struct sl_decode_result *r)
         assert_true(f->nfields > 0);
         out_add(o, "%c%c", f->dst, f->src);
         for (size_t i = 0; i < f->nfields; i++) {
-                const struct sl_field *fl = &f->fields[i];
+                const struct slp_field *fl = &f->fields[i];
 
                 /* Values point into the decoder's copy of the frame. */
                 assert_true(fl->value > f->raw && fl->value + fl->len < f->raw + f->raw_len);
-                if (fl->type == SL_FIELD_UNKNOWN) {
+                if (fl->type == SLP_FIELD_UNKNOWN) {
                         unknown++;
                         out_add(o, "|*");
                 } else {
@@ -99,8 +99,8 @@ static void describe_frame(struct out *o, const struct sl_decode_result *r)
                         out_add(o, "|");
                 }
                 out_add(o, "%c%.*s", fl->letter, (int)fl->len, fl->value);
-                if (fl->type == SL_FIELD_N || fl->type == SL_FIELD_L) {
-                        if (fl->index == SL_INDEX_QUERY)
+                if (fl->type == SLP_FIELD_N || fl->type == SLP_FIELD_L) {
+                        if (fl->index == SLP_INDEX_QUERY)
                                 out_add(o, "@?");
                         else
                                 out_add(o, "@%lu", (unsigned long)fl->index);
@@ -113,16 +113,16 @@ static void describe_frame(struct out *o, const struct sl_decode_result *r)
                 out_add(o, " {e=%zu}", f->empty_fields);
 }
 
-static void describe(struct out *o, const struct sl_decode_result *r)
+static void describe(struct out *o, const struct slp_decode_result *r)
 {
         if (o->n > 0)
                 out_add(o, " ; ");
-        if (r->kind == SL_RESULT_FRAME) {
+        if (r->kind == SLP_RESULT_FRAME) {
                 describe_frame(o, r);
         } else {
-                assert_int_equal(r->kind, SL_RESULT_REJECT);
+                assert_int_equal(r->kind, SLP_RESULT_REJECT);
                 assert_null(r->frame);
-                assert_true(r->reason != SL_REASON_NONE);
+                assert_true(r->reason != SLP_REASON_NONE);
                 assert_true(r->bytes > 0);
                 out_add(o, "!%s/%zu", reason_tag(r->reason), r->bytes);
         }
@@ -132,11 +132,11 @@ static void describe(struct out *o, const struct sl_decode_result *r)
 static void feed_chunk(const uint8_t *p, size_t n, struct out *o)
 {
         while (n > 0) {
-                struct sl_decode_result r;
-                size_t used = sl_decoder_feed(&dec, p, n, &r);
+                struct slp_decode_result r;
+                size_t used = slp_decoder_feed(&dec, p, n, &r);
 
                 assert_true(used >= 1 && used <= n);
-                if (r.kind == SL_RESULT_NONE)
+                if (r.kind == SLP_RESULT_NONE)
                         assert_int_equal(used, n);
                 else
                         describe(o, &r);
@@ -150,7 +150,7 @@ enum chunking { CHUNK_WHOLE, CHUNK_SPLIT, CHUNK_BYTES };
 /* Feeds one piece (a datagram, or the whole stream) and ends it. */
 static void feed_piece(const uint8_t *p, size_t len, enum chunking how, size_t split, struct out *o)
 {
-        struct sl_decode_result r;
+        struct slp_decode_result r;
         size_t off = 0;
 
         while (off < len) {
@@ -163,10 +163,10 @@ static void feed_piece(const uint8_t *p, size_t len, enum chunking how, size_t s
                 feed_chunk(p + off, chunk, o);
                 off += chunk;
         }
-        if (sl_decoder_end(&dec, &r))
+        if (slp_decoder_end(&dec, &r))
                 describe(o, &r);
         /* After end() the decoder is idle: a second end() has nothing to say. */
-        assert_false(sl_decoder_end(&dec, &r));
+        assert_false(slp_decoder_end(&dec, &r));
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -176,7 +176,7 @@ struct vector {
         const char *name;
         const char *in[PIECES_MAX];     /* one stream, or several datagrams; each is ended */
         size_t len;                     /* length of in[0] when it holds a NUL byte; else 0 */
-        size_t max_frame;               /* 0: SL_FRAME_DEFAULT */
+        size_t max_frame;               /* 0: SLP_FRAME_DEFAULT */
         const char *expect;
 };
 
@@ -282,7 +282,7 @@ static const struct vector vectors[] = {
           "!overlong/32 ; AB|P0" },
         { "bracket inside an overlong-sized frame", { "[:AB|D01234567890123456789xy[P0|C78]" PING },
           0, 32, "!resync/28 ; !badcsum/8 ; AB|P0" },
-        { "value longer than SL_VALUE_MAX is decoded",
+        { "value longer than SLP_VALUE_MAX is decoded",
           { "[:AB|D0123456789012345678901234567890123456789012345678901234567890123456789|C97]" },
           0, 0, "AB|D0123456789012345678901234567890123456789012345678901234567890123456789" },
         /* datagrams: every piece is ended, so nothing joins across datagrams */
@@ -299,7 +299,7 @@ static void run_vector(const struct vector *v, enum chunking how, size_t split, 
 {
         o->n = 0;
         o->s[0] = '\0';
-        assert_int_equal(sl_decoder_init(&dec, v->max_frame), 0);
+        assert_int_equal(slp_decoder_init(&dec, v->max_frame), 0);
         for (size_t i = 0; i < PIECES_MAX && v->in[i]; i++) {
                 size_t len = (i == 0 && v->len) ? v->len : strlen(v->in[i]);
 
@@ -344,57 +344,57 @@ static void test_decode_vectors(void **state)
 static void test_frame_layout(void **state)
 {
         static const char wire[] = "\r\n" SPEC_DATA "\r\n";
-        struct sl_decode_result r;
+        struct slp_decode_result r;
         size_t used;
 
         (void)state;
-        assert_int_equal(sl_decoder_init(&dec, 0), 0);
-        used = sl_decoder_feed(&dec, (const uint8_t *)wire, strlen(wire), &r);
+        assert_int_equal(slp_decoder_init(&dec, 0), 0);
+        used = slp_decoder_feed(&dec, (const uint8_t *)wire, strlen(wire), &r);
         assert_int_equal(used, 2 + strlen(SPEC_DATA));
-        assert_int_equal(r.kind, SL_RESULT_FRAME);
+        assert_int_equal(r.kind, SLP_RESULT_FRAME);
         assert_int_equal(r.frame->raw_len, strlen(SPEC_DATA));
         assert_memory_equal(r.frame->raw, SPEC_DATA, strlen(SPEC_DATA));
         assert_int_equal(r.frame->nfields, 5);
-        assert_int_equal(r.frame->fields[0].type, SL_FIELD_N);
+        assert_int_equal(r.frame->fields[0].type, SLP_FIELD_N);
         assert_int_equal(r.frame->fields[0].index, 0);
         assert_int_equal(r.frame->fields[2].len, strlen("-113.12345678"));
         assert_memory_equal(r.frame->fields[2].value, "-113.12345678", r.frame->fields[2].len);
         assert_int_equal(r.frame->dst_index, 0);
         assert_int_equal(r.frame->src_index, 1);
         /* The trailing CR LF is whitespace: consumed, nothing reported. */
-        used = sl_decoder_feed(&dec, (const uint8_t *)wire + used, 2, &r);
+        used = slp_decoder_feed(&dec, (const uint8_t *)wire + used, 2, &r);
         assert_int_equal(used, 2);
-        assert_int_equal(r.kind, SL_RESULT_NONE);
-        assert_false(sl_decoder_end(&dec, &r));
+        assert_int_equal(r.kind, SLP_RESULT_NONE);
+        assert_false(slp_decoder_end(&dec, &r));
 }
 
 static void test_decoder_init_limits(void **state)
 {
         (void)state;
-        assert_int_equal(sl_decoder_init(&dec, 0), 0);
-        assert_int_equal(dec.max_frame, SL_FRAME_DEFAULT);
-        assert_int_equal(sl_decoder_init(&dec, SL_FRAME_MAX), 0);
-        assert_int_equal(sl_decoder_init(&dec, SL_FRAME_MIN), 0);
-        assert_int_equal(sl_decoder_init(&dec, SL_FRAME_MIN - 1), -EINVAL);
-        assert_int_equal(sl_decoder_init(&dec, SL_FRAME_MAX + 1), -EINVAL);
+        assert_int_equal(slp_decoder_init(&dec, 0), 0);
+        assert_int_equal(dec.max_frame, SLP_FRAME_DEFAULT);
+        assert_int_equal(slp_decoder_init(&dec, SLP_FRAME_MAX), 0);
+        assert_int_equal(slp_decoder_init(&dec, SLP_FRAME_MIN), 0);
+        assert_int_equal(slp_decoder_init(&dec, SLP_FRAME_MIN - 1), -EINVAL);
+        assert_int_equal(slp_decoder_init(&dec, SLP_FRAME_MAX + 1), -EINVAL);
 }
 
-/* Noise runs are reported once per SL_NOISE_RUN_MAX bytes, not once per byte; CR LF are free. */
+/* Noise runs are reported once per SLP_NOISE_RUN_MAX bytes, not once per byte; CR LF are free. */
 static void test_noise_runs(void **state)
 {
-        static uint8_t buf[2 * SL_NOISE_RUN_MAX + 600];
+        static uint8_t buf[2 * SLP_NOISE_RUN_MAX + 600];
         static struct out o;
         size_t n = 0;
 
         (void)state;
-        for (size_t i = 0; i < 2 * SL_NOISE_RUN_MAX + 400; i++)
+        for (size_t i = 0; i < 2 * SLP_NOISE_RUN_MAX + 400; i++)
                 buf[n++] = (uint8_t)('a' + i % 26);
         for (size_t i = 0; i < 100; i++) {
                 buf[n++] = '\r';
                 buf[n++] = '\n';
         }
         o.n = 0;
-        assert_int_equal(sl_decoder_init(&dec, 0), 0);
+        assert_int_equal(slp_decoder_init(&dec, 0), 0);
         feed_chunk(buf, n, &o);
         assert_string_equal(o.s, "!noise/1024 ; !noise/1024");
         feed_piece(buf, 0, CHUNK_WHOLE, 0, &o);
@@ -423,8 +423,8 @@ static size_t make_frame(char *buf, size_t len)
 /* At the default and the largest max_frame: max_frame accepted, max_frame + 1 rejected, resync. */
 static void test_max_frame_edges(void **state)
 {
-        static const size_t limits[] = { SL_FRAME_DEFAULT, SL_FRAME_MAX, 100 };
-        static char buf[2 * SL_FRAME_MAX + 64];
+        static const size_t limits[] = { SLP_FRAME_DEFAULT, SLP_FRAME_MAX, 100 };
+        static char buf[2 * SLP_FRAME_MAX + 64];
 
         (void)state;
         for (size_t k = 0; k < sizeof(limits) / sizeof(limits[0]); k++) {
@@ -432,7 +432,7 @@ static void test_max_frame_edges(void **state)
                 static struct out o;
                 char want[128];
 
-                assert_int_equal(sl_decoder_init(&dec, max), 0);
+                assert_int_equal(slp_decoder_init(&dec, max), 0);
                 o.n = 0;
                 n = make_frame(buf, max);
                 n += make_frame(buf + n, max + 1);
@@ -469,7 +469,7 @@ static void test_every_offset(void **state)
         (void)state;
         for (size_t len = 1; len <= 40; len++) {
                 for (size_t at = 0; at < len; at++) {
-                        struct sl_decode_result r;
+                        struct slp_decode_result r;
                         size_t n;
 
                         for (size_t k = 0; k < sizeof(bad); k++) {
@@ -477,10 +477,11 @@ static void test_every_offset(void **state)
                                 for (size_t i = 0; i < len; i++)
                                         buf[n++] = i == at ? (char)bad[k] : (char)('a' + i % 26);
                                 n = close_frame(buf, n);
-                                assert_int_equal(sl_decoder_init(&dec, 0), 0);
-                                assert_int_equal(sl_decoder_feed(&dec, (const uint8_t *)buf, n, &r), n);
-                                assert_int_equal(r.kind, SL_RESULT_REJECT);
-                                assert_int_equal(r.reason, SL_REASON_BAD_FIELD);
+                                assert_int_equal(slp_decoder_init(&dec, 0), 0);
+                                assert_int_equal(
+                                        slp_decoder_feed(&dec, (const uint8_t *)buf, n, &r), n);
+                                assert_int_equal(r.kind, SLP_RESULT_REJECT);
+                                assert_int_equal(r.reason, SLP_REASON_BAD_FIELD);
                         }
                         /* "D<at letters>|D<the rest>" */
                         n = (size_t)sprintf(buf, "[:AB|D");
@@ -489,9 +490,9 @@ static void test_every_offset(void **state)
                         if (at + 1 < len)
                                 buf[n - len + at + 1] = 'D';
                         n = close_frame(buf, n);
-                        assert_int_equal(sl_decoder_init(&dec, 0), 0);
-                        assert_int_equal(sl_decoder_feed(&dec, (const uint8_t *)buf, n, &r), n);
-                        assert_int_equal(r.kind, SL_RESULT_FRAME);
+                        assert_int_equal(slp_decoder_init(&dec, 0), 0);
+                        assert_int_equal(slp_decoder_feed(&dec, (const uint8_t *)buf, n, &r), n);
+                        assert_int_equal(r.kind, SLP_RESULT_FRAME);
                         assert_int_equal(r.frame->nfields, at + 1 < len ? 2 : 1);
                         assert_int_equal(r.frame->empty_fields, at + 1 < len ? 0 : 1);
                         assert_int_equal(r.frame->fields[0].len, at);
@@ -504,20 +505,21 @@ static void test_every_offset(void **state)
 static void test_reason_strings(void **state)
 {
         (void)state;
-        for (int i = 0; i < SL_REASON_COUNT; i++) {
-                const char *s = sl_decode_reason_str((enum sl_decode_reason)i);
+        for (int i = 0; i < SLP_REASON_COUNT; i++) {
+                const char *s = slp_decode_reason_str((enum slp_decode_reason)i);
 
                 assert_non_null(s);
                 assert_true(strlen(s) > 0);
                 assert_string_not_equal(s, "unknown reason");
                 for (int j = 0; j < i; j++)
-                        assert_string_not_equal(s, sl_decode_reason_str((enum sl_decode_reason)j));
+                        assert_string_not_equal(
+                                s, slp_decode_reason_str((enum slp_decode_reason)j));
         }
-        assert_string_equal(sl_decode_reason_str(SL_REASON_BAD_CHECKSUM), "bad checksum");
-        assert_string_equal(sl_decode_reason_str(SL_REASON_COUNT), "unknown reason");
-        assert_int_equal(sl_field_type_of('D'), SL_FIELD_D);
-        assert_int_equal(sl_field_type_of('M'), SL_FIELD_UNKNOWN);
-        assert_int_equal(sl_field_type_of('d'), SL_FIELD_UNKNOWN);
+        assert_string_equal(slp_decode_reason_str(SLP_REASON_BAD_CHECKSUM), "bad checksum");
+        assert_string_equal(slp_decode_reason_str(SLP_REASON_COUNT), "unknown reason");
+        assert_int_equal(slp_field_type_of('D'), SLP_FIELD_D);
+        assert_int_equal(slp_field_type_of('M'), SLP_FIELD_UNKNOWN);
+        assert_int_equal(slp_field_type_of('d'), SLP_FIELD_UNKNOWN);
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -529,7 +531,7 @@ static void test_reason_strings(void **state)
 struct enc_vector {
         const char *name;
         char dst, src;
-        struct sl_field fields[FIELDS_MAX];
+        struct slp_field fields[FIELDS_MAX];
         size_t nfields;
         unsigned flags;
         const char *expect;     /* wire bytes, or NULL when an error is expected */
@@ -542,7 +544,7 @@ static const struct enc_vector enc_vectors[] = {
             F('D', "22.1") }, 5, 0, SPEC_DATA, 0 },
         { "spec data CR LF", 'A', 'B',
           { F('N', "0"), F('D', "40.12345678"), F('D', "-113.12345678"), F('D', "85.6"),
-            F('D', "22.1") }, 5, SL_ENCODE_CRLF, SPEC_DATA "\r\n", 0 },
+            F('D', "22.1") }, 5, SLP_ENCODE_CRLF, SPEC_DATA "\r\n", 0 },
         { "spec compressed", 'A', 'B', { F('N', "0"), F('D', ""), F('D', ""), F('D', "85.7"),
           F('D', "") }, 5, 0, "[:AB|N0|D|D|D85.7|D|C48]", 0 },
         { "ping", 'A', 'B', { F('P', "0") }, 1, 0, PING, 0 },
@@ -579,14 +581,14 @@ static const struct enc_vector enc_vectors[] = {
 
 /* Decodes one encoded frame and checks it carries exactly the fields that were encoded. */
 static void check_decodes_to(const char *wire, size_t len, char dst, char src,
-                             const struct sl_field *fields, size_t nfields)
+                             const struct slp_field *fields, size_t nfields)
 {
-        struct sl_decode_result r;
+        struct slp_decode_result r;
         size_t used;
 
-        assert_int_equal(sl_decoder_init(&dec, SL_FRAME_MAX), 0);
-        used = sl_decoder_feed(&dec, (const uint8_t *)wire, len, &r);
-        assert_int_equal(r.kind, SL_RESULT_FRAME);
+        assert_int_equal(slp_decoder_init(&dec, SLP_FRAME_MAX), 0);
+        used = slp_decoder_feed(&dec, (const uint8_t *)wire, len, &r);
+        assert_int_equal(r.kind, SLP_RESULT_FRAME);
         /* Whatever follows the ']' is the optional CR LF. */
         assert_true(len - used == 0 || (len - used == 2 && memcmp(wire + used, "\r\n", 2) == 0));
         assert_int_equal(r.frame->dst, dst);
@@ -601,13 +603,13 @@ static void check_decodes_to(const char *wire, size_t len, char dst, char src,
 
 static void test_encode_vectors(void **state)
 {
-        char buf[SL_FRAME_MAX];
+        char buf[SLP_FRAME_MAX];
 
         (void)state;
         for (size_t i = 0; i < sizeof(enc_vectors) / sizeof(enc_vectors[0]); i++) {
                 const struct enc_vector *v = &enc_vectors[i];
-                int r = sl_frame_encode(buf, sizeof(buf), v->dst, v->src, v->fields, v->nfields,
-                                        v->flags);
+                int r = slp_frame_encode(buf, sizeof(buf), v->dst, v->src, v->fields, v->nfields,
+                                         v->flags);
 
                 if (!v->expect) {
                         if (r != v->error)
@@ -627,17 +629,17 @@ static void test_encode_vectors(void **state)
 /* A buffer one byte short is refused, the exact size works. */
 static void test_encode_buffer_size(void **state)
 {
-        const struct sl_field f[] = { F('P', "0") };
+        const struct slp_field f[] = { F('P', "0") };
         char buf[32];
 
         (void)state;
-        assert_int_equal(sl_frame_encode(buf, strlen(PING) - 1, 'A', 'B', f, 1, 0), -ENOSPC);
-        assert_int_equal(sl_frame_encode(buf, strlen(PING), 'A', 'B', f, 1, 0), strlen(PING));
-        assert_int_equal(sl_frame_encode(buf, strlen(PING) + 1, 'A', 'B', f, 1, SL_ENCODE_CRLF),
+        assert_int_equal(slp_frame_encode(buf, strlen(PING) - 1, 'A', 'B', f, 1, 0), -ENOSPC);
+        assert_int_equal(slp_frame_encode(buf, strlen(PING), 'A', 'B', f, 1, 0), strlen(PING));
+        assert_int_equal(slp_frame_encode(buf, strlen(PING) + 1, 'A', 'B', f, 1, SLP_ENCODE_CRLF),
                          -ENOSPC);
-        assert_int_equal(sl_frame_encode(buf, strlen(PING) + 2, 'A', 'B', f, 1, SL_ENCODE_CRLF),
+        assert_int_equal(slp_frame_encode(buf, strlen(PING) + 2, 'A', 'B', f, 1, SLP_ENCODE_CRLF),
                          strlen(PING) + 2);
-        assert_int_equal(sl_frame_encode(buf, 0, 'A', 'B', f, 1, 0), -ENOSPC);
+        assert_int_equal(slp_frame_encode(buf, 0, 'A', 'B', f, 1, 0), -ENOSPC);
 }
 
 static void test_encode_helpers(void **state)
@@ -646,23 +648,24 @@ static void test_encode_helpers(void **state)
         int r;
 
         (void)state;
-        r = sl_encode_query(buf, sizeof(buf), 'A', 'B', "AutoGpsLat", 0);
+        r = slp_encode_query(buf, sizeof(buf), 'A', 'B', "AutoGpsLat", 0);
         assert_int_equal(r, strlen("[:AB|QAutoGpsLat|C2D]"));
         assert_memory_equal(buf, "[:AB|QAutoGpsLat|C2D]", (size_t)r);
-        r = sl_encode_answer(buf, sizeof(buf), 'B', 'A', "AutoGpsLat", "40.12345678", SL_ENCODE_CRLF);
+        r = slp_encode_answer(buf, sizeof(buf), 'B', 'A', "AutoGpsLat", "40.12345678",
+                              SLP_ENCODE_CRLF);
         assert_int_equal(r, strlen("[:BA|RAutoGpsLat|D40.12345678|C24]\r\n"));
         assert_memory_equal(buf, "[:BA|RAutoGpsLat|D40.12345678|C24]\r\n", (size_t)r);
         /* Decision: a query for an unknown name is answered with an empty value. */
-        r = sl_encode_answer(buf, sizeof(buf), 'B', 'A', "Nope", "", 0);
+        r = slp_encode_answer(buf, sizeof(buf), 'B', 'A', "Nope", "", 0);
         assert_true(r > 0);
         check_decodes_to(buf, (size_t)r, 'B', 'A',
-                         (const struct sl_field[]){ F('R', "Nope"), F('D', "") }, 2);
-        assert_int_equal(sl_encode_query(buf, sizeof(buf), 'A', 'B', "a|b", 0), -EINVAL);
-        assert_int_equal(sl_encode_answer(buf, sizeof(buf), 'A', 'B', "x", "1]", 0), -EINVAL);
-        assert_int_equal(sl_encode_answer(buf, sizeof(buf), 'A', 'B', "x",
+                         (const struct slp_field[]){ F('R', "Nope"), F('D', "") }, 2);
+        assert_int_equal(slp_encode_query(buf, sizeof(buf), 'A', 'B', "a|b", 0), -EINVAL);
+        assert_int_equal(slp_encode_answer(buf, sizeof(buf), 'A', 'B', "x", "1]", 0), -EINVAL);
+        assert_int_equal(slp_encode_answer(buf, sizeof(buf), 'A', 'B', "x",
                          "0123456789012345678901234567890123456789012345678901234567890123", 0),
                          -EMSGSIZE);
-        assert_int_equal(sl_encode_query(buf, 10, 'A', 'B', "AutoGpsLat", 0), -ENOSPC);
+        assert_int_equal(slp_encode_query(buf, 10, 'A', 'B', "AutoGpsLat", 0), -ENOSPC);
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -686,12 +689,12 @@ static const struct list_case list_cases[] = {
         { "40 doubles, compressed, full refresh", 40, 96, true, true, true, 3 },
         { "40 doubles, nothing changed", 40, 96, true, false, false, 1000 },
         { "changed ignored without compression", 40, 96, false, false, false, 2 },
-        { "300 values, N offsets over 100", 300, SL_FRAME_MIN + 60, false, false, true, 0 },
+        { "300 values, N offsets over 100", 300, SLP_FRAME_MIN + 60, false, false, true, 0 },
         { "300 values, default max_frame", 300, 0, true, false, true, 5 },
-        { "300 values, largest max_frame", 300, SL_FRAME_MAX, false, false, false, 0 },
+        { "300 values, largest max_frame", 300, SLP_FRAME_MAX, false, false, false, 0 },
 };
 
-static char list_storage[LIST_MAX][SL_VALUE_MAX + 1];
+static char list_storage[LIST_MAX][SLP_VALUE_MAX + 1];
 static const char *list_values[LIST_MAX];
 static bool list_changed[LIST_MAX];
 
@@ -705,8 +708,8 @@ static void make_values(size_t count)
                 if (i % 17 == 5)
                         list_storage[i][0] = '\0';
                 else if (i % 23 == 7) {
-                        memset(list_storage[i], 'v', SL_VALUE_MAX);
-                        list_storage[i][SL_VALUE_MAX] = '\0';
+                        memset(list_storage[i], 'v', SLP_VALUE_MAX);
+                        list_storage[i][SLP_VALUE_MAX] = '\0';
                 } else {
                         snprintf(list_storage[i], sizeof(list_storage[i]), "%.*f", (int)(x % 9),
                                  (double)(int32_t)x / 1000.0);
@@ -717,45 +720,45 @@ static void make_values(size_t count)
 
 static void check_list_case(const struct list_case *c)
 {
-        struct sl_list l = {
+        struct slp_list l = {
                 .dst = 'A', .src = 'B', .values = list_values, .count = c->count,
                 .max_frame = c->max_frame, .compress = c->compress, .full = c->full, .crlf = c->crlf,
                 .changed = c->changed_every ? list_changed : NULL,
         };
-        size_t max = c->max_frame ? c->max_frame : SL_FRAME_DEFAULT;
+        size_t max = c->max_frame ? c->max_frame : SLP_FRAME_DEFAULT;
         size_t cursor = 0, frames = 0;
-        char buf[SL_FRAME_MAX];
+        char buf[SLP_FRAME_MAX];
         int r;
 
         make_values(c->count);
         for (size_t i = 0; i < c->count; i++)
                 list_changed[i] = c->changed_every && i % c->changed_every == 0;
-        while ((r = sl_encode_list(&l, &cursor, buf, sizeof(buf))) > 0) {
+        while ((r = slp_encode_list(&l, &cursor, buf, sizeof(buf))) > 0) {
                 size_t start, n = (size_t)r, body = c->crlf ? n - 2 : n;
-                struct sl_decode_result res;
-                const struct sl_frame *f;
+                struct slp_decode_result res;
+                const struct slp_frame *f;
 
                 assert_true(++frames <= c->count);
                 assert_true(n <= max);
                 if (c->crlf)
                         assert_memory_equal(buf + n - 2, "\r\n", 2);
                 assert_int_equal(buf[body - 1], ']');
-                assert_int_equal(sl_decoder_init(&dec, SL_FRAME_MAX), 0);
-                assert_int_equal(sl_decoder_feed(&dec, (const uint8_t *)buf, body, &res), body);
-                assert_int_equal(res.kind, SL_RESULT_FRAME);
+                assert_int_equal(slp_decoder_init(&dec, SLP_FRAME_MAX), 0);
+                assert_int_equal(slp_decoder_feed(&dec, (const uint8_t *)buf, body, &res), body);
+                assert_int_equal(res.kind, SLP_RESULT_FRAME);
                 f = res.frame;
                 assert_int_equal(f->dst, 'A');
                 assert_int_equal(f->src, 'B');
-                assert_int_equal(f->fields[0].type, SL_FIELD_N);
+                assert_int_equal(f->fields[0].type, SLP_FIELD_N);
                 start = f->fields[0].index;
                 assert_true(cursor > start);
                 assert_int_equal(f->nfields, 1 + cursor - start);
                 for (size_t i = start; i < cursor; i++) {
-                        const struct sl_field *fl = &f->fields[1 + i - start];
+                        const struct slp_field *fl = &f->fields[1 + i - start];
                         bool sent = !c->compress || c->full || list_changed[i];
                         const char *want = sent ? list_values[i] : "";
 
-                        assert_int_equal(fl->type, SL_FIELD_D);
+                        assert_int_equal(fl->type, SLP_FIELD_D);
                         assert_int_equal(fl->len, strlen(want));
                         assert_memory_equal(fl->value, want, fl->len);
                 }
@@ -771,7 +774,7 @@ static void check_list_case(const struct list_case *c)
         assert_int_equal(cursor, c->count);
         assert_true(frames >= 1);
         /* Called again at the end: nothing more. */
-        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), 0);
+        assert_int_equal(slp_encode_list(&l, &cursor, buf, sizeof(buf)), 0);
 }
 
 static void test_list_split(void **state)
@@ -789,13 +792,13 @@ static void test_list_spec_frames(void **state)
         static const char *const v[] = { "40.12345678", "-113.12345678", "85.6", "22.1" };
         static const char *const v2[] = { "40.12345678", "-113.12345678", "85.7", "22.1" };
         static const bool changed[] = { false, false, true, false };
-        struct sl_list l = { .dst = 'A', .src = 'B', .values = v, .count = 4 };
+        struct slp_list l = { .dst = 'A', .src = 'B', .values = v, .count = 4 };
         char buf[256];
         size_t cursor = 0;
         int r;
 
         (void)state;
-        r = sl_encode_list(&l, &cursor, buf, sizeof(buf));
+        r = slp_encode_list(&l, &cursor, buf, sizeof(buf));
         assert_int_equal(r, strlen(SPEC_DATA));
         assert_memory_equal(buf, SPEC_DATA, (size_t)r);
         assert_int_equal(cursor, 4);
@@ -804,14 +807,14 @@ static void test_list_spec_frames(void **state)
         l.changed = changed;
         l.compress = true;
         cursor = 0;
-        r = sl_encode_list(&l, &cursor, buf, sizeof(buf));
+        r = slp_encode_list(&l, &cursor, buf, sizeof(buf));
         assert_int_equal(r, strlen("[:AB|N0|D|D|D85.7|D|C48]"));
         assert_memory_equal(buf, "[:AB|N0|D|D|D85.7|D|C48]", (size_t)r);
 
         /* Full refresh sends everything even with compression on. */
         l.full = true;
         cursor = 0;
-        r = sl_encode_list(&l, &cursor, buf, sizeof(buf));
+        r = slp_encode_list(&l, &cursor, buf, sizeof(buf));
         assert_int_equal(r, strlen("[:AB|N0|D40.12345678|D-113.12345678|D85.7|D22.1|CD5]"));
         assert_memory_equal(buf, "[:AB|N0|D40.12345678|D-113.12345678|D85.7|D22.1|CD5]", (size_t)r);
 }
@@ -826,75 +829,75 @@ static void test_list_errors(void **state)
         static const char *const too_long[] = {
                 "0123456789012345678901234567890123456789012345678901234567890123"
         };
-        struct sl_list l = { .dst = 'A', .src = 'B', .values = too_big, .count = 2,
-                             .max_frame = SL_FRAME_MIN };
-        char buf[SL_FRAME_MAX];
+        struct slp_list l = { .dst = 'A', .src = 'B', .values = too_big, .count = 2,
+                             .max_frame = SLP_FRAME_MIN };
+        char buf[SLP_FRAME_MAX];
         size_t cursor = 0;
         int r;
 
         (void)state;
         /* Position 0 fits, position 1 can never fit in 32 bytes: one frame, then an error. */
-        r = sl_encode_list(&l, &cursor, buf, sizeof(buf));
-        assert_true(r > 0 && r <= SL_FRAME_MIN);
+        r = slp_encode_list(&l, &cursor, buf, sizeof(buf));
+        assert_true(r > 0 && r <= SLP_FRAME_MIN);
         assert_int_equal(cursor, 1);
-        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
+        assert_int_equal(slp_encode_list(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
         assert_int_equal(cursor, 1);
-        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
+        assert_int_equal(slp_encode_list(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
 
         /* The caller's buffer, not max_frame, is what is too small. */
         l.values = fits;
         l.max_frame = 0;
         cursor = 0;
-        assert_int_equal(sl_encode_list(&l, &cursor, buf, 12), -ENOSPC);
-        assert_int_equal(sl_encode_list(&l, &cursor, buf, 4), -ENOSPC);
+        assert_int_equal(slp_encode_list(&l, &cursor, buf, 12), -ENOSPC);
+        assert_int_equal(slp_encode_list(&l, &cursor, buf, 4), -ENOSPC);
         assert_int_equal(cursor, 0);
 
         /* A bad value ends the frame before it; the next call names it. */
         l.values = bad;
-        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), strlen("[:AB|N0|D1|C67]"));
+        assert_int_equal(slp_encode_list(&l, &cursor, buf, sizeof(buf)), strlen("[:AB|N0|D1|C67]"));
         assert_memory_equal(buf, "[:AB|N0|D1|C67]", strlen("[:AB|N0|D1|C67]"));
         assert_int_equal(cursor, 1);
-        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        assert_int_equal(slp_encode_list(&l, &cursor, buf, sizeof(buf)), -EINVAL);
         assert_int_equal(cursor, 1);
         /* ... but an unchanged bad value is not sent, so it does not matter. */
         cursor = 0;
         l.compress = true;
         l.changed = (const bool[]){ true, false };
-        assert_true(sl_encode_list(&l, &cursor, buf, sizeof(buf)) > 0);
+        assert_true(slp_encode_list(&l, &cursor, buf, sizeof(buf)) > 0);
         assert_int_equal(cursor, 2);
 
-        l = (struct sl_list){ .dst = 'A', .src = 'B', .values = too_long, .count = 1 };
+        l = (struct slp_list){ .dst = 'A', .src = 'B', .values = too_long, .count = 1 };
         cursor = 0;
-        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
+        assert_int_equal(slp_encode_list(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
         l.values = fits;
         l.dst = 'Z';
-        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        assert_int_equal(slp_encode_list(&l, &cursor, buf, sizeof(buf)), -EINVAL);
         l.dst = 'A';
-        l.max_frame = SL_FRAME_MAX + 1;
-        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        l.max_frame = SLP_FRAME_MAX + 1;
+        assert_int_equal(slp_encode_list(&l, &cursor, buf, sizeof(buf)), -EINVAL);
         l.max_frame = 0;
         l.count = 0;
-        assert_int_equal(sl_encode_list(&l, &cursor, buf, sizeof(buf)), 0);
+        assert_int_equal(slp_encode_list(&l, &cursor, buf, sizeof(buf)), 0);
 }
 
 /* Encode -> decode of every decoder vector's frames gives the same frames back. */
 static void test_roundtrip_vectors(void **state)
 {
-        static struct sl_field copy[SL_FIELDS_MAX];
-        static char values[SL_FRAME_MAX];
-        char buf[SL_FRAME_MAX + 8];
+        static struct slp_field copy[SLP_FIELDS_MAX];
+        static char values[SLP_FRAME_MAX];
+        char buf[SLP_FRAME_MAX + 8];
         size_t checked = 0;
 
         (void)state;
         for (size_t i = 0; i < sizeof(vectors) / sizeof(vectors[0]); i++) {
                 const char *in = vectors[i].in[0];
                 size_t len = vectors[i].len ? vectors[i].len : strlen(in);
-                struct sl_decode_result r;
+                struct slp_decode_result r;
 
-                assert_int_equal(sl_decoder_init(&dec, vectors[i].max_frame), 0);
+                assert_int_equal(slp_decoder_init(&dec, vectors[i].max_frame), 0);
                 while (len > 0) {
-                        size_t used = sl_decoder_feed(&dec, (const uint8_t *)in, len, &r);
-                        const struct sl_frame *f = r.frame;
+                        size_t used = slp_decoder_feed(&dec, (const uint8_t *)in, len, &r);
+                        const struct slp_frame *f = r.frame;
                         char dst, src;
                         size_t nf;
                         bool long_value = false;
@@ -902,7 +905,7 @@ static void test_roundtrip_vectors(void **state)
 
                         in += used;
                         len -= used;
-                        if (r.kind != SL_RESULT_FRAME)
+                        if (r.kind != SLP_RESULT_FRAME)
                                 continue;
                         /* Copy out: the decoder is reused below. */
                         dst = f->dst;
@@ -912,9 +915,9 @@ static void test_roundtrip_vectors(void **state)
                         for (size_t k = 0; k < nf; k++) {
                                 copy[k] = f->fields[k];
                                 copy[k].value = values + (f->fields[k].value - f->raw);
-                                long_value |= copy[k].len > SL_VALUE_MAX;
+                                long_value |= copy[k].len > SLP_VALUE_MAX;
                         }
-                        n = sl_frame_encode(buf, sizeof(buf), dst, src, copy, nf, 0);
+                        n = slp_frame_encode(buf, sizeof(buf), dst, src, copy, nf, 0);
                         if (long_value) {
                                 /* We decode long values but never emit them. */
                                 assert_int_equal(n, -EMSGSIZE);

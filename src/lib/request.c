@@ -21,6 +21,7 @@
 #include "daemon/control.h"
 #include "lib/client.h"
 #include "lib/export.h"
+#include "proto/circe.h"
 
 #define REQUEST_RUNTIME_DIR_ENV "SHAREDLINK_RUNTIME_DIR"
 #define REQUEST_SOCKET_SUFFIX   ".sock"
@@ -30,16 +31,6 @@
 #define REQUEST_SYNC_EXTRA_MS   10000   /* sync-clocks follows devices for 3 s, plus slack */
 #define NS_PER_MS               1000000ull
 
-/* CIRCE ranges (PROTOCOLS.md 2.3). */
-#define CIRCE_ROLES_MAX         127
-#define CIRCE_CAPABILITIES_MAX  127
-#define CIRCE_COMPETITOR_MAX    999
-#define CIRCE_TIME_MS_MAX       999999L
-#define CIRCE_COUNT_MAX         99
-#define CIRCE_PLACEMENT_MAX     999
-#define CIRCE_KEYS_MAX          65535
-#define CIRCE_ADDRESS_DIGITS    6
-
 /* SharedLink node addresses (PROTOCOLS.md 1.1). */
 #define SL_NODE_FIRST           'A'
 #define SL_NODE_LAST            'P'
@@ -47,7 +38,9 @@
 /* The public limits are the daemon's, word for word (control.h). */
 _Static_assert(SL_REQUEST_LINE_MAX + 1 == CONTROL_LINE_MAX, "request line limit");
 _Static_assert(SL_REQUEST_WORDS_MAX == CONTROL_ARGS_MAX, "request word limit");
-_Static_assert(SL_CIRCE_ADDRESS_SIZE == CIRCE_ADDRESS_DIGITS + 1, "address size");
+/* The public CIRCE limits are the codec's (proto/circe.h). */
+_Static_assert(SL_CIRCE_ADDRESS_SIZE == CIRCE_ADDRESS_LEN + 1, "address size");
+_Static_assert(SL_CIRCE_DESTS_MAX == CIRCE_VISUALIZE_DEST_MAX, "visualize destinations");
 
 #define SL_VISUALIZE_SIZE_V1    sizeof(struct sl_circe_visualize)
 
@@ -265,15 +258,16 @@ static int check_link(const char *link, char *why, size_t why_size)
         return 0;       /* the bytes are checked as a word */
 }
 
-/* A CIRCE address: six uppercase hex digits, FFFFFF reserved (PROTOCOLS.md 2.3). */
+/* A CIRCE address as on the wire (proto/circe.h): six uppercase hex digits, not FFFFFF. */
 static int check_address(const char *what, const char *addr, char *why, size_t why_size)
 {
-        size_t len = addr ? strnlen(addr, CIRCE_ADDRESS_DIGITS + 1u) : 0;
+        size_t len = addr ? strnlen(addr, CIRCE_ADDRESS_LEN + 1u) : 0;
+        uint32_t value;
+        int r = addr ? circe_address_parse(addr, len, &value) : -EINVAL;
 
-        if (len == CIRCE_ADDRESS_DIGITS && strcmp(addr, "FFFFFF") != 0 &&
-            strspn(addr, "0123456789ABCDEF") == CIRCE_ADDRESS_DIGITS)
+        if (r == 0)
                 return 0;
-        if (addr && len == CIRCE_ADDRESS_DIGITS && strcmp(addr, "FFFFFF") == 0)
+        if (r == -ERANGE)
                 say(why, why_size, "bad %s FFFFFF: the address is reserved", what);
         else
                 say(why, why_size, "bad %s \"%.*s\": six uppercase hex digits expected", what,
@@ -755,15 +749,15 @@ static int sync_line(const char *text, void *arg)
         char addr[SL_CIRCE_ADDRESS_SIZE];
         int succeeded;
 
-        if (strlen(text) <= CIRCE_ADDRESS_DIGITS || text[CIRCE_ADDRESS_DIGITS] != ' ')
+        if (strlen(text) <= CIRCE_ADDRESS_LEN || text[CIRCE_ADDRESS_LEN] != ' ')
                 return -EPROTO;
-        memcpy(addr, text, CIRCE_ADDRESS_DIGITS);
-        addr[CIRCE_ADDRESS_DIGITS] = '\0';
+        memcpy(addr, text, CIRCE_ADDRESS_LEN);
+        addr[CIRCE_ADDRESS_LEN] = '\0';
         if (check_address("address", addr, NULL, 0) < 0)
                 return -EPROTO;
-        if (strcmp(text + CIRCE_ADDRESS_DIGITS + 1, "succeeded") == 0)
+        if (strcmp(text + CIRCE_ADDRESS_LEN + 1, "succeeded") == 0)
                 succeeded = 1;
-        else if (strcmp(text + CIRCE_ADDRESS_DIGITS + 1, "timed-out") == 0)
+        else if (strcmp(text + CIRCE_ADDRESS_LEN + 1, "timed-out") == 0)
                 succeeded = 0;
         else
                 return -EPROTO;
@@ -802,8 +796,8 @@ static int add_destinations(struct builder *b, const struct sl_circe_visualize *
                         return r;
                 if (i)
                         list[len++] = ',';
-                memcpy(list + len, v->dests[i], CIRCE_ADDRESS_DIGITS);
-                len += CIRCE_ADDRESS_DIGITS;
+                memcpy(list + len, v->dests[i], CIRCE_ADDRESS_LEN);
+                len += CIRCE_ADDRESS_LEN;
         }
         list[len] = '\0';
         return add_word(b, "destinations", list, reply, reply_size);

@@ -8,6 +8,8 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "proto/control.h"
+
 #define NUMBER_DIGITS_MAX       9u      /* every CIRCE number fits (999999 is the largest) */
 
 /* The ranges are the codec's (proto/circe.h): a command the parser accepts always encodes. */
@@ -359,11 +361,11 @@ int link_circe_command_parse(int argc, char *const *argv, struct link_circe_cmd 
         op = argv[2];
         n = argc - 3;
         /* wait=MS is only ever the last word. */
-        if (n > 0 && strncmp(argv[argc - 1], "wait=", 5) == 0) {
+        if (n > 0 && strncmp(argv[argc - 1], CTLP_WAIT_PREFIX, strlen(CTLP_WAIT_PREFIX)) == 0) {
                 unsigned long ms;
 
-                r = number_arg("wait", argv[argc - 1] + 5, LINK_CIRCE_WAIT_MAX_MS, &ms, err,
-                               errsz);
+                r = number_arg("wait", argv[argc - 1] + strlen(CTLP_WAIT_PREFIX), CTLP_WAIT_MAX_MS,
+                               &ms, err, errsz);
                 if (r < 0)
                         return r;
                 c.has_wait = true;

@@ -38,6 +38,7 @@
 _Static_assert(SL_REQUEST_LINE_MAX + 1 == CTLP_LINE_MAX, "request line limit");
 _Static_assert(SL_REQUEST_WORDS_MAX == CTLP_WORDS_MAX, "request word limit");
 _Static_assert(SL_REPLY_LINE_MAX == CTLP_REPLY_LINE_MAX, "reply line limit");
+_Static_assert(SL_WAIT_MAX_MS == CTLP_WAIT_MAX_MS, "wait limit");
 _Static_assert(SL_CIRCE_ADDRESS_SIZE == CIRCE_ADDRESS_LEN + 1, "address size");
 _Static_assert(SL_CIRCE_DESTS_MAX == CIRCE_VISUALIZE_DEST_MAX, "visualize destinations");
 
@@ -521,7 +522,7 @@ static int command(struct sl_client *c, struct ctlp_builder *b, int base_ms,
         int r;
 
         if (wait_ms > 0) {
-                r = add_wordf(b, "wait", reply, reply_size, "wait=%d", wait_ms);
+                r = add_wordf(b, "wait", reply, reply_size, CTLP_WAIT_PREFIX "%d", wait_ms);
                 if (r < 0)
                         return r;
         }

@@ -30,6 +30,10 @@
 #define CTLP_WORDS_MAX          32      /* words of one request */
 #define CTLP_REPLY_LINE_MAX     4095    /* reply line, '\n' not included */
 #define CTLP_ERRNO_MAX          4095    /* largest errno of an ERR line (the kernel's MAX_ERRNO) */
+/* A command to a link that is down may end in "wait=MS": the engine then waits up to MS (at most
+ * CTLP_WAIT_MAX_MS) for the link instead of failing at once with ENOTCONN. */
+#define CTLP_WAIT_PREFIX        "wait="
+#define CTLP_WAIT_MAX_MS        60000
 /* Smallest buffer ctlp_reply_format() writes into: "ERR 4294967295" '\n' NUL. */
 #define CTLP_REPLY_HEAD_MAX     16
 

@@ -3,7 +3,8 @@
 # Conventions (add a file, not a rule):
 #   src/proto/*.c, src/shm/*.c     pure codecs / table layout, archived per directory
 #   src/daemon/*.c                 sharedlinkd (main.c holds main(), the rest is archived for tests)
-#   src/lib/*.c + src/shm/*.c      libsharedlink.so.1 / .a (exports: src/lib/libsharedlink.sym)
+#   src/lib/*.c + src/shm/*.c      libsharedlink.so.1 / .a (exports: src/lib/libsharedlink.sym),
+#     + LIB_PROTO_SRC              with the codecs the client speaks (control protocol, CIRCE)
 #   src/cli/*.c                    slctl, linked against libsharedlink.a
 #   tests/common/*.c               helpers linked into every test binary
 #   tests/unit/test_*.c            one cmocka binary per module, run by `make check`
@@ -130,6 +131,9 @@ TEST_CFLAGS  := $(CMOCKA_CFLAGS) -Itests
 PROTO_SRC  := $(wildcard src/proto/*.c)
 SHM_SRC    := $(wildcard src/shm/*.c)
 LIB_SRC    := $(wildcard src/lib/*.c)
+# The library builds requests and parses replies with the control protocol and checks CIRCE
+# arguments with the codec's own rules; hidden symbols, so they are not exported.
+LIB_PROTO_SRC := $(filter src/proto/control.c src/proto/circe.c,$(PROTO_SRC))
 DAEMON_MAIN:= $(wildcard src/daemon/main.c)
 DAEMON_SRC := $(filter-out src/daemon/main.c,$(wildcard src/daemon/*.c))
 CLI_SRC    := $(wildcard src/cli/*.c)
@@ -263,12 +267,12 @@ $(SHAREDLINKD): $(call obj,$(DAEMON_MAIN)) $(A_DAEMON) $(A_PROTO) $(A_SHM)
 	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) -Wl,--start-group $(A_DAEMON) $(A_PROTO) $(A_SHM) \
 	    -Wl,--end-group $(SYS_LIBS)
 
-$(LIBSL_SO): $(call obj,$(LIB_SRC) $(SHM_SRC)) $(LIBSL_SYM)
+$(LIBSL_SO): $(call obj,$(LIB_SRC) $(LIB_PROTO_SRC) $(SHM_SRC)) $(LIBSL_SYM)
 	$(call quiet,LD)$(CC) $(LDFLAGS_ALL) -shared -Wl,-soname,libsharedlink.so.$(SOVERSION) \
 	    -Wl,--version-script=$(LIBSL_SYM) -o $@ $(filter %.o,$^) -lpthread
 	$(Q)ln -sf libsharedlink.so.$(SOVERSION) $(O)/libsharedlink.so
 
-$(LIBSL_A): $(call obj,$(LIB_SRC) $(SHM_SRC))
+$(LIBSL_A): $(call obj,$(LIB_SRC) $(LIB_PROTO_SRC) $(SHM_SRC))
 	$(call quiet,AR)rm -f $@
 	$(Q)$(AR) rcs $@ $^
 

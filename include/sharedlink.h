@@ -308,7 +308,7 @@ int sl_set_command_wait(struct sl_client *c, int wait_ms);
 
 /*
  * Sends one request line (words of printable ASCII separated by single spaces, no '\n'; see
- * src/daemon/control.h) and reads the reply: on_data (may be NULL) gets each DATA line, reply the
+ * src/proto/control.h) and reads the reply: on_data (may be NULL) gets each DATA line, reply the
  * final text. timeout_ms bounds the whole exchange (0: SL_REQUEST_TIMEOUT_MS; < 0: no limit).
  * Returns 0 on "OK", or a negative errno (above).
  */

@@ -34,7 +34,6 @@
 #define QUOTE_SLOTS             2u
 #define NUMBER_ECHO_MAX         24u     /* digits of an out-of-range number echoed */
 #define SOCKET_SUFFIX           ".sock"
-#define CIRCE_ADDRESS_DIGITS    6u
 
 /* ---------------------------------------------------------------------------------------------
  * Node tree built from libyaml events */
@@ -675,34 +674,19 @@ static int get_sl_address(struct ctx *c, const char *key, const struct ynode *n,
         return 0;
 }
 
-static int hex_digit(char ch)
-{
-        if (ch >= '0' && ch <= '9')
-                return ch - '0';
-        if (ch >= 'A' && ch <= 'F')
-                return ch - 'A' + 10;
-        return -1;
-}
-
 static int get_circe_address(struct ctx *c, const char *key, const struct ynode *n,
                              uint32_t *ret)
 {
-        uint32_t v = 0;
         int r = need_scalar(c, key, n, "a CIRCE address");
 
         if (r < 0)
                 return r;
-        for (size_t i = 0; i < n->len || i < CIRCE_ADDRESS_DIGITS; i++) {
-                int d = i < n->len ? hex_digit(n->text[i]) : -1;
-
-                if (d < 0 || n->len != CIRCE_ADDRESS_DIGITS)
-                        return fail(c, n, "%s %s: expected six uppercase hex digits", key,
-                                    quote_node(c, n));
-                v = v << 4 | (uint32_t)d;
-        }
-        if (v == CONFIG_CIRCE_ADDRESS_RESERVED)
+        r = circe_address_parse(n->text, n->len, ret);
+        if (r == -ERANGE)
                 return fail(c, n, "%s FFFFFF is reserved", key);
-        *ret = v;
+        if (r < 0)
+                return fail(c, n, "%s %s: expected six uppercase hex digits", key,
+                            quote_node(c, n));
         return 0;
 }
 
@@ -710,34 +694,19 @@ static int get_circe_address(struct ctx *c, const char *key, const struct ynode 
 static int get_circe_version(struct ctx *c, const char *key, const struct ynode *n,
                              unsigned parts, struct config_circe_version *ret)
 {
-        uint16_t v[3] = { 0, 0, 0 };
-        unsigned part = 0, digits = 0;
+        struct circe_version v;
         const char *example = parts == 2 ? "MAJOR.MINOR (e.g. \"0.2\")"
                                          : "MAJOR.MINOR.PATCH (e.g. \"0.2.3\")";
         int r = need_scalar(c, key, n, "a version");
 
         if (r < 0)
                 return r;
-        for (size_t i = 0; i <= n->len; i++) {
-                char ch = i < n->len ? n->text[i] : '.';
-
-                if (ch == '.' && digits > 0 && part < parts) {
-                        part++;
-                        digits = 0;
-                } else if (ch >= '0' && ch <= '9' && digits < 3 && part < parts) {
-                        v[part] = (uint16_t)(v[part] * 10 + (ch - '0'));
-                        digits++;
-                } else {
-                        part = 0;
-                        break;
-                }
-        }
-        if (part != parts)
+        if (circe_version_parse(n->text, n->len, parts, &v) < 0)
                 return fail(c, n, "%s: expected %s, got %s", key, example, quote_node(c, n));
-        memcpy(ret->text, n->text, n->len + 1);         /* <= 11 bytes: checked above */
-        ret->major = v[0];
-        ret->minor = v[1];
-        ret->patch = v[2];
+        memcpy(ret->text, n->text, n->len + 1);         /* <= CIRCE_VERSION_LEN_MAX: checked */
+        ret->major = v.major;
+        ret->minor = v.minor;
+        ret->patch = v.patch;
         return 0;
 }
 
@@ -1081,17 +1050,17 @@ static int parse_emulated(struct ctx *c, const struct ynode *n, struct config_em
         if (!vals[EK_CAPABILITIES])
                 return fail(c, n, "missing key \"capabilities\" in emulated device");
         r = get_uint(c, "capabilities", vals[EK_CAPABILITIES], CONFIG_CIRCE_CAPABILITIES_MIN,
-                     CONFIG_CIRCE_CAPABILITIES_MAX, &v);
+                     CIRCE_CAPABILITIES_MAX, &v);
         if (r < 0)
                 return r;
         d->capabilities = (uint8_t)v;
         v = CONFIG_CIRCE_SIGNAL_DEFAULT;
         if (vals[EK_SIGNAL] &&
-            (r = get_uint(c, "signal", vals[EK_SIGNAL], 0, CONFIG_CIRCE_LEVEL_MAX, &v)) < 0)
+            (r = get_uint(c, "signal", vals[EK_SIGNAL], 0, CIRCE_LEVEL_MAX, &v)) < 0)
                 return r;
         d->signal = (uint8_t)v;
         if (vals[EK_BATTERY]) {
-                r = get_uint(c, "battery", vals[EK_BATTERY], 0, CONFIG_CIRCE_LEVEL_MAX, &v);
+                r = get_uint(c, "battery", vals[EK_BATTERY], 0, CIRCE_LEVEL_MAX, &v);
                 if (r < 0)
                         return r;
                 d->battery = (uint8_t)v;
@@ -1099,7 +1068,7 @@ static int parse_emulated(struct ctx *c, const struct ynode *n, struct config_em
         }
         v = 0;
         if (vals[EK_ROLES] &&
-            (r = get_uint(c, "roles", vals[EK_ROLES], 0, CONFIG_CIRCE_ROLES_MAX, &v)) < 0)
+            (r = get_uint(c, "roles", vals[EK_ROLES], 0, CIRCE_ROLES_MAX, &v)) < 0)
                 return r;
         d->roles = (uint8_t)v;
         if (vals[EK_MEMBERSHIP] &&
@@ -1355,7 +1324,7 @@ static int parse_link_circe(struct ctx *c, const struct ynode *const *vals,
                                                        &ci->version)) < 0)
                 return r;
         if (vals[LK_STATUS]) {
-                r = get_uint(c, "status", vals[LK_STATUS], 0, CONFIG_CIRCE_STATUS_MAX, &v);
+                r = get_uint(c, "status", vals[LK_STATUS], 0, CIRCE_STATUS_MAX, &v);
                 if (r < 0)
                         return r;
                 ci->status = (uint16_t)v;

@@ -16,6 +16,8 @@
 #include <stdint.h>
 #include <sys/socket.h>
 
+#include "proto/circe.h"
+
 /* Input bounds: a config file larger than this is refused before parsing. */
 #define CONFIG_INPUT_MAX        (1024u * 1024u)
 #define CONFIG_NODES_MAX        65536u  /* YAML nodes (scalars, lists, mappings) per file */
@@ -35,7 +37,7 @@
 #define CONFIG_PATH_MAX         256u    /* device paths and runtime_dir, terminator included */
 #define CONFIG_SOCKET_PATH_MAX  108u    /* sizeof(sun_path): "<runtime_dir>/<instance>.sock", NUL */
 #define CONFIG_ENDPOINT_MAX     64u     /* "host:port" text, terminator included */
-#define CONFIG_VERSION_TEXT_MAX 12u     /* CIRCE "999.999.999" + NUL */
+#define CONFIG_VERSION_TEXT_MAX (CIRCE_VERSION_LEN_MAX + 1u)   /* "999.999.999" + NUL */
 
 /* Counts. */
 #define CONFIG_LINKS_MAX        16u
@@ -68,14 +70,9 @@
 #define CONFIG_KEEPALIVE_MS_MIN         10u
 #define CONFIG_KEEPALIVE_MS_MAX         60000u
 #define CONFIG_KEEPALIVE_MS_DEFAULT     750u
-#define CONFIG_CIRCE_VERSION_PART_MAX   999u
-#define CONFIG_CIRCE_STATUS_MAX         999u
-#define CONFIG_CIRCE_CAPABILITIES_MIN   1u
-#define CONFIG_CIRCE_CAPABILITIES_MAX   127u
-#define CONFIG_CIRCE_ROLES_MAX          127u
-#define CONFIG_CIRCE_LEVEL_MAX          255u            /* signal, battery */
-#define CONFIG_CIRCE_SIGNAL_DEFAULT     255u
-#define CONFIG_CIRCE_ADDRESS_RESERVED   0xFFFFFFu       /* never on the wire (PROTOCOLS.md §2.3) */
+/* CIRCE value ranges are proto/circe.h's (CIRCE_*_MAX); these are the config's own choices. */
+#define CONFIG_CIRCE_CAPABILITIES_MIN   1u              /* an emulated device can do something */
+#define CONFIG_CIRCE_SIGNAL_DEFAULT     CIRCE_LEVEL_MAX
 
 #define CONFIG_INSTANCE_DEFAULT         "default"
 #define CONFIG_RUNTIME_DIR_DEFAULT      "/run/sharedlink"

@@ -1,7 +1,7 @@
 /*
- * Control socket server (see control.h for the wire format and the rules).
+ * Control socket server (see control.h for the rules, proto/control.h for the wire format).
  *
- * One struct control_client per connection: an input buffer of one line (CONTROL_LINE_MAX), an
+ * One struct control_client per connection: an input buffer of one line (CTLP_LINE_MAX), an
  * output queue (at most CONTROL_REPLY_MAX bytes) and at most one pending request. Nothing here
  * blocks: replies are written with MSG_DONTWAIT, the rest is queued and POLLOUT is asked for only
  * while the queue is not empty (OpenBSD style). A client that lets its queue grow past the bound
@@ -35,6 +35,7 @@
 #include <unistd.h>
 
 #include "daemon/log.h"
+#include "proto/control.h"
 
 #ifndef SO_PEERGROUPS
 #define SO_PEERGROUPS           59      /* Linux 4.13; the value is the same on every arch */
@@ -44,7 +45,9 @@
 #define CONTROL_SOCKET_MODE     0660
 #define CONTROL_BIND_UMASK      0117    /* bind() creates the node 0660 at once, no window */
 #define CONTROL_ACCEPT_BUDGET   16      /* accepts per readiness of the listening socket */
-#define CONTROL_REPLY_LINE_MAX  4096    /* one formatted reply line, '\n' included */
+/* A reply line as formatted here, '\n' and NUL included: with its '\n' it never passes
+ * CTLP_REPLY_LINE_MAX, the most a client reads. */
+#define CONTROL_REPLY_LINE_MAX  (CTLP_REPLY_LINE_MAX + 1)
 #define CONTROL_GROUPS_STACK    64      /* peer groups looked at without allocating */
 #define CONTROL_GROUPS_MAX      65536   /* NGROUPS_MAX on Linux */
 #define CONTROL_PW_BUF          16384   /* getpwuid_r buffer */
@@ -63,7 +66,7 @@ struct control_client {
         bool broken;                    /* write failed or the peer is gone: close at once */
         bool busy;                      /* inside client_process(): closing is deferred */
         size_t in_len;
-        char in[CONTROL_LINE_MAX];
+        char in[CTLP_LINE_MAX];
         char *out;                      /* queued bytes are out[out_off..out_len) */
         size_t out_off, out_len, out_cap;
         struct control_request *pending;
@@ -74,8 +77,8 @@ struct control_request {
         struct control *ctl;            /* NULL once the server is gone */
         struct control_request *prev, *next;    /* in ctl->orphans while orphaned */
         int argc;
-        char *argv[CONTROL_ARGS_MAX + 1];
-        char line[CONTROL_LINE_MAX];
+        char *argv[CTLP_WORDS_MAX + 1];
+        char line[CTLP_LINE_MAX];
 };
 
 struct control {
@@ -259,30 +262,17 @@ static void client_queue(struct control_client *cl, const char *data, size_t len
         client_flush(cl);
 }
 
-/* Formats "<prefix>[ <text>]\n" into buf; control bytes in the text become spaces so that one
- * reply line stays one line. Returns the length. */
-static size_t reply_format(char *buf, size_t size, const char *prefix, const char *fmt,
+/* Formats one reply line (proto/control.h) into buf[CONTROL_REPLY_LINE_MAX] with fmt as its text
+ * (NULL: none). Returns the length. */
+static size_t reply_format(char *buf, enum ctlp_reply_kind kind, int err, const char *fmt,
                            va_list ap)
 {
-        size_t len = (size_t)snprintf(buf, size, "%s", prefix);
-        size_t start;
-        int n;
+        char text[CONTROL_REPLY_LINE_MAX];
 
-        if (fmt && len + 2 < size) {
-                buf[len++] = ' ';
-                start = len;
-                n = vsnprintf(buf + len, size - len, fmt, ap);
-                if (n > 0)
-                        len += (size_t)n < size - len ? (size_t)n : size - len - 1;
-                for (size_t i = start; i < len; i++)
-                        if ((unsigned char)buf[i] < 0x20 || buf[i] == 0x7f)
-                                buf[i] = ' ';
-        }
-        if (len > size - 2)
-                len = size - 2;
-        buf[len++] = '\n';
-        buf[len] = '\0';
-        return len;
+        if (!fmt)
+                return ctlp_reply_format(buf, CONTROL_REPLY_LINE_MAX, kind, err, NULL);
+        vsnprintf(text, sizeof(text), fmt, ap);
+        return ctlp_reply_format(buf, CONTROL_REPLY_LINE_MAX, kind, err, text);
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -342,44 +332,32 @@ static bool client_settle(struct control_client *cl)
 /* ---------------------------------------------------------------------------------------------
  * Requests */
 
-/* Splits line into words (runs of spaces separate them); 0, or -EINVAL/-E2BIG with a reason. */
-static int request_split(struct control_request *req, const char **ret_why)
-{
-        char *p = req->line;
-
-        for (const char *q = req->line; *q; q++)
-                if (*q != ' ' && (*q < 0x21 || *q > 0x7e)) {
-                        *ret_why = "request contains a byte outside printable ASCII";
-                        return -EINVAL;
-                }
-        req->argc = 0;
-        for (;;) {
-                while (*p == ' ')
-                        *p++ = '\0';
-                if (!*p)
-                        break;
-                if (req->argc == CONTROL_ARGS_MAX) {
-                        *ret_why = "too many words in the request";
-                        return -E2BIG;
-                }
-                req->argv[req->argc++] = p;
-                while (*p && *p != ' ')
-                        p++;
-        }
-        req->argv[req->argc] = NULL;
-        if (req->argc == 0) {
-                *ret_why = "empty request";
-                return -EINVAL;
-        }
-        return 0;
-}
-
 static void client_send_error(struct control_client *cl, int err, const char *why)
 {
         char buf[CONTROL_REPLY_LINE_MAX];
-        int n = snprintf(buf, sizeof(buf), "ERR %d %s\n", err < 0 ? -err : err, why);
 
-        client_queue(cl, buf, (size_t)n < sizeof(buf) ? (size_t)n : sizeof(buf) - 1);
+        client_queue(cl, buf, ctlp_reply_format(buf, sizeof(buf), CTLP_REPLY_ERR, err, why));
+}
+
+/* Answers a request line proto/control.h refuses, with the daemon's errno and message. */
+static void client_refuse(struct control_client *cl, enum ctlp_reason reason)
+{
+        switch (reason) {
+        case CTLP_REASON_TOO_MANY_WORDS:
+                client_send_error(cl, -E2BIG, "too many words in the request");
+                return;
+        case CTLP_REASON_EMPTY:
+                client_send_error(cl, -EINVAL, "empty request");
+                return;
+        case CTLP_REASON_TOO_LONG:
+                client_send_error(cl, -EMSGSIZE, "request line too long");
+                return;
+        case CTLP_REASON_NONE:
+        case CTLP_REASON_BAD_BYTE:
+        case CTLP_REASON_BAD_SPACE:
+                break;
+        }
+        client_send_error(cl, -EINVAL, "request contains a byte outside printable ASCII");
 }
 
 /* One complete line (without its '\n'): check, split, hand to the handler. */
@@ -387,8 +365,7 @@ static void client_handle_line(struct control_client *cl, const char *line, size
 {
         struct control *c = cl->ctl;
         struct control_request *req;
-        const char *why = NULL;
-        int r;
+        enum ctlp_reason reason;
 
         if (!cl->authorized) {
                 c->stats.denied++;
@@ -405,16 +382,11 @@ static void client_handle_line(struct control_client *cl, const char *line, size
         }
         memcpy(req->line, line, len);
         req->line[len] = '\0';
-        /* A NUL would end the line early for request_split(): "ping\0rm" is not "ping". */
-        if (memchr(req->line, '\0', len)) {
-                why = "request contains a byte outside printable ASCII";
-                r = -EINVAL;
-        } else {
-                r = request_split(req, &why);
-        }
-        if (r < 0) {
+        /* Split by length: a NUL inside is refused, "ping\0rm" is not "ping". */
+        reason = ctlp_request_split(req->line, len, req->argv, &req->argc);
+        if (reason != CTLP_REASON_NONE) {
                 c->stats.bad_requests++;
-                client_send_error(cl, r, why);
+                client_refuse(cl, reason);
                 free(req);
                 return;
         }
@@ -439,7 +411,7 @@ static void client_process(struct control_client *cl)
                                 break;          /* wait for the rest of the line */
                         if (cl->in_len == sizeof(cl->in)) {
                                 cl->ctl->stats.overlong++;
-                                client_send_error(cl, -EMSGSIZE, "request line too long");
+                                client_refuse(cl, CTLP_REASON_TOO_LONG);
                                 cl->closing = true;
                                 break;
                         }
@@ -453,7 +425,7 @@ static void client_process(struct control_client *cl)
                 if (len > 0 && cl->in[len - 1] == '\r')
                         len--;
                 {
-                        char line[CONTROL_LINE_MAX];
+                        char line[CTLP_LINE_MAX];
 
                         memcpy(line, cl->in, len);
                         memmove(cl->in, cl->in + used, cl->in_len - used);
@@ -573,7 +545,7 @@ void control_reply_data(struct control_request *req, const char *fmt, ...)
         if (!req->client)
                 return;
         va_start(ap, fmt);
-        len = reply_format(buf, sizeof(buf), "DATA", fmt, ap);
+        len = reply_format(buf, CTLP_REPLY_DATA, 0, fmt, ap);
         va_end(ap);
         client_queue(req->client, buf, len);
 }
@@ -586,7 +558,7 @@ void control_reply_ok(struct control_request *req, const char *fmt, ...)
 
         if (req->client) {
                 va_start(ap, fmt);
-                len = reply_format(buf, sizeof(buf), "OK", fmt, ap);
+                len = reply_format(buf, CTLP_REPLY_OK, 0, fmt, ap);
                 va_end(ap);
                 client_queue(req->client, buf, len);
         }
@@ -595,14 +567,13 @@ void control_reply_ok(struct control_request *req, const char *fmt, ...)
 
 void control_reply_error(struct control_request *req, int err, const char *fmt, ...)
 {
-        char buf[CONTROL_REPLY_LINE_MAX], prefix[32];
+        char buf[CONTROL_REPLY_LINE_MAX];
         va_list ap;
         size_t len;
 
         if (req->client) {
-                snprintf(prefix, sizeof(prefix), "ERR %d", err < 0 ? -err : err);
                 va_start(ap, fmt);
-                len = reply_format(buf, sizeof(buf), prefix, fmt, ap);
+                len = reply_format(buf, CTLP_REPLY_ERR, err, fmt, ap);
                 va_end(ap);
                 client_queue(req->client, buf, len);
         }

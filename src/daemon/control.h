@@ -2,11 +2,11 @@
  * Control socket (DESIGN.md §2.6): `<runtime_dir>/<instance>.sock`, Unix stream, mode 0660 (group
  * from the config when set). Commands, never the hot path.
  *
- * Wire format (the library's sl_request() speaks it; keep the two in step):
- *   request  one line, at most CONTROL_LINE_MAX bytes including the '\n', words separated by
- *            single spaces; words are printable ASCII (0x21-0x7E). A client may send several
- *            requests on one connection; they are answered in order, one at a time. A request
- *            received whole is carried out even if its client closes before the answer.
+ * Wire format: src/proto/control.h (the library's sl_request() speaks the same grammar). In short:
+ *   request  one line, at most CTLP_LINE_MAX bytes including the '\n', words of printable ASCII
+ *            (0x21-0x7E) separated by spaces (the daemon also takes runs of spaces). A client may
+ *            send several requests on one connection; they are answered in order, one at a time.
+ *            A request received whole is carried out even if its client closes before the answer.
  *   reply    zero or more "DATA <text>\n" lines, then exactly one final line:
  *            "OK[ <text>]\n" or "ERR <errno> <message>\n" (errno as a positive decimal number,
  *            e.g. "ERR 110 no answer from peer B within 1000 ms").
@@ -42,9 +42,8 @@
 #include <sys/types.h>
 
 #include "daemon/evloop.h"
+#include "proto/control.h"
 
-#define CONTROL_LINE_MAX        1024    /* request line, '\n' included */
-#define CONTROL_ARGS_MAX        32      /* words per request */
 #define CONTROL_CLIENTS_MAX     64      /* connections at once */
 #define CONTROL_REPLY_MAX       65536   /* bytes of reply queued per client */
 
@@ -58,7 +57,7 @@ struct control_stats {
         uint64_t denied;                /* peers outside uid/root/group, answered ERR 13 */
         uint64_t requests;              /* requests handed to the handler */
         uint64_t bad_requests;          /* malformed lines answered ERR without the handler */
-        uint64_t overlong;              /* lines over CONTROL_LINE_MAX: disconnected */
+        uint64_t overlong;              /* lines over CTLP_LINE_MAX: disconnected */
         uint64_t slow_readers;          /* reply queue over CONTROL_REPLY_MAX: disconnected */
         uint64_t orphaned;              /* requests whose client left before the answer */
         uint64_t orphan_answers;        /* answers to those, which went nowhere */

@@ -1,5 +1,5 @@
 /*
- * Commands through the daemon's control socket (wire format: src/daemon/control.h): one
+ * Commands through the daemon's control socket (wire format: src/proto/control.h): one
  * connection per request, every word checked before it is sent, the reply read line by line
  * within one deadline. Nothing here touches the shared-memory tables.
  */
@@ -18,36 +18,29 @@
 
 #include <sharedlink.h>
 
-#include "daemon/control.h"
 #include "lib/client.h"
 #include "lib/export.h"
+#include "proto/circe.h"
+#include "proto/control.h"
 
 #define REQUEST_RUNTIME_DIR_ENV "SHAREDLINK_RUNTIME_DIR"
 #define REQUEST_SOCKET_SUFFIX   ".sock"
-#define REQUEST_ERRNO_MAX       4095    /* what the kernel calls an errno (MAX_ERRNO) */
 #define REQUEST_READ_CHUNK      1024
 #define REQUEST_BACKLOG_PAUSE_MS 5      /* connect found the daemon's backlog full: try again */
 #define REQUEST_SYNC_EXTRA_MS   10000   /* sync-clocks follows devices for 3 s, plus slack */
 #define NS_PER_MS               1000000ull
 
-/* CIRCE ranges (PROTOCOLS.md 2.3). */
-#define CIRCE_ROLES_MAX         127
-#define CIRCE_CAPABILITIES_MAX  127
-#define CIRCE_COMPETITOR_MAX    999
-#define CIRCE_TIME_MS_MAX       999999L
-#define CIRCE_COUNT_MAX         99
-#define CIRCE_PLACEMENT_MAX     999
-#define CIRCE_KEYS_MAX          65535
-#define CIRCE_ADDRESS_DIGITS    6
-
 /* SharedLink node addresses (PROTOCOLS.md 1.1). */
 #define SL_NODE_FIRST           'A'
 #define SL_NODE_LAST            'P'
 
-/* The public limits are the daemon's, word for word (control.h). */
-_Static_assert(SL_REQUEST_LINE_MAX + 1 == CONTROL_LINE_MAX, "request line limit");
-_Static_assert(SL_REQUEST_WORDS_MAX == CONTROL_ARGS_MAX, "request word limit");
-_Static_assert(SL_CIRCE_ADDRESS_SIZE == CIRCE_ADDRESS_DIGITS + 1, "address size");
+/* The public limits are the protocols' (proto/control.h, proto/circe.h), word for word. */
+_Static_assert(SL_REQUEST_LINE_MAX + 1 == CTLP_LINE_MAX, "request line limit");
+_Static_assert(SL_REQUEST_WORDS_MAX == CTLP_WORDS_MAX, "request word limit");
+_Static_assert(SL_REPLY_LINE_MAX == CTLP_REPLY_LINE_MAX, "reply line limit");
+_Static_assert(SL_WAIT_MAX_MS == CTLP_WAIT_MAX_MS, "wait limit");
+_Static_assert(SL_CIRCE_ADDRESS_SIZE == CIRCE_ADDRESS_LEN + 1, "address size");
+_Static_assert(SL_CIRCE_DESTS_MAX == CIRCE_VISUALIZE_DEST_MAX, "visualize destinations");
 
 #define SL_VISUALIZE_SIZE_V1    sizeof(struct sl_circe_visualize)
 
@@ -154,90 +147,60 @@ static int socket_address(struct sl_client *c, struct sockaddr_un *ret_sa)
 
 /* ---- checking what is sent ----------------------------------------------------------------- */
 
-static int is_word_byte(unsigned char ch)
-{
-        return ch > ' ' && ch < 0x7f;
-}
-
 int request_line_check(const char *line, char *why, size_t why_size)
 {
-        size_t len, words = 1;
+        size_t pos = 0, len = line ? strnlen(line, CTLP_LINE_MAX) : 0;
 
-        if (!line || !*line) {
+        switch (ctlp_request_check(line, len, &pos)) {
+        case CTLP_REASON_NONE:
+                return 0;
+        case CTLP_REASON_EMPTY:
                 say(why, why_size, "empty request");
-                return -EINVAL;
-        }
-        len = strnlen(line, SL_REQUEST_LINE_MAX + 1u);
-        if (len > SL_REQUEST_LINE_MAX) {
+                break;
+        case CTLP_REASON_TOO_LONG:
                 say(why, why_size, "request longer than %d bytes", SL_REQUEST_LINE_MAX);
-                return -EINVAL;
-        }
-        for (size_t i = 0; i < len; i++) {
-                unsigned char ch = (unsigned char)line[i];
-
-                if (ch == ' ' && i > 0 && i + 1u < len && line[i - 1] != ' ') {
-                        words++;
-                        continue;
-                }
-                if (ch == ' ') {
-                        say(why, why_size, "request has a leading, trailing or double space");
-                        return -EINVAL;
-                }
-                if (!is_word_byte(ch)) {
-                        say(why, why_size, "request byte %zu (0x%02x) is not printable ASCII",
-                            i, ch);
-                        return -EINVAL;
-                }
-        }
-        if (words > SL_REQUEST_WORDS_MAX) {
+                break;
+        case CTLP_REASON_BAD_SPACE:
+                say(why, why_size, "request has a leading, trailing or double space");
+                break;
+        case CTLP_REASON_BAD_BYTE:
+                say(why, why_size, "request byte %zu (0x%02x) is not printable ASCII", pos,
+                    (unsigned char)line[pos]);
+                break;
+        case CTLP_REASON_TOO_MANY_WORDS:
                 say(why, why_size, "request has more than %d words", SL_REQUEST_WORDS_MAX);
-                return -EINVAL;
+                break;
         }
-        return 0;
+        return -EINVAL;
 }
-
-/* A request under construction: words appended one by one, each checked. */
-struct builder {
-        char line[SL_REQUEST_LINE_MAX + 1];
-        size_t len;
-        unsigned words;
-};
 
 /* Appends one word (printable ASCII, no space) called `what` in messages; 0 or -EINVAL. */
-static int add_word(struct builder *b, const char *what, const char *word, char *why,
+static int add_word(struct ctlp_builder *b, const char *what, const char *word, char *why,
                     size_t why_size)
 {
-        size_t len = strnlen(word, SL_REQUEST_LINE_MAX + 1u);
-
-        if (len == 0) {
+        switch (ctlp_builder_add(b, word, strnlen(word, CTLP_LINE_MAX))) {
+        case CTLP_REASON_NONE:
+                return 0;
+        case CTLP_REASON_EMPTY:
                 say(why, why_size, "%s is empty", what);
-                return -EINVAL;
-        }
-        for (size_t i = 0; i < len; i++) {
-                if (!is_word_byte((unsigned char)word[i])) {
-                        say(why, why_size, "%s contains a space or a byte that is not printable "
-                            "ASCII", what);
-                        return -EINVAL;
-                }
-        }
-        if (b->len + (b->len ? 1u : 0u) + len > SL_REQUEST_LINE_MAX ||
-            b->words >= SL_REQUEST_WORDS_MAX) {
+                break;
+        case CTLP_REASON_BAD_BYTE:
+        case CTLP_REASON_BAD_SPACE:
+                say(why, why_size, "%s contains a space or a byte that is not printable ASCII",
+                    what);
+                break;
+        case CTLP_REASON_TOO_LONG:
+        case CTLP_REASON_TOO_MANY_WORDS:
                 say(why, why_size, "request too long (at %s)", what);
-                return -EINVAL;
+                break;
         }
-        if (b->len)
-                b->line[b->len++] = ' ';
-        memcpy(b->line + b->len, word, len);
-        b->len += len;
-        b->line[b->len] = '\0';
-        b->words++;
-        return 0;
+        return -EINVAL;
 }
 
-static int add_wordf(struct builder *b, const char *what, char *why, size_t why_size,
+static int add_wordf(struct ctlp_builder *b, const char *what, char *why, size_t why_size,
                      const char *fmt, ...) __attribute__((format(printf, 5, 6)));
 
-static int add_wordf(struct builder *b, const char *what, char *why, size_t why_size,
+static int add_wordf(struct ctlp_builder *b, const char *what, char *why, size_t why_size,
                      const char *fmt, ...)
 {
         char word[SL_REQUEST_LINE_MAX + 1];
@@ -265,15 +228,16 @@ static int check_link(const char *link, char *why, size_t why_size)
         return 0;       /* the bytes are checked as a word */
 }
 
-/* A CIRCE address: six uppercase hex digits, FFFFFF reserved (PROTOCOLS.md 2.3). */
+/* A CIRCE address as on the wire (proto/circe.h): six uppercase hex digits, not FFFFFF. */
 static int check_address(const char *what, const char *addr, char *why, size_t why_size)
 {
-        size_t len = addr ? strnlen(addr, CIRCE_ADDRESS_DIGITS + 1u) : 0;
+        size_t len = addr ? strnlen(addr, CIRCE_ADDRESS_LEN + 1u) : 0;
+        uint32_t value;
+        int r = addr ? circe_address_parse(addr, len, &value) : -EINVAL;
 
-        if (len == CIRCE_ADDRESS_DIGITS && strcmp(addr, "FFFFFF") != 0 &&
-            strspn(addr, "0123456789ABCDEF") == CIRCE_ADDRESS_DIGITS)
+        if (r == 0)
                 return 0;
-        if (addr && len == CIRCE_ADDRESS_DIGITS && strcmp(addr, "FFFFFF") == 0)
+        if (r == -ERANGE)
                 say(why, why_size, "bad %s FFFFFF: the address is reserved", what);
         else
                 say(why, why_size, "bad %s \"%.*s\": six uppercase hex digits expected", what,
@@ -290,43 +254,6 @@ static int check_range(const char *what, long v, long min, long max, char *why, 
 }
 
 /* ---- the exchange -------------------------------------------------------------------------- */
-
-int request_reply_parse(const char *line, size_t len, const char **ret_text, int *ret_err)
-{
-        const char *text;
-        char *end;
-        long err = 0;
-        int kind;
-
-        if (strlen(line) != len)
-                return -EPROTO;         /* an embedded NUL */
-        for (size_t i = 0; i < len; i++) {
-                unsigned char ch = (unsigned char)line[i];
-
-                if ((ch < ' ' && ch != '\t') || ch == 0x7f)
-                        return -EPROTO;
-        }
-        if (strncmp(line, "DATA", 4) == 0 && (line[4] == '\0' || line[4] == ' ')) {
-                kind = REQUEST_REPLY_DATA;
-                text = line[4] ? line + 5 : line + 4;
-        } else if (strncmp(line, "OK", 2) == 0 && (line[2] == '\0' || line[2] == ' ')) {
-                kind = REQUEST_REPLY_OK;
-                text = line[2] ? line + 3 : line + 2;
-        } else if (strncmp(line, "ERR ", 4) == 0 && line[4] >= '1' && line[4] <= '9') {
-                kind = REQUEST_REPLY_ERR;
-                errno = 0;
-                err = strtol(line + 4, &end, 10);
-                if (errno || err > REQUEST_ERRNO_MAX || (*end != '\0' && *end != ' '))
-                        return -EPROTO;
-                text = *end ? end + 1 : end;
-        } else {
-                return -EPROTO;
-        }
-        *ret_text = text;
-        if (kind == REQUEST_REPLY_ERR)
-                *ret_err = (int)err;
-        return kind;
-}
 
 /* Milliseconds left before deadline (0: none), -1 for no deadline. */
 static int time_left(uint64_t deadline)
@@ -445,9 +372,9 @@ static int exchange_line(struct exchange *x)
         int err = 0, kind, r;
 
         x->line[x->len] = '\0';
-        kind = request_reply_parse(x->line, x->len, &text, &err);
+        kind = ctlp_reply_parse(x->line, x->len, &text, &err);
         switch (kind) {
-        case REQUEST_REPLY_DATA:
+        case CTLP_REPLY_DATA:
                 r = x->on_data ? x->on_data(text, x->arg) : 0;
                 if (r < 0) {
                         say(x->reply, x->reply_size, "at the reply line \"%.200s\": %s", text,
@@ -455,10 +382,10 @@ static int exchange_line(struct exchange *x)
                         return r;
                 }
                 return 1;
-        case REQUEST_REPLY_OK:
+        case CTLP_REPLY_OK:
                 say_text(x->reply, x->reply_size, text, strlen(text));
                 return 0;
-        case REQUEST_REPLY_ERR:
+        case CTLP_REPLY_ERR:
                 if (*text)
                         say_text(x->reply, x->reply_size, text, strlen(text));
                 else
@@ -588,14 +515,14 @@ SL_EXPORT int sl_request(struct sl_client *c, const char *line, int timeout_ms,
 /* ---- typed commands ------------------------------------------------------------------------ */
 
 /* Sends a built request with the handle's wait=MS, within base_ms plus the wait. */
-static int command(struct sl_client *c, struct builder *b, int base_ms, sl_data_fn on_data,
-                   void *arg, char *reply, size_t reply_size)
+static int command(struct sl_client *c, struct ctlp_builder *b, int base_ms,
+                   sl_data_fn on_data, void *arg, char *reply, size_t reply_size)
 {
         int wait_ms = atomic_load_explicit(&c->command_wait_ms, memory_order_relaxed);
         int r;
 
         if (wait_ms > 0) {
-                r = add_wordf(b, "wait", reply, reply_size, "wait=%d", wait_ms);
+                r = add_wordf(b, "wait", reply, reply_size, CTLP_WAIT_PREFIX "%d", wait_ms);
                 if (r < 0)
                         return r;
         }
@@ -603,12 +530,12 @@ static int command(struct sl_client *c, struct builder *b, int base_ms, sl_data_
 }
 
 /* Starts "circe LINK OPERATION". */
-static int circe_begin(struct sl_client *c, struct builder *b, const char *link, const char *op,
-                       char *reply, size_t reply_size)
+static int circe_begin(struct sl_client *c, struct ctlp_builder *b, const char *link,
+                       const char *op, char *reply, size_t reply_size)
 {
         int r;
 
-        memset(b, 0, sizeof(*b));
+        ctlp_builder_init(b);
         if (!c) {
                 say(reply, reply_size, "no handle");
                 return -EINVAL;
@@ -628,11 +555,11 @@ SL_EXPORT int sl_query(struct sl_client *c, const char *link, const char *peer, 
                        int timeout_ms, char *reply, size_t reply_size)
 {
         char value[SL_REPLY_LINE_MAX + 1];
-        struct builder b;
+        struct ctlp_builder b;
         size_t len;
         int r;
 
-        memset(&b, 0, sizeof(b));
+        ctlp_builder_init(&b);
         if (!c || !reply || reply_size == 0) {
                 say(reply, reply_size, "no handle or no buffer for the value");
                 return -EINVAL;
@@ -682,7 +609,7 @@ SL_EXPORT int sl_query(struct sl_client *c, const char *link, const char *peer, 
 SL_EXPORT int sl_circe_alert(struct sl_client *c, const char *link, const char *addr, char *reply,
                              size_t reply_size)
 {
-        struct builder b;
+        struct ctlp_builder b;
         int r = circe_begin(c, &b, link, "alert", reply, reply_size);
 
         if (r == 0)
@@ -697,7 +624,7 @@ SL_EXPORT int sl_circe_alert(struct sl_client *c, const char *link, const char *
 SL_EXPORT int sl_circe_network_setup(struct sl_client *c, const char *link, const char *addr,
                                      int join, int roles, char *reply, size_t reply_size)
 {
-        struct builder b;
+        struct ctlp_builder b;
         int r = circe_begin(c, &b, link, "network-setup", reply, reply_size);
 
         if (r == 0)
@@ -721,7 +648,7 @@ SL_EXPORT int sl_circe_device_setup(struct sl_client *c, const char *link, const
                                     int has_dest, const char *dest, int has_caps, int caps,
                                     char *reply, size_t reply_size)
 {
-        struct builder b;
+        struct ctlp_builder b;
         int r = circe_begin(c, &b, link, "device-setup", reply, reply_size);
 
         if (r == 0)
@@ -755,15 +682,15 @@ static int sync_line(const char *text, void *arg)
         char addr[SL_CIRCE_ADDRESS_SIZE];
         int succeeded;
 
-        if (strlen(text) <= CIRCE_ADDRESS_DIGITS || text[CIRCE_ADDRESS_DIGITS] != ' ')
+        if (strlen(text) <= CIRCE_ADDRESS_LEN || text[CIRCE_ADDRESS_LEN] != ' ')
                 return -EPROTO;
-        memcpy(addr, text, CIRCE_ADDRESS_DIGITS);
-        addr[CIRCE_ADDRESS_DIGITS] = '\0';
+        memcpy(addr, text, CIRCE_ADDRESS_LEN);
+        addr[CIRCE_ADDRESS_LEN] = '\0';
         if (check_address("address", addr, NULL, 0) < 0)
                 return -EPROTO;
-        if (strcmp(text + CIRCE_ADDRESS_DIGITS + 1, "succeeded") == 0)
+        if (strcmp(text + CIRCE_ADDRESS_LEN + 1, "succeeded") == 0)
                 succeeded = 1;
-        else if (strcmp(text + CIRCE_ADDRESS_DIGITS + 1, "timed-out") == 0)
+        else if (strcmp(text + CIRCE_ADDRESS_LEN + 1, "timed-out") == 0)
                 succeeded = 0;
         else
                 return -EPROTO;
@@ -774,7 +701,7 @@ SL_EXPORT int sl_circe_sync_clocks(struct sl_client *c, const char *link, sl_syn
                                    void *arg, char *reply, size_t reply_size)
 {
         struct sync_results s = { .fn = on_result, .arg = arg };
-        struct builder b;
+        struct ctlp_builder b;
         int r = circe_begin(c, &b, link, "sync-clocks", reply, reply_size);
 
         if (r < 0)
@@ -784,8 +711,8 @@ SL_EXPORT int sl_circe_sync_clocks(struct sl_client *c, const char *link, sl_syn
 }
 
 /* Appends the comma-separated destination list of a Visualize. */
-static int add_destinations(struct builder *b, const struct sl_circe_visualize *v, char *reply,
-                            size_t reply_size)
+static int add_destinations(struct ctlp_builder *b, const struct sl_circe_visualize *v,
+                            char *reply, size_t reply_size)
 {
         char list[SL_CIRCE_DESTS_MAX * SL_CIRCE_ADDRESS_SIZE];
         size_t len = 0;
@@ -802,8 +729,8 @@ static int add_destinations(struct builder *b, const struct sl_circe_visualize *
                         return r;
                 if (i)
                         list[len++] = ',';
-                memcpy(list + len, v->dests[i], CIRCE_ADDRESS_DIGITS);
-                len += CIRCE_ADDRESS_DIGITS;
+                memcpy(list + len, v->dests[i], CIRCE_ADDRESS_LEN);
+                len += CIRCE_ADDRESS_LEN;
         }
         list[len] = '\0';
         return add_word(b, "destinations", list, reply, reply_size);
@@ -822,7 +749,7 @@ SL_EXPORT int sl_circe_visualize(struct sl_client *c, const char *link,
                                  size_t reply_size)
 {
         struct sl_circe_visualize full;
-        struct builder b;
+        struct ctlp_builder b;
         int r, given;
 
         if (!v || v->size < SL_VISUALIZE_SIZE_V1) {
@@ -881,7 +808,7 @@ SL_EXPORT int sl_circe_emulate_action(struct sl_client *c, const char *link, con
                                       int has_keys, int keys, int has_sensor_time,
                                       long sensor_time_ms, char *reply, size_t reply_size)
 {
-        struct builder b;
+        struct ctlp_builder b;
         int r = circe_begin(c, &b, link, "emulate", reply, reply_size);
 
         if (r == 0)

@@ -49,9 +49,7 @@
 #define OP_CODE_LIMIT 55                /* operation codes 00..54 have a table entry */
 #define HEADER_LEN (1 + OP_CODE_DIGITS + 1)     /* STX op TAB */
 #define CHECKSUM_DIGITS 2
-#define VERSION_LEN_MAX 11              /* "999.999.999" */
 #define VERSION_PART_DIGITS 3
-#define VERSION_PARTS 3
 #define BOOL_MAX 1
 
 /* A set of parameter ids; every id a table knows is below 64. */
@@ -73,32 +71,32 @@ struct param_spec {
 
 /* PROTOCOLS.md 2.3, row by row.  028/029 allow 4 characters but only 0-999 (as the spec). */
 static const struct param_spec param_specs[PARAM_ID_LIMIT] = {
-        [CIRCE_PARAM_PROTOCOL_VERSION]   = { PT_VERSION, VERSION_LEN_MAX, 0, 0 },
-        [CIRCE_PARAM_MEDIATOR_STATUS]    = { PT_INTEGER, 3, 0, 999 },
+        [CIRCE_PARAM_PROTOCOL_VERSION]   = { PT_VERSION, CIRCE_VERSION_LEN_MAX, 0, 0 },
+        [CIRCE_PARAM_MEDIATOR_STATUS]    = { PT_INTEGER, 3, 0, CIRCE_STATUS_MAX },
         [CIRCE_PARAM_DESTINATION]        = { PT_ADDRESS, CIRCE_ADDRESS_LEN, 0, 0 },
         [CIRCE_PARAM_ORIGIN]             = { PT_ADDRESS, CIRCE_ADDRESS_LEN, 0, 0 },
         [CIRCE_PARAM_GET_MEMBERSHIP]     = { PT_INTEGER, 1, 0, BOOL_MAX },
         [CIRCE_PARAM_SET_MEMBERSHIP]     = { PT_INTEGER, 1, 0, BOOL_MAX },
-        [CIRCE_PARAM_CAPABILITIES]       = { PT_INTEGER, 3, 0, 127 },
-        [CIRCE_PARAM_ROLES]              = { PT_INTEGER, 3, 0, 127 },
-        [CIRCE_PARAM_SIGNAL]             = { PT_INTEGER, 3, 0, 255 },
-        [CIRCE_PARAM_BATTERY]            = { PT_INTEGER, 3, 0, 255 },
+        [CIRCE_PARAM_CAPABILITIES]       = { PT_INTEGER, 3, 0, CIRCE_CAPABILITIES_MAX },
+        [CIRCE_PARAM_ROLES]              = { PT_INTEGER, 3, 0, CIRCE_ROLES_MAX },
+        [CIRCE_PARAM_SIGNAL]             = { PT_INTEGER, 3, 0, CIRCE_LEVEL_MAX },
+        [CIRCE_PARAM_BATTERY]            = { PT_INTEGER, 3, 0, CIRCE_LEVEL_MAX },
         [CIRCE_PARAM_ALIGNED]            = { PT_INTEGER, 1, 0, BOOL_MAX },
-        [CIRCE_PARAM_INPUT_KEYS]         = { PT_INTEGER, 5, 0, 65535 },
-        [CIRCE_PARAM_SENSOR_TIME]        = { PT_INTEGER, 6, 0, 999999 },
+        [CIRCE_PARAM_INPUT_KEYS]         = { PT_INTEGER, 5, 0, CIRCE_KEYS_MAX },
+        [CIRCE_PARAM_SENSOR_TIME]        = { PT_INTEGER, 6, 0, CIRCE_TIME_MS_MAX },
         [CIRCE_PARAM_ASSIGN_ADDRESS]     = { PT_ADDRESS, CIRCE_ADDRESS_LEN, 0, 0 },
         [CIRCE_PARAM_CLOCK_SYNC]         = { PT_INTEGER, 1, 1, 2 },
-        [CIRCE_PARAM_CURRENT_COMPETITOR] = { PT_INTEGER, 4, 0, 999 },
-        [CIRCE_PARAM_NEXT_COMPETITOR]    = { PT_INTEGER, 4, 0, 999 },
+        [CIRCE_PARAM_CURRENT_COMPETITOR] = { PT_INTEGER, 4, 0, CIRCE_COMPETITOR_MAX },
+        [CIRCE_PARAM_NEXT_COMPETITOR]    = { PT_INTEGER, 4, 0, CIRCE_COMPETITOR_MAX },
         [CIRCE_PARAM_START_TIMER]        = { PT_INTEGER, 1, 1, 1 },
-        [CIRCE_PARAM_PRIMARY_TIMER]      = { PT_INTEGER, 6, 0, 999999 },
-        [CIRCE_PARAM_FAULTS]             = { PT_INTEGER, 2, 0, 99 },
-        [CIRCE_PARAM_REFUSALS]           = { PT_INTEGER, 2, 0, 99 },
+        [CIRCE_PARAM_PRIMARY_TIMER]      = { PT_INTEGER, 6, 0, CIRCE_TIME_MS_MAX },
+        [CIRCE_PARAM_FAULTS]             = { PT_INTEGER, 2, 0, CIRCE_COUNT_MAX },
+        [CIRCE_PARAM_REFUSALS]           = { PT_INTEGER, 2, 0, CIRCE_COUNT_MAX },
         [CIRCE_PARAM_ELIMINATED]         = { PT_INTEGER, 1, 0, BOOL_MAX },
-        [CIRCE_PARAM_PLACEMENT]          = { PT_INTEGER, 3, 0, 999 },
+        [CIRCE_PARAM_PLACEMENT]          = { PT_INTEGER, 3, 0, CIRCE_PLACEMENT_MAX },
         [CIRCE_PARAM_LOG_DATA]           = { PT_BINARY, 0, 0, 0 },
         [CIRCE_PARAM_VERSION_MISMATCH]   = { PT_INTEGER, 1, 0, BOOL_MAX },
-        [CIRCE_PARAM_SECONDARY_TIMER]    = { PT_INTEGER, 6, 0, 999999 },
+        [CIRCE_PARAM_SECONDARY_TIMER]    = { PT_INTEGER, 6, 0, CIRCE_TIME_MS_MAX },
 };
 
 /* Visualize's display fields: at least one must be present. */
@@ -256,14 +254,18 @@ static enum circe_reason check_address(const uint8_t *v, size_t len, uint32_t *r
         return CIRCE_REASON_NONE;
 }
 
-static enum circe_reason check_version(const uint8_t *v, size_t len, struct circe_version *ret_ver)
+/* parts (1..CIRCE_VERSION_PARTS) numbers of 1-3 digits, dot-separated; the wire has 3. */
+static enum circe_reason check_version(const uint8_t *v, size_t len, unsigned parts,
+                                       struct circe_version *ret_ver)
 {
-        uint16_t part[VERSION_PARTS] = { 0 };
+        uint16_t part[CIRCE_VERSION_PARTS] = { 0 };
         size_t i = 0;
 
-        if (len == 0 || len > VERSION_LEN_MAX)
+        if (len == 0 || len > CIRCE_VERSION_LEN_MAX)
                 return CIRCE_REASON_VALUE_LENGTH;
-        for (unsigned k = 0; k < VERSION_PARTS; k++) {
+        if (parts == 0 || parts > CIRCE_VERSION_PARTS)
+                return CIRCE_REASON_VALUE_TYPE;
+        for (unsigned k = 0; k < parts; k++) {
                 size_t digits = 0;
 
                 if (k > 0) {
@@ -317,7 +319,7 @@ static enum circe_reason check_value(unsigned id, const uint8_t *v, size_t len, 
         case PT_ADDRESS:
                 return check_address(v, len, &val->num);
         case PT_VERSION:
-                return check_version(v, len, &val->version);
+                return check_version(v, len, CIRCE_VERSION_PARTS, &val->version);
         case PT_BINARY:
                 val->raw = v;
                 val->raw_len = len;
@@ -1183,18 +1185,20 @@ void circe_address_format(uint32_t addr, char out[CIRCE_ADDRESS_LEN + 1])
 int circe_address_parse(const char *s, size_t len, uint32_t *ret_addr)
 {
         uint32_t a;
+        enum circe_reason r = check_address((const uint8_t *)s, len, &a);
 
-        if (check_address((const uint8_t *)s, len, &a) != CIRCE_REASON_NONE)
-                return -EINVAL;
+        if (r != CIRCE_REASON_NONE)
+                return r == CIRCE_REASON_VALUE_RANGE ? -ERANGE : -EINVAL;
         *ret_addr = a;
         return 0;
 }
 
-int circe_version_parse(const char *s, size_t len, struct circe_version *ret_version)
+int circe_version_parse(const char *s, size_t len, unsigned parts,
+                        struct circe_version *ret_version)
 {
         struct circe_version v;
 
-        if (check_version((const uint8_t *)s, len, &v) != CIRCE_REASON_NONE)
+        if (check_version((const uint8_t *)s, len, parts, &v) != CIRCE_REASON_NONE)
                 return -EINVAL;
         *ret_version = v;
         return 0;

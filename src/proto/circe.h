@@ -58,8 +58,25 @@
 #define CIRCE_ADDRESS_UNCONFIGURED 0x000000u  /* legal on the wire: a device with no address yet */
 #define CIRCE_ADDRESS_RESERVED 0xFFFFFFu      /* never on the wire */
 
-/* Each part of a Version (010) is 1-3 digits. */
+/* Each part of a Version (010) is 1-3 digits: "999.999.999" is the longest. */
 #define CIRCE_VERSION_PART_MAX 999
+#define CIRCE_VERSION_PARTS 3
+#define CIRCE_VERSION_LEN_MAX 11
+
+/*
+ * Value ranges (PROTOCOLS.md 2.3), the one place they are written: the codec's parameter table,
+ * the daemon's command parser and config, and the library's argument checks all use these. Every
+ * minimum is 0 but for Clock synchronization (1) and Start timer (always 1).
+ */
+#define CIRCE_STATUS_MAX 999            /* 012 mediator status */
+#define CIRCE_CAPABILITIES_MAX 127      /* 019 */
+#define CIRCE_ROLES_MAX 127             /* 020 */
+#define CIRCE_LEVEL_MAX 255             /* 021 signal, 022 battery */
+#define CIRCE_KEYS_MAX 65535            /* 024 input keys */
+#define CIRCE_TIME_MS_MAX 999999        /* 025 sensor time, 031 primary and 038 secondary timer */
+#define CIRCE_COMPETITOR_MAX 999        /* 028 current, 029 next competitor */
+#define CIRCE_COUNT_MAX 99              /* 032 faults, 033 refusals */
+#define CIRCE_PLACEMENT_MAX 999         /* 035 */
 
 /* ---- Operations and parameters (PROTOCOLS.md 2.2, 2.3) --------------------------------------- */
 
@@ -367,10 +384,13 @@ bool circe_capabilities_compliant(unsigned capabilities);
 /* Writes addr (at most CIRCE_ADDRESS_MAX) as six uppercase hex digits and a NUL into out. */
 void circe_address_format(uint32_t addr, char out[CIRCE_ADDRESS_LEN + 1]);
 
-/* Parses exactly six uppercase hex digits other than FFFFFF; 0 or -EINVAL. */
+/* Parses an address as it is on the wire: 0, -EINVAL when s[0..len) is not exactly six
+ * uppercase hex digits, -ERANGE when it is the reserved FFFFFF. */
 int circe_address_parse(const char *s, size_t len, uint32_t *ret_addr);
 
-/* Parses "X.Y.Z" (each 1-3 digits) as a Version; 0 or -EINVAL. */
-int circe_version_parse(const char *s, size_t len, struct circe_version *ret_version);
+/* Parses a Version of parts (1..CIRCE_VERSION_PARTS) dot-separated numbers of 1-3 digits each:
+ * 3 is the wire's "X.Y.Z", 2 a "X.Y" (patch 0). 0 or -EINVAL. */
+int circe_version_parse(const char *s, size_t len, unsigned parts,
+                        struct circe_version *ret_version);
 
 #endif

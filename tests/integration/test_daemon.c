@@ -47,7 +47,7 @@
 #define LINK_MAX        1024
 #define REPLY_MAX       8192
 #define CLIENTS_MAX     64      /* CONTROL_CLIENTS_MAX */
-#define LINE_MAX_BYTES  1024    /* CONTROL_LINE_MAX */
+#define LINE_MAX_BYTES  1024    /* CTLP_LINE_MAX */
 #define PATH_BUF        1024    /* any path built from the harness dir */
 #define NOBODY_ID       65534
 
@@ -459,7 +459,7 @@ static void test_control_pipeline(void **state)
         stop_ok(h, SIGTERM);
 }
 
-/* A line over CONTROL_LINE_MAX is answered ERR 90 and the connection closed; the daemon goes on. */
+/* A line over CTLP_LINE_MAX is answered ERR 90 and the connection closed; the daemon goes on. */
 static void test_control_overlong(void **state)
 {
         struct harness *h = *state;

@@ -1222,6 +1222,44 @@ static void test_capabilities_compliant(void **state)
 
 static void test_address_and_version(void **state)
 {
+        static const struct {
+                const char *s;
+                int r;
+                uint32_t addr;
+        } addrs[] = {
+                { "E1E1E1", 0, 0xE1E1E1 },
+                { "000000", 0, 0 },
+                { "FFFFFE", 0, 0xFFFFFE },
+                { "FFFFFF", -ERANGE, 0 },       /* reserved: its own error */
+                { "e1e1e1", -EINVAL, 0 },
+                { "E1E1E", -EINVAL, 0 },
+                { "E1E1E1E", -EINVAL, 0 },
+                { "G1E1E1", -EINVAL, 0 },
+                { "", -EINVAL, 0 },
+        };
+        static const struct {
+                const char *s;
+                unsigned parts;
+                int r;
+                unsigned major, minor, patch;
+        } versions[] = {
+                { "0.2.3", 3, 0, 0, 2, 3 },
+                { "999.999.999", 3, 0, 999, 999, 999 },
+                { "0.2", 2, 0, 0, 2, 0 },
+                { "10.20", 2, 0, 10, 20, 0 },
+                { "7", 1, 0, 7, 0, 0 },
+                { "0.2", 3, -EINVAL, 0, 0, 0 },
+                { "0.2.3", 2, -EINVAL, 0, 0, 0 },
+                { "1.2.3x", 3, -EINVAL, 0, 0, 0 },
+                { "1000.2.3", 3, -EINVAL, 0, 0, 0 },
+                { "v0.2.3", 3, -EINVAL, 0, 0, 0 },
+                { "0..2", 2, -EINVAL, 0, 0, 0 },
+                { "0.2.", 2, -EINVAL, 0, 0, 0 },
+                { ".2", 2, -EINVAL, 0, 0, 0 },
+                { "", 2, -EINVAL, 0, 0, 0 },
+                { "0.2.3", 0, -EINVAL, 0, 0, 0 },
+                { "0.2.3", 4, -EINVAL, 0, 0, 0 },
+        };
         char s[CIRCE_ADDRESS_LEN + 1];
         uint32_t a;
         struct circe_version v;
@@ -1231,18 +1269,27 @@ static void test_address_and_version(void **state)
         assert_string_equal(s, "0A1B2C");
         circe_address_format(0, s);
         assert_string_equal(s, "000000");
-        assert_int_equal(circe_address_parse("E1E1E1", 6, &a), 0);
-        assert_int_equal(a, 0xE1E1E1);
-        a = 42;
-        assert_int_equal(circe_address_parse("FFFFFF", 6, &a), -EINVAL);
-        assert_int_equal(circe_address_parse("e1e1e1", 6, &a), -EINVAL);
-        assert_int_equal(circe_address_parse("E1E1E", 5, &a), -EINVAL);
-        assert_int_equal(a, 42);                /* untouched on failure */
+        for (size_t i = 0; i < sizeof(addrs) / sizeof(addrs[0]); i++) {
+                a = 42;
+                assert_int_equal(circe_address_parse(addrs[i].s, strlen(addrs[i].s), &a),
+                                 addrs[i].r);
+                assert_int_equal(a, addrs[i].r == 0 ? addrs[i].addr : 42);  /* untouched */
+        }
+        /* The length decides: a NUL inside it is not a hex digit. */
+        assert_int_equal(circe_address_parse("E1E\0E1", 6, &a), -EINVAL);
 
-        assert_int_equal(circe_version_parse("0.2.3", 5, &v), 0);
-        assert_int_equal(v.major * 1000000 + v.minor * 1000 + v.patch, 2003);
-        assert_int_equal(circe_version_parse("0.2", 3, &v), -EINVAL);
-        assert_int_equal(circe_version_parse("1.2.3x", 6, &v), -EINVAL);
+        for (size_t i = 0; i < sizeof(versions) / sizeof(versions[0]); i++) {
+                v = (struct circe_version){ 1, 1, 1 };
+                assert_int_equal(circe_version_parse(versions[i].s, strlen(versions[i].s),
+                                                     versions[i].parts, &v), versions[i].r);
+                if (versions[i].r < 0) {
+                        assert_int_equal(v.major + v.minor + v.patch, 3);       /* untouched */
+                        continue;
+                }
+                assert_int_equal(v.major, versions[i].major);
+                assert_int_equal(v.minor, versions[i].minor);
+                assert_int_equal(v.patch, versions[i].patch);
+        }
 }
 
 static void test_strings(void **state)

@@ -59,7 +59,7 @@ struct fixture {
 static void on_request(struct control_request *req, int argc, char **argv, void *arg)
 {
         struct fixture *f = arg;
-        char text[2 * CONTROL_LINE_MAX] = "";
+        char text[2 * CTLP_LINE_MAX] = "";
 
         f->calls++;
         switch (f->mode) {
@@ -435,25 +435,25 @@ static void test_half_close(void **state)
         pump_until(f, clients_n, (void *)0);
 }
 
-/* CONTROL_LINE_MAX bytes with the '\n' is a line; one more byte is answered ERR 90 and the
+/* CTLP_LINE_MAX bytes with the '\n' is a line; one more byte is answered ERR 90 and the
  * connection is closed, also when the long line waited behind a pending request. */
 static void test_overlong(void **state)
 {
         struct fixture *f = *state;
-        static char line[CONTROL_LINE_MAX + 2];
+        static char line[CTLP_LINE_MAX + 2];
         struct control_stats st;
         struct rx r = { .fd = client_connect(f) }, r2;
         unsigned calls;
 
-        memset(line, 'a', CONTROL_LINE_MAX - 1);
-        line[CONTROL_LINE_MAX - 1] = '\n';
-        line[CONTROL_LINE_MAX] = '\0';
+        memset(line, 'a', CTLP_LINE_MAX - 1);
+        line[CTLP_LINE_MAX - 1] = '\n';
+        line[CTLP_LINE_MAX] = '\0';
         exchange(f, &r, line, 1);
         assert_memory_equal(r.buf, "OK 1 aaa", 8);
         r.len = 0;
         r.buf[0] = '\0';
-        line[CONTROL_LINE_MAX - 1] = 'a';
-        line[CONTROL_LINE_MAX] = '\n';
+        line[CTLP_LINE_MAX - 1] = 'a';
+        line[CTLP_LINE_MAX] = '\n';
         client_send(r.fd, line);
         pump_until(f, rx_at_eof, &r);
         assert_string_equal(r.buf, "ERR 90 request line too long\n");
@@ -483,14 +483,14 @@ static void test_overlong(void **state)
 static void test_hangup_full_buffer(void **state)
 {
         struct fixture *f = *state;
-        static char line[CONTROL_LINE_MAX + 2];
+        static char line[CTLP_LINE_MAX + 2];
         struct control_stats st;
         int fd = client_connect(f);
 
         f->mode = MODE_HOLD;
         client_send(fd, "wait\n");
         pump_until(f, held_n, (void *)1);
-        memset(line, 'a', CONTROL_LINE_MAX + 1);
+        memset(line, 'a', CTLP_LINE_MAX + 1);
         client_send(fd, line);
         close(fd);
         pump_until(f, orphaned_n, (void *)1);

@@ -596,7 +596,7 @@ static int control_connect(struct fx *f)
 
 static void request_send(struct fx *f, int fd, const char *line)
 {
-        char buf[CONTROL_LINE_MAX];
+        char buf[CTLP_LINE_MAX];
         int n = snprintf(buf, sizeof(buf), "%s\n", line);
 
         (void)f;

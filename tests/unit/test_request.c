@@ -1,9 +1,9 @@
 /*
  * Unit tests of the control-socket client (src/lib/request.c): request lines checked before they
- * leave, reply lines parsed (every kind of bad one), every argument of the typed commands refused
- * with -EINVAL before any connection is made, the exact words each command puts on the wire, and
- * the errors when nobody listens or nobody answers. Round trips with the real daemon are in
- * tests/integration/test_slctl.c.
+ * leave, every argument of the typed commands refused with -EINVAL before any connection is
+ * made, the exact words each command puts on the wire, and the errors when nobody listens or
+ * nobody answers. The line grammar itself, reply lines included: test_control_proto.c. Round
+ * trips with the real daemon are in tests/integration/test_slctl.c.
  *
  * "Before any connection": the handle's runtime directory is an empty temporary directory, so a
  * call that got as far as connecting would fail with -ECONNREFUSED, never -EINVAL.
@@ -149,68 +149,6 @@ static void test_line_check(void **state)
         assert_int_equal(request_line_check(line, why, sizeof(why)), 0);
         strcat(line, " w");
         assert_int_equal(request_line_check(line, why, sizeof(why)), -EINVAL);
-}
-
-/* ---- reply lines --------------------------------------------------------------------------- */
-
-static void test_reply_parse(void **state)
-{
-        static const struct {
-                const char *line;
-                int kind;               /* or -EPROTO */
-                const char *text;
-                int err;
-        } cases[] = {
-                { "OK", REQUEST_REPLY_OK, "", 0 },
-                { "OK ", REQUEST_REPLY_OK, "", 0 },
-                { "OK 40.12345678", REQUEST_REPLY_OK, "40.12345678", 0 },
-                { "OK 1234 5678", REQUEST_REPLY_OK, "1234 5678", 0 },
-                { "OK  two spaces", REQUEST_REPLY_OK, " two spaces", 0 },
-                { "DATA E1E1E1 succeeded", REQUEST_REPLY_DATA, "E1E1E1 succeeded", 0 },
-                { "DATA", REQUEST_REPLY_DATA, "", 0 },
-                { "ERR 2 no such link: nope", REQUEST_REPLY_ERR, "no such link: nope", 2 },
-                { "ERR 110", REQUEST_REPLY_ERR, "", 110 },
-                { "ERR 4095 x", REQUEST_REPLY_ERR, "x", 4095 },
-                { "ERR 107 tab\tinside", REQUEST_REPLY_ERR, "tab\tinside", 107 },
-                { "ERR 0 zero", -EPROTO, NULL, 0 },
-                { "ERR 4096 big", -EPROTO, NULL, 0 },
-                { "ERR 99999999999999999999 huge", -EPROTO, NULL, 0 },
-                { "ERR -2 negative", -EPROTO, NULL, 0 },
-                { "ERR 12x", -EPROTO, NULL, 0 },
-                { "ERR", -EPROTO, NULL, 0 },
-                { "ERR ", -EPROTO, NULL, 0 },
-                { "ERR x", -EPROTO, NULL, 0 },
-                { "OKAY", -EPROTO, NULL, 0 },
-                { "ok", -EPROTO, NULL, 0 },
-                { "DATAx", -EPROTO, NULL, 0 },
-                { "DATA\tx", -EPROTO, NULL, 0 },
-                { "", -EPROTO, NULL, 0 },
-                { "HELLO", -EPROTO, NULL, 0 },
-                { "OK \x1b[2J", -EPROTO, NULL, 0 },
-                { "OK cr\r", -EPROTO, NULL, 0 },
-                { "DATA \x7f", -EPROTO, NULL, 0 },
-        };
-
-        (void)state;
-        for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
-                const char *text = NULL;
-                int err = -1;
-                int kind = request_reply_parse(cases[i].line, strlen(cases[i].line), &text, &err);
-
-                assert_int_equal(kind, cases[i].kind);
-                if (kind < 0)
-                        continue;
-                assert_string_equal(text, cases[i].text);
-                if (kind == REQUEST_REPLY_ERR)
-                        assert_int_equal(err, cases[i].err);
-        }
-        /* An embedded NUL: the length says there is more than the string shows. */
-        {
-                const char *text;
-                int err;
-
-                assert_int_equal(request_reply_parse("OK a\0b", 6, &text, &err), -EPROTO);
-        }
 }
 
 /* ---- arguments refused before any connection ---------------------------------------------- */
@@ -687,7 +625,6 @@ int main(void)
 {
         const struct CMUnitTest tests[] = {
                 cmocka_unit_test(test_line_check),
-                cmocka_unit_test(test_reply_parse),
                 cmocka_unit_test_setup_teardown(test_arguments_refused, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_visualize_refused, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wire_words, setup, teardown),

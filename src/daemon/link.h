@@ -19,12 +19,14 @@
 #ifndef SHAREDLINK_DAEMON_LINK_H
 #define SHAREDLINK_DAEMON_LINK_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
 #include "daemon/channel.h"
 #include "daemon/config.h"
 #include "daemon/evloop.h"
+#include "shm/layout.h"
 
 struct shm_table;
 struct shm_var;
@@ -95,5 +97,59 @@ int link_channel_new(const struct link_env *env, const struct channel_ops *ops, 
 /* Copies the channel's counters into the link's shm counters (bytes, reopens, io errors, tx
  * drops); engines call it after I/O bursts and from ops->heartbeat. */
 void link_publish_channel_stats(const struct link_env *env, const struct channel *ch);
+
+/*
+ * Session hooks every engine wires the same way. arg is the engine, whose first member must be
+ * its struct link_env: an event for the table's ring on this link, and a link counter.
+ */
+void link_hook_event(void *arg, enum shm_event_type type, const char *text);
+void link_hook_count(void *arg, enum shm_counter counter, uint64_t n);
+
+/*
+ * Requests waiting for their link to be ready ("wait=MS"), the same for every engine: a bounded
+ * FIFO of (request, deadline, the engine's parsed command). The engine adds a request its link
+ * cannot serve yet, calls link_waitq_run() whenever readiness may have changed or the earliest
+ * deadline (link_waitq_deadline()) has passed, and link_waitq_cancel() when it stops.
+ */
+#define LINK_WAITQ_MAX          16u     /* requests one link holds waiting */
+#define LINK_WAITQ_DATA_MAX     512u    /* room for one engine's parsed command */
+
+struct link_waiting {
+        struct control_request *req;
+        uint64_t deadline_ms;
+        unsigned wait_ms;
+        _Alignas(max_align_t) unsigned char data[LINK_WAITQ_DATA_MAX];
+};
+
+struct link_waitq {
+        struct link_waiting q[LINK_WAITQ_MAX];
+        unsigned n;
+};
+
+struct link_waitq_ops {
+        /* Whether the link can serve a request now (asked before each one). */
+        bool (*ready)(void *engine);
+        /* Serve req now, with the data given to link_waitq_add(). */
+        void (*run)(void *engine, struct control_request *req, const void *data);
+        /* Answer req with the engine's error: its wait_ms passed (or its client left). */
+        void (*expire)(void *engine, struct control_request *req, const void *data,
+                       unsigned wait_ms);
+};
+
+/* Queues req until now_ms + wait_ms with size bytes of data (copied); 0, -EBUSY (full) or
+ * -EINVAL (size over LINK_WAITQ_DATA_MAX). */
+int link_waitq_add(struct link_waitq *q, struct control_request *req, uint64_t now_ms,
+                   unsigned wait_ms, const void *data, size_t size);
+
+/* In order: runs each waiting request once the link is ready, expires those whose deadline
+ * passed or whose client left, keeps the others. */
+void link_waitq_run(struct link_waitq *q, uint64_t now_ms, const struct link_waitq_ops *ops,
+                    void *engine);
+
+/* The earliest deadline of a waiting request, or UINT64_MAX. */
+uint64_t link_waitq_deadline(const struct link_waitq *q);
+
+/* Ends every waiting request with ERR err why (the engine stops). */
+void link_waitq_cancel(struct link_waitq *q, int err, const char *why);
 
 #endif

@@ -3,8 +3,10 @@
  */
 #include "daemon/link_circe.h"
 
+#include <assert.h>
 #include <errno.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -78,6 +80,8 @@ struct link_circe {
         char rl_wire_name[RL_NAME_MAX], rl_log_name[RL_NAME_MAX], rl_state_name[RL_NAME_MAX];
         char status_line[STATUS_LINE_MAX];
 };
+static_assert(offsetof(struct link_circe, env) == 0,
+              "link_hook_*() take the engine as its link_env");
 
 static const char *link_name(const struct link_circe *e)
 {
@@ -346,20 +350,6 @@ static void hook_device(void *arg, unsigned index, const struct link_circe_devic
                 publish_device(e, index, d, fields);
 }
 
-static void hook_event(void *arg, enum shm_event_type type, const char *text)
-{
-        struct link_circe *e = arg;
-
-        shm_table_event(e->env.table, type, e->env.shm_link, text);
-}
-
-static void hook_count(void *arg, enum shm_counter c, uint64_t delta)
-{
-        struct link_circe *e = arg;
-
-        shm_table_counter_add(e->env.table, e->env.shm_link, c, delta);
-}
-
 static void hook_rejected(void *arg, const struct circe_result *res)
 {
         struct link_circe *e = arg;
@@ -445,8 +435,8 @@ static const struct link_circe_hooks hooks = {
         .state = hook_state,
         .mediator = hook_mediator,
         .device = hook_device,
-        .event = hook_event,
-        .count = hook_count,
+        .event = link_hook_event,
+        .count = link_hook_count,
         .rejected = hook_rejected,
         .diag = hook_diag,
         .log = hook_log,

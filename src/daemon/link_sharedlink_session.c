@@ -791,6 +791,9 @@ void link_sharedlink_session_input(struct link_sharedlink_session *s, uint64_t n
 {
         struct slp_decode_result r;
 
+        /* The channel delivers nothing while down; what would come then has no one to answer. */
+        if (!s->up)
+                return;
         while (len > 0) {
                 size_t n = slp_decoder_feed(&s->dec, data, len, &r);
 

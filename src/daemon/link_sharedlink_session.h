@@ -94,7 +94,8 @@ void link_sharedlink_session_up(struct link_sharedlink_session *s, uint64_t now_
  * link's variables stale: that is one table call for all of them.) */
 void link_sharedlink_session_down(struct link_sharedlink_session *s, uint64_t now_ms);
 
-/* Bytes from the channel (a whole datagram when the session was made with datagram true). */
+/* Bytes from the channel (a whole datagram when the session was made with datagram true);
+ * ignored while down. */
 void link_sharedlink_session_input(struct link_sharedlink_session *s, uint64_t now_ms,
                                    const uint8_t *data, size_t len);
 

@@ -64,13 +64,20 @@ struct link_ops {
          * variables. Called once per changed slot, after the core's outbound scan. */
         void (*outbound)(void *engine, const struct shm_out_change *change);
 
+        /* The control request word that addresses this engine's links ("query", "circe"): the
+         * core routes "<command_word> LINK ..." to the engine of LINK. */
+        const char *command_word;
+
         /*
-         * A control command addressed to this link (argv[0] is the command word, e.g. "query" or
-         * "circe"; argv[1] is the link name). The engine must eventually answer req exactly once
-         * with control_reply_ok() or control_reply_error() (it may send control_reply_data()
-         * lines first), now or later, and always within a bounded time.
+         * A control command addressed to this link (argv[0] is command_word, argv[1] the link
+         * name). The core has already taken a trailing "wait=MS" off argv (link_command_wait()):
+         * wait_ms > 0 asks the engine to hold the request up to that long while the link is not
+         * ready (link_waitq_*), 0 to refuse it at once. The engine must eventually answer req
+         * exactly once with control_reply_ok() or control_reply_error() (it may send
+         * control_reply_data() lines first), now or later, and always within a bounded time.
          */
-        void (*command)(void *engine, struct control_request *req, int argc, char **argv);
+        void (*command)(void *engine, struct control_request *req, int argc, char **argv,
+                        unsigned wait_ms);
 
         /* One line for `STATUS=` and logs: "up", "connecting", "down: hang-up" ... The core
          * counts a link as up when the first word of this text is "up". */
@@ -85,6 +92,23 @@ struct link_ops {
 
 /* The engine of a protocol: &link_sharedlink_ops or &link_circe_ops. NULL for an unknown one. */
 const struct link_ops *link_ops_for(enum config_protocol protocol);
+
+/* The protocol whose engine's command_word is word: 0 and *ret_protocol, or -ENOENT. */
+int link_protocol_for_command(const char *word, enum config_protocol *ret_protocol);
+
+/* A number of milliseconds: decimal digits only, min..max; 0 or -EINVAL. */
+int link_parse_ms(const char *s, unsigned min, unsigned max, unsigned *ret);
+
+#define LINK_WAIT_MAX_MS        60000u  /* longest wait=MS a request may ask for */
+#define LINK_WAIT_PREFIX        "wait="
+
+/*
+ * Takes a trailing "wait=MS" (MS decimal, 0..LINK_WAIT_MAX_MS) off a link command
+ * ("WORD LINK ... wait=MS": only after the link name, only as the last word): 0 with *argc
+ * reduced and *ret_wait_ms set (0 without one), or -EINVAL with a one-line reason in err.
+ */
+int link_command_wait(int *argc, char *const *argv, unsigned *ret_wait_ms, char *err,
+                      size_t errsz);
 
 /*
  * Creates (stopped) the channel of env's link from its configuration (serial settings, devices,
@@ -112,7 +136,7 @@ void link_hook_count(void *arg, enum shm_counter counter, uint64_t n);
  * deadline (link_waitq_deadline()) has passed, and link_waitq_cancel() when it stops.
  */
 #define LINK_WAITQ_MAX          16u     /* requests one link holds waiting */
-#define LINK_WAITQ_DATA_MAX     512u    /* room for one engine's parsed command */
+#define LINK_WAITQ_DATA_MAX     1024u   /* room for one engine's parsed command */
 
 struct link_waiting {
         struct control_request *req;

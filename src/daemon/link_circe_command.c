@@ -363,18 +363,6 @@ int link_circe_command_parse(int argc, char *const *argv, struct link_circe_cmd 
         c.sensor_time_ms = -1;
         op = argv[2];
         n = argc - 3;
-        /* wait=MS is only ever the last word. */
-        if (n > 0 && strncmp(argv[argc - 1], "wait=", 5) == 0) {
-                unsigned long ms;
-
-                r = number_arg("wait", argv[argc - 1] + 5, LINK_CIRCE_WAIT_MAX_MS, &ms, err,
-                               errsz);
-                if (r < 0)
-                        return r;
-                c.has_wait = true;
-                c.wait_ms = (uint32_t)ms;
-                n--;
-        }
         if (strcmp(op, "alert") == 0) {
                 c.kind = LINK_CIRCE_CMD_ALERT;
                 r = parse_alert(argv + 3, n, &c, err, errsz);

@@ -9,7 +9,8 @@
  *   visualize ADDR[,ADDR...] [current=N] [next=N] [start-timer] [primary=MS] [secondary=MS]
  *             [faults=N] [refusals=N] [eliminated=0|1] [placement=N]
  *   emulate action ADDR [keys=N] [sensor-time=MS]
- * each optionally ending with wait=MS (wait up to MS for the link instead of ERR ENOTCONN).
+ * each optionally ending with wait=MS (wait up to MS for the link instead of ERR ENOTCONN),
+ * which the core takes off before the engine parses the rest (link_command_wait()).
  * Addresses are six hex digits (lowercase accepted, FFFFFF refused); numbers are decimal.
  */
 #ifndef SHAREDLINK_DAEMON_LINK_CIRCE_COMMAND_H
@@ -21,7 +22,6 @@
 
 #include "proto/circe.h"
 
-#define LINK_CIRCE_WAIT_MAX_MS  60000u  /* longest wait=MS a request may ask for */
 #define LINK_CIRCE_CMD_ERR_MAX  160u    /* room for an error message */
 
 enum link_circe_cmd_kind {
@@ -39,8 +39,6 @@ struct link_circe_cmd {
         uint32_t address;               /* emulate action: the device */
         long keys;                      /* emulate action: -1 when not given */
         long sensor_time_ms;            /* emulate action: -1 when not given */
-        bool has_wait;
-        uint32_t wait_ms;
 };
 
 /*

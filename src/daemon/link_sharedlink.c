@@ -28,7 +28,6 @@
 #define NS_PER_MS               1000000ull
 #define STATUS_MAX              (CHANNEL_REASON_MAX + 16)
 
-#define WAIT_PREFIX             "wait="
 #define QUERY_ARGC_MIN          4       /* query LINK PEER NAME */
 #define QUERY_ARGC_MAX          5       /* ... TIMEOUT_MS */
 
@@ -293,47 +292,16 @@ static void on_timer(struct evloop *loop, struct evloop_timer *timer, void *arg)
         settle(l);
 }
 
-/* Decimal min..max, digits only. */
-static bool parse_ms(const char *s, unsigned min, unsigned max, unsigned *ret)
-{
-        unsigned long v = 0;
-
-        if (!*s)
-                return false;
-        for (; *s; s++) {
-                if (*s < '0' || *s > '9')
-                        return false;
-                v = v * 10 + (unsigned long)(*s - '0');
-                if (v > max)
-                        return false;
-        }
-        if (v < min)
-                return false;
-        *ret = (unsigned)v;
-        return true;
-}
-
-static void lsl_command(void *engine, struct control_request *req, int argc, char **argv)
+static void lsl_command(void *engine, struct control_request *req, int argc, char **argv,
+                        unsigned wait_ms)
 {
         struct lsl *l = engine;
         struct lsl_wait w = { .timeout_ms = LINK_SHAREDLINK_QUERY_TIMEOUT_MS };
-        unsigned wait = 0;
-        bool has_wait = false;
 
         if (argc < 1 || strcmp(argv[0], "query") != 0) {
                 control_reply_error(req, EINVAL, "link %s speaks sharedlink: only query",
                                     l->cfg->name);
                 return;
-        }
-        if (argc > QUERY_ARGC_MIN && strncmp(argv[argc - 1], WAIT_PREFIX,
-                                             strlen(WAIT_PREFIX)) == 0) {
-                if (!parse_ms(argv[argc - 1] + strlen(WAIT_PREFIX), 0,
-                              LINK_SHAREDLINK_QUERY_TIMEOUT_MAX_MS, &wait)) {
-                        control_reply_error(req, EINVAL, "bad %s", argv[argc - 1]);
-                        return;
-                }
-                has_wait = true;
-                argc--;
         }
         if (argc < QUERY_ARGC_MIN || argc > QUERY_ARGC_MAX) {
                 control_reply_error(req, EINVAL,
@@ -350,16 +318,16 @@ static void lsl_command(void *engine, struct control_request *req, int argc, cha
                 control_reply_error(req, EINVAL, "bad variable name");
                 return;
         }
-        if (argc == QUERY_ARGC_MAX && !parse_ms(argv[4], 1, LINK_SHAREDLINK_QUERY_TIMEOUT_MAX_MS,
-                                                &w.timeout_ms)) {
+        if (argc == QUERY_ARGC_MAX &&
+            link_parse_ms(argv[4], 1, LINK_SHAREDLINK_QUERY_TIMEOUT_MAX_MS, &w.timeout_ms) < 0) {
                 control_reply_error(req, EINVAL, "bad timeout %s (1..%u ms)", argv[4],
                                     LINK_SHAREDLINK_QUERY_TIMEOUT_MAX_MS);
                 return;
         }
         copy_cut(w.name, sizeof(w.name), argv[3]);
-        if (link_sharedlink_session_is_up(l->session) || !has_wait || wait == 0) {
+        if (link_sharedlink_session_is_up(l->session) || wait_ms == 0) {
                 query_start(l, req, &w);
-        } else if (link_waitq_add(&l->waitq, req, now_ms(), wait, &w, sizeof(w)) < 0) {
+        } else if (link_waitq_add(&l->waitq, req, now_ms(), wait_ms, &w, sizeof(w)) < 0) {
                 control_reply_error(req, EBUSY, "%u queries wait for link %s",
                                     LINK_WAITQ_MAX, l->cfg->name);
                 return;
@@ -567,6 +535,7 @@ static const char *lsl_status(void *engine)
 }
 
 const struct link_ops link_sharedlink_ops = {
+        .command_word = "query",
         .declare = lsl_declare,
         .create = lsl_create,
         .destroy = lsl_destroy,

@@ -71,7 +71,7 @@
 #include "daemon/link_sharedlink_session.h"
 
 #define LINK_SHAREDLINK_QUERY_TIMEOUT_MS        1000    /* default answer timeout of a query */
-#define LINK_SHAREDLINK_QUERY_TIMEOUT_MAX_MS    60000   /* largest TIMEOUT_MS and wait=MS */
+#define LINK_SHAREDLINK_QUERY_TIMEOUT_MAX_MS    60000   /* largest TIMEOUT_MS */
 
 /* The shm link state numbers (sl_link_info().state); 0 is the core's "failed" (no engine). */
 enum link_sharedlink_state {

@@ -735,13 +735,20 @@ static void request_stats(struct daemon *d, struct control_request *req)
         control_reply_ok(req, NULL);
 }
 
+/* "<command_word> LINK ... [wait=MS]": the wait is parsed here, once, for every engine. */
 static void request_link(struct daemon *d, struct control_request *req, int argc, char **argv,
                          enum config_protocol protocol)
 {
+        char err[DAEMON_ERROR_MAX];
         struct daemon_link *dl = NULL;
+        unsigned wait_ms;
 
         if (argc < 3) {
                 control_reply_error(req, EINVAL, "usage: %s LINK ...", argv[0]);
+                return;
+        }
+        if (link_command_wait(&argc, argv, &wait_ms, err, sizeof(err)) < 0) {
+                control_reply_error(req, EINVAL, "%s", err);
                 return;
         }
         for (unsigned i = 0; i < d->n_links && !dl; i++)
@@ -766,12 +773,13 @@ static void request_link(struct daemon *d, struct control_request *req, int argc
                 control_reply_error(req, ENOSYS, "link %s takes no commands", argv[1]);
                 return;
         }
-        dl->ops->command(dl->engine, req, argc, argv);
+        dl->ops->command(dl->engine, req, argc, argv, wait_ms);
 }
 
 static void daemon_on_request(struct control_request *req, int argc, char **argv, void *arg)
 {
         struct daemon *d = arg;
+        enum config_protocol protocol;
 
         if (strcmp(argv[0], "ping") == 0) {
                 if (argc != 1)
@@ -784,10 +792,8 @@ static void daemon_on_request(struct control_request *req, int argc, char **argv
                         control_reply_error(req, EINVAL, "usage: stats");
                 else
                         request_stats(d, req);
-        } else if (strcmp(argv[0], "query") == 0) {
-                request_link(d, req, argc, argv, CONFIG_PROTOCOL_SHAREDLINK);
-        } else if (strcmp(argv[0], "circe") == 0) {
-                request_link(d, req, argc, argv, CONFIG_PROTOCOL_CIRCE);
+        } else if (link_protocol_for_command(argv[0], &protocol) == 0) {
+                request_link(d, req, argc, argv, protocol);
         } else {
                 control_reply_error(req, EINVAL, "unknown request \"%s\"", argv[0]);
         }

@@ -1,10 +1,14 @@
 /*
- * Link helpers shared by every engine: the configuration-to-transport mapping and the channel
- * counters in the link's shm area (see link.h).
+ * Link helpers shared by every engine: the configuration-to-transport mapping, the channel
+ * counters in the link's shm area and the requests waiting for a link (see link.h).
  */
 #include "daemon/link.h"
 
 #include <errno.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "daemon/control.h"
 
 #include "daemon/log.h"
 #include "daemon/transport.h"
@@ -104,4 +108,118 @@ void link_publish_channel_stats(const struct link_env *env, const struct channel
         shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_REOPENS, st.reopens);
         shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_IO_ERRORS, st.io_errors);
         shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_TX_DROPPED, st.tx_dropped);
+}
+
+int link_parse_ms(const char *s, unsigned min, unsigned max, unsigned *ret)
+{
+        unsigned long v = 0;
+
+        if (!*s)
+                return -EINVAL;
+        for (; *s; s++) {
+                if (*s < '0' || *s > '9')
+                        return -EINVAL;
+                v = v * 10 + (unsigned long)(*s - '0');
+                if (v > max)
+                        return -EINVAL;
+        }
+        if (v < min)
+                return -EINVAL;
+        *ret = (unsigned)v;
+        return 0;
+}
+
+int link_command_wait(int *argc, char *const *argv, unsigned *ret_wait_ms, char *err,
+                      size_t errsz)
+{
+        const size_t plen = strlen(LINK_WAIT_PREFIX);
+        const char *last;
+        unsigned ms;
+
+        /* WORD LINK come first: a wait= word is never one of them. */
+        if (*argc < 3 || strncmp(argv[*argc - 1], LINK_WAIT_PREFIX, plen) != 0) {
+                *ret_wait_ms = 0;
+                return 0;
+        }
+        last = argv[*argc - 1];
+        if (link_parse_ms(last + plen, 0, LINK_WAIT_MAX_MS, &ms) < 0) {
+                if (errsz)
+                        snprintf(err, errsz, "bad wait \"%.24s\": a decimal number 0..%u "
+                                 "expected", last + plen, LINK_WAIT_MAX_MS);
+                return -EINVAL;
+        }
+        (*argc)--;
+        *ret_wait_ms = ms;
+        return 0;
+}
+
+void link_hook_event(void *arg, enum shm_event_type type, const char *text)
+{
+        const struct link_env *env = arg;
+
+        shm_table_event(env->table, type, env->shm_link, text);
+}
+
+void link_hook_count(void *arg, enum shm_counter counter, uint64_t n)
+{
+        const struct link_env *env = arg;
+
+        shm_table_counter_add(env->table, env->shm_link, counter, n);
+}
+
+int link_waitq_add(struct link_waitq *q, struct control_request *req, uint64_t now_ms,
+                   unsigned wait_ms, const void *data, size_t size)
+{
+        struct link_waiting *w;
+
+        if (size > LINK_WAITQ_DATA_MAX)
+                return -EINVAL;
+        if (q->n >= LINK_WAITQ_MAX)
+                return -EBUSY;
+        w = &q->q[q->n++];
+        w->req = req;
+        w->deadline_ms = now_ms + wait_ms;
+        w->wait_ms = wait_ms;
+        memcpy(w->data, data, size);
+        return 0;
+}
+
+void link_waitq_run(struct link_waitq *q, uint64_t now_ms, const struct link_waitq_ops *ops,
+                    void *engine)
+{
+        unsigned i = 0;
+
+        while (i < q->n) {
+                /* A copy: run() or expire() may add requests behind it. */
+                struct link_waiting w = q->q[i];
+                bool ready = ops->ready(engine);
+
+                if (!ready && now_ms < w.deadline_ms && control_request_alive(w.req)) {
+                        i++;
+                        continue;
+                }
+                memmove(&q->q[i], &q->q[i + 1], (q->n - i - 1) * sizeof(q->q[0]));
+                q->n--;
+                if (ready)
+                        ops->run(engine, w.req, w.data);
+                else
+                        ops->expire(engine, w.req, w.data, w.wait_ms);
+        }
+}
+
+uint64_t link_waitq_deadline(const struct link_waitq *q)
+{
+        uint64_t d = UINT64_MAX;
+
+        for (unsigned i = 0; i < q->n; i++)
+                if (q->q[i].deadline_ms < d)
+                        d = q->q[i].deadline_ms;
+        return d;
+}
+
+void link_waitq_cancel(struct link_waitq *q, int err, const char *why)
+{
+        for (unsigned i = 0; i < q->n; i++)
+                control_reply_error(q->q[i].req, err, "%s", why);
+        q->n = 0;
 }

@@ -19,12 +19,15 @@
 #ifndef SHAREDLINK_DAEMON_LINK_H
 #define SHAREDLINK_DAEMON_LINK_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
 #include "daemon/channel.h"
 #include "daemon/config.h"
 #include "daemon/evloop.h"
+#include "proto/control.h"
+#include "shm/layout.h"
 
 struct shm_table;
 struct shm_var;
@@ -62,13 +65,20 @@ struct link_ops {
          * variables. Called once per changed slot, after the core's outbound scan. */
         void (*outbound)(void *engine, const struct shm_out_change *change);
 
+        /* The control request word that addresses this engine's links ("query", "circe"): the
+         * core routes "<command_word> LINK ..." to the engine of LINK. */
+        const char *command_word;
+
         /*
-         * A control command addressed to this link (argv[0] is the command word, e.g. "query" or
-         * "circe"; argv[1] is the link name). The engine must eventually answer req exactly once
-         * with control_reply_ok() or control_reply_error() (it may send control_reply_data()
-         * lines first), now or later, and always within a bounded time.
+         * A control command addressed to this link (argv[0] is command_word, argv[1] the link
+         * name). The core has already taken a trailing "wait=MS" off argv (link_command_wait()):
+         * wait_ms > 0 asks the engine to hold the request up to that long while the link is not
+         * ready (link_waitq_*), 0 to refuse it at once. The engine must eventually answer req
+         * exactly once with control_reply_ok() or control_reply_error() (it may send
+         * control_reply_data() lines first), now or later, and always within a bounded time.
          */
-        void (*command)(void *engine, struct control_request *req, int argc, char **argv);
+        void (*command)(void *engine, struct control_request *req, int argc, char **argv,
+                        unsigned wait_ms);
 
         /* One line for `STATUS=` and logs: "up", "connecting", "down: hang-up" ... The core
          * counts a link as up when the first word of this text is "up". */
@@ -84,6 +94,24 @@ struct link_ops {
 /* The engine of a protocol: &link_sharedlink_ops or &link_circe_ops. NULL for an unknown one. */
 const struct link_ops *link_ops_for(enum config_protocol protocol);
 
+/* The protocol whose engine's command_word is word: 0 and *ret_protocol, or -ENOENT. */
+int link_protocol_for_command(const char *word, enum config_protocol *ret_protocol);
+
+/* A number of milliseconds: decimal digits only, min..max; 0 or -EINVAL. */
+int link_parse_ms(const char *s, unsigned min, unsigned max, unsigned *ret);
+
+/* The wait=MS word belongs to the request grammar (proto/control.h). */
+#define LINK_WAIT_MAX_MS        CTLP_WAIT_MAX_MS
+#define LINK_WAIT_PREFIX        CTLP_WAIT_PREFIX
+
+/*
+ * Takes a trailing "wait=MS" (MS decimal, 0..LINK_WAIT_MAX_MS) off a link command
+ * ("WORD LINK ... wait=MS": only after the link name, only as the last word): 0 with *argc
+ * reduced and *ret_wait_ms set (0 without one), or -EINVAL with a one-line reason in err.
+ */
+int link_command_wait(int *argc, char *const *argv, unsigned *ret_wait_ms, char *err,
+                      size_t errsz);
+
 /*
  * Creates (stopped) the channel of env's link from its configuration (serial settings, devices,
  * pty path, udp endpoints), with the given callbacks. The engine then calls channel_start().
@@ -95,5 +123,59 @@ int link_channel_new(const struct link_env *env, const struct channel_ops *ops, 
 /* Copies the channel's counters into the link's shm counters (bytes, reopens, io errors, tx
  * drops); engines call it after I/O bursts and from ops->heartbeat. */
 void link_publish_channel_stats(const struct link_env *env, const struct channel *ch);
+
+/*
+ * Session hooks every engine wires the same way. arg is the engine, whose first member must be
+ * its struct link_env: an event for the table's ring on this link, and a link counter.
+ */
+void link_hook_event(void *arg, enum shm_event_type type, const char *text);
+void link_hook_count(void *arg, enum shm_counter counter, uint64_t n);
+
+/*
+ * Requests waiting for their link to be ready ("wait=MS"), the same for every engine: a bounded
+ * FIFO of (request, deadline, the engine's parsed command). The engine adds a request its link
+ * cannot serve yet, calls link_waitq_run() whenever readiness may have changed or the earliest
+ * deadline (link_waitq_deadline()) has passed, and link_waitq_cancel() when it stops.
+ */
+#define LINK_WAITQ_MAX          16u     /* requests one link holds waiting */
+#define LINK_WAITQ_DATA_MAX     1024u   /* room for one engine's parsed command */
+
+struct link_waiting {
+        struct control_request *req;
+        uint64_t deadline_ms;
+        unsigned wait_ms;
+        _Alignas(max_align_t) unsigned char data[LINK_WAITQ_DATA_MAX];
+};
+
+struct link_waitq {
+        struct link_waiting q[LINK_WAITQ_MAX];
+        unsigned n;
+};
+
+struct link_waitq_ops {
+        /* Whether the link can serve a request now (asked before each one). */
+        bool (*ready)(void *engine);
+        /* Serve req now, with the data given to link_waitq_add(). */
+        void (*run)(void *engine, struct control_request *req, const void *data);
+        /* Answer req with the engine's error: its wait_ms passed (or its client left). */
+        void (*expire)(void *engine, struct control_request *req, const void *data,
+                       unsigned wait_ms);
+};
+
+/* Queues req until now_ms + wait_ms with size bytes of data (copied); 0, -EBUSY (full) or
+ * -EINVAL (size over LINK_WAITQ_DATA_MAX). */
+int link_waitq_add(struct link_waitq *q, struct control_request *req, uint64_t now_ms,
+                   unsigned wait_ms, const void *data, size_t size);
+
+/* In order: runs each waiting request once the link is ready, expires those whose deadline
+ * passed or whose client left, keeps the others. */
+void link_waitq_run(struct link_waitq *q, uint64_t now_ms, const struct link_waitq_ops *ops,
+                    void *engine);
+
+/* The earliest deadline of a waiting request, or UINT64_MAX. */
+uint64_t link_waitq_deadline(const struct link_waitq *q);
+
+/* Ends every waiting request with ERR err why (the engine stops). */
+void link_waitq_cancel(struct link_waitq *q, int err, const char *why);
 
 #endif

@@ -3,8 +3,10 @@
  */
 #include "daemon/link_circe.h"
 
+#include <assert.h>
 #include <errno.h>
 #include <stdarg.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -49,13 +51,6 @@ struct device_vars {
         int ids[LINK_CIRCE_F_COUNT];
 };
 
-/* A request waiting for the link to be ready ("wait=MS"). */
-struct pending {
-        struct control_request *req;
-        struct link_circe_cmd cmd;
-        uint64_t deadline_ms;
-};
-
 struct link_circe {
         struct link_env env;
         bool controller;
@@ -70,14 +65,15 @@ struct link_circe {
         int link_ids[LV_COUNT];
         struct device_vars dev[LINK_CIRCE_DEVICES_MAX];
 
-        struct pending pending[LINK_CIRCE_PENDING_MAX];
-        unsigned n_pending;
+        struct link_waitq waitq;        /* requests waiting for the link ("wait=MS") */
         struct control_request *sync_req;
 
         struct log_ratelimit rl_wire, rl_log, rl_state;
         char rl_wire_name[RL_NAME_MAX], rl_log_name[RL_NAME_MAX], rl_state_name[RL_NAME_MAX];
         char status_line[STATUS_LINE_MAX];
 };
+static_assert(offsetof(struct link_circe, env) == 0,
+              "link_hook_*() take the engine as its link_env");
 
 static const char *link_name(const struct link_circe *e)
 {
@@ -346,20 +342,6 @@ static void hook_device(void *arg, unsigned index, const struct link_circe_devic
                 publish_device(e, index, d, fields);
 }
 
-static void hook_event(void *arg, enum shm_event_type type, const char *text)
-{
-        struct link_circe *e = arg;
-
-        shm_table_event(e->env.table, type, e->env.shm_link, text);
-}
-
-static void hook_count(void *arg, enum shm_counter c, uint64_t delta)
-{
-        struct link_circe *e = arg;
-
-        shm_table_counter_add(e->env.table, e->env.shm_link, c, delta);
-}
-
 static void hook_rejected(void *arg, const struct circe_result *res)
 {
         struct link_circe *e = arg;
@@ -445,8 +427,8 @@ static const struct link_circe_hooks hooks = {
         .state = hook_state,
         .mediator = hook_mediator,
         .device = hook_device,
-        .event = hook_event,
-        .count = hook_count,
+        .event = link_hook_event,
+        .count = link_hook_count,
         .rejected = hook_rejected,
         .diag = hook_diag,
         .log = hook_log,
@@ -505,38 +487,40 @@ static void execute(struct link_circe *e, struct control_request *req,
         batch_end(e);
 }
 
-static void pending_remove(struct link_circe *e, unsigned i)
+static bool wait_ready(void *engine)
 {
-        memmove(&e->pending[i], &e->pending[i + 1],
-                (e->n_pending - i - 1) * sizeof(e->pending[0]));
-        e->n_pending--;
+        return session_ready(engine);
 }
 
-/* Runs waiting requests once the link is ready, expires the others; FIFO order. */
-static void pending_run(struct link_circe *e, uint64_t now)
+static void wait_run(void *engine, struct control_request *req, const void *data)
 {
-        unsigned i = 0;
-
-        while (i < e->n_pending) {
-                struct pending p = e->pending[i];
-
-                if (session_ready(e)) {
-                        pending_remove(e, i);
-                        execute(e, p.req, &p.cmd);
-                } else if (now >= p.deadline_ms || !control_request_alive(p.req)) {
-                        pending_remove(e, i);
-                        control_reply_error(p.req, ETIMEDOUT, "link %s not connected within "
-                                            "%u ms (state %s)", link_name(e), p.cmd.wait_ms,
-                                            link_circe_state_name(session_state(e)));
-                } else {
-                        i++;
-                }
-        }
+        execute(engine, req, data);
 }
+
+static void wait_expire(void *engine, struct control_request *req, const void *data,
+                        unsigned wait_ms)
+{
+        struct link_circe *e = engine;
+
+        (void)data;
+        control_reply_error(req, ETIMEDOUT, "link %s not connected within %u ms (state %s)",
+                            link_name(e), wait_ms, link_circe_state_name(session_state(e)));
+}
+
+/* Waiting requests run once the link is ready, in order; the others expire. */
+static const struct link_waitq_ops wait_ops = {
+        .ready = wait_ready,
+        .run = wait_run,
+        .expire = wait_expire,
+};
+
+static_assert(sizeof(struct link_circe_cmd) <= LINK_WAITQ_DATA_MAX,
+              "a parsed command fits a wait queue entry");
 
 static void rearm(struct link_circe *e);
 
-static void op_command(void *engine, struct control_request *req, int argc, char **argv)
+static void op_command(void *engine, struct control_request *req, int argc, char **argv,
+                       unsigned wait_ms)
 {
         struct link_circe *e = engine;
         char err[LINK_CIRCE_CMD_ERR_MAX];
@@ -561,19 +545,16 @@ static void op_command(void *engine, struct control_request *req, int argc, char
                 rearm(e);
                 return;
         }
-        if (!cmd.has_wait || cmd.wait_ms == 0) {
+        if (wait_ms == 0) {
                 control_reply_error(req, ENOTCONN, "link %s is not connected (state %s)",
                                     link_name(e), link_circe_state_name(session_state(e)));
                 return;
         }
-        if (e->n_pending >= LINK_CIRCE_PENDING_MAX) {
+        if (link_waitq_add(&e->waitq, req, now_ms(), wait_ms, &cmd, sizeof(cmd)) < 0) {
                 control_reply_error(req, EBUSY, "link %s: %u requests already wait for it",
                                     link_name(e), LINK_CIRCE_PENDING_MAX);
                 return;
         }
-        e->pending[e->n_pending++] = (struct pending){
-                .req = req, .cmd = cmd, .deadline_ms = now_ms() + cmd.wait_ms,
-        };
         rearm(e);
 }
 
@@ -585,9 +566,8 @@ static void rearm(struct link_circe *e)
                                    : link_circe_mediator_deadline(&e->med);
         uint64_t now = now_ms();
 
-        for (unsigned i = 0; i < e->n_pending; i++)
-                if (e->pending[i].deadline_ms < d)
-                        d = e->pending[i].deadline_ms;
+        if (link_waitq_deadline(&e->waitq) < d)
+                d = link_waitq_deadline(&e->waitq);
         if (d == LINK_CIRCE_NEVER) {
                 evloop_timer_cancel(&e->timer);
                 return;
@@ -599,7 +579,7 @@ static void rearm(struct link_circe *e)
 /* After the session ran: waiting requests, counters, timer. */
 static void settle(struct link_circe *e, uint64_t now)
 {
-        pending_run(e, now);
+        link_waitq_run(&e->waitq, now, &wait_ops, e);
         link_publish_channel_stats(&e->env, e->ch);
         rearm(e);
 }
@@ -848,18 +828,15 @@ static int op_create(const struct link_env *env, void **ret_engine)
 static void op_destroy(void *engine)
 {
         struct link_circe *e = engine;
+        char why[CONFIG_LINK_NAME_MAX + 16];
 
         if (!e)
                 return;
         /* The spec's way to end a session; best effort, the port closes right after. */
         if (e->controller && e->ctl.up)
                 link_circe_controller_logout(&e->ctl);
-        while (e->n_pending > 0) {
-                struct control_request *req = e->pending[0].req;
-
-                pending_remove(e, 0);
-                control_reply_error(req, ECANCELED, "link %s stopped", link_name(e));
-        }
+        snprintf(why, sizeof(why), "link %s stopped", link_name(e));
+        link_waitq_cancel(&e->waitq, ECANCELED, why);
         if (e->sync_req) {
                 struct control_request *req = e->sync_req;
 
@@ -900,6 +877,7 @@ static const char *op_status(void *engine)
 }
 
 const struct link_ops link_circe_ops = {
+        .command_word = "circe",
         .declare = op_declare,
         .create = op_create,
         .destroy = op_destroy,

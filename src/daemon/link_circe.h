@@ -24,7 +24,7 @@
 #include "daemon/link.h"
 
 /* Requests that may wait for the link at once ("... wait=MS"), per link. */
-#define LINK_CIRCE_PENDING_MAX  16u
+#define LINK_CIRCE_PENDING_MAX  LINK_WAITQ_MAX
 
 /* The CIRCE engine: both roles, chosen by the link's `role`. */
 extern const struct link_ops link_circe_ops;

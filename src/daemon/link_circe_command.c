@@ -8,11 +8,14 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "proto/control.h"
-
 #define NUMBER_DIGITS_MAX       9u      /* every CIRCE number fits (999999 is the largest) */
-
-/* The ranges are the codec's (proto/circe.h): a command the parser accepts always encodes. */
+#define MAX_ROLES               127u
+#define MAX_CAPABILITIES        127u
+#define MAX_COMPETITOR          999u
+#define MAX_TIME_MS             999999u
+#define MAX_COUNT               99u
+#define MAX_PLACEMENT           999u
+#define MAX_KEYS                65535u
 
 static int fail(char *err, size_t errsz, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 
@@ -136,7 +139,7 @@ static int parse_network_setup(char *const *a, int n, struct link_circe_cmd *c, 
                 s->set_membership = false;
         else
                 return fail(err, errsz, "bad membership \"%s\": join or leave expected", a[1]);
-        r = number_arg("roles", a[2], CIRCE_ROLES_MAX, &roles, err, errsz);
+        r = number_arg("roles", a[2], MAX_ROLES, &roles, err, errsz);
         s->roles = (uint8_t)roles;
         return r;
 }
@@ -162,7 +165,7 @@ static int parse_device_setup(char *const *a, int n, struct link_circe_cmd *c, c
                 s->has_dest = true;
         }
         if (n >= 3 && strcmp(a[2], "-") != 0) {
-                r = number_arg("capabilities", a[2], CIRCE_CAPABILITIES_MAX, &caps, err, errsz);
+                r = number_arg("capabilities", a[2], MAX_CAPABILITIES, &caps, err, errsz);
                 if (r < 0)
                         return r;
                 s->has_capabilities = true;
@@ -204,15 +207,15 @@ static const struct {
         const char *name;               /* "current" for current=N */
         unsigned long max;
 } vis_keys[VK_COUNT] = {
-        [VK_CURRENT] = { "current", CIRCE_COMPETITOR_MAX },
-        [VK_NEXT] = { "next", CIRCE_COMPETITOR_MAX },
+        [VK_CURRENT] = { "current", MAX_COMPETITOR },
+        [VK_NEXT] = { "next", MAX_COMPETITOR },
         [VK_START] = { "start-timer", 0 },
-        [VK_PRIMARY] = { "primary", CIRCE_TIME_MS_MAX },
-        [VK_SECONDARY] = { "secondary", CIRCE_TIME_MS_MAX },
-        [VK_FAULTS] = { "faults", CIRCE_COUNT_MAX },
-        [VK_REFUSALS] = { "refusals", CIRCE_COUNT_MAX },
+        [VK_PRIMARY] = { "primary", MAX_TIME_MS },
+        [VK_SECONDARY] = { "secondary", MAX_TIME_MS },
+        [VK_FAULTS] = { "faults", MAX_COUNT },
+        [VK_REFUSALS] = { "refusals", MAX_COUNT },
         [VK_ELIMINATED] = { "eliminated", 1 },
-        [VK_PLACEMENT] = { "placement", CIRCE_PLACEMENT_MAX },
+        [VK_PLACEMENT] = { "placement", MAX_PLACEMENT },
 };
 
 static void vis_set(struct circe_visualize *v, enum vis_key k, unsigned long x)
@@ -325,14 +328,14 @@ static int parse_action(char *const *a, int n, struct link_circe_cmd *c, char *e
                 if (strncmp(a[i], "keys=", 5) == 0) {
                         if (c->keys >= 0)
                                 return fail(err, errsz, "emulate action: keys given twice");
-                        r = number_arg("keys", a[i] + 5, CIRCE_KEYS_MAX, &x, err, errsz);
+                        r = number_arg("keys", a[i] + 5, MAX_KEYS, &x, err, errsz);
                         if (r < 0)
                                 return r;
                         c->keys = (long)x;
                 } else if (strncmp(a[i], "sensor-time=", 12) == 0) {
                         if (c->sensor_time_ms >= 0)
                                 return fail(err, errsz, "emulate action: sensor-time given twice");
-                        r = number_arg("sensor-time", a[i] + 12, CIRCE_TIME_MS_MAX, &x, err, errsz);
+                        r = number_arg("sensor-time", a[i] + 12, MAX_TIME_MS, &x, err, errsz);
                         if (r < 0)
                                 return r;
                         c->sensor_time_ms = (long)x;
@@ -360,18 +363,6 @@ int link_circe_command_parse(int argc, char *const *argv, struct link_circe_cmd 
         c.sensor_time_ms = -1;
         op = argv[2];
         n = argc - 3;
-        /* wait=MS is only ever the last word. */
-        if (n > 0 && strncmp(argv[argc - 1], CTLP_WAIT_PREFIX, strlen(CTLP_WAIT_PREFIX)) == 0) {
-                unsigned long ms;
-
-                r = number_arg("wait", argv[argc - 1] + strlen(CTLP_WAIT_PREFIX), CTLP_WAIT_MAX_MS,
-                               &ms, err, errsz);
-                if (r < 0)
-                        return r;
-                c.has_wait = true;
-                c.wait_ms = (uint32_t)ms;
-                n--;
-        }
         if (strcmp(op, "alert") == 0) {
                 c.kind = LINK_CIRCE_CMD_ALERT;
                 r = parse_alert(argv + 3, n, &c, err, errsz);

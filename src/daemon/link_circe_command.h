@@ -10,7 +10,7 @@
  *             [faults=N] [refusals=N] [eliminated=0|1] [placement=N]
  *   emulate action ADDR [keys=N] [sensor-time=MS]
  * each optionally ending with wait=MS (proto/control.h: wait up to MS for the link instead of ERR
- * ENOTCONN).
+ * ENOTCONN), which the core takes off before the engine parses the rest (link_command_wait()).
  * Addresses are six hex digits (lowercase accepted, FFFFFF refused); numbers are decimal.
  */
 #ifndef SHAREDLINK_DAEMON_LINK_CIRCE_COMMAND_H
@@ -39,8 +39,6 @@ struct link_circe_cmd {
         uint32_t address;               /* emulate action: the device */
         long keys;                      /* emulate action: -1 when not given */
         long sensor_time_ms;            /* emulate action: -1 when not given */
-        bool has_wait;
-        uint32_t wait_ms;
 };
 
 /*

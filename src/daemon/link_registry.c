@@ -5,7 +5,9 @@
  */
 #include "daemon/link.h"
 
+#include <errno.h>
 #include <stddef.h>
+#include <string.h>
 
 #include "daemon/link_circe.h"
 #include "daemon/link_sharedlink.h"
@@ -20,4 +22,22 @@ const struct link_ops *link_ops_for(enum config_protocol protocol)
         default:
                 return NULL;
         }
+}
+
+int link_protocol_for_command(const char *word, enum config_protocol *ret_protocol)
+{
+        static const enum config_protocol protocols[] = {
+                CONFIG_PROTOCOL_SHAREDLINK,
+                CONFIG_PROTOCOL_CIRCE,
+        };
+
+        for (size_t i = 0; i < sizeof(protocols) / sizeof(protocols[0]); i++) {
+                const struct link_ops *ops = link_ops_for(protocols[i]);
+
+                if (ops && ops->command_word && strcmp(ops->command_word, word) == 0) {
+                        *ret_protocol = protocols[i];
+                        return 0;
+                }
+        }
+        return -ENOENT;
 }

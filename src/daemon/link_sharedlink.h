@@ -60,20 +60,18 @@
  * followed by nothing), "ERR ETIMEDOUT" after TIMEOUT_MS (default 1000, at most 60000),
  * "ERR ENOTCONN" when the link is down (or goes down before the answer; with wait=MS, when it
  * is not up within MS), "ERR EINVAL" for a peer that is not configured, a bad name or number,
- * "ERR EBUSY" when LINK_SHAREDLINK_QUERIES_MAX queries are pending, "ERR ECANCELED" when the
- * engine is destroyed. Each answer to a pending query is also a query-answer event
- * ("peer=A name=X value=V", the value last and possibly with spaces).
+ * "ERR EBUSY" when LINK_SHAREDLINK_QUERIES_MAX queries are pending (or LINK_WAITQ_MAX wait for
+ * the link), "ERR ECANCELED" when the engine is destroyed. Each answer to a pending query is
+ * also a query-answer event ("peer=A name=X value=V", the value last and possibly with spaces).
  */
 #ifndef SHAREDLINK_DAEMON_LINK_SHAREDLINK_H
 #define SHAREDLINK_DAEMON_LINK_SHAREDLINK_H
 
 #include "daemon/link.h"
+#include "daemon/link_sharedlink_session.h"
 
-#define LINK_SHAREDLINK_QUERIES_MAX             16      /* pending control queries per link */
 #define LINK_SHAREDLINK_QUERY_TIMEOUT_MS        1000    /* default answer timeout of a query */
-#define LINK_SHAREDLINK_QUERY_TIMEOUT_MAX_MS    60000   /* largest TIMEOUT_MS and wait=MS */
-#define LINK_SHAREDLINK_ADHOC_MAX               1024    /* ad hoc variables one link creates */
-#define LINK_SHAREDLINK_RETRY_MS                10      /* a refused on-change frame: retry */
+#define LINK_SHAREDLINK_QUERY_TIMEOUT_MAX_MS    60000   /* largest TIMEOUT_MS */
 
 /* The shm link state numbers (sl_link_info().state); 0 is the core's "failed" (no engine). */
 enum link_sharedlink_state {

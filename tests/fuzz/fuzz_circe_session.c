@@ -30,12 +30,7 @@
 #include "daemon/link_circe_controller.h"
 #include "daemon/link_circe_mediator.h"
 #include "daemon/link_circe_session.h"
-
-#define CHECK(cond)                                                                            \
-        do {                                                                                   \
-                if (!(cond))                                                                   \
-                        __builtin_trap();                                                      \
-        } while (0)
+#include "fuzz/fuzz_input.h"
 
 #define QUEUE_MAX       8192            /* bytes in flight per direction, like a channel queue */
 #define RAW_MAX         96              /* raw bytes per op */
@@ -44,19 +39,6 @@
 #define START_MS        1000000ull
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
-
-struct input {
-        const uint8_t *p;
-        size_t n;
-};
-
-static uint8_t take(struct input *in)
-{
-        if (in->n == 0)
-                return 0;
-        in->n--;
-        return *in->p++;
-}
 
 static uint32_t take32(struct input *in, unsigned bytes)
 {

@@ -267,6 +267,14 @@ static void test_back_to_back(void **state)
                             "ERR 2 link arena emulates no device 999999\n");
         r = request(f, "circe nosuch alert E1E1E1");
         assert_true(strncmp(r, "ERR 2 ", 6) == 0);
+
+        /* wait=MS is the core's: checked before the link is looked at, taken off for the
+         * engine; the link is ready, so it runs at once. */
+        assert_string_equal(request(f, "circe agility alert E1E1E1 wait=60001"),
+                            "ERR 22 bad wait \"60001\": a decimal number 0..60000 expected\n");
+        assert_string_equal(request(f, "circe agility alert E1E1E1 wait=5000"), "OK\n");
+        assert_string_equal(request(f, "query agility A X wait=5"),
+                            "ERR 22 link agility speaks circe, not sharedlink\n");
 }
 
 /* The same operations through slctl, when it is built (the slctl branch). */

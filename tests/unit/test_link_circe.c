@@ -148,14 +148,21 @@ static void on_reply(struct evloop *loop, int fd, unsigned revents, void *arg)
 static void on_request(struct control_request *req, int argc, char **argv, void *arg)
 {
         struct fx *f = arg;
+        unsigned wait_ms;
+        char err[128];
 
-        if (argc < 2 || strcmp(argv[0], "circe") != 0) {
+        if (argc < 2 || strcmp(argv[0], link_circe_ops.command_word) != 0) {
                 control_reply_error(req, EINVAL, "test: only circe requests");
+                return;
+        }
+        /* The core's part: wait=MS comes off before the engine sees the command. */
+        if (link_command_wait(&argc, argv, &wait_ms, err, sizeof(err)) < 0) {
+                control_reply_error(req, EINVAL, "%s", err);
                 return;
         }
         for (unsigned i = 0; i < f->n_links; i++)
                 if (strcmp(f->cfg->links[i].name, argv[1]) == 0 && f->engine[i]) {
-                        link_circe_ops.command(f->engine[i], req, argc, argv);
+                        link_circe_ops.command(f->engine[i], req, argc, argv, wait_ms);
                         return;
                 }
         control_reply_error(req, ENOENT, "no link %s", argv[1]);

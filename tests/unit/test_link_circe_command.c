@@ -15,6 +15,7 @@
 
 #include <cmocka.h>
 
+#include "daemon/link.h"
 #include "daemon/link_circe_command.h"
 
 #define WORDS_MAX 40
@@ -55,7 +56,7 @@ struct ok_case {
         const char *line;
         enum link_circe_cmd_kind kind;
         const char *packet;             /* controller operations: the wire form */
-        long wait_ms;                   /* -1: no wait= */
+        long wait_ms;                   /* -1: no wait= (the core's link_command_wait()) */
 };
 
 static const struct ok_case ok_cases[] = {
@@ -104,16 +105,17 @@ static void test_accepted(void **state)
                 const struct ok_case *k = &ok_cases[i];
                 char buf[1024], *argv[WORDS_MAX], err[LINK_CIRCE_CMD_ERR_MAX], wire[1024];
                 struct link_circe_cmd cmd;
+                unsigned wait_ms;
                 int argc;
 
                 snprintf(buf, sizeof(buf), "%s", k->line);
                 argc = split(buf, argv);
+                /* What the core does first: wait=MS comes off the words. */
+                assert_int_equal(link_command_wait(&argc, argv, &wait_ms, err, sizeof(err)), 0);
+                assert_int_equal(wait_ms, k->wait_ms >= 0 ? k->wait_ms : 0);
                 if (link_circe_command_parse(argc, argv, &cmd, err, sizeof(err)) != 0)
                         fail_msg("refused \"%s\": %s", k->line, err);
                 assert_int_equal(cmd.kind, k->kind);
-                assert_int_equal(cmd.has_wait, k->wait_ms >= 0);
-                if (k->wait_ms >= 0)
-                        assert_int_equal(cmd.wait_ms, k->wait_ms);
                 assert_int_equal(link_circe_command_for_controller(cmd.kind),
                                  k->kind != LINK_CIRCE_CMD_EMULATE_ACTION);
                 if (!k->packet)
@@ -142,7 +144,6 @@ static void test_emulate_action_fields(void **state)
         assert_int_equal(link_circe_command_parse(argc, argv, &cmd, err, sizeof(err)), 0);
         assert_int_equal(cmd.keys, -1);
         assert_int_equal(cmd.sensor_time_ms, -1);
-        assert_false(cmd.has_wait);
 }
 
 struct bad_case {
@@ -209,12 +210,16 @@ static void test_refused(void **state)
                 const struct bad_case *k = &bad_cases[i];
                 char buf[1024], *argv[WORDS_MAX], err[LINK_CIRCE_CMD_ERR_MAX];
                 struct link_circe_cmd cmd;
+                unsigned wait_ms;
                 int argc, r;
 
                 snprintf(buf, sizeof(buf), "%s", k->line);
                 argc = split(buf, argv);
                 memset(&cmd, 0x5A, sizeof(cmd));
-                r = link_circe_command_parse(argc, argv, &cmd, err, sizeof(err));
+                /* The core's wait=MS check comes first, then the engine's parser. */
+                r = link_command_wait(&argc, argv, &wait_ms, err, sizeof(err));
+                if (r == 0)
+                        r = link_circe_command_parse(argc, argv, &cmd, err, sizeof(err));
                 if (r != -EINVAL)
                         fail_msg("\"%s\" accepted (%d)", k->line, r);
                 if (!strstr(err, k->message))

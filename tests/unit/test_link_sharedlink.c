@@ -1640,11 +1640,18 @@ struct client {
 static void on_request(struct control_request *req, int argc, char **argv, void *arg)
 {
         struct fx *fx = arg;
+        unsigned wait_ms;
+        char err[128];
 
-        if (argc >= 2 && strcmp(argv[0], "query") == 0)
+        /* The core's part: wait=MS comes off before the engine sees the command. */
+        if (link_command_wait(&argc, argv, &wait_ms, err, sizeof(err)) < 0) {
+                control_reply_error(req, EINVAL, "%s", err);
+                return;
+        }
+        if (argc >= 2 && strcmp(argv[0], ops->command_word) == 0)
                 for (unsigned i = 0; i < fx->nlinks; i++)
                         if (fx->engines[i] && strcmp(fx->cfg->links[i].name, argv[1]) == 0) {
-                                ops->command(fx->engines[i], req, argc, argv);
+                                ops->command(fx->engines[i], req, argc, argv, wait_ms);
                                 return;
                         }
         control_reply_error(req, ENOENT, "no such link");

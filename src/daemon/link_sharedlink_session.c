@@ -1,0 +1,1060 @@
+/*
+ * SharedLink link session (link_sharedlink_session.h; the behaviour is in link_sharedlink.h).
+ *
+ * Data flows one way through each path:
+ *     bytes -> slp_decoder -> frame_apply() -> publish/stale/event/count hooks, reply frames
+ *     client write -> outbound() -> slp_encode_list -> send hook
+ *     query() -> Q frame ... R|D frame -> answer hook
+ *
+ * Schedules are deadlines, one per peer and kind, LINK_SHAREDLINK_NEVER while they have nothing
+ * to do, so an idle link with no periodic send asks for no wake-up: the period (while up and the
+ * list is not empty), the on-change rate limit (while a write waits for its interval), the stale
+ * watch (while values are fresh), and each sent query's timeout.
+ */
+#include "daemon/link_sharedlink_session.h"
+
+#include <errno.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "proto/sharedlink.h"
+
+#define CRLF_LEN                2
+/* "[:AB" + "|C" + two hex digits + "]": a frame without fields. */
+#define FRAME_OVERHEAD          9
+#define REPLY_FIELDS_MAX        (SLP_FRAME_MAX / 2)
+#define ADHOC_NAME_SIZE         (SLP_VALUE_MAX + SHM_LINK_NAME_SIZE + 8)
+#define EVENT_TEXT_MAX          SHM_EVENT_TEXT_SIZE
+/* A value the codec emits must fit a slot, and a slot's value must be sendable. */
+static_assert(SLP_VALUE_MAX == SHM_VALUE_MAX, "codec and shm agree on the longest value");
+
+/* One peer of the link: its outbound list (what we send) and inbound list (what it sends). */
+struct sls_peer {
+        const struct config_peer *cfg;
+        unsigned index;
+
+        size_t n_out;
+        uint32_t *out_ids;
+        char (*out_values)[SHM_VALUE_SIZE];     /* last value a client wrote, "" before */
+        const char **out_ptrs;                  /* out_values[k], for struct slp_list */
+        bool *out_dirty;                        /* written (or never sent) since last sent */
+
+        size_t n_in;
+        uint32_t *in_ids;
+
+        unsigned refresh_every;                 /* periods between full lists (>= 1) */
+        unsigned since_full;                    /* periods since the last full list */
+        bool change_sent;                       /* an on-change frame went out already */
+        uint64_t last_change_ms;
+
+        uint64_t period_at;                     /* next periodic list */
+        uint64_t change_at;                     /* on-change frame held by the rate limit */
+        uint64_t stale_at;                      /* silence long enough to mark stale */
+};
+
+/* Where an outbound variable id lives, for outbound(); sorted by id. */
+struct sls_outref {
+        uint32_t id;
+        uint16_t peer;
+        uint16_t pos;
+};
+
+/* An ad hoc inbound variable this link created. */
+struct sls_adhoc {
+        uint32_t id;
+        unsigned peer;
+};
+
+/* A query sent, waiting for its answer. */
+struct sls_query {
+        void *token;                            /* NULL: free slot */
+        unsigned peer;
+        char name[SHM_NAME_SIZE];
+        unsigned timeout_ms;
+        uint64_t deadline;
+};
+
+/* Answers and pongs to one received frame, packed into frames of the peer's max_frame. */
+struct sls_reply {
+        struct sls_peer *peer;
+        struct slp_field fields[REPLY_FIELDS_MAX];
+        size_t nfields;
+        char text[SLP_FRAME_MAX];               /* copies of the field values */
+        size_t text_used;
+        size_t frame_len;                       /* encoded length of fields[0..nfields) */
+};
+
+struct link_sharedlink_session {
+        const struct link_sharedlink_hooks *h;
+        void *arg;
+        const struct config_link *cfg;
+        char addr;
+        bool crlf;                              /* byte stream: end frames with CR LF */
+        bool datagram;
+        bool up;
+
+        struct sls_peer peers[CONFIG_PEERS_MAX];
+        unsigned n_peers;
+        int peer_of_addr[SLP_ADDR_COUNT];       /* peer index, -1 when not a peer */
+
+        struct sls_outref *outrefs;
+        size_t n_outrefs;
+
+        struct sls_adhoc *adhoc;
+        size_t n_adhoc, cap_adhoc;
+
+        struct sls_query queries[LINK_SHAREDLINK_QUERIES_MAX];
+
+        struct sls_reply reply;
+        char txbuf[SLP_FRAME_MAX];
+        struct slp_decoder dec;                 /* about 40 KiB: the session lives on the heap */
+};
+
+/* ---------------------------------------------------------------------------------------------
+ * Hooks */
+
+static void count(struct link_sharedlink_session *s, enum shm_counter c, uint64_t n)
+{
+        if (s->h->count && n)
+                s->h->count(s->arg, c, n);
+}
+
+static void batch(struct link_sharedlink_session *s, bool begin)
+{
+        if (s->h->batch)
+                s->h->batch(s->arg, begin);
+}
+
+static void stale(struct link_sharedlink_session *s, uint32_t id)
+{
+        if (s->h->stale)
+                s->h->stale(s->arg, id);
+}
+
+static void eventf(struct link_sharedlink_session *s, enum shm_event_type type,
+                   const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+
+static void eventf(struct link_sharedlink_session *s, enum shm_event_type type,
+                   const char *fmt, ...)
+{
+        char text[EVENT_TEXT_MAX];
+        va_list ap;
+
+        if (!s->h->event)
+                return;
+        va_start(ap, fmt);
+        vsnprintf(text, sizeof(text), fmt, ap);
+        va_end(ap);
+        s->h->event(s->arg, type, text);
+}
+
+static void diagf(struct link_sharedlink_session *s, enum log_prio prio, const char *fmt, ...)
+        __attribute__((format(printf, 3, 4)));
+
+static void diagf(struct link_sharedlink_session *s, enum log_prio prio, const char *fmt, ...)
+{
+        char text[LINK_SHAREDLINK_DIAG_MAX];
+        va_list ap;
+
+        if (!s->h->diag)
+                return;
+        va_start(ap, fmt);
+        vsnprintf(text, sizeof(text), fmt, ap);
+        va_end(ap);
+        s->h->diag(s->arg, prio, text);
+}
+
+static int send_frame(struct link_sharedlink_session *s, const char *buf, size_t len)
+{
+        int r = s->h->send(s->arg, buf, len);
+
+        if (r == 0)
+                count(s, SHM_COUNTER_FRAMES_OUT, 1);
+        return r;
+}
+
+static uint32_t encode_flags(const struct link_sharedlink_session *s)
+{
+        return s->crlf ? SLP_ENCODE_CRLF : 0;
+}
+
+static uint64_t min_deadline(uint64_t a, uint64_t b)
+{
+        return a < b ? a : b;
+}
+
+/* Copies src into dst[size], cut to fit. */
+static void copy_cut(char *dst, size_t size, const char *src)
+{
+        size_t n = strnlen(src, size - 1);
+
+        memcpy(dst, src, n);
+        dst[n] = '\0';
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Sending */
+
+/*
+ * Sends positions [first, end) of a peer's outbound list (full: every value; else written ones,
+ * the others empty when compressing), split into frames. Positions of frames that went out are
+ * no longer dirty. Returns 0, or the first error (positions not sent stay dirty).
+ */
+static int peer_send_range(struct link_sharedlink_session *s, struct sls_peer *p, size_t first,
+                           size_t end, bool full)
+{
+        struct slp_list list = {
+                .dst = p->cfg->address,
+                .src = s->addr,
+                .values = p->out_ptrs,
+                .changed = p->out_dirty,
+                .count = end,
+                .max_frame = p->cfg->max_frame,
+                .compress = p->cfg->compression,
+                .full = full,
+                .crlf = s->crlf,
+        };
+        size_t cursor = first;
+        int err = 0;
+
+        while (cursor < end) {
+                size_t start = cursor;
+                int n = slp_encode_list(&list, &cursor, s->txbuf, sizeof(s->txbuf));
+
+                if (n == 0)
+                        break;
+                if (n < 0) {
+                        /* Only a value too long for max_frame can fail (the table validated the
+                         * rest): it can never go to this peer. Counted, then skipped. */
+                        count(s, SHM_COUNTER_BAD_VALUE, 1);
+                        diagf(s, LOG_PRIO_WARNING, "peer %c: position %zu does not fit "
+                              "max_frame %u", p->cfg->address, start, p->cfg->max_frame);
+                        p->out_dirty[start] = false;
+                        cursor = start + 1;
+                        err = n;
+                        continue;
+                }
+                int r = send_frame(s, s->txbuf, (size_t)n);
+                if (r < 0)
+                        return r;
+                for (size_t k = start; k < cursor; k++)
+                        p->out_dirty[k] = false;
+        }
+        return err;
+}
+
+/* The on-change frame: the written positions, first to last. */
+static void peer_send_changes(struct link_sharedlink_session *s, struct sls_peer *p,
+                              uint64_t now)
+{
+        size_t first = p->n_out, last = 0;
+        int r;
+
+        p->change_at = LINK_SHAREDLINK_NEVER;
+        if (!s->up)
+                return;
+        for (size_t k = 0; k < p->n_out; k++)
+                if (p->out_dirty[k]) {
+                        if (first == p->n_out)
+                                first = k;
+                        last = k;
+                }
+        if (first == p->n_out)
+                return;         /* a periodic frame took them already */
+        r = peer_send_range(s, p, first, last + 1, false);
+        p->change_sent = true;
+        p->last_change_ms = now;
+        if (r == -ENOBUFS || r == -EAGAIN) {
+                /* The channel's queue is full: the values wait, they are never dropped. */
+                uint32_t ms = p->cfg->min_interval_ms;
+
+                p->change_at = now + (ms > LINK_SHAREDLINK_RETRY_MS ? ms
+                                                                    : LINK_SHAREDLINK_RETRY_MS);
+        }
+}
+
+/* A client wrote one of this peer's positions: send now, or when the interval ends. */
+static void peer_change_request(struct link_sharedlink_session *s, struct sls_peer *p,
+                                uint64_t now)
+{
+        uint64_t min_ms = p->cfg->min_interval_ms;
+
+        if (!p->cfg->on_change || !s->up || p->change_at != LINK_SHAREDLINK_NEVER)
+                return;
+        if (!p->change_sent || now - p->last_change_ms >= min_ms)
+                peer_send_changes(s, p, now);
+        else
+                p->change_at = p->last_change_ms + min_ms;
+}
+
+/* One period: the list, full every refresh_every periods (always without compression). The
+ * cadence counts periods, not wall time; a late tick does not send twice. */
+static void peer_period(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now)
+{
+        uint64_t period = p->cfg->period_ms;
+        bool full;
+
+        p->period_at += period;
+        if (p->period_at <= now)
+                p->period_at = now + period;
+        p->since_full++;
+        full = !p->cfg->compression || p->since_full >= p->refresh_every;
+        if (peer_send_range(s, p, 0, p->n_out, full) == 0 && full)
+                p->since_full = 0;
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Staleness */
+
+static void peer_mark_stale(struct link_sharedlink_session *s, struct sls_peer *p)
+{
+        p->stale_at = LINK_SHAREDLINK_NEVER;
+        batch(s, true);
+        for (size_t k = 0; k < p->n_in; k++)
+                stale(s, p->in_ids[k]);
+        for (size_t i = 0; i < s->n_adhoc; i++)
+                if (s->adhoc[i].peer == p->index)
+                        stale(s, s->adhoc[i].id);
+        batch(s, false);
+}
+
+static void peer_heard(struct sls_peer *p, uint64_t now)
+{
+        if (p->cfg->stale_ms > 0)
+                p->stale_at = now + p->cfg->stale_ms;
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Replies (answers to Q, pongs to P) */
+
+static void reply_begin(struct link_sharedlink_session *s, struct sls_peer *p)
+{
+        s->reply.peer = p;
+        s->reply.nfields = 0;
+        s->reply.text_used = 0;
+        s->reply.frame_len = FRAME_OVERHEAD + (s->crlf ? CRLF_LEN : 0);
+}
+
+static void reply_flush(struct link_sharedlink_session *s)
+{
+        struct sls_reply *rp = &s->reply;
+        int n;
+
+        if (rp->nfields == 0)
+                return;
+        n = slp_frame_encode(s->txbuf, sizeof(s->txbuf), rp->peer->cfg->address, s->addr,
+                             rp->fields, rp->nfields, encode_flags(s));
+        if (n > 0)
+                send_frame(s, s->txbuf, (size_t)n);
+        else
+                count(s, SHM_COUNTER_BAD_VALUE, 1);
+        reply_begin(s, rp->peer);
+}
+
+/* Adds fields that must travel in one frame (R and its D); false if they can never fit. */
+static bool reply_add(struct link_sharedlink_session *s, const struct slp_field *fields, size_t n)
+{
+        struct sls_reply *rp = &s->reply;
+        size_t max = rp->peer->cfg->max_frame;
+        size_t base = FRAME_OVERHEAD + (s->crlf ? CRLF_LEN : 0);
+        size_t need = 0;
+
+        /* The decoder passes values over SLP_VALUE_MAX (a ping's) that the encoder refuses:
+         * taken in, one would make the whole reply frame fail, answers before it included. */
+        for (size_t i = 0; i < n; i++) {
+                if (fields[i].len > SLP_VALUE_MAX)
+                        return false;
+                need += 2u + fields[i].len;
+        }
+        if (base + need > max)
+                return false;
+        if (rp->frame_len + need > max || rp->nfields + n > REPLY_FIELDS_MAX)
+                reply_flush(s);
+        for (size_t i = 0; i < n; i++) {
+                struct slp_field *f = &rp->fields[rp->nfields++];
+
+                /* text_used <= frame_len <= max_frame <= sizeof(text): the copies fit. */
+                memcpy(rp->text + rp->text_used, fields[i].value, fields[i].len);
+                f->letter = fields[i].letter;
+                f->value = rp->text + rp->text_used;
+                f->len = fields[i].len;
+                rp->text_used += fields[i].len;
+        }
+        rp->frame_len += need;
+        return true;
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Queries */
+
+static void query_end(struct link_sharedlink_session *s, struct sls_query *q, int err,
+                      const char *text)
+{
+        void *token = q->token;
+
+        q->token = NULL;
+        if (s->h->answer)
+                s->h->answer(s->arg, token, err, text);
+}
+
+static void query_timeout(struct link_sharedlink_session *s, struct sls_query *q)
+{
+        char why[LINK_SHAREDLINK_WHY_MAX];
+
+        count(s, SHM_COUNTER_TIMEOUTS, 1);
+        snprintf(why, sizeof(why), "no answer from peer %c within %u ms",
+                 s->peers[q->peer].cfg->address, q->timeout_ms);
+        query_end(s, q, ETIMEDOUT, why);
+}
+
+/* An answer arrived from p: every query of p waiting for that name gets it. */
+static void queries_answer(struct link_sharedlink_session *s, struct sls_peer *p,
+                           const char *name, const char *value)
+{
+        for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++) {
+                struct sls_query *q = &s->queries[i];
+
+                if (!q->token || q->peer != p->index || strcmp(q->name, name) != 0)
+                        continue;
+                eventf(s, SHM_EVENT_QUERY_ANSWER, "peer=%c name=%s value=%s", p->cfg->address,
+                       name, value);
+                query_end(s, q, 0, value);
+        }
+}
+
+static void queries_end_all(struct link_sharedlink_session *s, int err, const char *why)
+{
+        for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++)
+                if (s->queries[i].token)
+                        query_end(s, &s->queries[i], err, why);
+}
+
+/* A free query slot; when all are taken, those whose client left are ended first. */
+static struct sls_query *query_slot(struct link_sharedlink_session *s)
+{
+        for (int pass = 0; pass < 2; pass++)
+                for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++) {
+                        struct sls_query *q = &s->queries[i];
+
+                        if (!q->token)
+                                return q;
+                        if (pass == 1 && s->h->alive && !s->h->alive(s->arg, q->token)) {
+                                query_end(s, q, ECANCELED, "client gone");
+                                return q;
+                        }
+                }
+        return NULL;
+}
+
+int link_sharedlink_session_query(struct link_sharedlink_session *s, uint64_t now_ms,
+                                  void *token, int peer, const char *name, unsigned timeout_ms)
+{
+        struct sls_query *q;
+        int n, r;
+
+        if (!token || peer < 0 || (unsigned)peer >= s->n_peers ||
+            shm_layout_name_check(name) < 0)
+                return -EINVAL;
+        if (!s->up)
+                return -ENOTCONN;
+        q = query_slot(s);
+        if (!q)
+                return -EBUSY;
+        n = slp_encode_query(s->txbuf, sizeof(s->txbuf), s->peers[peer].cfg->address, s->addr,
+                             name, encode_flags(s));
+        r = n < 0 ? n : send_frame(s, s->txbuf, (size_t)n);
+        if (r < 0)
+                return r;
+        count(s, SHM_COUNTER_QUERIES_OUT, 1);
+        q->token = token;
+        q->peer = (unsigned)peer;
+        q->timeout_ms = timeout_ms;
+        q->deadline = now_ms + timeout_ms;
+        copy_cut(q->name, sizeof(q->name), name);
+        return 0;
+}
+
+int link_sharedlink_session_peer(const struct link_sharedlink_session *s, const char *address)
+{
+        if (strlen(address) != 1 || address[0] < 'A' || address[0] >= 'A' + SLP_ADDR_COUNT)
+                return -1;
+        return s->peer_of_addr[address[0] - 'A'];
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Receiving */
+
+static bool peer_has_inbound(const struct sls_peer *p, uint32_t id)
+{
+        for (size_t k = 0; k < p->n_in; k++)
+                if (p->in_ids[k] == id)
+                        return true;
+        return false;
+}
+
+static bool adhoc_reserve(struct link_sharedlink_session *s)
+{
+        size_t cap;
+        struct sls_adhoc *a;
+
+        if (s->n_adhoc < s->cap_adhoc)
+                return true;
+        cap = s->cap_adhoc ? 2 * s->cap_adhoc : 16;
+        a = realloc(s->adhoc, cap * sizeof(*a));
+        if (!a)
+                return false;
+        s->adhoc = a;
+        s->cap_adhoc = cap;
+        return true;
+}
+
+/* The ad hoc variable "<link>.<peer>.<name>" of p: its id (created if needed), or -1. */
+static int adhoc_id(struct link_sharedlink_session *s, struct sls_peer *p, const char *name)
+{
+        char full[ADHOC_NAME_SIZE];
+        int id;
+
+        snprintf(full, sizeof(full), "%s.%c.%s", s->cfg->name, p->cfg->address, name);
+        if (shm_layout_name_check(full) < 0) {
+                count(s, SHM_COUNTER_BAD_VALUE, 1);
+                return -1;
+        }
+        id = s->h->find(s->arg, full);
+        if (id >= 0) {
+                for (size_t i = 0; i < s->n_adhoc; i++)
+                        if (s->adhoc[i].id == (uint32_t)id && s->adhoc[i].peer == p->index)
+                                return id;
+                /* Taken by a configured variable (or another link's): never overwrite it. */
+                count(s, SHM_COUNTER_ADHOC_FULL, 1);
+                return -1;
+        }
+        if (!s->h->add || s->n_adhoc >= LINK_SHAREDLINK_ADHOC_MAX || !adhoc_reserve(s)) {
+                count(s, SHM_COUNTER_ADHOC_FULL, 1);
+                return -1;
+        }
+        id = s->h->add(s->arg, full, SHM_TYPE_STRING, p->cfg->address);
+        if (id < 0) {
+                count(s, id == -ENOSPC ? SHM_COUNTER_ADHOC_FULL : SHM_COUNTER_BAD_VALUE, 1);
+                return -1;
+        }
+        s->adhoc[s->n_adhoc++] = (struct sls_adhoc){ .id = (uint32_t)id, .peer = p->index };
+        eventf(s, SHM_EVENT_ADHOC_VARIABLE, "name=%s peer=%c", full, p->cfg->address);
+        return id;
+}
+
+static void publish(struct link_sharedlink_session *s, uint32_t id, const char *value,
+                    size_t len)
+{
+        if (s->h->publish(s->arg, id, value, len) < 0)
+                count(s, SHM_COUNTER_BAD_VALUE, 1);
+}
+
+/* R<name>|D<value> from p. */
+static void answer_in(struct link_sharedlink_session *s, struct sls_peer *p,
+                      const struct slp_field *r, const struct slp_field *d)
+{
+        char name[SLP_VALUE_MAX + 1], value[SLP_VALUE_MAX + 1];
+        int id;
+
+        count(s, SHM_COUNTER_ANSWERS_IN, 1);
+        if (r->len > SLP_VALUE_MAX || d->len > SLP_VALUE_MAX) {
+                count(s, SHM_COUNTER_BAD_VALUE, 1);
+                return;
+        }
+        memcpy(name, r->value, r->len);
+        name[r->len] = '\0';
+        memcpy(value, d->value, d->len);
+        value[d->len] = '\0';
+        queries_answer(s, p, name, value);
+        /* An empty answer means "unknown name" (PROTOCOLS.md 1.2): nothing to store. */
+        if (d->len == 0)
+                return;
+        id = s->h->find(s->arg, name);
+        if (id < 0 || !peer_has_inbound(p, (uint32_t)id))
+                id = adhoc_id(s, p, name);
+        if (id >= 0)
+                publish(s, (uint32_t)id, value, d->len);
+}
+
+/* Q<name> from p: answer R<name>|D<value>. */
+static void query_in(struct link_sharedlink_session *s, const struct slp_field *q)
+{
+        char name[SLP_VALUE_MAX + 1], value[SHM_VALUE_SIZE];
+        struct slp_field pair[2];
+        int id, n = -ENOENT;
+
+        count(s, SHM_COUNTER_QUERIES_IN, 1);
+        if (q->len > SLP_VALUE_MAX) {
+                count(s, SHM_COUNTER_BAD_VALUE, 1);
+                return;
+        }
+        memcpy(name, q->value, q->len);
+        name[q->len] = '\0';
+        id = s->h->find(s->arg, name);
+        if (id >= 0 && s->h->get)
+                n = s->h->get(s->arg, (uint32_t)id, value, sizeof(value));
+        if (n < 0 || (size_t)n > SHM_VALUE_MAX)
+                n = 0;
+        value[n] = '\0';
+        pair[0] = (struct slp_field){ .letter = 'R', .value = q->value, .len = q->len };
+        pair[1] = (struct slp_field){ .letter = 'D', .value = value, .len = (uint16_t)n };
+        if (reply_add(s, pair, 2))
+                count(s, SHM_COUNTER_ANSWERS_OUT, 1);
+        else
+                count(s, SHM_COUNTER_BAD_VALUE, 1);
+}
+
+/* A positional D for position pos of p's list. */
+static void data_in(struct link_sharedlink_session *s, struct sls_peer *p, uint32_t pos,
+                    const struct slp_field *d)
+{
+        if (pos >= p->n_in) {
+                /* Decision: dropped and counted; the rest of the frame still applies. */
+                count(s, SHM_COUNTER_LIST_MISMATCH, 1);
+                return;
+        }
+        if (d->len == 0)
+                return;         /* compression: unchanged since the last transmission */
+        publish(s, p->in_ids[pos], d->value, d->len);
+}
+
+/* What the next D field belongs to. */
+enum next_data {
+        NEXT_POSITION,          /* the list position (if known) */
+        NEXT_ANSWER,            /* the R just before it */
+        NEXT_SKIP,              /* a skipped field (E, a declaration's Q) */
+};
+
+/* Walks the fields of a frame from p (see link_sharedlink.h for the meaning of each). */
+static void fields_apply(struct link_sharedlink_session *s, struct sls_peer *p,
+                         const struct slp_frame *f)
+{
+        enum next_data next = NEXT_POSITION;
+        const struct slp_field *answer = NULL;
+        bool pos_valid = true, decl = false;
+        uint32_t pos = 0;      /* Decision: a D with no preceding N starts at position 0 */
+
+        for (size_t i = 0; i < f->nfields; i++) {
+                const struct slp_field *fl = &f->fields[i];
+                bool after_type = decl;
+
+                if (fl->type == SLP_FIELD_D) {
+                        if (next == NEXT_ANSWER) {
+                                answer_in(s, p, answer, fl);
+                        } else if (next == NEXT_POSITION) {
+                                if (pos_valid) {
+                                        data_in(s, p, pos, fl);
+                                        if (pos < SLP_INDEX_MAX)
+                                                pos++;
+                                } else {
+                                        count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
+                                }
+                        }
+                        next = NEXT_POSITION;
+                        decl = false;
+                        continue;
+                }
+                if (next == NEXT_ANSWER)
+                        count(s, SHM_COUNTER_BAD_FIELD, 1);     /* an R without its D */
+                next = NEXT_POSITION;
+                decl = false;
+                switch (fl->type) {
+                case SLP_FIELD_N:
+                        /* Decision: several N fields are accepted; each resets the position. */
+                        pos_valid = fl->index != SLP_INDEX_QUERY;
+                        if (pos_valid)
+                                pos = fl->index;
+                        else
+                                count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);         /* "N?" */
+                        break;
+                case SLP_FIELD_Q:
+                        if (after_type) {
+                                /* Pronto4 declaration "T<n>|Q<name>[|D<v>]": not a query. */
+                                count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
+                                next = NEXT_SKIP;
+                        } else {
+                                query_in(s, fl);
+                        }
+                        break;
+                case SLP_FIELD_R:
+                        next = NEXT_ANSWER;
+                        answer = fl;
+                        break;
+                case SLP_FIELD_P:
+                        /* Ping: pong with the same value ("P0" -> "G0"). */
+                        if (!reply_add(s, &(struct slp_field){ .letter = 'G', .value = fl->value,
+                                                              .len = fl->len }, 1))
+                                count(s, SHM_COUNTER_BAD_VALUE, 1);
+                        break;
+                case SLP_FIELD_G:
+                        break;          /* a pong: the frame itself shows the peer is alive */
+                case SLP_FIELD_T:
+                        count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
+                        decl = true;
+                        break;
+                case SLP_FIELD_L:
+                        count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
+                        pos_valid = false;
+                        break;
+                case SLP_FIELD_E:
+                        count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
+                        next = NEXT_SKIP;
+                        break;
+                default:
+                        /* Decision: unknown field types are skipped and counted. */
+                        count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
+                        break;
+                }
+        }
+        if (next == NEXT_ANSWER)
+                count(s, SHM_COUNTER_BAD_FIELD, 1);
+}
+
+static void frame_apply(struct link_sharedlink_session *s, uint64_t now,
+                        const struct slp_frame *f)
+{
+        struct sls_peer *p;
+        int pi;
+
+        count(s, SHM_COUNTER_FRAMES_IN, 1);
+        if (f->dst != s->addr) {
+                count(s, SHM_COUNTER_NOT_FOR_US, 1);
+                return;
+        }
+        pi = s->peer_of_addr[f->src_index];
+        if (pi < 0) {
+                count(s, SHM_COUNTER_UNKNOWN_PEER, 1);
+                return;
+        }
+        p = &s->peers[pi];
+        if (f->raw_len > p->cfg->max_frame) {
+                count(s, SHM_COUNTER_OVERLONG, 1);
+                return;
+        }
+        count(s, SHM_COUNTER_EMPTY_FIELD, f->empty_fields);
+        peer_heard(p, now);
+        reply_begin(s, p);
+        /* One batch per frame: clients see the whole frame at once, one change-word bump. */
+        batch(s, true);
+        fields_apply(s, p, f);
+        batch(s, false);
+        reply_flush(s);
+}
+
+static enum shm_counter reason_counter(enum slp_decode_reason reason)
+{
+        switch (reason) {
+        case SLP_REASON_NOISE:
+                return SHM_COUNTER_NOISE_BYTES;
+        case SLP_REASON_RESYNC:
+        case SLP_REASON_TRUNCATED:
+                return SHM_COUNTER_RESYNC;
+        case SLP_REASON_OVERLONG:
+                return SHM_COUNTER_OVERLONG;
+        case SLP_REASON_NO_CHECKSUM:
+        case SLP_REASON_BAD_CHECKSUM_SYNTAX:
+        case SLP_REASON_BAD_CHECKSUM:
+                return SHM_COUNTER_BAD_CHECKSUM;
+        case SLP_REASON_BAD_HEADER:
+                return SHM_COUNTER_BAD_HEADER;
+        case SLP_REASON_BAD_ADDRESS:
+                return SHM_COUNTER_BAD_ADDRESS;
+        case SLP_REASON_BAD_FIELD:
+        case SLP_REASON_NO_FIELDS:
+        default:
+                return SHM_COUNTER_BAD_FIELD;
+        }
+}
+
+static void result_count(struct link_sharedlink_session *s, const struct slp_decode_result *r)
+{
+        /* Noise counts bytes; every other rejection counts once. */
+        count(s, reason_counter(r->reason), r->reason == SLP_REASON_NOISE ? r->bytes : 1);
+        if (r->reason != SLP_REASON_NOISE)
+                diagf(s, LOG_PRIO_DEBUG, "dropped %zu bytes: %s", r->bytes,
+                      slp_decode_reason_str(r->reason));
+}
+
+static void handle_result(struct link_sharedlink_session *s, uint64_t now,
+                          const struct slp_decode_result *r)
+{
+        if (r->kind == SLP_RESULT_FRAME)
+                frame_apply(s, now, r->frame);
+        else if (r->kind == SLP_RESULT_REJECT)
+                result_count(s, r);
+}
+
+void link_sharedlink_session_input(struct link_sharedlink_session *s, uint64_t now_ms,
+                                   const uint8_t *data, size_t len)
+{
+        struct slp_decode_result r;
+
+        /* The channel delivers nothing while down; what would come then has no one to answer. */
+        if (!s->up)
+                return;
+        while (len > 0) {
+                size_t n = slp_decoder_feed(&s->dec, data, len, &r);
+
+                data += n;
+                len -= n;
+                handle_result(s, now_ms, &r);
+        }
+        /* A datagram carries whole frames: a partial one at its end is dropped (PROTOCOLS 1.4). */
+        if (s->datagram && slp_decoder_end(&s->dec, &r))
+                handle_result(s, now_ms, &r);
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Up, down, time */
+
+void link_sharedlink_session_up(struct link_sharedlink_session *s, uint64_t now_ms)
+{
+        slp_decoder_reset(&s->dec);
+        s->up = true;
+        for (unsigned i = 0; i < s->n_peers; i++) {
+                struct sls_peer *p = &s->peers[i];
+
+                if (p->n_out == 0)
+                        continue;
+                /* The peer may have restarted: it gets everything at once. */
+                if (peer_send_range(s, p, 0, p->n_out, true) == 0)
+                        p->since_full = 0;
+                p->change_sent = false;
+                if (p->cfg->period_ms > 0)
+                        p->period_at = now_ms + p->cfg->period_ms;
+        }
+}
+
+void link_sharedlink_session_down(struct link_sharedlink_session *s, uint64_t now_ms)
+{
+        (void)now_ms;
+        s->up = false;
+        for (unsigned i = 0; i < s->n_peers; i++) {
+                s->peers[i].period_at = LINK_SHAREDLINK_NEVER;
+                s->peers[i].change_at = LINK_SHAREDLINK_NEVER;
+                s->peers[i].stale_at = LINK_SHAREDLINK_NEVER;
+        }
+        queries_end_all(s, ENOTCONN, "link went down");
+}
+
+bool link_sharedlink_session_is_up(const struct link_sharedlink_session *s)
+{
+        return s->up;
+}
+
+void link_sharedlink_session_tick(struct link_sharedlink_session *s, uint64_t now_ms)
+{
+        for (unsigned i = 0; i < s->n_peers; i++) {
+                struct sls_peer *p = &s->peers[i];
+
+                if (now_ms >= p->stale_at)
+                        peer_mark_stale(s, p);
+                if (now_ms >= p->change_at)
+                        peer_send_changes(s, p, now_ms);
+                if (now_ms >= p->period_at)
+                        peer_period(s, p, now_ms);
+        }
+        for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++) {
+                struct sls_query *q = &s->queries[i];
+
+                if (q->token && now_ms >= q->deadline)
+                        query_timeout(s, q);
+        }
+}
+
+uint64_t link_sharedlink_session_deadline(const struct link_sharedlink_session *s)
+{
+        uint64_t d = LINK_SHAREDLINK_NEVER;
+
+        for (unsigned i = 0; i < s->n_peers; i++) {
+                const struct sls_peer *p = &s->peers[i];
+
+                d = min_deadline(d, min_deadline(p->stale_at,
+                                                 min_deadline(p->change_at, p->period_at)));
+        }
+        for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++)
+                if (s->queries[i].token)
+                        d = min_deadline(d, s->queries[i].deadline);
+        return d;
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Set-up and tear-down */
+
+static int outref_cmp(const void *a, const void *b)
+{
+        const struct sls_outref *x = a, *y = b;
+
+        return (x->id > y->id) - (x->id < y->id);
+}
+
+void link_sharedlink_session_outbound(struct link_sharedlink_session *s, uint64_t now_ms,
+                                      uint32_t id, const char *value)
+{
+        struct sls_outref key = { .id = id };
+        const struct sls_outref *ref;
+        struct sls_peer *p;
+
+        ref = bsearch(&key, s->outrefs, s->n_outrefs, sizeof(*s->outrefs), outref_cmp);
+        if (!ref)
+                return;
+        p = &s->peers[ref->peer];
+        copy_cut(p->out_values[ref->pos], SHM_VALUE_SIZE, value);
+        p->out_dirty[ref->pos] = true;
+        peer_change_request(s, p, now_ms);
+}
+
+/* Resolves the ids of one configured list. */
+static int find_ids(struct link_sharedlink_session *s, const struct config_var *vars, size_t n,
+                    uint32_t *ids)
+{
+        for (size_t k = 0; k < n; k++) {
+                int id = s->h->find(s->arg, vars[k].name);
+
+                if (id < 0) {
+                        diagf(s, LOG_PRIO_WARNING, "variable %s is not in the table",
+                              vars[k].name);
+                        return -ENOENT;
+                }
+                ids[k] = (uint32_t)id;
+        }
+        return 0;
+}
+
+static int peer_init(struct link_sharedlink_session *s, unsigned index)
+{
+        struct sls_peer *p = &s->peers[index];
+        const struct config_peer *c = &s->cfg->sl.peers[index];
+        int r;
+
+        p->cfg = c;
+        p->index = index;
+        p->n_out = c->n_outbound;
+        p->n_in = c->n_inbound;
+        p->period_at = p->change_at = p->stale_at = LINK_SHAREDLINK_NEVER;
+        p->out_ids = calloc(p->n_out + 1, sizeof(*p->out_ids));
+        p->out_values = calloc(p->n_out + 1, sizeof(*p->out_values));
+        p->out_ptrs = calloc(p->n_out + 1, sizeof(*p->out_ptrs));
+        p->out_dirty = calloc(p->n_out + 1, sizeof(*p->out_dirty));
+        p->in_ids = calloc(p->n_in + 1, sizeof(*p->in_ids));
+        if (!p->out_ids || !p->out_values || !p->out_ptrs || !p->out_dirty || !p->in_ids)
+                return -ENOMEM;
+        for (size_t k = 0; k < p->n_out; k++) {
+                p->out_ptrs[k] = p->out_values[k];
+                p->out_dirty[k] = true;         /* never sent */
+        }
+        r = find_ids(s, c->outbound, p->n_out, p->out_ids);
+        if (r == 0)
+                r = find_ids(s, c->inbound, p->n_in, p->in_ids);
+        if (r < 0)
+                return r;
+        /* At least every refresh_ms: the largest whole number of periods that fits. */
+        p->refresh_every = c->period_ms > 0 ? c->refresh_ms / c->period_ms : 1;
+        if (p->refresh_every == 0)
+                p->refresh_every = 1;
+        s->peer_of_addr[c->address - 'A'] = (int)index;
+        return 0;
+}
+
+static int outrefs_init(struct link_sharedlink_session *s)
+{
+        size_t n = 0;
+
+        for (unsigned i = 0; i < s->n_peers; i++)
+                n += s->peers[i].n_out;
+        s->outrefs = calloc(n + 1, sizeof(*s->outrefs));
+        if (!s->outrefs)
+                return -ENOMEM;
+        for (unsigned i = 0; i < s->n_peers; i++)
+                for (size_t k = 0; k < s->peers[i].n_out; k++)
+                        s->outrefs[s->n_outrefs++] = (struct sls_outref){
+                                .id = s->peers[i].out_ids[k],
+                                .peer = (uint16_t)i,
+                                .pos = (uint16_t)k,
+                        };
+        qsort(s->outrefs, s->n_outrefs, sizeof(*s->outrefs), outref_cmp);
+        return 0;
+}
+
+static void session_release(struct link_sharedlink_session *s)
+{
+        for (unsigned i = 0; i < CONFIG_PEERS_MAX; i++) {
+                struct sls_peer *p = &s->peers[i];
+
+                free(p->out_ids);
+                free(p->out_values);
+                free(p->out_ptrs);
+                free(p->out_dirty);
+                free(p->in_ids);
+        }
+        free(s->outrefs);
+        free(s->adhoc);
+        free(s);
+}
+
+static bool config_valid(const struct config_link *cfg)
+{
+        if (cfg->protocol != CONFIG_PROTOCOL_SHAREDLINK || cfg->sl.n_peers > CONFIG_PEERS_MAX)
+                return false;
+        for (unsigned i = 0; i < cfg->sl.n_peers; i++) {
+                char a = cfg->sl.peers[i].address;
+
+                if (a < 'A' || a >= 'A' + SLP_ADDR_COUNT)
+                        return false;
+        }
+        return true;
+}
+
+int link_sharedlink_session_new(const struct config_link *cfg, bool datagram,
+                                const struct link_sharedlink_hooks *hooks, void *arg,
+                                struct link_sharedlink_session **ret_session)
+{
+        size_t max_frame = SLP_FRAME_MIN;
+        struct link_sharedlink_session *s;
+        int r;
+
+        if (!config_valid(cfg) || !hooks->send || !hooks->find || !hooks->publish)
+                return -EINVAL;
+        s = calloc(1, sizeof(*s));
+        if (!s)
+                return -ENOMEM;
+        s->h = hooks;
+        s->arg = arg;
+        s->cfg = cfg;
+        s->addr = cfg->sl.address;
+        s->datagram = datagram;
+        s->crlf = !datagram;
+        s->n_peers = cfg->sl.n_peers;
+        for (unsigned i = 0; i < SLP_ADDR_COUNT; i++)
+                s->peer_of_addr[i] = -1;
+        for (unsigned i = 0; i < s->n_peers; i++) {
+                r = peer_init(s, i);
+                if (r < 0)
+                        goto fail;
+                if (cfg->sl.peers[i].max_frame > max_frame)
+                        max_frame = cfg->sl.peers[i].max_frame;
+        }
+        if (max_frame > SLP_FRAME_MAX)
+                max_frame = SLP_FRAME_MAX;
+        r = outrefs_init(s);
+        if (r == 0)
+                r = slp_decoder_init(&s->dec, max_frame);
+        if (r < 0)
+                goto fail;
+        *ret_session = s;
+        return 0;
+fail:
+        session_release(s);
+        return r;
+}
+
+struct link_sharedlink_session *link_sharedlink_session_free(struct link_sharedlink_session *s)
+{
+        if (!s)
+                return NULL;
+        queries_end_all(s, ECANCELED, "link stopped");
+        session_release(s);
+        return NULL;
+}

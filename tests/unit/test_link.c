@@ -1,0 +1,335 @@
+/*
+ * link.c's helpers: the core's wait=MS parsing (link_command_wait, link_parse_ms), the
+ * command-word routing (link_protocol_for_command), and the wait queue both engines use
+ * (link_waitq_*), on real control requests: a control socket on a real event loop, its clients
+ * in this process, the queue driven by hand with the time the test chooses.
+ */
+#include <errno.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <cmocka.h>
+
+#include "common/harness.h"
+#include "daemon/control.h"
+#include "daemon/evloop.h"
+#include "daemon/link.h"
+#include "daemon/log.h"
+
+#define T0              1000u           /* the queue's clock starts here (ms) */
+#define GUARD_MS        5000            /* a wait longer than this has failed */
+#define CLIENTS         (LINK_WAITQ_MAX + 3)
+#define NAME_MAX_LEN    16
+
+#define WORDS_MAX       8
+
+static int split(char *line, char **argv)
+{
+        int n = 0;
+
+        for (char *w = strtok(line, " "); w && n < WORDS_MAX; w = strtok(NULL, " "))
+                argv[n++] = w;
+        return n;
+}
+
+struct wait_case {
+        const char *line;
+        int result;             /* 0 or -EINVAL */
+        int argc;               /* words left */
+        unsigned wait_ms;
+};
+
+static const struct wait_case wait_cases[] = {
+        { "query veh A X", 0, 4, 0 },
+        { "query veh A X 100 wait=250", 0, 5, 250 },
+        { "circe a sync-clocks wait=0", 0, 3, 0 },
+        { "circe a alert E1E1E1 wait=60000", 0, 4, 60000 },
+        { "circe a wait=5", 0, 2, 5 },
+        /* WORD LINK are never a wait: the engine reports what is missing. */
+        { "query wait=5", 0, 2, 0 },
+        /* Only the last word. */
+        { "circe a emulate action E1E1E1 wait=5 keys=1", 0, 7, 0 },
+        { "query veh A X wait=60001", -EINVAL, 5, 0 },
+        { "query veh A X wait=", -EINVAL, 5, 0 },
+        { "query veh A X wait=-5", -EINVAL, 5, 0 },
+        { "query veh A X wait=12ms", -EINVAL, 5, 0 },
+        { "query veh A X wait=99999999999999999999", -EINVAL, 5, 0 },
+};
+
+static void test_command_wait(void **state)
+{
+        (void)state;
+        for (size_t i = 0; i < sizeof(wait_cases) / sizeof(wait_cases[0]); i++) {
+                const struct wait_case *k = &wait_cases[i];
+                char buf[128], err[128] = "", *argv[WORDS_MAX];
+                unsigned wait_ms = 12345;
+                int argc, r;
+
+                snprintf(buf, sizeof(buf), "%s", k->line);
+                argc = split(buf, argv);
+                r = link_command_wait(&argc, argv, &wait_ms, err, sizeof(err));
+                if (r != k->result || argc != k->argc)
+                        fail_msg("\"%s\": %d, %d words (want %d, %d)", k->line, r, argc,
+                                 k->result, k->argc);
+                if (r == 0) {
+                        assert_int_equal(wait_ms, k->wait_ms);
+                } else {
+                        /* Nothing written on failure but the reason. */
+                        assert_int_equal(wait_ms, 12345);
+                        assert_non_null(strstr(err, "bad wait \""));
+                        assert_non_null(strstr(err, "0..60000"));
+                }
+        }
+}
+
+static void test_parse_ms(void **state)
+{
+        unsigned v = 7;
+
+        (void)state;
+        assert_int_equal(link_parse_ms("1", 1, 10, &v), 0);
+        assert_int_equal(v, 1);
+        assert_int_equal(link_parse_ms("10", 1, 10, &v), 0);
+        assert_int_equal(v, 10);
+        assert_int_equal(link_parse_ms("0", 1, 10, &v), -EINVAL);
+        assert_int_equal(link_parse_ms("11", 1, 10, &v), -EINVAL);
+        assert_int_equal(link_parse_ms("", 0, 10, &v), -EINVAL);
+        assert_int_equal(link_parse_ms("+1", 0, 10, &v), -EINVAL);
+        assert_int_equal(link_parse_ms("1 ", 0, 10, &v), -EINVAL);
+        assert_int_equal(v, 10);
+}
+
+static void test_command_words(void **state)
+{
+        enum config_protocol p = CONFIG_PROTOCOL_CIRCE;
+
+        (void)state;
+        assert_int_equal(link_protocol_for_command("query", &p), 0);
+        assert_int_equal(p, CONFIG_PROTOCOL_SHAREDLINK);
+        assert_string_equal(link_ops_for(p)->command_word, "query");
+        assert_int_equal(link_protocol_for_command("circe", &p), 0);
+        assert_int_equal(p, CONFIG_PROTOCOL_CIRCE);
+        assert_string_equal(link_ops_for(p)->command_word, "circe");
+        assert_int_equal(link_protocol_for_command("ping", &p), -ENOENT);
+        assert_int_equal(link_protocol_for_command("", &p), -ENOENT);
+        assert_int_equal(p, CONFIG_PROTOCOL_CIRCE);
+}
+
+/* ---- the wait queue ---------------------------------------------------------------------- */
+
+struct fx {
+        struct harness h;
+        struct evloop *loop;
+        struct control *ctl;
+        char path[HARNESS_PATH_MAX + 32];
+        struct evloop_timer guard;
+        bool timed_out;
+        unsigned calls;
+        struct link_waitq q;
+        bool ready;
+        char log[512];                  /* "run:c0 expire:c1/50 ..." in call order */
+        int fds[CLIENTS];
+};
+
+static void fx_log(struct fx *f, const char *what, const char *name, unsigned wait_ms)
+{
+        size_t n = strlen(f->log);
+
+        if (wait_ms)
+                snprintf(f->log + n, sizeof(f->log) - n, "%s:%s/%u ", what, name, wait_ms);
+        else
+                snprintf(f->log + n, sizeof(f->log) - n, "%s:%s ", what, name);
+}
+
+static bool w_ready(void *engine)
+{
+        return ((struct fx *)engine)->ready;
+}
+
+static void w_run(void *engine, struct control_request *req, const void *data)
+{
+        fx_log(engine, "run", data, 0);
+        control_reply_ok(req, "%s", (const char *)data);
+}
+
+static void w_expire(void *engine, struct control_request *req, const void *data,
+                     unsigned wait_ms)
+{
+        fx_log(engine, "expire", data, wait_ms);
+        control_reply_error(req, ETIMEDOUT, "%s waited %u ms", (const char *)data, wait_ms);
+}
+
+static const struct link_waitq_ops wait_ops = {
+        .ready = w_ready, .run = w_run, .expire = w_expire,
+};
+
+/* "w NAME WAIT_MS": queued with NAME as its data, or EBUSY. */
+static void on_request(struct control_request *req, int argc, char **argv, void *arg)
+{
+        struct fx *f = arg;
+        char name[NAME_MAX_LEN] = "";
+        unsigned wait_ms = 0;
+        int r;
+
+        f->calls++;
+        assert_int_equal(argc, 3);
+        snprintf(name, sizeof(name), "%s", argv[1]);
+        assert_int_equal(link_parse_ms(argv[2], 1, LINK_WAIT_MAX_MS, &wait_ms), 0);
+        r = link_waitq_add(&f->q, req, T0, wait_ms, name, sizeof(name));
+        if (r < 0)
+                control_reply_error(req, r, "queue full");
+}
+
+static void on_guard(struct evloop *loop, struct evloop_timer *t, void *arg)
+{
+        (void)loop;
+        (void)t;
+        ((struct fx *)arg)->timed_out = true;
+}
+
+static int wq_setup(void **state)
+{
+        struct fx *f = calloc(1, sizeof(*f));
+
+        if (!f || harness_init(&f->h, "lnk") < 0 || evloop_new(&f->loop) < 0)
+                return -1;
+        log_init(-1, -1);
+        snprintf(f->path, sizeof(f->path), "%s/c.sock", f->h.dir);
+        if (control_new(f->loop, f->path, 0, 0, on_request, f, &f->ctl) < 0)
+                return -1;
+        evloop_timer_init(&f->guard, f->loop, on_guard, f);
+        for (unsigned i = 0; i < CLIENTS; i++)
+                f->fds[i] = -1;
+        *state = f;
+        return 0;
+}
+
+static int wq_teardown(void **state)
+{
+        struct fx *f = *state;
+
+        for (unsigned i = 0; i < CLIENTS; i++)
+                if (f->fds[i] >= 0)
+                        close(f->fds[i]);
+        evloop_timer_cancel(&f->guard);
+        control_free(f->ctl);
+        evloop_free(f->loop);
+        harness_cleanup(&f->h);
+        free(f);
+        return 0;
+}
+
+/* Runs the loop until cond(f, i) holds, under the guard. */
+static void pump_until(struct fx *f, bool (*cond)(struct fx *f, unsigned i), unsigned i)
+{
+        f->timed_out = false;
+        assert_int_equal(evloop_timer_arm(&f->guard, GUARD_MS, 0), 0);
+        while (!cond(f, i)) {
+                assert_int_equal(evloop_run_once(f->loop), 0);
+                assert_false(f->timed_out);
+        }
+        evloop_timer_cancel(&f->guard);
+}
+
+static bool calls_reached(struct fx *f, unsigned n)
+{
+        return f->calls >= n;
+}
+
+static bool request_gone(struct fx *f, unsigned i)
+{
+        return !control_request_alive(f->q.q[i].req);
+}
+
+/* Client i sends "w c<i> <wait_ms>"; returns once the handler has seen it (so the queue order
+ * is the order of the calls). */
+static void client_send(struct fx *f, unsigned i, unsigned wait_ms)
+{
+        char line[64];
+        int n = snprintf(line, sizeof(line), "w c%u %u\n", i, wait_ms);
+
+        f->fds[i] = harness_connect_unix(f->path);
+        assert_true(f->fds[i] >= 0);
+        assert_int_equal(harness_write_all(f->fds[i], line, (size_t)n, GUARD_MS), 0);
+        pump_until(f, calls_reached, f->calls + 1);
+}
+
+static void expect_reply(struct fx *f, unsigned i, const char *want)
+{
+        char buf[256];
+
+        assert_true(harness_read_until(f->fds[i], buf, sizeof(buf), '\n', GUARD_MS) > 0);
+        assert_string_equal(buf, want);
+}
+
+/* Bounded, in order, each request answered once: expired at its own deadline or when its client
+ * left, run once ready, cancelled at the end. */
+static void test_waitq(void **state)
+{
+        struct fx *f = *state;
+        char want[512];
+        size_t n = 0;
+
+        for (unsigned i = 0; i < LINK_WAITQ_MAX; i++)
+                client_send(f, i, i == 1 ? 50 : 100);
+        client_send(f, LINK_WAITQ_MAX, 100);
+        expect_reply(f, LINK_WAITQ_MAX, "ERR 16 queue full\n");
+        assert_int_equal(f->q.n, LINK_WAITQ_MAX);
+        assert_int_equal(link_waitq_deadline(&f->q), T0 + 50);
+
+        /* Not ready: only what is due expires. */
+        link_waitq_run(&f->q, T0 + 49, &wait_ops, f);
+        assert_string_equal(f->log, "");
+        link_waitq_run(&f->q, T0 + 50, &wait_ops, f);
+        assert_string_equal(f->log, "expire:c1/50 ");
+        expect_reply(f, 1, "ERR 110 c1 waited 50 ms\n");
+        assert_int_equal(link_waitq_deadline(&f->q), T0 + 100);
+
+        /* A client that leaves is ended at the next run, before its deadline. */
+        close(f->fds[3]);
+        f->fds[3] = -1;
+        pump_until(f, request_gone, 2);         /* c3 is third in the queue now */
+        link_waitq_run(&f->q, T0 + 60, &wait_ops, f);
+        assert_string_equal(f->log, "expire:c1/50 expire:c3/100 ");
+
+        /* Ready: every other one runs, in the order it came. */
+        f->ready = true;
+        link_waitq_run(&f->q, T0 + 70, &wait_ops, f);
+        n = (size_t)snprintf(want, sizeof(want), "expire:c1/50 expire:c3/100 ");
+        for (unsigned i = 0; i < LINK_WAITQ_MAX; i++)
+                if (i != 1 && i != 3)
+                        n += (size_t)snprintf(want + n, sizeof(want) - n, "run:c%u ", i);
+        assert_string_equal(f->log, want);
+        expect_reply(f, 0, "OK c0\n");
+        expect_reply(f, LINK_WAITQ_MAX - 1, "OK c15\n");
+        assert_int_equal(f->q.n, 0);
+        assert_int_equal(link_waitq_deadline(&f->q), UINT64_MAX);
+
+        /* Cancel: what waits is ended with the error given. */
+        client_send(f, LINK_WAITQ_MAX + 1, 1000);
+        client_send(f, LINK_WAITQ_MAX + 2, 1000);
+        link_waitq_cancel(&f->q, ECANCELED, "link stopped");
+        expect_reply(f, LINK_WAITQ_MAX + 1, "ERR 125 link stopped\n");
+        expect_reply(f, LINK_WAITQ_MAX + 2, "ERR 125 link stopped\n");
+        assert_int_equal(f->q.n, 0);
+        assert_int_equal(link_waitq_add(&f->q, NULL, T0, 1, want, LINK_WAITQ_DATA_MAX + 1),
+                         -EINVAL);
+}
+
+int main(void)
+{
+        const struct CMUnitTest tests[] = {
+                cmocka_unit_test(test_command_wait),
+                cmocka_unit_test(test_parse_ms),
+                cmocka_unit_test(test_command_words),
+                cmocka_unit_test_setup_teardown(test_waitq, wq_setup, wq_teardown),
+        };
+
+        return cmocka_run_group_tests(tests, NULL, NULL);
+}

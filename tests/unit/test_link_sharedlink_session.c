@@ -1,0 +1,626 @@
+/*
+ * link_sharedlink_session: the pure SharedLink session on a clock the test sets, so every
+ * schedule (period, refresh under compression, on-change min interval and retry, stale after
+ * silence, query timeouts) is checked at its exact millisecond boundary. The engine test
+ * (test_link_sharedlink.c) checks the same behaviour through the real channel and table.
+ *
+ * The hooks are a small fake table and a record of what the session did: the frames it sent
+ * (as text, checksum cut off), the values it published, stale marks, events, counters, answers.
+ */
+#include <errno.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include "daemon/config.h"
+#include "daemon/link_sharedlink_session.h"
+#include "proto/sharedlink.h"
+
+#define T0              100000u         /* the clock starts here (ms) */
+#define SENT_MAX        64
+#define TEXT_MAX        256
+#define VARS_MAX        (LINK_SHAREDLINK_ADHOC_MAX + 16)
+#define EVENTS_MAX      16
+
+struct fvar {
+        char name[SHM_NAME_SIZE];
+        char value[SHM_VALUE_SIZE];
+        bool valid, stale;
+        char peer;                      /* ad hoc: its peer */
+};
+
+struct answer {
+        int err;
+        char text[TEXT_MAX];
+        unsigned calls;
+        bool alive;
+};
+
+struct record {
+        char sent[SENT_MAX][TEXT_MAX];  /* "[:AB|N0|D1" (no checksum, no ']') */
+        unsigned n_sent;
+        int send_result;                /* 0, or an error to inject */
+        struct fvar vars[VARS_MAX];
+        unsigned n_vars;
+        unsigned add_room;              /* how many more the fake table takes */
+        unsigned batches, stale_marks;
+        bool in_batch;
+        char events[EVENTS_MAX][TEXT_MAX];
+        unsigned n_events;
+        uint64_t counters[SHM_COUNTER_COUNT];
+};
+
+static struct record rec;
+
+static int h_send(void *arg, const char *buf, size_t len)
+{
+        const char *c;
+
+        (void)arg;
+        if (rec.send_result < 0)
+                return rec.send_result;
+        assert_true(rec.n_sent < SENT_MAX);
+        assert_true(len < TEXT_MAX);
+        memcpy(rec.sent[rec.n_sent], buf, len);
+        rec.sent[rec.n_sent][len] = '\0';
+        c = strstr(rec.sent[rec.n_sent], "|C");
+        assert_non_null(c);
+        rec.sent[rec.n_sent][c - rec.sent[rec.n_sent]] = '\0';
+        rec.n_sent++;
+        return 0;
+}
+
+static int h_find(void *arg, const char *name)
+{
+        (void)arg;
+        for (unsigned i = 0; i < rec.n_vars; i++)
+                if (strcmp(rec.vars[i].name, name) == 0)
+                        return (int)i;
+        return -ENOENT;
+}
+
+static int h_add(void *arg, const char *name, unsigned type, char peer)
+{
+        (void)arg;
+        assert_int_equal(type, SHM_TYPE_STRING);
+        if (rec.add_room == 0 || rec.n_vars == VARS_MAX)
+                return -ENOSPC;
+        rec.add_room--;
+        snprintf(rec.vars[rec.n_vars].name, SHM_NAME_SIZE, "%s", name);
+        rec.vars[rec.n_vars].peer = peer;
+        return (int)rec.n_vars++;
+}
+
+static int h_get(void *arg, uint32_t id, char *buf, size_t size)
+{
+        (void)arg;
+        assert_true(id < rec.n_vars);
+        if (!rec.vars[id].valid)
+                return -ENODATA;
+        return snprintf(buf, size, "%s", rec.vars[id].value);
+}
+
+static int h_publish(void *arg, uint32_t id, const char *value, size_t len)
+{
+        (void)arg;
+        assert_true(rec.in_batch);
+        assert_true(id < rec.n_vars);
+        if (len > SHM_VALUE_MAX)
+                return -EINVAL;
+        memcpy(rec.vars[id].value, value, len);
+        rec.vars[id].value[len] = '\0';
+        rec.vars[id].valid = true;
+        rec.vars[id].stale = false;
+        return 0;
+}
+
+static void h_stale(void *arg, uint32_t id)
+{
+        (void)arg;
+        assert_true(rec.in_batch);
+        assert_true(id < rec.n_vars);
+        rec.vars[id].stale = true;
+        rec.stale_marks++;
+}
+
+static void h_batch(void *arg, bool begin)
+{
+        (void)arg;
+        assert_int_not_equal(rec.in_batch, begin);
+        rec.in_batch = begin;
+        rec.batches += begin;
+}
+
+static void h_event(void *arg, enum shm_event_type type, const char *text)
+{
+        (void)arg;
+        /* The first EVENTS_MAX are kept, all are counted. */
+        if (rec.n_events < EVENTS_MAX)
+                snprintf(rec.events[rec.n_events], TEXT_MAX, "%s %s",
+                         shm_layout_event_name(type), text);
+        rec.n_events++;
+}
+
+static void h_count(void *arg, enum shm_counter c, uint64_t n)
+{
+        (void)arg;
+        rec.counters[c] += n;
+}
+
+static void h_answer(void *arg, void *token, int err, const char *text)
+{
+        struct answer *a = token;
+
+        (void)arg;
+        a->err = err;
+        snprintf(a->text, sizeof(a->text), "%s", text);
+        a->calls++;
+}
+
+static bool h_alive(void *arg, void *token)
+{
+        const struct answer *a = token;
+
+        (void)arg;
+        return a->alive;
+}
+
+static const struct link_sharedlink_hooks hooks = {
+        .send = h_send, .find = h_find, .add = h_add, .get = h_get, .publish = h_publish,
+        .stale = h_stale, .batch = h_batch, .event = h_event, .count = h_count,
+        .answer = h_answer, .alive = h_alive,
+};
+
+/* ---- fixture: link "veh", we are B, peer A (2 out, 2 in), peer C (1 in) -------------------- */
+
+static struct config_link cfg;
+static struct config_var a_out[2], a_in[2], c_in[1];
+
+static void var_add(struct config_var *v, const char *name)
+{
+        snprintf(v->name, sizeof(v->name), "%s", name);
+        snprintf(rec.vars[rec.n_vars++].name, SHM_NAME_SIZE, "%s", name);
+}
+
+static int setup(void **state)
+{
+        struct config_peer *a = &cfg.sl.peers[0], *c = &cfg.sl.peers[1];
+
+        (void)state;
+        memset(&rec, 0, sizeof(rec));
+        memset(&cfg, 0, sizeof(cfg));
+        rec.add_room = VARS_MAX;
+        snprintf(cfg.name, sizeof(cfg.name), "veh");
+        cfg.protocol = CONFIG_PROTOCOL_SHAREDLINK;
+        cfg.transport = CONFIG_TRANSPORT_UDP;
+        cfg.sl.address = 'B';
+        cfg.sl.n_peers = 2;
+        *a = (struct config_peer){
+                .address = 'A', .max_frame = SLP_FRAME_DEFAULT,
+                .outbound = a_out, .n_outbound = 2, .inbound = a_in, .n_inbound = 2,
+        };
+        *c = (struct config_peer){
+                .address = 'C', .max_frame = SLP_FRAME_DEFAULT, .inbound = c_in, .n_inbound = 1,
+        };
+        var_add(&a_out[0], "Speed");            /* id 0 */
+        var_add(&a_out[1], "Gear");             /* id 1 */
+        var_add(&a_in[0], "Rpm");               /* id 2 */
+        var_add(&a_in[1], "Temp");              /* id 3 */
+        var_add(&c_in[0], "Fuel");              /* id 4 */
+        return 0;
+}
+
+static struct link_sharedlink_session *start(uint64_t now)
+{
+        struct link_sharedlink_session *s;
+
+        assert_int_equal(link_sharedlink_session_new(&cfg, true, &hooks, NULL, &s), 0);
+        link_sharedlink_session_up(s, now);
+        return s;
+}
+
+/* Encodes ":<dst><src>|F..|F.." (e.g. ":BA|N0|D1", A to us) with its checksum, feeds it. */
+static void feed(struct link_sharedlink_session *s, uint64_t now, const char *text)
+{
+        struct slp_field fields[32];
+        char copy[TEXT_MAX], frame[SLP_FRAME_MAX];
+        size_t n = 0;
+        char *save = NULL, *f;
+        int len;
+
+        assert_true(strlen(text) < sizeof(copy) && text[0] == ':');
+        snprintf(copy, sizeof(copy), "%s", text + 4);
+        for (f = strtok_r(copy, "|", &save); f; f = strtok_r(NULL, "|", &save)) {
+                assert_true(n < 32);
+                fields[n++] = (struct slp_field){ .letter = f[0], .value = f + 1,
+                                                  .len = (uint16_t)strlen(f + 1) };
+        }
+        len = slp_frame_encode(frame, sizeof(frame), text[1], text[2], fields, n, 0);
+        assert_true(len > 0);
+        link_sharedlink_session_input(s, now, (const uint8_t *)frame, (size_t)len);
+}
+
+static void expect_sent(unsigned from, const char *const *frames, unsigned n)
+{
+        assert_int_equal(rec.n_sent - from, n);
+        for (unsigned i = 0; i < n; i++)
+                assert_string_equal(rec.sent[from + i], frames[i]);
+}
+
+#define EXPECT_SENT(from, ...)                                                                 \
+        do {                                                                                   \
+                static const char *const want_[] = { __VA_ARGS__ };                            \
+                expect_sent(from, want_, sizeof(want_) / sizeof(want_[0]));                    \
+        } while (0)
+
+/* ---- sending --------------------------------------------------------------------------------- */
+
+/* Up: the full list at once; then one list per period, on the period's grid, one per late tick. */
+static void test_periods(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        cfg.sl.peers[0].period_ms = 100;
+        s = start(T0);
+        EXPECT_SENT(0, "[:AB|N0|D|D");
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 100);
+        link_sharedlink_session_tick(s, T0 + 99);
+        assert_int_equal(rec.n_sent, 1);
+        link_sharedlink_session_outbound(s, T0 + 99, 0, "42");
+        link_sharedlink_session_tick(s, T0 + 100);
+        EXPECT_SENT(1, "[:AB|N0|D42|D");
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 200);
+        /* Three periods late: one list, and the grid starts again from now. */
+        link_sharedlink_session_tick(s, T0 + 450);
+        EXPECT_SENT(2, "[:AB|N0|D42|D");
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 550);
+        /* Exactly one period late: the next one is a whole period away, never now. */
+        link_sharedlink_session_tick(s, T0 + 650);
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 750);
+        assert_int_equal(rec.counters[SHM_COUNTER_FRAMES_OUT], 4);
+
+        /* Down: no deadline, nothing sent; up again: the full list at once. */
+        link_sharedlink_session_down(s, T0 + 660);
+        assert_int_equal(link_sharedlink_session_deadline(s), LINK_SHAREDLINK_NEVER);
+        link_sharedlink_session_outbound(s, T0 + 670, 1, "3");
+        assert_int_equal(rec.n_sent, 4);
+        link_sharedlink_session_up(s, T0 + 680);
+        EXPECT_SENT(4, "[:AB|N0|D42|D3");
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 780);
+        link_sharedlink_session_free(s);
+}
+
+/* Compression: written positions only, full every refresh_ms / period_ms periods. */
+static void test_refresh_compression(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        cfg.sl.peers[0].period_ms = 100;
+        cfg.sl.peers[0].refresh_ms = 300;
+        cfg.sl.peers[0].compression = true;
+        s = start(T0);
+        EXPECT_SENT(0, "[:AB|N0|D|D");
+        link_sharedlink_session_outbound(s, T0 + 10, 1, "7");
+        link_sharedlink_session_tick(s, T0 + 100);          /* period 1: the write */
+        link_sharedlink_session_tick(s, T0 + 200);          /* period 2: nothing new */
+        link_sharedlink_session_outbound(s, T0 + 250, 0, "9");
+        link_sharedlink_session_tick(s, T0 + 300);          /* period 3: full */
+        link_sharedlink_session_tick(s, T0 + 400);
+        EXPECT_SENT(1, "[:AB|N0|D|D7", "[:AB|N0|D|D", "[:AB|N0|D9|D7", "[:AB|N0|D|D");
+        link_sharedlink_session_free(s);
+}
+
+/* on_change: at once, then at most one frame per min_interval_ms with the last values; a
+ * refused frame is retried, never dropped. */
+static void test_on_change(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        cfg.sl.peers[0].on_change = true;
+        cfg.sl.peers[0].min_interval_ms = 50;
+        s = start(T0);
+        assert_int_equal(link_sharedlink_session_deadline(s), LINK_SHAREDLINK_NEVER);
+        link_sharedlink_session_outbound(s, T0 + 10, 1, "1");
+        EXPECT_SENT(1, "[:AB|N1|D1");
+        link_sharedlink_session_outbound(s, T0 + 20, 0, "a");
+        link_sharedlink_session_outbound(s, T0 + 30, 0, "b");
+        assert_int_equal(rec.n_sent, 2);
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 60);
+        link_sharedlink_session_tick(s, T0 + 59);
+        assert_int_equal(rec.n_sent, 2);
+        link_sharedlink_session_tick(s, T0 + 60);
+        EXPECT_SENT(2, "[:AB|N0|Db");
+        assert_int_equal(link_sharedlink_session_deadline(s), LINK_SHAREDLINK_NEVER);
+
+        /* Past the interval: at once again. The queue is full: retried at the interval. */
+        rec.send_result = -ENOBUFS;
+        link_sharedlink_session_outbound(s, T0 + 200, 1, "2");
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 250);
+        rec.send_result = 0;
+        link_sharedlink_session_tick(s, T0 + 250);
+        EXPECT_SENT(3, "[:AB|N1|D2");
+
+        /* The shortest retry is LINK_SHAREDLINK_RETRY_MS, whatever min_interval_ms. */
+        cfg.sl.peers[0].min_interval_ms = 0;
+        rec.send_result = -EAGAIN;
+        link_sharedlink_session_outbound(s, T0 + 400, 0, "c");
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 400 + LINK_SHAREDLINK_RETRY_MS);
+        rec.send_result = 0;
+        link_sharedlink_session_tick(s, T0 + 400 + LINK_SHAREDLINK_RETRY_MS);
+        EXPECT_SENT(4, "[:AB|N0|Dc");
+        link_sharedlink_session_free(s);
+}
+
+/* ---- receiving ------------------------------------------------------------------------------- */
+
+/* Positions: N sets the start, D beyond the list is counted, empty D changes nothing. */
+static void test_positions(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        s = start(T0);
+        feed(s, T0, ":BA|D10|D20");
+        assert_string_equal(rec.vars[2].value, "10");
+        assert_string_equal(rec.vars[3].value, "20");
+        feed(s, T0, ":BA|N1|D21|D99|D98");
+        assert_string_equal(rec.vars[3].value, "21");
+        assert_int_equal(rec.counters[SHM_COUNTER_LIST_MISMATCH], 2);
+        feed(s, T0, ":BA|N0|D|D22");
+        assert_string_equal(rec.vars[2].value, "10");
+        assert_string_equal(rec.vars[3].value, "22");
+        feed(s, T0, ":BA|N4000000000|D5");
+        assert_int_equal(rec.counters[SHM_COUNTER_LIST_MISMATCH], 3);
+        /* Peer C's own list; a frame for someone else or from a stranger changes nothing. */
+        feed(s, T0, ":BC|D7");
+        assert_string_equal(rec.vars[4].value, "7");
+        feed(s, T0, ":AC|D8");
+        feed(s, T0, ":BD|D8");
+        assert_string_equal(rec.vars[4].value, "7");
+        assert_int_equal(rec.counters[SHM_COUNTER_NOT_FOR_US], 1);
+        assert_int_equal(rec.counters[SHM_COUNTER_UNKNOWN_PEER], 1);
+        /* Pronto4 fields are skipped and counted, with what belongs to them. */
+        feed(s, T0, ":BA|N?|D1|T4|QName|D2|L0|D3|E1|D4|X");
+        assert_string_equal(rec.vars[2].value, "10");
+        assert_int_equal(rec.counters[SHM_COUNTER_UNKNOWN_FIELD], 8);
+        assert_int_equal(rec.counters[SHM_COUNTER_FRAMES_IN], 8);
+        assert_int_equal(rec.batches, 6);       /* one per frame applied */
+        link_sharedlink_session_free(s);
+}
+
+/* Stale after stale_ms of silence, the deadline moving with each frame; ad hoc ones too. */
+static void test_stale(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        cfg.sl.peers[0].stale_ms = 200;
+        s = start(T0);
+        assert_int_equal(link_sharedlink_session_deadline(s), LINK_SHAREDLINK_NEVER);
+        feed(s, T0, ":BA|D1|D2|RExtra|Dx");
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 200);
+        feed(s, T0 + 150, ":BA|N0|D3");
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 350);
+        link_sharedlink_session_tick(s, T0 + 349);
+        assert_int_equal(rec.stale_marks, 0);
+        link_sharedlink_session_tick(s, T0 + 350);
+        assert_true(rec.vars[2].stale && rec.vars[3].stale && rec.vars[5].stale);
+        assert_false(rec.vars[4].stale);        /* peer C's */
+        assert_int_equal(rec.stale_marks, 3);
+        assert_int_equal(link_sharedlink_session_deadline(s), LINK_SHAREDLINK_NEVER);
+        /* Down: no stale watch (the engine marks the whole link). */
+        feed(s, T0 + 400, ":BA|D4");
+        link_sharedlink_session_down(s, T0 + 410);
+        assert_int_equal(link_sharedlink_session_deadline(s), LINK_SHAREDLINK_NEVER);
+        link_sharedlink_session_free(s);
+}
+
+/* Q answered from the table (empty for unknown or never written), P ponged, all in one frame
+ * while max_frame allows, more frames after. */
+static void test_replies(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        cfg.sl.peers[0].max_frame = 40;
+        s = start(T0);
+        link_sharedlink_session_outbound(s, T0, 0, "55");
+        snprintf(rec.vars[0].value, SHM_VALUE_SIZE, "55");
+        rec.vars[0].valid = true;
+        feed(s, T0, ":BA|QSpeed|QGear|P7");
+        feed(s, T0, ":BA|QNone|QSpeed|QSpeed|QGear");
+        EXPECT_SENT(1, "[:AB|RSpeed|D55|RGear|D|G7", "[:AB|RNone|D|RSpeed|D55|RSpeed|D55",
+                    "[:AB|RGear|D");
+        assert_int_equal(rec.counters[SHM_COUNTER_QUERIES_IN], 6);
+        assert_int_equal(rec.counters[SHM_COUNTER_ANSWERS_OUT], 6);
+        link_sharedlink_session_free(s);
+}
+
+/* R|D: to this peer's configured variable of that name, else its ad hoc variable, created
+ * once; never over another variable; bounded by the table and LINK_SHAREDLINK_ADHOC_MAX. */
+static void test_adhoc(void **state)
+{
+        struct link_sharedlink_session *s;
+        char frame[64];
+
+        (void)state;
+        s = start(T0);
+        feed(s, T0, ":BA|RTemp|D30|RFoo|D1|RFoo|D2|RFuel|D3|Rveh.A.Foo|D4");
+        assert_string_equal(rec.vars[3].value, "30");
+        assert_string_equal(rec.vars[5].name, "veh.A.Foo");
+        assert_string_equal(rec.vars[5].value, "2");
+        assert_string_equal(rec.vars[6].name, "veh.A.Fuel");   /* Fuel is peer C's */
+        assert_false(rec.vars[4].valid);
+        assert_string_equal(rec.vars[7].name, "veh.A.veh.A.Foo");
+        assert_int_equal(rec.n_events, 3);
+        assert_string_equal(rec.events[0], "adhoc-variable name=veh.A.Foo peer=A");
+        /* A name taken by a configured variable: dropped and counted. */
+        var_add(&(struct config_var){ 0 }, "veh.C.Bar");
+        feed(s, T0, ":BC|RBar|D5");
+        assert_int_equal(rec.counters[SHM_COUNTER_ADHOC_FULL], 1);
+        /* Empty answer: unknown name at the peer, nothing stored. A bad name: bad_value. */
+        feed(s, T0, ":BC|RNew|D|Rx y|D1");
+        assert_int_equal(h_find(NULL, "veh.C.New"), -ENOENT);
+        assert_int_equal(rec.counters[SHM_COUNTER_BAD_VALUE], 1);
+        /* The table is full. */
+        rec.add_room = 0;
+        feed(s, T0, ":BC|RFull|D1");
+        assert_int_equal(rec.counters[SHM_COUNTER_ADHOC_FULL], 2);
+        /* The link's own bound. */
+        rec.add_room = VARS_MAX;
+        for (unsigned i = 3; i < LINK_SHAREDLINK_ADHOC_MAX; i++) {
+                snprintf(frame, sizeof(frame), ":BC|RV%u|D1", i);
+                feed(s, T0, frame);
+        }
+        assert_int_equal(rec.counters[SHM_COUNTER_ADHOC_FULL], 2);
+        feed(s, T0, ":BC|ROneTooMany|D1");
+        assert_int_equal(rec.counters[SHM_COUNTER_ADHOC_FULL], 3);
+        assert_int_equal(h_find(NULL, "veh.C.OneTooMany"), -ENOENT);
+        link_sharedlink_session_free(s);
+}
+
+/* ---- queries --------------------------------------------------------------------------------- */
+
+static void test_queries(void **state)
+{
+        struct answer a[LINK_SHAREDLINK_QUERIES_MAX + 2];
+        struct link_sharedlink_session *s;
+        char name[16];
+        int pa;
+
+        (void)state;
+        memset(a, 0, sizeof(a));
+        for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX + 2; i++)
+                a[i].alive = true;
+        assert_int_equal(link_sharedlink_session_new(&cfg, true, &hooks, NULL, &s), 0);
+        pa = link_sharedlink_session_peer(s, "A");
+        assert_int_equal(pa, 0);
+        assert_int_equal(link_sharedlink_session_peer(s, "C"), 1);
+        assert_int_equal(link_sharedlink_session_peer(s, "D"), -1);
+        assert_int_equal(link_sharedlink_session_peer(s, "AB"), -1);
+        assert_int_equal(link_sharedlink_session_query(s, T0, &a[0], pa, "X", 100), -ENOTCONN);
+        link_sharedlink_session_up(s, T0);
+
+        /* Answered; the answer is also stored and an event. */
+        assert_int_equal(link_sharedlink_session_query(s, T0, &a[0], pa, "X", 100), 0);
+        EXPECT_SENT(1, "[:AB|QX");
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 100);
+        feed(s, T0 + 5, ":BC|RX|D0");                  /* another peer's X */
+        assert_int_equal(a[0].calls, 0);
+        feed(s, T0 + 10, ":BA|RX|Dhello world");
+        assert_int_equal(a[0].calls, 1);
+        assert_int_equal(a[0].err, 0);
+        assert_string_equal(a[0].text, "hello world");
+        assert_int_equal(rec.n_events, 3);
+        assert_string_equal(rec.events[0], "adhoc-variable name=veh.C.X peer=C");
+        assert_string_equal(rec.events[1], "query-answer peer=A name=X value=hello world");
+        assert_string_equal(rec.events[2], "adhoc-variable name=veh.A.X peer=A");
+
+        /* Timeout at the exact millisecond. */
+        assert_int_equal(link_sharedlink_session_query(s, T0 + 20, &a[1], pa, "Slow", 100), 0);
+        link_sharedlink_session_tick(s, T0 + 119);
+        assert_int_equal(a[1].calls, 0);
+        link_sharedlink_session_tick(s, T0 + 120);
+        assert_int_equal(a[1].calls, 1);
+        assert_int_equal(a[1].err, ETIMEDOUT);
+        assert_string_equal(a[1].text, "no answer from peer A within 100 ms");
+        assert_int_equal(rec.counters[SHM_COUNTER_TIMEOUTS], 1);
+        assert_int_equal(rec.counters[SHM_COUNTER_QUERIES_OUT], 2);
+
+        /* Bad input refused with nothing pending. */
+        assert_int_equal(link_sharedlink_session_query(s, T0, &a[2], 2, "X", 100), -EINVAL);
+        assert_int_equal(link_sharedlink_session_query(s, T0, &a[2], -1, "X", 100), -EINVAL);
+        assert_int_equal(link_sharedlink_session_query(s, T0, &a[2], pa, "x|y", 100), -EINVAL);
+        rec.send_result = -ENOBUFS;
+        assert_int_equal(link_sharedlink_session_query(s, T0, &a[2], pa, "X", 100), -ENOBUFS);
+        rec.send_result = 0;
+
+        /* Bounded; a client that left makes room. */
+        for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++) {
+                snprintf(name, sizeof(name), "B%u", i);
+                assert_int_equal(link_sharedlink_session_query(s, T0 + 200, &a[2 + i], pa, name,
+                                                               1000), 0);
+        }
+        assert_int_equal(link_sharedlink_session_query(s, T0 + 200, &a[0], pa, "One", 1000),
+                         -EBUSY);
+        a[5].alive = false;
+        assert_int_equal(link_sharedlink_session_query(s, T0 + 200, &a[0], pa, "One", 1000), 0);
+        assert_int_equal(a[5].calls, 1);
+        assert_int_equal(a[5].err, ECANCELED);
+
+        /* Down ends what was sent; free() ends the rest. */
+        link_sharedlink_session_down(s, T0 + 300);
+        for (unsigned i = 2; i < LINK_SHAREDLINK_QUERIES_MAX + 2; i++) {
+                assert_int_equal(a[i].calls, 1);
+                if (i != 5)
+                        assert_int_equal(a[i].err, ENOTCONN);
+        }
+        assert_int_equal(a[0].calls, 2);
+        link_sharedlink_session_up(s, T0 + 400);
+        assert_int_equal(link_sharedlink_session_query(s, T0 + 400, &a[1], pa, "Y", 1000), 0);
+        link_sharedlink_session_free(s);
+        assert_int_equal(a[1].calls, 2);
+        assert_int_equal(a[1].err, ECANCELED);
+}
+
+/* Garbage is counted by reason and never applied; a datagram's partial frame is dropped. */
+static void test_rejects(void **state)
+{
+        static const char junk[] = "xyz[:AB|D1|C00][:AB|D1";
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        s = start(T0);
+        link_sharedlink_session_input(s, T0, (const uint8_t *)junk, strlen(junk));
+        assert_int_equal(rec.counters[SHM_COUNTER_NOISE_BYTES], 3);
+        assert_int_equal(rec.counters[SHM_COUNTER_BAD_CHECKSUM], 1);
+        assert_int_equal(rec.counters[SHM_COUNTER_RESYNC], 1);
+        assert_int_equal(rec.counters[SHM_COUNTER_FRAMES_IN], 0);
+        assert_false(rec.vars[2].valid);
+        /* Down: input is ignored (the channel delivers none then). */
+        link_sharedlink_session_down(s, T0);
+        feed(s, T0, ":BA|D1");
+        assert_false(rec.vars[2].valid);
+        link_sharedlink_session_free(s);
+}
+
+/* A configured variable the table does not know: new() fails. */
+static void test_unknown_variable(void **state)
+{
+        struct link_sharedlink_session *s = NULL;
+
+        (void)state;
+        snprintf(rec.vars[4].name, SHM_NAME_SIZE, "Other");
+        assert_int_equal(link_sharedlink_session_new(&cfg, true, &hooks, NULL, &s), -ENOENT);
+        assert_null(s);
+        cfg.protocol = CONFIG_PROTOCOL_CIRCE;
+        assert_int_equal(link_sharedlink_session_new(&cfg, true, &hooks, NULL, &s), -EINVAL);
+        assert_null(link_sharedlink_session_free(NULL));
+}
+
+int main(void)
+{
+        const struct CMUnitTest tests[] = {
+                cmocka_unit_test_setup(test_periods, setup),
+                cmocka_unit_test_setup(test_refresh_compression, setup),
+                cmocka_unit_test_setup(test_on_change, setup),
+                cmocka_unit_test_setup(test_positions, setup),
+                cmocka_unit_test_setup(test_stale, setup),
+                cmocka_unit_test_setup(test_replies, setup),
+                cmocka_unit_test_setup(test_adhoc, setup),
+                cmocka_unit_test_setup(test_queries, setup),
+                cmocka_unit_test_setup(test_rejects, setup),
+                cmocka_unit_test_setup(test_unknown_variable, setup),
+        };
+
+        return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -4,7 +4,8 @@
 #   src/proto/*.c, src/shm/*.c     pure codecs / table layout, archived per directory
 #   src/daemon/*.c                 sharedlinkd (main.c holds main(), the rest is archived for tests)
 #   src/lib/*.c + src/shm/*.c      libsharedlink.so.1 / .a (exports: src/lib/libsharedlink.sym)
-#   src/cli/*.c                    slctl, linked against libsharedlink.a
+#   src/cli/*.c                    slctl, linked against libsharedlink.a (all but slctl.c also
+#                                  archived for unit tests)
 #   tests/common/*.c               helpers linked into every test binary
 #   tests/unit/test_*.c            one cmocka binary per module, run by `make check`
 #   tests/integration/test_*.c     cmocka binaries that start the real daemon, run by `make check`
@@ -13,6 +14,7 @@
 #   tests/bench/bench_*.c          benchmarks, built optimised by `make bench`
 #   examples/*.c                   programs built only on <sharedlink.h> and pkg-config
 #   man/*.[1-8]                    man pages, installed by `make install` (section = suffix)
+#   completion/slctl.bash          bash completion, installed into BASHCOMPDIR
 #
 # Build variants: `make` -> build/ (optimised, hardened); SAN=asan -> build/asan/ (ASan+UBSan);
 # SAN=tsan -> build/tsan/.  `make check` = the asan build + every test.
@@ -36,6 +38,7 @@ MANDIR     ?= $(PREFIX)/share/man
 PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
 SYSUSERSDIR  ?= $(PREFIX)/lib/sysusers.d
 TMPFILESDIR  ?= $(PREFIX)/lib/tmpfiles.d
+BASHCOMPDIR  ?= $(PREFIX)/share/bash-completion/completions
 
 CC         ?= cc
 SAN        ?=
@@ -148,7 +151,8 @@ A_SHM    := $(O)/internal/libshm.a
 A_CLIENT := $(O)/internal/libclient.a
 A_DAEMON := $(O)/internal/libdaemon.a
 A_TCOMMON:= $(O)/internal/libtestcommon.a
-INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_CLIENT) $(A_PROTO) $(A_SHM)
+A_CLI    := $(O)/internal/libcli.a
+INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_CLIENT) $(A_CLI) $(A_PROTO) $(A_SHM)
 SYS_LIBS := $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lutil -lm
 
 LIBSL_SO   := $(O)/libsharedlink.so.$(SOVERSION)
@@ -247,6 +251,8 @@ $(A_SHM): $(call obj,$(SHM_SRC))
 $(A_CLIENT): $(call obj,$(LIB_SRC))
 $(A_DAEMON): $(call obj,$(DAEMON_SRC))
 $(A_TCOMMON): $(call obj,$(TCOMMON_SRC))
+# slctl's modules for unit tests (slctl.c holds main()).
+$(A_CLI): $(call obj,$(filter-out src/cli/slctl.c,$(CLI_SRC)))
 
 # An archive with no members still needs one object to be a valid archive.
 $(INTERNAL_ARCHIVES): | $(O)/obj/empty.o
@@ -346,6 +352,8 @@ install: all
 	    chmod 0644 $$d.tmp; mv -f $$d.tmp $$d; echo "$$d: $$(grep '^ExecStart=' $$d)"; \
 	done
 	$(INSTALL) -m 0644 systemd/sharedlink.sysusers $(DESTDIR)$(SYSUSERSDIR)/sharedlink.conf
+	$(INSTALL) -d $(DESTDIR)$(BASHCOMPDIR)
+	$(INSTALL) -m 0644 completion/slctl.bash $(DESTDIR)$(BASHCOMPDIR)/slctl
 	sed $(TMPFILES_SED) systemd/sharedlink.tmpfiles > $(DESTDIR)$(TMPFILESDIR)/sharedlink.conf
 	chmod 0644 $(DESTDIR)$(TMPFILESDIR)/sharedlink.conf
 	@if [ -e $(CONF_DEST) ]; then echo "$(CONF_DEST): exists, kept"; \
@@ -363,7 +371,8 @@ uninstall:
 	    $(addprefix $(DESTDIR)$(UNITDIR)/,$(notdir $(UNIT_FILES))) \
 	    $(DESTDIR)$(SYSUSERSDIR)/sharedlink.conf $(DESTDIR)$(TMPFILESDIR)/sharedlink.conf \
 	    $(foreach p,$(MAN_PAGES),$(call mandir_of,$(p))/$(notdir $(p))) \
-	    $(foreach f,$(MAN_ALIASES),$(DESTDIR)$(MANDIR)/man3/$(f).3)
+	    $(foreach f,$(MAN_ALIASES),$(DESTDIR)$(MANDIR)/man3/$(f).3) \
+	    $(DESTDIR)$(BASHCOMPDIR)/slctl
 	@if cmp -s conf/sharedlinkd.yaml $(CONF_DEST); then rm -f $(CONF_DEST); \
 	    rmdir $(DESTDIR)$(SYSCONFDIR)/sharedlink 2>/dev/null || true; \
 	elif [ -e $(CONF_DEST) ]; then echo "$(CONF_DEST): changed since install, kept"; fi

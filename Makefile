@@ -77,8 +77,10 @@ endif
 NODEPS_GOALS := deps deps-extra clean help uninstall
 ifeq ($(filter-out $(NODEPS_GOALS),$(or $(MAKECMDGOALS),all)),)
 else
-ifneq ($(shell pkg-config --exists $(PC_REQUIRED) 2>/dev/null && command -v $(PYTHON) >/dev/null && echo ok),ok)
-$(info sharedlink: build dependencies missing ($(PC_REQUIRED) $(PYTHON)); running 'make deps')
+# `make check` and `make bench` also run the Python binding: they need $(PYTHON) too.
+NEED_PYTHON := $(if $(filter check bench,$(MAKECMDGOALS)),&& command -v $(PYTHON) >/dev/null)
+ifneq ($(shell pkg-config --exists $(PC_REQUIRED) 2>/dev/null $(NEED_PYTHON) && echo ok),ok)
+$(info sharedlink: build dependencies missing ($(PC_REQUIRED)$(if $(NEED_PYTHON), $(PYTHON))); running 'make deps')
 DEPS_RESULT := $(shell $(MAKE) --no-print-directory deps >&2 && echo ok)
 ifneq ($(DEPS_RESULT),ok)
 $(error 'make deps' failed; install the packages above and try again)

@@ -100,6 +100,8 @@ class Daemon:
 
     def start(self):
         notify_path = os.path.join(self.dir, "notify")
+        if os.path.exists(notify_path):
+            os.unlink(notify_path)          # left by an earlier start(): a restart
         sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM | socket.SOCK_CLOEXEC)
         try:
             sock.bind(notify_path)

@@ -332,6 +332,27 @@ class TestErrors(DaemonCase):
         self.assertRaises(ValueError, c.read, "agility.state")
 
 
+class TestRestart(DaemonCase):
+    def test_restart_is_transparent(self):
+        # The same Client across a daemon restart: the library remaps the new tables, ids and
+        # names keep working, and the event cursor says it restarted.
+        c = self.c
+        c["a.AutoGpsLat"] = 7.25
+        until(c, "b.AutoGpsLat", lambda v: v == 7.25)
+        epoch = c.daemon().epoch
+        events = c.events(follow=True, new=True, timeout=WAIT_S)
+        self.assertEqual(self.daemon.stop(), 0)
+        self.assertFalse(c.alive)
+        self.daemon.start()
+        until(c, "agility.state", lambda v: v == "connected")
+        self.assertNotEqual(c.daemon().epoch, epoch)
+        self.assertEqual(c.daemon().pid, self.daemon.proc.pid)
+        c["a.AutoGpsLat"] = 8.5
+        self.assertEqual(until(c, "b.AutoGpsLat", lambda v: v == 8.5), 8.5)
+        first = next(events)
+        self.assertTrue(first.restarted)
+
+
 def import_with(library):
     """A child Python that imports the package under test with SHAREDLINK_LIB=library."""
     here = os.path.dirname(os.path.abspath(__file__))

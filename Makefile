@@ -5,7 +5,8 @@
 #   src/daemon/*.c                 sharedlinkd (main.c holds main(), the rest is archived for tests)
 #   src/lib/*.c + src/shm/*.c      libsharedlink.so.1 / .a (exports: src/lib/libsharedlink.sym),
 #     + LIB_PROTO_SRC              with the codecs the client speaks (control protocol, CIRCE)
-#   src/cli/*.c                    slctl, linked against libsharedlink.a
+#   src/cli/*.c                    slctl, linked against libsharedlink.a (all but slctl.c also
+#                                  archived for unit tests)
 #   tests/common/*.c               helpers linked into every test binary
 #   tests/unit/test_*.c            one cmocka binary per module, run by `make check`
 #   tests/integration/test_*.c     cmocka binaries that start the real daemon, run by `make check`
@@ -14,6 +15,9 @@
 #   tests/bench/bench_*.c          benchmarks, built optimised by `make bench`
 #   examples/*.c                   programs built only on <sharedlink.h> and pkg-config
 #   man/*.[1-8]                    man pages, installed by `make install` (section = suffix)
+#   python/sharedlink/*.py         the Python package (ctypes), installed into PYTHONDIR;
+#                                  python/tests/ run by `make check` (tests/python/*.c: helpers)
+#   completion/slctl.bash          bash completion, installed into BASHCOMPDIR
 #
 # Build variants: `make` -> build/ (optimised, hardened); SAN=asan -> build/asan/ (ASan+UBSan);
 # SAN=tsan -> build/tsan/.  `make check` = the asan build + every test.
@@ -37,6 +41,11 @@ MANDIR     ?= $(PREFIX)/share/man
 PKGCONFIGDIR ?= $(LIBDIR)/pkgconfig
 SYSUSERSDIR  ?= $(PREFIX)/lib/sysusers.d
 TMPFILESDIR  ?= $(PREFIX)/lib/tmpfiles.d
+BASHCOMPDIR  ?= $(PREFIX)/share/bash-completion/completions
+# The Python package goes where PYTHON looks for packages under PREFIX (python/sitedir.py):
+# Debian's /usr/lib/python3/dist-packages for PREFIX=/usr. Empty (python missing): not installed.
+PYTHON       ?= python3
+PYTHONDIR    ?= $(shell $(PYTHON) python/sitedir.py '$(PREFIX)' 2>/dev/null)
 
 CC         ?= cc
 SAN        ?=
@@ -55,7 +64,7 @@ Q     :=
 quiet  =
 endif
 
-DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev
+DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev python3
 DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
 
 # ---------------------------------------------------------------------------------------------
@@ -69,8 +78,10 @@ endif
 NODEPS_GOALS := deps deps-extra clean help uninstall
 ifeq ($(filter-out $(NODEPS_GOALS),$(or $(MAKECMDGOALS),all)),)
 else
-ifneq ($(shell pkg-config --exists $(PC_REQUIRED) 2>/dev/null && echo ok),ok)
-$(info sharedlink: build dependencies missing ($(PC_REQUIRED)); running 'make deps')
+# `make check` and `make bench` also run the Python binding: they need $(PYTHON) too.
+NEED_PYTHON := $(if $(filter check bench,$(MAKECMDGOALS)),&& command -v $(PYTHON) >/dev/null)
+ifneq ($(shell pkg-config --exists $(PC_REQUIRED) 2>/dev/null $(NEED_PYTHON) && echo ok),ok)
+$(info sharedlink: build dependencies missing ($(PC_REQUIRED)$(if $(NEED_PYTHON), $(PYTHON))); running 'make deps')
 DEPS_RESULT := $(shell $(MAKE) --no-print-directory deps >&2 && echo ok)
 ifneq ($(DEPS_RESULT),ok)
 $(error 'make deps' failed; install the packages above and try again)
@@ -144,6 +155,8 @@ STRESS_SRC := $(wildcard tests/stress/stress_*.c)
 FUZZ_SRC   := $(wildcard tests/fuzz/fuzz_*.c)
 BENCH_SRC  := $(wildcard tests/bench/bench_*.c)
 EXAMPLE_SRC:= $(wildcard examples/*.c)
+PYHELP_SRC := $(wildcard tests/python/*.c)
+PY_SRC     := $(filter-out %/_paths.py,$(wildcard python/sharedlink/*.py))
 
 obj = $(patsubst %.c,$(O)/obj/%.o,$(1))
 
@@ -152,7 +165,8 @@ A_SHM    := $(O)/internal/libshm.a
 A_CLIENT := $(O)/internal/libclient.a
 A_DAEMON := $(O)/internal/libdaemon.a
 A_TCOMMON:= $(O)/internal/libtestcommon.a
-INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_CLIENT) $(A_PROTO) $(A_SHM)
+A_CLI    := $(O)/internal/libcli.a
+INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_CLIENT) $(A_CLI) $(A_PROTO) $(A_SHM)
 SYS_LIBS := $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lutil -lm
 
 LIBSL_SO   := $(O)/libsharedlink.so.$(SOVERSION)
@@ -167,6 +181,7 @@ INTEG_BIN  := $(patsubst tests/%.c,$(O)/tests/%,$(INTEG_SRC))
 STRESS_BIN := $(patsubst tests/%.c,$(O)/tests/%,$(STRESS_SRC))
 REPLAY_BIN := $(patsubst tests/fuzz/%.c,$(O)/tests/fuzz/%-replay,$(FUZZ_SRC))
 EXAMPLE_BIN:= $(patsubst examples/%.c,$(O)/examples/%,$(EXAMPLE_SRC))
+PYHELP_BIN := $(patsubst tests/%.c,$(O)/tests/%,$(PYHELP_SRC))
 
 PROGRAMS := $(if $(DAEMON_MAIN),$(SHAREDLINKD)) $(if $(CLI_SRC),$(SLCTL)) \
             $(if $(LIB_SRC),$(LIBSL_SO) $(LIBSL_A) $(PCFILE))
@@ -189,20 +204,29 @@ help:
 
 # Builds the asan variant of everything and the tsan variant of the stress tests, then runs every
 # test binary once, with one total at the end.
+# The Python tests drive the asan sharedlinkd and slctl, but load the optimised library: an ASan
+# library in a Python that is not built with ASan needs libasan preloaded into the interpreter
+# (and into everything it starts), which depends on the Python build; the binding's own memory
+# contract is checked instead by the layout comparison (tests/python/layout.c) and by the size
+# check every Client makes at open.
 check:
 	$(MAKE) --no-print-directory SAN=asan test-build
 	$(if $(STRESS_SRC),$(MAKE) --no-print-directory SAN=tsan test-build-tsan)
-	@TEST_TIMEOUT=$(TEST_TIMEOUT) SHAREDLINK_BUILD=build/asan tests/run-tests.sh \
+	$(if $(PY_SRC),$(MAKE) --no-print-directory SAN= build/libsharedlink.so.$(SOVERSION))
+	@TEST_TIMEOUT=$(TEST_TIMEOUT) SHAREDLINK_BUILD=build/asan PYTHON=$(PYTHON) \
+	    SHAREDLINK_LIB=$(CURDIR)/build/libsharedlink.so.$(SOVERSION) \
+	    SHAREDLINK_LAYOUT=$(CURDIR)/build/asan/tests/python/layout tests/run-tests.sh \
 	    --unit "$(call variant_bins,build/asan,$(UNIT_SRC))" \
 	    --replay "$(patsubst tests/fuzz/%.c,build/asan/tests/fuzz/%-replay,$(FUZZ_SRC))" \
 	    --stress "$(call variant_bins,build/asan,$(STRESS_SRC))" \
 	    --tsan "$(call variant_bins,build/tsan,$(STRESS_SRC))" \
-	    --integration "$(call variant_bins,build/asan,$(INTEG_SRC))"
+	    --integration "$(call variant_bins,build/asan,$(INTEG_SRC))" \
+	    $(if $(PY_SRC),--python python/tests/run.py)
 
 variant_bins = $(patsubst tests/%.c,$(1)/tests/%,$(2))
 
 .PHONY: test-build test-build-tsan
-test-build: all $(UNIT_BIN) $(REPLAY_BIN) $(STRESS_BIN) $(INTEG_BIN) $(EXAMPLE_BIN)
+test-build: all $(UNIT_BIN) $(REPLAY_BIN) $(STRESS_BIN) $(INTEG_BIN) $(EXAMPLE_BIN) $(PYHELP_BIN)
 test-build-tsan: $(STRESS_BIN)
 
 # The no-hardware demo (tests/demo.sh): the optimised build, one daemon on conf/demo.yaml.
@@ -251,6 +275,8 @@ $(A_SHM): $(call obj,$(SHM_SRC))
 $(A_CLIENT): $(call obj,$(LIB_SRC))
 $(A_DAEMON): $(call obj,$(DAEMON_SRC))
 $(A_TCOMMON): $(call obj,$(TCOMMON_SRC))
+# slctl's modules for unit tests (slctl.c holds main()).
+$(A_CLI): $(call obj,$(filter-out src/cli/slctl.c,$(CLI_SRC)))
 
 # An archive with no members still needs one object to be a valid archive.
 $(INTERNAL_ARCHIVES): | $(O)/obj/empty.o
@@ -350,6 +376,18 @@ install: all
 	    chmod 0644 $$d.tmp; mv -f $$d.tmp $$d; echo "$$d: $$(grep '^ExecStart=' $$d)"; \
 	done
 	$(INSTALL) -m 0644 systemd/sharedlink.sysusers $(DESTDIR)$(SYSUSERSDIR)/sharedlink.conf
+	$(INSTALL) -d $(DESTDIR)$(BASHCOMPDIR)
+	$(INSTALL) -m 0644 completion/slctl.bash $(DESTDIR)$(BASHCOMPDIR)/slctl
+	@# The package records where the library went, so it loads with no LD_LIBRARY_PATH.
+	@if [ -z '$(PYTHONDIR)' ]; then \
+	    echo "python: no $(PYTHON): the sharedlink package is not installed (set PYTHONDIR)"; \
+	else set -e; d='$(DESTDIR)$(PYTHONDIR)/sharedlink'; \
+	    $(INSTALL) -d "$$d"; $(INSTALL) -m 0644 $(PY_SRC) "$$d/"; \
+	    printf '%s\n' '# Written by make install: where it put the library (after $$SHAREDLINK_LIB, tried first).' \
+	        'LIBRARY = "$(LIBDIR)/libsharedlink.so.$(SOVERSION)"' > "$$d/_paths.py"; \
+	    chmod 0644 "$$d/_paths.py"; \
+	    echo "$$d: the Python package (loads $(LIBDIR)/libsharedlink.so.$(SOVERSION))"; \
+	fi
 	sed $(TMPFILES_SED) systemd/sharedlink.tmpfiles > $(DESTDIR)$(TMPFILESDIR)/sharedlink.conf
 	chmod 0644 $(DESTDIR)$(TMPFILESDIR)/sharedlink.conf
 	@if [ -e $(CONF_DEST) ]; then echo "$(CONF_DEST): exists, kept"; \
@@ -367,7 +405,11 @@ uninstall:
 	    $(addprefix $(DESTDIR)$(UNITDIR)/,$(notdir $(UNIT_FILES))) \
 	    $(DESTDIR)$(SYSUSERSDIR)/sharedlink.conf $(DESTDIR)$(TMPFILESDIR)/sharedlink.conf \
 	    $(foreach p,$(MAN_PAGES),$(call mandir_of,$(p))/$(notdir $(p))) \
-	    $(foreach f,$(MAN_ALIASES),$(DESTDIR)$(MANDIR)/man3/$(f).3)
+	    $(foreach f,$(MAN_ALIASES),$(DESTDIR)$(MANDIR)/man3/$(f).3) \
+	    $(DESTDIR)$(BASHCOMPDIR)/slctl
+	@if [ -n '$(PYTHONDIR)' ]; then d='$(DESTDIR)$(PYTHONDIR)/sharedlink'; \
+	    rm -f $(addprefix "$$d"/,$(notdir $(PY_SRC)) _paths.py); rm -rf "$$d/__pycache__"; \
+	    [ ! -d "$$d" ] || rmdir "$$d"; fi
 	@if cmp -s conf/sharedlinkd.yaml $(CONF_DEST); then rm -f $(CONF_DEST); \
 	    rmdir $(DESTDIR)$(SYSCONFDIR)/sharedlink 2>/dev/null || true; \
 	elif [ -e $(CONF_DEST) ]; then echo "$(CONF_DEST): changed since install, kept"; fi
@@ -421,7 +463,18 @@ $(O)/bench/%: $(O)/obj/tests/bench/%.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)
 	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL)
 
-bench-run: all $(BENCH_BIN)
+# The Python read next to the C one (tests/bench/python_read.py): its C side goes through the
+# shared library, as the binding does.
+PYBENCH       := $(wildcard tests/bench/python_read.py)
+PYBENCH_C     := $(O)/bench/read_loop
+$(PYBENCH_C): tests/bench/read_loop.c $(LIBSL_SO)
+	@mkdir -p $(@D)
+	$(call quiet,LD)$(CC) -std=c11 -D_DEFAULT_SOURCE $(OPT) $(WARN) -Iinclude -o $@ $< $(LIBSL_SO) \
+	    -Wl,-rpath,$(CURDIR)/$(O)
+
+bench-run: all $(BENCH_BIN) $(if $(PYBENCH),$(PYBENCH_C))
 	@set -e; for b in $(BENCH_BIN); do echo "== $$b"; SHAREDLINK_BUILD=$(O) $$b; done
+	@$(if $(PYBENCH),echo "== $(PYBENCH)"; SHAREDLINK_BUILD=$(O) \
+	    SHAREDLINK_LIB=$(CURDIR)/$(LIBSL_SO) $(PYTHON) $(PYBENCH))
 
 -include $(shell find build -name '*.d' 2>/dev/null)

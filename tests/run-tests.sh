@@ -1,8 +1,10 @@
 #!/usr/bin/env bash
 # Runs the test binaries that `make check` built and prints one line per binary and a total.
 # Usage: run-tests.sh [--unit "BIN..."] [--replay "BIN..."] [--stress "BIN..."] [--integration "BIN..."]
+#                     [--python "SCRIPT..."]
 # Each binary gets TEST_TIMEOUT seconds (default 300); cmocka's own "[  PASSED  ] N test(s)." and
 # "[  FAILED  ] N test(s)" lines are summed so the total counts test cases, not binaries.
+# --python scripts run under $PYTHON (default python3) and print the same two lines.
 set -u
 timeout_s=${TEST_TIMEOUT:-300}
 passed=0 failed=0 failed_bins=()
@@ -12,7 +14,7 @@ mkdir -p "$logdir"
 run_one() {  # kind binary [args...]
     local kind=$1 bin=$2; shift 2
     local name log rc p f
-    name=$(basename "$bin")
+    name=${run_name:-$(basename "$bin")}
     log="$logdir/$name.log"
     timeout --kill-after=10 "$timeout_s" "$bin" "$@" >"$log" 2>&1
     rc=$?
@@ -41,6 +43,8 @@ while [ $# -gt 0 ]; do
         case $kind in
             replay) n=$(basename "$bin" -replay); n=${n#fuzz_}
                     run_one "$kind" "$bin" "tests/fuzz/corpus/$n" ;;
+            python) run_name=${bin//\//-} \
+                        run_one "$kind" "${PYTHON:-python3}" "$bin" ;;
             *)      run_one "$kind" "$bin" ;;
         esac
     done

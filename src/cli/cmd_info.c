@@ -10,6 +10,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "cli/counters.h"
 #include "cli/json.h"
 #include "cli/slctl.h"
 
@@ -135,12 +136,19 @@ int cmd_info_events(struct slctl *s, int argc, char **argv)
 
 /* ---- stats --------------------------------------------------------------------------------- */
 
-static void counters_text(const struct sl_counter *counters, unsigned n)
+/* The counters in scope, non-zero first, COUNTER_COLUMNS to a line. */
+static void counters_text(const struct sl_counter *counters, unsigned n, unsigned scope)
 {
-        for (unsigned i = 0; i < n; i++) {
-                int last = i + 1 == n || (i + 1) % COUNTER_COLUMNS == 0;
+        const struct sl_counter *shown[SL_COUNTERS_MAX];
+        unsigned count;
 
-                printf("  %-20s %10" PRIu64 "%s", counters[i].name, counters[i].value,
+        if (n > SL_COUNTERS_MAX)
+                n = SL_COUNTERS_MAX;
+        count = counters_select(counters, n, scope, shown);
+        for (unsigned i = 0; i < count; i++) {
+                int last = i + 1 == count || (i + 1) % COUNTER_COLUMNS == 0;
+
+                printf("  %-20s %10" PRIu64 "%s", shown[i]->name, shown[i]->value,
                        last ? "\n" : "");
         }
 }
@@ -162,7 +170,7 @@ static void format_real(char *buf, size_t size, uint64_t real_ns)
         strftime(buf, size, "%Y-%m-%dT%H:%M:%S", &tm);
 }
 
-static void daemon_text(struct slctl *s, const struct sl_daemon_info *d)
+static void daemon_text(struct slctl *s, const struct sl_daemon_info *d, int all)
 {
         char age[AGE_SIZE], started[TIME_SIZE];
 
@@ -175,10 +183,10 @@ static void daemon_text(struct slctl *s, const struct sl_daemon_info *d)
                 printf("heartbeat %s ago (every %u ms)\n", age, d->heartbeat_interval_ms);
         else
                 printf("no heartbeat\n");
-        counters_text(d->counters, d->counter_count);
+        counters_text(d->counters, d->counter_count, all ? COUNTERS_ALL : COUNTERS_DAEMON);
 }
 
-static void link_text(const struct sl_link_info *l)
+static void link_text(const struct sl_link_info *l, int all)
 {
         char age[AGE_SIZE];
 
@@ -188,7 +196,8 @@ static void link_text(const struct sl_link_info *l)
                 printf("%s for %s (state %d)\n", l->state_name, age, l->state);
         else
                 printf("no state yet\n");      /* its engine never set one */
-        counters_text(l->counters, l->counter_count);
+        counters_text(l->counters, l->counter_count,
+                      all ? COUNTERS_ALL : counters_protocol_scope(l->protocol));
 }
 
 static void daemon_json(struct slctl *s, const struct sl_daemon_info *d)
@@ -228,18 +237,22 @@ static void link_json(const struct sl_link_info *l, int first)
 
 int cmd_info_stats(struct slctl *s, int argc, char **argv)
 {
-        static const struct args_opt opts[] = { { "json", 0 }, { NULL, 0 } };
+        enum { O_JSON, O_ALL };
+        static const struct args_opt opts[] = {
+                [O_JSON] = { "json", 0 }, [O_ALL] = { "all", 0 }, { NULL, 0 },
+        };
         struct sl_daemon_info *d;
         struct sl_link_info *l;
         struct args a;
-        int code, links, json;
+        int code, links, json, all;
 
         code = slctl_args(s, argc, argv, opts, &a);
         if (code >= 0)
                 return code;
         if (a.npos > 0)
                 return slctl_usage(s, "stats takes no arguments");
-        json = a.given[0];
+        json = a.given[O_JSON];
+        all = a.given[O_ALL];           /* JSON always has every counter: a fixed set of keys */
         code = slctl_open(s, 1);
         if (code >= 0)
                 return code;
@@ -262,7 +275,7 @@ int cmd_info_stats(struct slctl *s, int argc, char **argv)
                 json_key(stdout, 0, "links");
                 fputc('[', stdout);
         } else {
-                daemon_text(s, d);
+                daemon_text(s, d, all);
         }
         links = sl_link_count(s->c);
         for (int i = 0, shown = 0; i < links; i++) {
@@ -280,7 +293,7 @@ int cmd_info_stats(struct slctl *s, int argc, char **argv)
                 if (json)
                         link_json(l, shown++ == 0);
                 else
-                        link_text(l);
+                        link_text(l, all);
         }
         if (json)
                 fputs("]}\n", stdout);

@@ -9,7 +9,7 @@ struct slctl;
 /* slctl events [--follow] [--new] [--count N] [--timeout MS] */
 int cmd_info_events(struct slctl *s, int argc, char **argv);
 
-/* slctl stats [--json] */
+/* slctl stats [--json] [--all] */
 int cmd_info_stats(struct slctl *s, int argc, char **argv);
 
 #endif

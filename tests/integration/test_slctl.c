@@ -15,6 +15,7 @@
 #define _GNU_SOURCE     /* pipe2 */
 #include <errno.h>
 #include <fcntl.h>
+#include <inttypes.h>
 #include <poll.h>
 #include <setjmp.h>
 #include <signal.h>
@@ -32,6 +33,7 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "cli/counters.h"
 #include "common/shmtest.h"
 #include "shm/table.h"
 
@@ -927,11 +929,9 @@ static void daemon_start(struct fixture *f, const char *links)
 }
 
 /* The `make demo` CIRCE pair: the emulator "arena" and the controller "agility" on its pty. */
-static void daemon_start_circe(struct fixture *f)
+static void links_circe(struct fixture *f, char *links, size_t size)
 {
-        char links[CONFIG_MAX];
-
-        snprintf(links, sizeof(links),
+        snprintf(links, size,
                  "  - name: arena\n"
                  "    protocol: circe\n"
                  "    role: mediator\n"
@@ -948,6 +948,13 @@ static void daemon_start_circe(struct fixture *f)
                  "    transport: serial\n"
                  "    device: %s/arena.tty\n",
                  f->h.dir, f->h.dir);
+}
+
+static void daemon_start_circe(struct fixture *f)
+{
+        char links[CONFIG_MAX];
+
+        links_circe(f, links, sizeof(links));
         daemon_start(f, links);
 }
 
@@ -1169,11 +1176,10 @@ static void test_daemon_library(void **state)
 
 
 /* SharedLink nodes A and B of one daemon, back to back over a pty; B also knows a silent C. */
-static void daemon_start_sharedlink(struct fixture *f)
+/* SharedLink node A <-> node B on a pty; node B also has a peer C that never answers. */
+static void links_sharedlink(struct fixture *f, char *links, size_t size)
 {
-        char links[CONFIG_MAX];
-
-        snprintf(links, sizeof(links),
+        snprintf(links, size,
                  "  - name: node_a\n"
                  "    protocol: sharedlink\n"
                  "    transport: pty\n"
@@ -1198,7 +1204,298 @@ static void daemon_start_sharedlink(struct fixture *f)
                  "        period_ms: 100\n"
                  "        outbound: [b.ForC]\n",
                  f->h.dir, f->h.dir);
+}
+
+static void daemon_start_sharedlink(struct fixture *f)
+{
+        char links[CONFIG_MAX];
+
+        links_sharedlink(f, links, sizeof(links));
         daemon_start(f, links);
+}
+
+/* Both pairs in one daemon, as `make demo` runs them. */
+static void daemon_start_both(struct fixture *f)
+{
+        char links[CONFIG_MAX], circe[CONFIG_MAX];
+        size_t n;
+
+        links_sharedlink(f, links, sizeof(links));
+        links_circe(f, circe, sizeof(circe));
+        n = strlen(links);
+        assert_true(n + strlen(circe) < sizeof(links));
+        memcpy(links + n, circe, strlen(circe) + 1);
+        daemon_start(f, links);
+}
+
+/* ---- bash completion (completion/slctl.bash) ----------------------------------------------- */
+
+#define COMPLETION_SCRIPT "completion/slctl.bash"     /* make check runs in the source tree */
+#define WORDS_MAX 16
+#define BASH_PATH "/bin/bash"     /* essential on Debian; the harness execs without PATH */
+
+/* Completes the words (the last one is the word being completed) the way bash's programmable
+ * completion would: sources the script, sets COMP_WORDS/COMP_CWORD, calls _slctl. Returns
+ * COMPREPLY, one per line, sorted, in f->out; a completion never writes to the terminal. */
+static void complete_argv(struct fixture *f, const char *const *words)
+{
+        static const char script[] =
+                "set -u; source \"$1\" || exit 9; shift\n"
+                "[ \"$(complete -p slctl)\" = 'complete -F _slctl slctl' ] || exit 8\n"
+                "COMP_WORDS=(\"$@\"); COMP_CWORD=$(($# - 1)); COMP_LINE=\"$*\"\n"
+                "_slctl || exit 7\n"
+                "[ ${#COMPREPLY[@]} -eq 0 ] || printf '%s\\n' \"${COMPREPLY[@]}\" | sort\n";
+        const char *argv[WORDS_MAX + 6] = { BASH_PATH, "-c", script, "bash", COMPLETION_SCRIPT,
+                                            harness_slctl_path() };
+        size_t n = 6;
+        int r;
+
+        for (size_t i = 0; words[i]; i++) {
+                assert_true(n < WORDS_MAX + 5);
+                argv[n++] = words[i];
+        }
+        argv[n] = NULL;
+        r = harness_run_capture(&f->h, f->out, sizeof(f->out), f->err, sizeof(f->err),
+                                RUN_LIMIT_MS, argv);
+        if (r != 0 || f->err[0])
+                fail_msg("completing: bash exit %d, output \"%s\", stderr \"%s\"", r, f->out,
+                         f->err);
+}
+
+#define COMPLETE(f, ...) complete_argv((f), (const char *const[]){ __VA_ARGS__, NULL })
+
+/* Commands, options and fixed values from the script; names, links, peers and devices from
+ * the real daemon through slctl; -i INSTANCE passed along. */
+static void test_completion(void **state)
+{
+        struct fixture *f = *state;
+        char words[sizeof(f->h.instance) + 4];
+
+        daemon_start_both(f);
+        wait_circe_up(f);
+        COMPLETE(f, "");
+        assert_string_equal(f->out, "circe\nevents\nget\nhelp\nlist\nquery\nset\nstats\nwatch\n");
+        COMPLETE(f, "st");
+        assert_string_equal(f->out, "stats\n");
+        COMPLETE(f, "--v");
+        assert_string_equal(f->out, "--version\n");
+        COMPLETE(f, "help", "ci");
+        assert_string_equal(f->out, "circe\n");
+        COMPLETE(f, "stats", "--");
+        assert_string_equal(f->out, "--all\n--help\n--json\n");
+        COMPLETE(f, "events", "--f");
+        assert_string_equal(f->out, "--follow\n");
+        /* Variables: every one for get, the outbound ones for set, none for set's value. */
+        COMPLETE(f, "get", "b.");
+        assert_string_equal(f->out, "b.Cmd\nb.ForC\nb.Head\nb.Lat\n");
+        COMPLETE(f, "watch", "--count", "3", "agility.device.E1E1E1.s");
+        assert_string_equal(f->out, "agility.device.E1E1E1.sensor_time\n"
+                            "agility.device.E1E1E1.signal\n");
+        COMPLETE(f, "set", "");
+        assert_string_equal(f->out, "a.Head\na.Lat\nb.Cmd\nb.ForC\n");
+        COMPLETE(f, "set", "a.Lat", "");
+        assert_string_equal(f->out, "");
+        /* -i: the instance on the line is asked, not the default; and instances complete. */
+        COMPLETE(f, "-i", "nosuchinstance", "get", "b.");
+        assert_string_equal(f->out, "");
+        snprintf(words, sizeof(words), "-i%s", f->h.instance);
+        COMPLETE(f, words, "get", "b.L");
+        assert_string_equal(f->out, "b.Lat\n");
+        COMPLETE(f, "-i", f->h.instance);
+        snprintf(words, sizeof(words), "%s\n", f->h.instance);
+        assert_string_equal(f->out, words);
+        /* Links by protocol, peers, CIRCE operations and device addresses. */
+        COMPLETE(f, "query", "");
+        assert_string_equal(f->out, "node_a\nnode_b\n");
+        COMPLETE(f, "query", "--timeout", "100", "node_b", "");
+        assert_string_equal(f->out, "A\nC\n");
+        COMPLETE(f, "circe", "");
+        assert_string_equal(f->out, "agility\narena\n");
+        COMPLETE(f, "circe", "agility", "");
+        assert_string_equal(f->out, "alert\ndevice-setup\nemulate\nnetwork-setup\n"
+                            "sync-clocks\nvisualize\n");
+        COMPLETE(f, "circe", "agility", "alert", "");
+        assert_string_equal(f->out, "AAAAAA\nD15D15\nE1E1E1\n");
+        COMPLETE(f, "circe", "arena", "emulate", "");
+        assert_string_equal(f->out, "action\n");
+        COMPLETE(f, "circe", "arena", "emulate", "action", "E");
+        assert_string_equal(f->out, "E1E1E1\n");
+        COMPLETE(f, "circe", "agility", "sync-clocks", "");
+        assert_string_equal(f->out, "");
+        COMPLETE(f, "circe", "agility", "visualize", "D15D15", "--el");
+        assert_string_equal(f->out, "--eliminated\n");
+        COMPLETE(f, "circe", "agility", "visualize", "D15D15", "--eliminated", "");
+        assert_string_equal(f->out, "0\n1\n");
+        COMPLETE(f, "circe", "agility", "device-setup", "--assign", "123456", "--dest", "A");
+        assert_string_equal(f->out, "AAAAAA\n");
+        COMPLETE(f, "circe", "agility", "network-setup", "E1E1E1", "--r");
+        assert_string_equal(f->out, "--roles\n");
+}
+
+/* With no daemon, the fixed words still complete, and slctl's complaints stay hidden. */
+static void test_completion_no_daemon(void **state)
+{
+        struct fixture *f = *state;
+
+        COMPLETE(f, "s");
+        assert_string_equal(f->out, "set\nstats\n");
+        COMPLETE(f, "get", "");
+        assert_string_equal(f->out, "");
+        COMPLETE(f, "circe", "x", "");
+        assert_string_equal(f->out, "alert\ndevice-setup\nemulate\nnetwork-setup\n"
+                            "sync-clocks\nvisualize\n");
+}
+
+/* ---- slctl stats: the counters that apply -------------------------------------------------- */
+
+/* One section of `slctl stats` text: the daemon's (name "") or a link's, its counters in order. */
+struct stats_section {
+        char name[SL_LINK_NAME_SIZE];
+        unsigned scope;
+        unsigned n;
+        char names[SL_COUNTERS_MAX][SL_NAME_SIZE];
+        uint64_t values[SL_COUNTERS_MAX];
+};
+
+#define STATS_SECTIONS_MAX 8
+
+/* Parses `slctl stats` text into sections; returns how many. */
+static unsigned stats_parse(const char *text, struct stats_section *sec)
+{
+        unsigned count = 0;
+        char line[512];
+
+        for (const char *p = text; *p; ) {
+                size_t len = strcspn(p, "\n");
+                struct stats_section *cur = count ? &sec[count - 1] : NULL;
+                char proto[SL_PROTOCOL_SIZE + 4];
+                const char *w;
+                int used;
+
+                assert_true(len < sizeof(line));
+                memcpy(line, p, len);
+                line[len] = '\0';
+                p += len + (p[len] == '\n');
+                if (strncmp(line, "instance ", 9) == 0 || strncmp(line, "link ", 5) == 0) {
+                        assert_true(count < STATS_SECTIONS_MAX);
+                        cur = &sec[count++];
+                        memset(cur, 0, sizeof(*cur));
+                        cur->scope = COUNTERS_DAEMON;
+                        if (line[0] == 'l') {
+                                assert_int_equal(sscanf(line, "link %31s (%19[^)])", cur->name,
+                                                        proto), 2);
+                                cur->scope = counters_protocol_scope(proto);
+                        }
+                        continue;
+                }
+                if (strncmp(line, "  epoch ", 8) == 0)
+                        continue;
+                assert_non_null(cur);
+                for (w = line; sscanf(w, " %47s %" SCNu64 "%n", cur->names[cur->n],
+                                      &cur->values[cur->n], &used) == 2; w += used) {
+                        assert_true(cur->n < SL_COUNTERS_MAX - 1);
+                        cur->n++;
+                }
+        }
+        return count;
+}
+
+/* A section shows exactly the counters of its scope (all: every one), non-zero first. */
+static void stats_check_section(const struct stats_section *sec, int all)
+{
+        unsigned want = 0, zero_seen = 0;
+
+        for (unsigned k = 0; k < counters_known(); k++)
+                want += all || (counters_scope(counters_known_name(k)) & sec->scope) != 0;
+        if (sec->n != want)
+                fail_msg("stats%s: section \"%s\" shows %u counters, %u apply", all ? " --all" : "",
+                         sec->name, sec->n, want);
+        for (unsigned i = 0; i < sec->n; i++) {
+                if (!all && !(counters_scope(sec->names[i]) & sec->scope))
+                        fail_msg("stats: \"%s\" shows %s", sec->name, sec->names[i]);
+                if (sec->values[i] == 0)
+                        zero_seen = 1;
+                else if (zero_seen)
+                        fail_msg("stats: \"%s\": %s is non-zero after a zero counter",
+                                 sec->name, sec->names[i]);
+        }
+}
+
+/* The real daemon, both protocols with traffic, errors and queries: no counter moves outside
+ * the scope slctl gives it (else stats would hide it), and stats shows exactly the counters
+ * that apply, non-zero first; --all every counter; --json every counter, always. */
+static void test_daemon_stats_scope(void **state)
+{
+        struct fixture *f = *state;
+        struct stats_section *sec = calloc(STATS_SECTIONS_MAX, sizeof(*sec));
+        struct sl_link_info *l = calloc(1, sizeof(*l));
+        struct sl_daemon_info d = { .size = sizeof(d) };
+        unsigned nsec, nonzero = 0;
+        int links;
+
+        assert_non_null(sec);
+        assert_non_null(l);
+        daemon_start_both(f);
+        wait_circe_up(f);
+        assert_int_equal(RUN(f, "set", "a.Lat", "40.5"), 0);
+        wait_value(f, "b.Lat", "40.5");
+        assert_int_equal(RUN(f, "query", "--wait", "10000", "node_b", "A", "a.Lat"), 0);
+        assert_int_equal(RUN(f, "query", "--timeout", "100", "node_b", "C", "x"), 1);
+        assert_int_equal(RUN(f, "set", "b.Cmd", "bad|value"), 1);
+        assert_int_equal(RUN(f, "circe", "arena", "emulate", "action", "E1E1E1"), 0);
+
+        links = sl_link_count(f->c);
+        assert_int_equal(links, 4);
+        for (int i = 0; i < links; i++) {
+                int r = -EAGAIN;
+
+                for (int t = 0; t < 64 && r == -EAGAIN; t++) {
+                        memset(l, 0, sizeof(*l));
+                        l->size = sizeof(*l);
+                        r = sl_link_info(f->c, i, l);
+                }
+                assert_int_equal(r, 0);
+                for (unsigned k = 0; k < l->counter_count; k++) {
+                        if (!l->counters[k].value)
+                                continue;
+                        nonzero++;
+                        if (!(counters_scope(l->counters[k].name) &
+                              counters_protocol_scope(l->protocol)))
+                                fail_msg("link %s (%s) moved %s, outside its scope", l->name,
+                                         l->protocol, l->counters[k].name);
+                }
+        }
+        assert_true(nonzero > 8);
+        assert_int_equal(sl_daemon_info(f->c, &d), 0);
+        for (unsigned k = 0; k < d.counter_count; k++)
+                if (d.counters[k].value && !(counters_scope(d.counters[k].name) & COUNTERS_DAEMON))
+                        fail_msg("the daemon moved %s, outside its scope", d.counters[k].name);
+
+        assert_int_equal(RUN(f, "stats"), 0);
+        nsec = stats_parse(f->out, sec);
+        assert_int_equal(nsec, 5);
+        for (unsigned i = 0; i < nsec; i++)
+                stats_check_section(&sec[i], 0);
+        assert_string_equal(sec[1].name, "node_a");
+        assert_int_equal(sec[1].scope, COUNTERS_SHAREDLINK);
+        assert_int_equal(sec[4].scope, COUNTERS_CIRCE);
+        assert_true(sec[1].values[0] > 0);             /* node_a had frames: first is non-zero */
+        assert_int_equal(RUN(f, "stats", "--all"), 0);
+        assert_int_equal(stats_parse(f->out, sec), 5);
+        for (unsigned i = 0; i < nsec; i++)
+                stats_check_section(&sec[i], 1);
+        assert_int_equal(RUN(f, "stats", "--json", "--all"), 0);
+        assert_json(f, f->out);
+        assert_int_equal(RUN(f, "stats", "--json"), 0);
+        assert_json(f, f->out);
+        /* Every counter in every section, also the other protocol's: a SharedLink-only one
+         * in the daemon's and the 4 links' objects. */
+        nsec = 0;
+        for (const char *p = f->out; (p = strstr(p, "\"not_for_us\":")) != NULL; p++)
+                nsec++;
+        assert_int_equal(nsec, 5);
+        free(sec);
+        free(l);
 }
 
 /* slctl query: the peer's answer, through the daemon and the wire. */
@@ -1281,6 +1578,9 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_daemon_library, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_tables, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_query, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_daemon_stats_scope, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_completion, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_completion_no_daemon, setup_bare, teardown),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

@@ -194,4 +194,82 @@ struct slp_list {
  * before a bad value, so the error always names the offending position. */
 int slp_encode_list(const struct slp_list *list, size_t *cursor, char *buf, size_t size);
 
+/* ---------------------------------------------------------------------------------------------
+ * Pronto4 dialect (docs/pronto4.md): variable types, value and name checks, declarations,
+ * their acknowledgement, list queries, module commands, and the one-frame data list. */
+
+/* The digit after T. Decision: any other digit, or anything but one digit, is an error. */
+enum slp_type {
+        SLP_TYPE_LONG = 0,              /* "T0": optional sign and decimal digits, fits int64 */
+        SLP_TYPE_DOUBLE = 2,            /* "T2": decimal, finite; also a name without T */
+        SLP_TYPE_STRING = 4,            /* "T4": any value of the wire charset */
+};
+
+/* Longest long: "-9223372036854775808". Longest double we emit with %.17g:
+ * "-1.7976931348623157e+308". The worst case of a data list at config check (config.c). */
+#define SLP_LONG_TEXT_MAX        20
+#define SLP_DOUBLE_TEXT_MAX      24
+
+/* The type a T field's value names ("0", "2" or "4"): 0 and *@ret_type, or -EINVAL. */
+int slp_type_parse(const char *value, size_t len, enum slp_type *ret_type);
+
+/* The T digit of @type ('0', '2', '4'), or 0 for a value outside enum slp_type. */
+char slp_type_digit(enum slp_type type);
+
+/*
+ * Whether @value (@len bytes, not NUL-terminated) is a valid value of @type: 0, -EINVAL, or
+ * -EMSGSIZE (longer than SLP_VALUE_MAX). Every type: wire charset (0x20-0x7E without | [ ]).
+ * Long: [+-] 1*DIGIT within int64. Double: [+-] (1*DIGIT ["." *DIGIT] / "." 1*DIGIT)
+ * [("e"/"E") [+-] 1*DIGIT], at most 1.7976931348623157e308 in magnitude (so strtod() gives a
+ * finite number), no spaces, no hex, inf or nan: the same answer in every locale. An empty value
+ * is not a long or a double (an empty D means "unchanged": the caller handles it first).
+ */
+int slp_value_check(enum slp_type type, const char *value, size_t len);
+
+/* A declared name (Q of a declaration, R of an acknowledgement, E's module): 1..SLP_VALUE_MAX
+ * bytes of letters, digits, '_', '.', '-'. Returns 0, -EINVAL or -EMSGSIZE. */
+int slp_name_check(const char *name, size_t len);
+
+/*
+ * A named list: a declaration "N0|T<t>|Q<name>|..." (or "L0|..."), or the acknowledgement of a
+ * declaration "N0|R<name>|D<value>|...". Split into frames like slp_encode_list() (each frame
+ * starts "N<k>" or "L<k>" at its first position), or in exactly one frame with one_frame.
+ */
+struct slp_named_list {
+        char dst, src;
+        char head;                      /* 'N' (the list the sender sends) or 'L' (receives) */
+        const char *const *names;       /* count NUL-terminated names, position 0 first */
+        const enum slp_type *types;     /* declarations: the type of each name */
+        const char *const *values;      /* acknowledgements: the value of each name */
+        size_t count;                   /* 0: a declaration of an empty list, "N0" alone */
+        size_t max_frame;               /* 0 = SLP_FRAME_DEFAULT; includes the CR LF when crlf */
+        bool crlf;
+        bool one_frame;                 /* -EMSGSIZE unless the whole list fits one frame */
+};
+
+/* Encodes the declaration frame that starts at *@cursor, "N<cursor>|T<t>|Q<name>..." with every
+ * entry typed (never the untyped double); same contract as slp_encode_list(). An empty list
+ * gives one frame "N0" (or "L0"): the peer learns the list is empty. -EINVAL also for a head
+ * other than N/L, a bad name or a type outside enum slp_type. */
+int slp_encode_declaration(const struct slp_named_list *list, size_t *cursor, char *buf,
+                           size_t size);
+
+/* Encodes the acknowledgement frame that starts at *@cursor, "N<cursor>|R<name>|D<value>..."
+ * (values may be empty); same contract as slp_encode_declaration(). */
+int slp_encode_acknowledgement(const struct slp_named_list *list, size_t *cursor, char *buf,
+                               size_t size);
+
+/* Encodes "N?" (@head 'N': send me your N list) or "L?" ('L'); returns the length or an error. */
+int slp_encode_list_query(char *buf, size_t size, char dst, char src, char head, unsigned flags);
+
+/* Encodes "E<module>|D<text>" (NUL-terminated; module as slp_name_check(), text the wire charset,
+ * at most SLP_VALUE_MAX bytes, may be empty); returns the length or an error. */
+int slp_encode_command(char *buf, size_t size, char dst, char src, const char *module,
+                       const char *text, unsigned flags);
+
+/* Encodes the whole list in one frame starting "N0" (compression and changed as in
+ * slp_encode_list()); returns its length, -EMSGSIZE when it cannot fit max_frame, -ENOSPC when
+ * it fits max_frame but not @size, or -EINVAL for a bad value or address. */
+int slp_encode_list_whole(const struct slp_list *list, char *buf, size_t size);
+
 #endif

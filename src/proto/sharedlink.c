@@ -1039,10 +1039,15 @@ int slp_encode_command(char *buf, size_t size, char dst, char src, const char *m
         return encode_pair(buf, size, dst, src, 'E', module, text, flags);
 }
 
+size_t slp_list_frame_len(size_t fields_len, bool crlf)
+{
+        return SL_HEADER_LEN + 3 + fields_len + SL_TRAILER_LEN + (crlf ? SL_CRLF_LEN : 0);
+}
+
 int slp_encode_list_whole(const struct slp_list *list, char *buf, size_t size)
 {
         size_t max_frame = list->max_frame ? list->max_frame : SLP_FRAME_DEFAULT;
-        size_t total = SL_HEADER_LEN + 3 + SL_TRAILER_LEN + (list->crlf ? SL_CRLF_LEN : 0);
+        size_t total = slp_list_frame_len(0, list->crlf);
         size_t cursor = 0;
         int r;
 

@@ -267,6 +267,10 @@ int slp_encode_list_query(char *buf, size_t size, char dst, char src, char head,
 int slp_encode_command(char *buf, size_t size, char dst, char src, const char *module,
                        const char *text, unsigned flags);
 
+/* Length of a list frame "[:AB|N0" ... "|C" hh "]" [CR LF] whose fields after the N0 take
+ * @fields_len bytes (each "|", a letter and its value): what a configuration check needs. */
+size_t slp_list_frame_len(size_t fields_len, bool crlf);
+
 /* Encodes the whole list in one frame starting "N0" (compression and changed as in
  * slp_encode_list()); returns its length, -EMSGSIZE when it cannot fit max_frame, -ENOSPC when
  * it fits max_frame but not @size, or -EINVAL for a bad value or address. */

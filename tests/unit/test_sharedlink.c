@@ -1469,6 +1469,16 @@ static void test_list_whole(void **state)
         r = slp_encode_list_whole(&l, buf, sizeof(buf));
         assert_true(r > 0);
         assert_int_equal(decode_one(buf, (size_t)r)->nfields, 11);
+        /* What a configuration check computes from the lengths alone. */
+        size_t fields = 0, names = 0;
+        for (size_t i = 0; i < 10; i++)
+                fields += 2 + strlen(list_values[i]);
+        assert_int_equal(slp_list_frame_len(fields, false), r);
+        assert_int_equal(slp_list_frame_len(fields, true), r + 2);
+        for (size_t i = 0; i < P4_COUNT; i++)
+                names += 2 + 1 + 2 + strlen(p4_names[i]);
+        assert_int_equal(slp_list_frame_len(names, false), strlen(P4_DECL_N));
+        assert_int_equal(slp_list_frame_len(0, false), strlen("[:AB|N0|C00]"));
         assert_int_equal(slp_encode_list_whole(&l, buf, (size_t)r - 1), -ENOSPC);
         /* Bad values and addresses; an empty list sends nothing. */
         l = (struct slp_list){ .dst = 'A', .src = 'B', .values = (const char *const[]){ "1", "|" },

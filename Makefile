@@ -11,6 +11,7 @@
 #   tests/stress/stress_*.c        stress tests, run by `make check` (asan) and again built with tsan
 #   tests/fuzz/fuzz_*.c            libFuzzer targets; corpus in tests/fuzz/corpus/<name>/
 #   tests/bench/bench_*.c          benchmarks, built optimised by `make bench`
+#   tests/peers/test_*.py          self-tests of the Python test peers, run by `make check`
 #   examples/*.c                   programs built only on <sharedlink.h> and pkg-config
 #   man/*.[1-8]                    man pages, installed by `make install` (section = suffix)
 #
@@ -54,7 +55,8 @@ Q     :=
 quiet  =
 endif
 
-DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev
+# python3: tests/peers/ (the Pronto4 test peer and its self-test), run by `make check`.
+DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev python3
 DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
 
 # ---------------------------------------------------------------------------------------------
@@ -68,8 +70,8 @@ endif
 NODEPS_GOALS := deps deps-extra clean help uninstall
 ifeq ($(filter-out $(NODEPS_GOALS),$(or $(MAKECMDGOALS),all)),)
 else
-ifneq ($(shell pkg-config --exists $(PC_REQUIRED) 2>/dev/null && echo ok),ok)
-$(info sharedlink: build dependencies missing ($(PC_REQUIRED)); running 'make deps')
+ifneq ($(shell pkg-config --exists $(PC_REQUIRED) 2>/dev/null && command -v python3 >/dev/null && echo ok),ok)
+$(info sharedlink: build dependencies missing ($(PC_REQUIRED) python3); running 'make deps')
 DEPS_RESULT := $(shell $(MAKE) --no-print-directory deps >&2 && echo ok)
 ifneq ($(DEPS_RESULT),ok)
 $(error 'make deps' failed; install the packages above and try again)
@@ -140,6 +142,8 @@ STRESS_SRC := $(wildcard tests/stress/stress_*.c)
 FUZZ_SRC   := $(wildcard tests/fuzz/fuzz_*.c)
 BENCH_SRC  := $(wildcard tests/bench/bench_*.c)
 EXAMPLE_SRC:= $(wildcard examples/*.c)
+# Test peers (scripts, no build): each test_*.py prints cmocka's summary lines.
+PEER_TESTS := $(wildcard tests/peers/test_*.py)
 
 obj = $(patsubst %.c,$(O)/obj/%.o,$(1))
 
@@ -193,7 +197,8 @@ check:
 	    --replay "$(patsubst tests/fuzz/%.c,build/asan/tests/fuzz/%-replay,$(FUZZ_SRC))" \
 	    --stress "$(call variant_bins,build/asan,$(STRESS_SRC))" \
 	    --tsan "$(call variant_bins,build/tsan,$(STRESS_SRC))" \
-	    --integration "$(call variant_bins,build/asan,$(INTEG_SRC))"
+	    --integration "$(call variant_bins,build/asan,$(INTEG_SRC))" \
+	    --peers "$(PEER_TESTS)"
 
 variant_bins = $(patsubst tests/%.c,$(1)/tests/%,$(2))
 

@@ -925,6 +925,98 @@ int slp_name_check(const char *name, size_t len)
         return 0;
 }
 
+static bool has_letter(const struct slp_frame *f, char letter)
+{
+        for (size_t i = 1; i < f->nfields; i++)
+                if (f->fields[i].letter == letter)
+                        return true;
+        return false;
+}
+
+static bool is_mu(const struct slp_field *f)
+{
+        static const char *const mus[] = { "UI", "UO", "L", "W" };
+
+        if (f->letter != 'M')
+                return false;
+        for (size_t i = 0; i < sizeof(mus) / sizeof(mus[0]); i++)
+                if (f->len == strlen(mus[i]) && memcmp(f->value, mus[i], f->len) == 0)
+                        return true;
+        return false;
+}
+
+enum slp_p4_kind slp_p4_kind_of(const struct slp_frame *frame)
+{
+        const struct slp_field *head = &frame->fields[0];
+        bool q, d;
+
+        if (frame->nfields == 0)
+                return SLP_P4_OTHER;
+        switch (head->letter) {
+        case 'P':
+                return SLP_P4_PING;
+        case 'G':
+                return SLP_P4_PONG;
+        case 'E':
+                return SLP_P4_COMMAND;
+        case 'M':
+                return frame->nfields == 1 && is_mu(head) ? SLP_P4_MU : SLP_P4_OTHER;
+        case 'N':
+        case 'L':
+                break;
+        default:
+                return SLP_P4_OTHER;
+        }
+        if (head->index == SLP_INDEX_QUERY)
+                return SLP_P4_LIST_QUERY;
+        /* Decision (docs/pronto4.md §4, §7): a Q makes a declaration, a Q with a D a
+         * self-describing frame; an R after N an acknowledgement; else N is positional data. */
+        q = has_letter(frame, 'Q');
+        d = has_letter(frame, 'D');
+        if (q)
+                return d && head->letter == 'N' ? SLP_P4_SELF_DESCRIBING : SLP_P4_DECLARATION;
+        if (head->letter == 'L')
+                return SLP_P4_OTHER;
+        return has_letter(frame, 'R') ? SLP_P4_ACKNOWLEDGEMENT : SLP_P4_DATA;
+}
+
+int slp_entry_next(const struct slp_frame *frame, size_t *pos, struct slp_entry *ret_entry)
+{
+        const struct slp_field *f = frame->fields;
+        size_t n = frame->nfields, i = *pos;
+        struct slp_entry e = { .type = SLP_TYPE_DOUBLE };
+        bool bad = false;
+
+        if (i >= n)
+                return 0;
+        if (f[i].letter == 'T') {
+                bad = slp_type_parse(f[i].value, f[i].len, &e.type) < 0;
+                e.typed = true;
+                i++;
+        }
+        if (i >= n || (f[i].letter != 'Q' && f[i].letter != 'R')) {
+                /* A T without its name, a stray D or another letter: one field, bad. */
+                *pos = e.typed ? i : i + 1;
+                return -EINVAL;
+        }
+        e.letter = f[i].letter;
+        e.name = f[i].value;
+        e.name_len = f[i].len;
+        bad |= slp_name_check(e.name, e.name_len) < 0;
+        i++;
+        if (i < n && f[i].letter == 'D') {
+                e.value = f[i].value;
+                e.value_len = f[i].len;
+                e.has_value = true;
+                i++;
+        }
+        *pos = i;
+        if (bad)
+                return -EINVAL;
+        *ret_entry = e;
+        return 1;
+}
+
 /* The two fields of position @pos of a named list: T/Q (declaration) or R/D (acknowledgement). */
 static int named_entry(const struct slp_named_list *l, size_t pos, bool declaration,
                        struct slp_field ret[2])

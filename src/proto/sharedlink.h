@@ -226,6 +226,44 @@ char slp_type_digit(enum slp_type type);
  */
 int slp_value_check(enum slp_type type, const char *value, size_t len);
 
+/* What a decoded frame is in the Pronto4 dialect, told by its first field and the letters after
+ * it (docs/pronto4.md §2); bulletin traffic that means nothing more is SLP_P4_OTHER. */
+enum slp_p4_kind {
+        SLP_P4_OTHER = 0,               /* Q, R answers, D without N, L<k> without Q ... */
+        SLP_P4_DATA,                    /* N<k> and D fields only: positional data */
+        SLP_P4_DECLARATION,             /* N<k> or L<k>, then [T] Q entries, no D */
+        SLP_P4_ACKNOWLEDGEMENT,         /* N<k>, then R D pairs: the answer to a declaration */
+        SLP_P4_SELF_DESCRIBING,         /* N<k>, then [T] Q D triples: values by name */
+        SLP_P4_LIST_QUERY,              /* N? or L? (fields[0].letter says which) */
+        SLP_P4_PING,                    /* P<n>: answer G<n> */
+        SLP_P4_PONG,                    /* G<n> */
+        SLP_P4_COMMAND,                 /* E<module> [D<text>] */
+        SLP_P4_MU,                      /* MUI, MUO, ML or MW alone */
+};
+
+/* Classifies @frame; pure, never fails. */
+enum slp_p4_kind slp_p4_kind_of(const struct slp_frame *frame);
+
+/* One entry of a declaration, an acknowledgement or a self-describing frame: [T<t>] Q<name> or
+ * R<name>, then an optional D<value>. Pointers into the frame (valid as the frame is). */
+struct slp_entry {
+        const char *name;
+        const char *value;              /* has_value only */
+        uint16_t name_len, value_len;
+        enum slp_type type;             /* SLP_TYPE_DOUBLE when !typed (a name without T) */
+        bool typed, has_value;
+        char letter;                    /* 'Q' or 'R' */
+};
+
+/*
+ * Walks the entries of @frame from field *@pos (1 = after the head N/L field; the caller starts
+ * there). Returns 1 with the entry in *@ret_entry, 0 at the end, or -EINVAL for a bad entry (a T
+ * whose value is not 0, 2 or 4, a T not followed by a name, a name that fails slp_name_check(),
+ * a stray D or another letter); *@pos always moves past what was read, so the caller counts the
+ * bad entry and goes on (the entry of a bad T is consumed with it: never learned untyped).
+ */
+int slp_entry_next(const struct slp_frame *frame, size_t *pos, struct slp_entry *ret_entry);
+
 /* A declared name (Q of a declaration, R of an acknowledgement, E's module): 1..SLP_VALUE_MAX
  * bytes of letters, digits, '_', '.', '-'. Returns 0, -EINVAL or -EMSGSIZE. */
 int slp_name_check(const char *name, size_t len);

@@ -224,6 +224,33 @@ static void check_value_types(const char *v, size_t n)
         }
 }
 
+/* The dialect's reading of a frame: a kind in range; entries that always move on, lie inside
+ * the frame and are what slp_entry_next() promises. */
+static void check_entries(const struct slp_frame *f)
+{
+        enum slp_p4_kind k = slp_p4_kind_of(f);
+        struct slp_entry e;
+        size_t pos = 1, prev = 1;
+        int r;
+
+        CHECK(k >= SLP_P4_OTHER && k <= SLP_P4_MU);
+        while ((r = slp_entry_next(f, &pos, &e)) != 0) {
+                CHECK(pos > prev && pos <= f->nfields);
+                prev = pos;
+                if (r < 0) {
+                        CHECK(r == -EINVAL);
+                        continue;
+                }
+                CHECK(r == 1 && (e.letter == 'Q' || e.letter == 'R'));
+                CHECK(slp_name_check(e.name, e.name_len) == 0);
+                CHECK(e.name > f->raw && e.name + e.name_len < f->raw + f->raw_len);
+                CHECK(slp_type_digit(e.type) != 0 && (e.typed || e.type == SLP_TYPE_DOUBLE));
+                if (e.has_value)
+                        CHECK(e.value > f->raw && e.value + e.value_len < f->raw + f->raw_len);
+        }
+        CHECK(pos >= f->nfields);
+}
+
 static void on_result(struct run *run, const struct slp_decode_result *r)
 {
         hash_word(run, (uint64_t)r->kind << 32 | (uint64_t)r->reason);
@@ -236,6 +263,7 @@ static void on_result(struct run *run, const struct slp_decode_result *r)
                 check_frame_shape(f, dec.max_frame);
                 for (size_t i = 0; i < f->nfields; i++)
                         check_value_types(f->fields[i].value, f->fields[i].len);
+                check_entries(f);
                 hash_bytes(run, f->raw, f->raw_len);
                 if (run->reencode)
                         check_reencode(f, run->crlf_flag);

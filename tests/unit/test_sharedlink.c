@@ -1494,6 +1494,123 @@ static void test_list_whole(void **state)
         assert_int_equal(slp_encode_list_whole(&l, buf, sizeof(buf)), 0);
 }
 
+/* The dialect's reading of decoded frames: what each is, and its entries. */
+
+static const struct kind_case {
+        const char *wire;
+        enum slp_p4_kind kind;
+} kind_cases[] = {
+        { P4_DECL_N, SLP_P4_DECLARATION },
+        { P4_DECL_L, SLP_P4_DECLARATION },
+        { "[:BA|L1|T0|Qz|CBC]", SLP_P4_DECLARATION },
+        { P4_ACK, SLP_P4_ACKNOWLEDGEMENT },
+        { "[:AB|N0|T4|QVehicleName|DVEH_1|T2|QAutoGpsLat|D0|C5E]", SLP_P4_SELF_DESCRIBING },
+        { "[:AB|N0||D0|D|D|C62]", SLP_P4_DATA },
+        { "[:BA|N5|D1|D2|C5E]", SLP_P4_DATA },
+        { "[:BA|N?|C85]", SLP_P4_LIST_QUERY },
+        { "[:BA|L?|C83]", SLP_P4_LIST_QUERY },
+        { "[:AB|P0|C78]", SLP_P4_PING },
+        { "[:BA|G0|C6F]", SLP_P4_PONG },
+        { "[:BA|EServoPod|D0,TELEOP START|C2]", SLP_P4_COMMAND },
+        { "[:BA|MUI|CE3]", SLP_P4_MU },
+        { "[:BA|MUO|CE9]", SLP_P4_MU },
+        { "[:BA|MW|C9C]", SLP_P4_MU },
+        { "[:BA|ML|C91]", SLP_P4_MU },
+        { "[:BA|MX|C9D]", SLP_P4_OTHER },
+        { "[:BA|MUI|D1|CD4]", SLP_P4_OTHER },
+        { "[:AB|RAutoGpsLat|D1|C1F]", SLP_P4_OTHER },          /* a bulletin answer */
+        { "[:AB|QAutoGpsLat|C2D]", SLP_P4_OTHER },              /* a bulletin query */
+        { "[:AB|D1|D2|C5F]", SLP_P4_OTHER },
+        { "[:BA|L0|D1|C65]", SLP_P4_OTHER },
+};
+
+static void test_p4_kind(void **state)
+{
+        (void)state;
+        for (size_t i = 0; i < sizeof(kind_cases) / sizeof(kind_cases[0]); i++) {
+                const struct slp_frame *f = decode_one(kind_cases[i].wire,
+                                                       strlen(kind_cases[i].wire));
+                enum slp_p4_kind k = slp_p4_kind_of(f);
+
+                if (k != kind_cases[i].kind)
+                        print_error("%s: kind %d, want %d\n", kind_cases[i].wire, (int)k,
+                                    (int)kind_cases[i].kind);
+                assert_int_equal(k, kind_cases[i].kind);
+        }
+}
+
+/* Entries of a frame as text: "name:type" ("name:2?" untyped), "=value" when it has one,
+ * "!" for a bad entry; separated by spaces. */
+static void entries_text(const char *wire, char *out, size_t size)
+{
+        const struct slp_frame *f = decode_one(wire, strlen(wire));
+        struct slp_entry e;
+        size_t pos = 1, n = 0, last = 0;
+        int r;
+
+        out[0] = '\0';
+        while ((r = slp_entry_next(f, &pos, &e)) != 0) {
+                int w;
+
+                assert_true(pos > last && pos <= f->nfields);  /* always moves on */
+                last = pos;
+                if (r < 0) {
+                        assert_int_equal(r, -EINVAL);
+                        w = snprintf(out + n, size - n, "%s!", n ? " " : "");
+                } else {
+                        w = snprintf(out + n, size - n, "%s%c%.*s:%d%s", n ? " " : "", e.letter,
+                                     (int)e.name_len, e.name, (int)e.type, e.typed ? "" : "?");
+                        if (w > 0 && e.has_value)
+                                w += snprintf(out + n + (size_t)w, size - n - (size_t)w, "=%.*s",
+                                              (int)e.value_len, e.value);
+                }
+                assert_true(w > 0 && (size_t)w < size - n);
+                n += (size_t)w;
+        }
+        assert_int_equal(pos, f->nfields);
+}
+
+static void test_p4_entries(void **state)
+{
+        static const char *const cases[][2] = {
+                { "[:BA|N0|T0|Qthrottle|Qsvp_enb_eng|T0|Qserialpck|C97]",
+                  "Qthrottle:0 Qsvp_enb_eng:2? Qserialpck:0" },
+                { "[:AB|N0|T4|QVehicleName|DVEH_1|T2|QAutoGpsLat|D0|C5E]",
+                  "QVehicleName:4=VEH_1 QAutoGpsLat:2=0" },
+                { "[:AB|N0|Rok|D1|Rx|D|C15]", "Rok:2?=1 Rx:2?=" },
+                { "[:BA|N0|Rsvp_enb_eng|CCA]", "Rsvp_enb_eng:2?" },
+                /* bad entries: the T 3 takes its name with it; a T without a name; a bad name;
+                 * a stray D; a T at the end */
+                { "[:BA|N0|T3|Qa|T0|Qb|CD6]", "! Qb:0" },
+                { "[:BA|N0|T0|T2|Qb|CA7]", "! Qb:2" },
+                { "[:BA|N0|T0|Qa b|T2|Qc|C58]", "! Qc:2" },
+                { "[:BA|N0|Dx|T0|Qa|CDC]", "! Qa:0" },
+                { "[:BA|N0|T0|Qa|T4|CA8]", "Qa:0 !" },
+                { "[:BA|N?|C85]", "" },
+        };
+        char out[1024];
+
+        (void)state;
+        for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+                entries_text(cases[i][0], out, sizeof(out));
+                if (strcmp(out, cases[i][1]) != 0)
+                        print_error("%s\n  got:  %s\n  want: %s\n", cases[i][0], out, cases[i][1]);
+                assert_string_equal(out, cases[i][1]);
+        }
+        /* The field lists: 10 typed entries, and 31 with one untyped (a double). */
+        entries_text(P4_DECL_N, out, sizeof(out));
+        assert_string_equal(out, "Qvideo_mux1:0 Qveh_start:0 Qveh_enable:0 Qveh_motion:0 "
+                            "Qjoy_steer:2 Qveh_steer:0 Qveh_brake:0 Qveh_throttle:0 Qveh_shift:0 "
+                            "Qveh_clutch:0");
+        entries_text(P4_DECL_L, out, sizeof(out));
+        assert_non_null(strstr(out, " Qthrottle:0 Qsvp_enb_eng:2? Qserialpck:0 "));
+        assert_null(strchr(out, '!'));
+        entries_text(P4_ACK, out, sizeof(out));
+        assert_string_equal(out, "Rvideo_mux1:2?=0 Rveh_start:2?=0 Rveh_enable:2?=0 "
+                            "Rveh_motion:2?=0 Rjoy_steer:2?=0 Rveh_steer:2?=0 Rveh_brake:2?=100 "
+                            "Rveh_throttle:2?=0 Rveh_shift:2?=0 Rveh_clutch:2?=0");
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -1520,6 +1637,8 @@ int main(void)
                 cmocka_unit_test(test_list_query_encode),
                 cmocka_unit_test(test_command_encode),
                 cmocka_unit_test(test_list_whole),
+                cmocka_unit_test(test_p4_kind),
+                cmocka_unit_test(test_p4_entries),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

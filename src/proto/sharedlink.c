@@ -947,11 +947,12 @@ static bool is_mu(const struct slp_field *f)
 
 enum slp_p4_kind slp_p4_kind_of(const struct slp_frame *frame)
 {
-        const struct slp_field *head = &frame->fields[0];
+        const struct slp_field *head;
         bool q, d;
 
         if (frame->nfields == 0)
                 return SLP_P4_OTHER;
+        head = &frame->fields[0];
         switch (head->letter) {
         case 'P':
                 return SLP_P4_PING;

@@ -10,7 +10,8 @@ UDP, and is as demanding as those clients are:
   bridge's receiver): reported as an error;
 - received checksums are checked (the ROS 2 bridge does not; we do, to catch a bad sender);
 - values are checked against their declared type (T0 long, T2 double, T4 string);
-- at start (script action "query") it sends L? and N? and waits for the typed answers.
+- at start it sends L? and N? and waits for the typed answers: the script action "query", which
+  a script that plays the C++ adapter puts first.
 
 Roles:
   host     sends the connect sequence (ELink|D0, SetIP, <ip>:<port>, 4000 / outbound, on /
@@ -24,7 +25,8 @@ Roles:
 Both roles answer "L?" with "N0|T|Q..." (the list they send) and "N?" with "L0|T|Q..." (the list
 they receive).
 
-Output: one JSON object per line on stdout, one per event (see EVENTS below); nothing else.
+Output: one JSON object per line on stdout, one per event (see EVENTS below); nothing else. The
+first line is always "ready", with the bound address ("local"): bind port 0 and read it.
 Script: actions separated by ";" in --script, or one per line on stdin with --script -. Actions:
   connect                         host: the three ELink commands
   declare                         send the N0 and L0 declarations (typed, one frame each)
@@ -407,7 +409,8 @@ def main(argv):
     ap.add_argument("--role", choices=("host", "vehicle"), required=True)
     ap.add_argument("--local", default="127.0.0.1:0", help="HOST:PORT to bind (0: any port)")
     ap.add_argument("--remote", help="HOST:PORT to send to (vehicle: default the last sender)")
-    ap.add_argument("--send", default="", help="our outbound list, e.g. T0:veh_start,T2:x")
+    ap.add_argument("--send", default="",
+                    help="our outbound list, e.g. T0:veh_start,T2:x (bare name: double)")
     ap.add_argument("--recv", default="", help="our inbound list, same syntax")
     ap.add_argument("--period-ms", type=int, default=200, help="vehicle: full N0 every (0: no)")
     ap.add_argument("--timeout", type=float, default=10.0, help="seconds a wait may take")

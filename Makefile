@@ -13,6 +13,7 @@
 #   tests/stress/stress_*.c        stress tests, run by `make check` (asan) and again built with tsan
 #   tests/fuzz/fuzz_*.c            libFuzzer targets; corpus in tests/fuzz/corpus/<name>/
 #   tests/bench/bench_*.c          benchmarks, built optimised by `make bench`
+#   tests/peers/test_*.py          self-tests of the Python test peers, run by `make check`
 #   examples/*.c                   programs built only on <sharedlink.h> and pkg-config
 #   man/*.[1-8]                    man pages, installed by `make install` (section = suffix)
 #   python/sharedlink/*.py         the Python package (ctypes), installed into PYTHONDIR;
@@ -64,6 +65,7 @@ Q     :=
 quiet  =
 endif
 
+# python3: the Python binding (python/tests) and tests/peers/ (the Pronto4 test peer), in `make check`.
 DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev python3
 DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
 
@@ -157,6 +159,8 @@ BENCH_SRC  := $(wildcard tests/bench/bench_*.c)
 EXAMPLE_SRC:= $(wildcard examples/*.c)
 PYHELP_SRC := $(wildcard tests/python/*.c)
 PY_SRC     := $(filter-out %/_paths.py,$(wildcard python/sharedlink/*.py))
+# Test peers (scripts, no build): each test_*.py prints cmocka's summary lines.
+PEER_TESTS := $(wildcard tests/peers/test_*.py)
 
 obj = $(patsubst %.c,$(O)/obj/%.o,$(1))
 
@@ -221,7 +225,8 @@ check:
 	    --stress "$(call variant_bins,build/asan,$(STRESS_SRC))" \
 	    --tsan "$(call variant_bins,build/tsan,$(STRESS_SRC))" \
 	    --integration "$(call variant_bins,build/asan,$(INTEG_SRC))" \
-	    $(if $(PY_SRC),--python python/tests/run.py)
+	    $(if $(PY_SRC),--python python/tests/run.py) \
+	    --peers "$(PEER_TESTS)"
 
 variant_bins = $(patsubst tests/%.c,$(1)/tests/%,$(2))
 

@@ -2,6 +2,7 @@
 # Runs the test binaries that `make check` built and prints one line per binary and a total.
 # Usage: run-tests.sh [--unit "BIN..."] [--replay "BIN..."] [--stress "BIN..."] [--integration "BIN..."]
 #                     [--python "SCRIPT..."]
+#                     [--peers "SCRIPT..."]   (scripts are run as they are: python3 must be there)
 # Each binary gets TEST_TIMEOUT seconds (default 300); cmocka's own "[  PASSED  ] N test(s)." and
 # "[  FAILED  ] N test(s)" lines are summed so the total counts test cases, not binaries.
 # --python scripts run under $PYTHON (default python3) and print the same two lines.

@@ -245,6 +245,23 @@ static void channel_on_retry(struct evloop *loop, struct evloop_timer *timer, vo
         channel_leave(ch);
 }
 
+/*
+ * transport_write(), where an ECONNREFUSED on a datagram socket is not an error of this
+ * datagram: it reports the ICMP port unreachable an earlier one got (the peer's socket did not
+ * exist yet, as at start-up), and the kernel then drops this one unsent. The error is cleared by
+ * being reported, so the datagram goes again, once; the refusal is counted apart from io_errors.
+ */
+static ssize_t channel_write(struct channel *ch, const void *data, size_t len)
+{
+        ssize_t n = transport_write(ch->tp, data, len);
+
+        if (n == -ECONNREFUSED && transport_is_datagram(ch->tp)) {
+                ch->stats.refused++;
+                n = transport_write(ch->tp, data, len);
+        }
+        return n;
+}
+
 /* Writes queued output until it blocks. Returns false if the channel went down. */
 static bool channel_flush(struct channel *ch)
 {
@@ -260,7 +277,7 @@ static bool channel_flush(struct channel *ch)
                         len = (size_t)p[0] | (size_t)p[1] << 8;
                         p += hdr;
                 }
-                n = transport_write(ch->tp, p, len);
+                n = channel_write(ch, p, len);
                 if (n == -EAGAIN)
                         break;
                 if (n < 0) {
@@ -298,6 +315,11 @@ static bool channel_read(struct channel *ch, unsigned revents)
                 n = transport_read(ch->tp, ch->rbuf, sizeof(ch->rbuf));
                 if (n == -EAGAIN)
                         break;
+                if (n == -ECONNREFUSED && dgram) {
+                        /* The ICMP answer to a datagram of ours: see channel_write(). */
+                        ch->stats.refused++;
+                        continue;
+                }
                 if (n < 0) {
                         ch->stats.io_errors++;
                         if (transport_error_fatal(ch->tp, (int)n)) {
@@ -442,7 +464,7 @@ int channel_send(struct channel *ch, const void *data, size_t len)
                 return 0;
         /* Nothing queued: write now, which saves a POLLOUT round trip (and its wakeup). */
         if (channel_q_len(&ch->q) == 0)
-                n = transport_write(ch->tp, data, len);
+                n = channel_write(ch, data, len);
         if (n >= 0) {
                 ch->stats.bytes_out += (uint64_t)n;
                 if (dgram) {

@@ -73,6 +73,8 @@ struct channel_stats {
         uint64_t datagrams_in, datagrams_out;
         uint64_t tx_dropped;            /* frames refused: down, queue full, too large, error */
         uint64_t rx_dropped;            /* datagrams dropped: larger than TRANSPORT_DATAGRAM_MAX */
+        uint64_t refused;               /* udp: ICMP port unreachable (nobody listening there,
+                                         * e.g. the peer not started yet): not an io_error */
 };
 
 /* Creates a stopped channel over a copy of params; 0, -EINVAL (bad params or options) or

@@ -17,6 +17,7 @@
  * - Strings may not contain control characters (double-quoted escapes could produce them).
  */
 #include "daemon/config.h"
+#include "proto/sharedlink.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -567,6 +568,10 @@ static const struct enum_name flow_names[] = {
         { "rtscts", CONFIG_FLOW_RTSCTS },
         { "xonxoff", CONFIG_FLOW_XONXOFF },
 };
+static const struct enum_name dialect_names[] = {
+        { "bulletin", CONFIG_DIALECT_BULLETIN },
+        { "pronto4", CONFIG_DIALECT_PRONTO4 },
+};
 static const struct enum_name var_type_names[] = {
         { "string", CONFIG_VAR_STRING },
         { "long", CONFIG_VAR_LONG },
@@ -921,16 +926,155 @@ static int parse_var_list(struct ctx *c, const char *key, const struct ynode *n,
 
 enum {
         PK_ADDRESS, PK_PERIOD_MS, PK_REFRESH_MS, PK_COMPRESSION, PK_ON_CHANGE, PK_MIN_INTERVAL_MS,
-        PK_STALE_MS, PK_MAX_FRAME, PK_OUTBOUND, PK_INBOUND, PK_COUNT
+        PK_STALE_MS, PK_MAX_FRAME, PK_OUTBOUND, PK_INBOUND, PK_DIALECT, PK_DECLARE, PK_LEARN_MAX,
+        PK_COUNT
 };
 static const char *const peer_keys[PK_COUNT] = {
         [PK_ADDRESS] = "address", [PK_PERIOD_MS] = "period_ms", [PK_REFRESH_MS] = "refresh_ms",
         [PK_COMPRESSION] = "compression", [PK_ON_CHANGE] = "on_change",
         [PK_MIN_INTERVAL_MS] = "min_interval_ms", [PK_STALE_MS] = "stale_ms",
         [PK_MAX_FRAME] = "max_frame", [PK_OUTBOUND] = "outbound", [PK_INBOUND] = "inbound",
+        [PK_DIALECT] = "dialect", [PK_DECLARE] = "declare", [PK_LEARN_MAX] = "learn_max",
 };
 
-static int parse_peer(struct ctx *c, const struct ynode *n, char own_address,
+/* ---------------------------------------------------------------------------------------------
+ * SharedLink peers: the Pronto4 dialect (docs/pronto4.md) */
+
+/*
+ * The longest text a value of each type takes on the wire, for the one-frame check. A long is
+ * checked against its type before it is sent; a double goes out in its shortest round-trip form
+ * (what sl_write_double() with decimals < 0 writes, and what the link re-formats to).
+ */
+static size_t var_text_max(enum config_var_type type)
+{
+        switch (type) {
+        case CONFIG_VAR_LONG:
+                return SLP_LONG_TEXT_MAX;
+        case CONFIG_VAR_DOUBLE:
+                return SLP_DOUBLE_TEXT_MAX;
+        case CONFIG_VAR_STRING:
+                break;
+        }
+        return SLP_VALUE_MAX;
+}
+
+/* An outbound or inbound list, or the word "learn" (the list comes from the peer). */
+static int parse_peer_list(struct ctx *c, const char *key, const struct ynode *n,
+                           struct config_var **ret_vars, unsigned *ret_count, bool *ret_learn)
+{
+        if (n->kind == YNODE_SCALAR && scalar_is(n, "learn")) {
+                *ret_learn = true;
+                return 0;
+        }
+        return parse_var_list(c, key, n, ret_vars, ret_count);
+}
+
+/* Bytes of the fields "|T<t>|Q<name>" of a declaration of @vars. */
+static size_t declaration_fields_len(const struct config_var *vars, unsigned n)
+{
+        size_t len = 0;
+
+        for (unsigned i = 0; i < n; i++)
+                len += 2 + 1 + 2 + strlen(vars[i].name);
+        return len;
+}
+
+/*
+ * The Pronto4 clients want every data frame as one full-length N0 list (a partial one kills the
+ * ROS 2 bridge's receiver) and the answers to N? and L? (our typed declarations) as one frame
+ * each: the worst case of each must fit max_frame, or the link could never talk to them.
+ */
+static int check_pronto4_frames(struct ctx *c, const struct config_peer *p, bool crlf,
+                                const struct ynode *out_node, const struct ynode *in_node)
+{
+        size_t data = 0, len;
+
+        for (unsigned i = 0; i < p->n_outbound; i++)
+                data += 2 + var_text_max(p->outbound[i].type);
+        len = slp_list_frame_len(data, crlf);
+        if (p->n_outbound > 0 && len > p->max_frame)
+                return fail(c, out_node, "outbound: %u variables take up to %zu bytes as one "
+                            "frame, more than max_frame %u (a pronto4 peer gets every data "
+                            "frame as one full N0 list)", p->n_outbound, len, p->max_frame);
+        len = slp_list_frame_len(declaration_fields_len(p->outbound, p->n_outbound), crlf);
+        if (p->n_outbound > 0 && len > p->max_frame)
+                return fail(c, out_node, "outbound: its declaration N0|T|Q... takes %zu bytes, "
+                            "more than max_frame %u (a pronto4 peer wants it in one frame)", len,
+                            p->max_frame);
+        len = slp_list_frame_len(declaration_fields_len(p->inbound, p->n_inbound), crlf);
+        if (p->n_inbound > 0 && len > p->max_frame)
+                return fail(c, in_node, "inbound: its declaration L0|T|Q... takes %zu bytes, "
+                            "more than max_frame %u (a pronto4 peer wants it in one frame)", len,
+                            p->max_frame);
+        return 0;
+}
+
+/* The keys that only a pronto4 peer may have: refused, by name, on a bulletin peer. */
+static int check_bulletin_peer(struct ctx *c, const struct ynode *const *keys,
+                               const struct ynode *const *vals, const struct config_peer *p)
+{
+        static const unsigned only_pronto4[] = { PK_DECLARE, PK_LEARN_MAX };
+
+        for (size_t i = 0; i < ENUM_COUNT(only_pronto4); i++)
+                if (keys[only_pronto4[i]])
+                        return fail(c, keys[only_pronto4[i]], "key %s needs dialect: pronto4",
+                                    quote_node(c, keys[only_pronto4[i]]));
+        if (p->outbound_learn)
+                return fail(c, vals[PK_OUTBOUND], "outbound: learn needs dialect: pronto4 (a "
+                            "bulletin peer never declares its lists)");
+        if (p->inbound_learn)
+                return fail(c, vals[PK_INBOUND], "inbound: learn needs dialect: pronto4 (a "
+                            "bulletin peer never declares its lists)");
+        return 0;
+}
+
+/*
+ * dialect, declare, learn_max, after the lists. Decision: a pronto4 peer with configured lists
+ * and nothing learned is the host side and declares by default; a peer that learns is the
+ * vehicle side, which answers declarations and never sends its own.
+ */
+static int parse_peer_dialect(struct ctx *c, const struct ynode *const *keys,
+                              const struct ynode *const *vals, struct config_peer *p, bool crlf)
+{
+        bool learned = p->outbound_learn || p->inbound_learn;
+        bool listed = p->n_outbound + p->n_inbound > 0;
+        int e, r;
+
+        p->dialect = CONFIG_DIALECT_BULLETIN;
+        if (vals[PK_DIALECT]) {
+                r = get_enum(c, "dialect", vals[PK_DIALECT], dialect_names,
+                             ENUM_COUNT(dialect_names), &e);
+                if (r < 0)
+                        return r;
+                p->dialect = (enum config_dialect)e;
+        }
+        if (p->dialect == CONFIG_DIALECT_BULLETIN)
+                return check_bulletin_peer(c, keys, vals, p);
+
+        p->declare = listed && !learned;
+        if (vals[PK_DECLARE] && (r = get_bool(c, "declare", vals[PK_DECLARE], &p->declare)) < 0)
+                return r;
+        if (p->declare && learned)
+                return fail(c, vals[PK_DECLARE], "declare: true with a learned list (the side "
+                            "that learns answers declarations, it does not send them)");
+        if (p->declare && !listed)
+                return fail(c, vals[PK_DECLARE], "declare: true, but the peer has no outbound "
+                            "or inbound variables to declare");
+        p->learn_max = learned ? CONFIG_LEARN_MAX_DEFAULT : 0;
+        if (vals[PK_LEARN_MAX]) {
+                if (!learned)
+                        return fail(c, keys[PK_LEARN_MAX], "learn_max needs outbound: learn or "
+                                    "inbound: learn");
+                r = get_uint(c, "learn_max", vals[PK_LEARN_MAX], CONFIG_LEARN_MAX_MIN,
+                             CONFIG_LEARN_MAX_MAX, &p->learn_max);
+                if (r < 0)
+                        return r;
+        }
+        return check_pronto4_frames(c, p, crlf, vals[PK_OUTBOUND], vals[PK_INBOUND]);
+}
+
+
+static int parse_peer(struct ctx *c, const struct ynode *n, char own_address, bool crlf,
                       struct config_peer *p, const struct ynode **ret_address_node)
 {
         const struct ynode *keys[PK_COUNT], *vals[PK_COUNT];
@@ -982,16 +1126,19 @@ static int parse_peer(struct ctx *c, const struct ynode *n, char own_address,
                                                 CONFIG_MAX_FRAME_MIN, CONFIG_MAX_FRAME_MAX,
                                                 &p->max_frame)) < 0)
                 return r;
-        if (vals[PK_OUTBOUND] && (r = parse_var_list(c, "outbound", vals[PK_OUTBOUND],
-                                                     &p->outbound, &p->n_outbound)) < 0)
+        if (vals[PK_OUTBOUND] && (r = parse_peer_list(c, "outbound", vals[PK_OUTBOUND],
+                                                      &p->outbound, &p->n_outbound,
+                                                      &p->outbound_learn)) < 0)
                 return r;
-        if (vals[PK_INBOUND] && (r = parse_var_list(c, "inbound", vals[PK_INBOUND],
-                                                    &p->inbound, &p->n_inbound)) < 0)
+        if (vals[PK_INBOUND] && (r = parse_peer_list(c, "inbound", vals[PK_INBOUND],
+                                                     &p->inbound, &p->n_inbound,
+                                                     &p->inbound_learn)) < 0)
                 return r;
-        return 0;
+        return parse_peer_dialect(c, keys, vals, p, crlf);
 }
 
-static int parse_peers(struct ctx *c, const struct ynode *n, struct config_sharedlink *sl)
+static int parse_peers(struct ctx *c, const struct ynode *n, bool crlf,
+                       struct config_sharedlink *sl)
 {
         const struct ynode *address_nodes[CONFIG_PEERS_MAX];
         int r = need_kind(c, "peers", n, YNODE_SEQUENCE);
@@ -1007,7 +1154,7 @@ static int parse_peers(struct ctx *c, const struct ynode *n, struct config_share
                         return fail(c, item, "too many peers (at most %u)", CONFIG_PEERS_MAX);
                 /* Counted before parsing: config_free() then sees its variable lists. */
                 p = &sl->peers[sl->n_peers++];
-                r = parse_peer(c, item, sl->address, p, &address_nodes[sl->n_peers - 1]);
+                r = parse_peer(c, item, sl->address, crlf, p, &address_nodes[sl->n_peers - 1]);
                 if (r < 0)
                         return r;
                 for (unsigned i = 0; i + 1 < sl->n_peers; i++)
@@ -1112,7 +1259,7 @@ enum {
         LK_NAME, LK_PROTOCOL, LK_TRANSPORT, LK_ROLE, LK_DEVICE, LK_DEVICES, LK_BAUD, LK_PARITY,
         LK_DATA_BITS, LK_STOP_BITS, LK_FLOW_CONTROL, LK_LOCAL, LK_REMOTE, LK_ADDRESS, LK_PEERS,
         LK_CHECKSUM, LK_EXPECT_VERSION, LK_LOGIN_TIMEOUT_MS, LK_IDLE_TIMEOUT_MS, LK_VERSION,
-        LK_STATUS, LK_KEEPALIVE_MS, LK_EMULATE, LK_COUNT
+        LK_STATUS, LK_KEEPALIVE_MS, LK_EMULATE, LK_CRLF, LK_COUNT
 };
 
 /* Where a link key applies: protocol/role bits and transport bits. */
@@ -1157,6 +1304,7 @@ static const struct link_key {
         [LK_STATUS] = { "status", SCOPE_MEDIATOR | SCOPE_ANY_TRANSPORT },
         [LK_KEEPALIVE_MS] = { "keepalive_ms", SCOPE_MEDIATOR | SCOPE_ANY_TRANSPORT },
         [LK_EMULATE] = { "emulate", SCOPE_MEDIATOR | SCOPE_ANY_TRANSPORT },
+        [LK_CRLF] = { "crlf", SCOPE_SL | SCOPE_UDP },
 };
 
 static unsigned link_scope(const struct config_link *l)
@@ -1278,9 +1426,16 @@ static int parse_serial(struct ctx *c, const struct ynode *const *vals, struct c
         return 0;
 }
 
+/*
+ * crlf (udp only) defaults to on when a peer is pronto4: the public C++ adapter aborts on a
+ * datagram without "]\r\n". A byte stream always ends frames with CR LF, so the one-frame checks
+ * of pronto4 peers count it on every transport, and on udp unless crlf: false says otherwise.
+ */
 static int parse_link_sharedlink(struct ctx *c, const struct ynode *const *vals,
-                                 const struct ynode *map, struct config_sharedlink *sl)
+                                 const struct ynode *map, enum config_transport transport,
+                                 struct config_sharedlink *sl)
 {
+        bool crlf_set = false;
         int r;
 
         if (!vals[LK_ADDRESS])
@@ -1288,9 +1443,21 @@ static int parse_link_sharedlink(struct ctx *c, const struct ynode *const *vals,
         r = get_sl_address(c, "address", vals[LK_ADDRESS], &sl->address);
         if (r < 0)
                 return r;
+        if (vals[LK_CRLF]) {
+                r = get_bool(c, "crlf", vals[LK_CRLF], &sl->crlf);
+                if (r < 0)
+                        return r;
+                crlf_set = true;
+        }
         if (!vals[LK_PEERS])
                 return fail(c, map, "missing key \"peers\" in link");
-        return parse_peers(c, vals[LK_PEERS], sl);
+        r = parse_peers(c, vals[LK_PEERS], transport != CONFIG_TRANSPORT_UDP || !crlf_set ||
+                        sl->crlf, sl);
+        if (r < 0 || crlf_set || transport != CONFIG_TRANSPORT_UDP)
+                return r;
+        for (unsigned i = 0; i < sl->n_peers; i++)
+                sl->crlf |= sl->peers[i].dialect == CONFIG_DIALECT_PRONTO4;
+        return 0;
 }
 
 static int parse_link_circe(struct ctx *c, const struct ynode *const *vals,
@@ -1454,7 +1621,7 @@ static int parse_link(struct ctx *c, const struct ynode *map, unsigned index)
         if (r < 0)
                 return r;
         if (l->protocol == CONFIG_PROTOCOL_SHAREDLINK)
-                return parse_link_sharedlink(c, vals, map, &l->sl);
+                return parse_link_sharedlink(c, vals, map, l->transport, &l->sl);
         return parse_link_circe(c, vals, &l->circe);
 }
 
@@ -1750,7 +1917,10 @@ static bool peer_equal(const struct config_peer *a, const struct config_peer *b)
                a->stale_ms == b->stale_ms && a->max_frame == b->max_frame &&
                a->compression == b->compression && a->on_change == b->on_change &&
                vars_equal(a->outbound, a->n_outbound, b->outbound, b->n_outbound) &&
-               vars_equal(a->inbound, a->n_inbound, b->inbound, b->n_inbound);
+               vars_equal(a->inbound, a->n_inbound, b->inbound, b->n_inbound) &&
+               a->dialect == b->dialect && a->declare == b->declare &&
+               a->outbound_learn == b->outbound_learn && a->inbound_learn == b->inbound_learn &&
+               a->learn_max == b->learn_max;
 }
 
 static bool version_equal(const struct config_circe_version *a,
@@ -1786,7 +1956,7 @@ static bool circe_equal(const struct config_circe *a, const struct config_circe 
 
 static bool sharedlink_equal(const struct config_sharedlink *a, const struct config_sharedlink *b)
 {
-        if (a->address != b->address || a->n_peers != b->n_peers)
+        if (a->address != b->address || a->n_peers != b->n_peers || a->crlf != b->crlf)
                 return false;
         for (unsigned i = 0; i < a->n_peers; i++)
                 if (!peer_equal(&a->peers[i], &b->peers[i]))
@@ -1844,4 +2014,9 @@ const char *config_role_name(enum config_role role)
 const char *config_var_type_name(enum config_var_type type)
 {
         return enum_lookup(var_type_names, ENUM_COUNT(var_type_names), (int)type);
+}
+
+const char *config_dialect_name(enum config_dialect dialect)
+{
+        return enum_lookup(dialect_names, ENUM_COUNT(dialect_names), (int)dialect);
 }

@@ -70,6 +70,9 @@
 #define CONFIG_KEEPALIVE_MS_MIN         10u
 #define CONFIG_KEEPALIVE_MS_MAX         60000u
 #define CONFIG_KEEPALIVE_MS_DEFAULT     750u
+#define CONFIG_LEARN_MAX_MIN            1u              /* pronto4: entries of a learned list */
+#define CONFIG_LEARN_MAX_MAX            CONFIG_LIST_MAX
+#define CONFIG_LEARN_MAX_DEFAULT        128u
 /* CIRCE value ranges are proto/circe.h's (CIRCE_*_MAX); these are the config's own choices. */
 #define CONFIG_CIRCE_CAPABILITIES_MIN   1u              /* an emulated device can do something */
 #define CONFIG_CIRCE_SIGNAL_DEFAULT     CIRCE_LEVEL_MAX
@@ -114,6 +117,12 @@ enum config_var_type {
         CONFIG_VAR_DOUBLE,
 };
 
+/* What a SharedLink peer speaks (docs/pronto4.md). */
+enum config_dialect {
+        CONFIG_DIALECT_BULLETIN,        /* BUL-049 as in PROTOCOLS.md §1 (the default) */
+        CONFIG_DIALECT_PRONTO4,         /* the Kairos Pronto4 field dialect */
+};
+
 struct config_var {
         char name[CONFIG_VAR_NAME_MAX + 1];
         enum config_var_type type;
@@ -133,12 +142,19 @@ struct config_peer {
         unsigned n_outbound;
         struct config_var *inbound;     /* positions of the peer's outbound list */
         unsigned n_inbound;
+        /* Pronto4 dialect; a bulletin peer has declare and both learns false, learn_max 0. */
+        enum config_dialect dialect;
+        bool declare;                   /* send our typed N0/L0 declarations to this peer */
+        bool outbound_learn;            /* outbound: learn (from the peer's L0 declaration) */
+        bool inbound_learn;             /* inbound: learn (from the peer's N0 declaration) */
+        uint32_t learn_max;             /* entries a learned list may hold (either list) */
 };
 
 struct config_sharedlink {
         char address;                   /* this node on this link, 'A'..'P' */
         struct config_peer peers[CONFIG_PEERS_MAX];
         unsigned n_peers;
+        bool crlf;                      /* udp: end every datagram's frame with CR LF */
 };
 
 struct config_circe_version {
@@ -242,5 +258,6 @@ const char *config_protocol_name(enum config_protocol protocol);
 const char *config_transport_name(enum config_transport transport);
 const char *config_role_name(enum config_role role);
 const char *config_var_type_name(enum config_var_type type);
+const char *config_dialect_name(enum config_dialect dialect);
 
 #endif

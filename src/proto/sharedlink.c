@@ -643,15 +643,22 @@ int slp_encode_query(char *buf, size_t size, char dst, char src, const char *nam
         return slp_frame_encode(buf, size, dst, src, &f, 1, flags);
 }
 
-int slp_encode_answer(char *buf, size_t size, char dst, char src, const char *name,
-                      const char *value, unsigned flags)
+/* "<letter><name>|D<value>": an answer (R) or a module command (E). */
+static int encode_pair(char *buf, size_t size, char dst, char src, char letter, const char *name,
+                       const char *value, unsigned flags)
 {
         struct slp_field f[2] = {
-                { .letter = 'R', .value = name, .len = (uint16_t)value_len(name) },
+                { .letter = letter, .value = name, .len = (uint16_t)value_len(name) },
                 { .letter = 'D', .value = value, .len = (uint16_t)value_len(value) },
         };
 
         return slp_frame_encode(buf, size, dst, src, f, 2, flags);
+}
+
+int slp_encode_answer(char *buf, size_t size, char dst, char src, const char *name,
+                      const char *value, unsigned flags)
+{
+        return encode_pair(buf, size, dst, src, 'R', name, value, flags);
 }
 
 /* Decimal digits of k into out (no terminator); returns the count. */
@@ -669,34 +676,59 @@ static size_t format_index(size_t k, char *out)
         return n;
 }
 
+/*
+ * Starts a list frame "[:" dst src "|" head k (k = @start) in @buf; returns its length so far,
+ * with *@ret_total the length the frame has once closed ("|C" hh "]" [CR LF]), or -EMSGSIZE
+ * (beyond max_frame) / -ENOSPC (beyond the caller's @limit) when not even that fits.
+ */
+static int put_list_head(char *buf, size_t limit, size_t max_frame, char dst, char src,
+                         char head, size_t start, bool crlf, size_t *ret_total)
+{
+        char digits[24];
+        size_t ndigits = format_index(start, digits), at;
+        size_t total = SL_HEADER_LEN + 2 + ndigits + SL_TRAILER_LEN + (crlf ? SL_CRLF_LEN : 0);
+
+        if (total > limit)
+                return total > max_frame ? -EMSGSIZE : -ENOSPC;
+        at = put_header(buf, dst, src);
+        buf[at++] = '|';
+        buf[at++] = head;
+        at = put(buf, at, digits, ndigits);
+        *ret_total = total;
+        return (int)at;
+}
+
+/* What position @pos of @list sends: its value, or "" when compression leaves it out. */
+static const char *list_value_to_send(const struct slp_list *list, size_t pos)
+{
+        bool send = !list->compress || list->full || !list->changed || list->changed[pos];
+
+        return send ? list->values[pos] : "";
+}
+
 int slp_encode_list(const struct slp_list *list, size_t *cursor, char *buf, size_t size)
 {
         size_t max_frame = list->max_frame ? list->max_frame : SLP_FRAME_DEFAULT;
         size_t limit = max_frame < size ? max_frame : size;
         size_t start = *cursor, pos = start;
-        char digits[24];
-        size_t ndigits, total, at;
+        size_t total, at;
+        int r;
 
         if (!is_addr(list->dst) || !is_addr(list->src) || max_frame > SLP_FRAME_MAX)
                 return -EINVAL;
         if (start >= list->count)
                 return 0;
 
-        /* "[:AB" "|N" k ... "|C" hh "]" [CR LF] */
-        ndigits = format_index(start, digits);
-        total = SL_HEADER_LEN + 2 + ndigits + SL_TRAILER_LEN + (list->crlf ? SL_CRLF_LEN : 0);
-        if (total > limit)
-                return total > max_frame ? -EMSGSIZE : -ENOSPC;
-        at = put_header(buf, list->dst, list->src);
-        buf[at++] = '|';
-        buf[at++] = 'N';
-        at = put(buf, at, digits, ndigits);
+        r = put_list_head(buf, limit, max_frame, list->dst, list->src, 'N', start, list->crlf,
+                          &total);
+        if (r < 0)
+                return r;
+        at = (size_t)r;
 
         for (; pos < list->count; pos++) {
-                bool send = !list->compress || list->full || !list->changed || list->changed[pos];
-                const char *v = send ? list->values[pos] : "";
+                const char *v = list_value_to_send(list, pos);
                 size_t vlen = 0;
-                int r = list_value_check(v, &vlen);
+                r = list_value_check(v, &vlen);
 
                 if (r == 0 && total + 2 + vlen > limit)
                         r = total + 2 + vlen > max_frame ? -EMSGSIZE : -ENOSPC;
@@ -715,4 +747,420 @@ int slp_encode_list(const struct slp_list *list, size_t *cursor, char *buf, size
         at = put_trailer(buf, at, list->crlf);
         *cursor = pos;
         return (int)at;
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Pronto4 dialect (docs/pronto4.md) */
+
+/* Indexed by enum slp_type: the T digit of each type, 0 where no type has that value. */
+static const char type_digits[] = { '0', 0, '2', 0, '4' };
+
+/* The largest double magnitude we accept is 0.17976931348623157e309 (DBL_MAX as "%.17g" prints
+ * it, a hair below DBL_MAX itself): its significant digits and decimal exponent. */
+static const char dbl_max_digits[] = "17976931348623157";
+#define SL_DBL_MAX_EXP10        309
+/* Exponent digits saturate here: far beyond anything 63 bytes of mantissa can bring back. */
+#define SL_EXP10_SATURATE       100000
+
+int slp_type_parse(const char *value, size_t len, enum slp_type *ret_type)
+{
+        if (len != 1)
+                return -EINVAL;
+        switch (value[0]) {
+        case '0':
+                *ret_type = SLP_TYPE_LONG;
+                return 0;
+        case '2':
+                *ret_type = SLP_TYPE_DOUBLE;
+                return 0;
+        case '4':
+                *ret_type = SLP_TYPE_STRING;
+                return 0;
+        default:
+                return -EINVAL;
+        }
+}
+
+char slp_type_digit(enum slp_type type)
+{
+        if ((unsigned)type >= sizeof(type_digits))
+                return 0;
+        return type_digits[type];
+}
+
+static bool is_digit(char c)
+{
+        return c >= '0' && c <= '9';
+}
+
+/* [+-] 1*DIGIT, within INT64_MIN..INT64_MAX. */
+static int check_long(const char *v, size_t len)
+{
+        uint64_t mag = 0, limit = (uint64_t)INT64_MAX;
+        size_t i = 0;
+
+        if (i < len && (v[i] == '+' || v[i] == '-')) {
+                if (v[i] == '-')
+                        limit++;                /* |INT64_MIN| */
+                i++;
+        }
+        if (i == len)
+                return -EINVAL;
+        for (; i < len; i++) {
+                unsigned d;
+
+                if (!is_digit(v[i]))
+                        return -EINVAL;
+                d = (unsigned)(v[i] - '0');
+                if (mag > (limit - d) / 10)
+                        return -EINVAL;
+                mag = mag * 10 + d;
+        }
+        return 0;
+}
+
+/* [("e" / "E") [+-] 1*DIGIT] from v[*i]: adds the exponent (saturated) to *exp10. */
+static int parse_exponent(const char *v, size_t len, size_t *i, long *exp10)
+{
+        long e = 0;
+        bool neg = false;
+        size_t start;
+
+        if (*i == len)
+                return 0;
+        if (v[*i] != 'e' && v[*i] != 'E')
+                return -EINVAL;
+        (*i)++;
+        if (*i < len && (v[*i] == '+' || v[*i] == '-'))
+                neg = v[(*i)++] == '-';
+        start = *i;
+        for (; *i < len && is_digit(v[*i]); (*i)++)
+                if (e < SL_EXP10_SATURATE)
+                        e = e * 10 + (v[*i] - '0');
+        if (*i == start || *i != len)
+                return -EINVAL;
+        *exp10 += neg ? -e : e;
+        return 0;
+}
+
+/*
+ * A strict decimal double, finite. The value is 0.S x 10^exp10 where S are its significant
+ * digits (leading zeros dropped); it is finite when exp10 is below SL_DBL_MAX_EXP10, or equal
+ * with S at most dbl_max_digits. No strtod(): its answer depends on the locale.
+ */
+static int check_double(const char *v, size_t len)
+{
+        char sig[SLP_VALUE_MAX];
+        size_t i = 0, nsig = 0, ndigits = 0;
+        long exp10 = 0;
+        bool point = false;
+        int r;
+
+        if (i < len && (v[i] == '+' || v[i] == '-'))
+                i++;
+        for (; i < len && (is_digit(v[i]) || (v[i] == '.' && !point)); i++) {
+                if (v[i] == '.') {
+                        point = true;
+                        continue;
+                }
+                ndigits++;
+                if (nsig == 0 && v[i] == '0') {
+                        if (point)
+                                exp10--;        /* 0.00S: each zero after the point */
+                        continue;
+                }
+                sig[nsig++] = v[i];
+                if (!point)
+                        exp10++;
+        }
+        if (ndigits == 0)
+                return -EINVAL;
+        r = parse_exponent(v, len, &i, &exp10);
+        if (r < 0)
+                return r;
+        if (nsig == 0 || exp10 < SL_DBL_MAX_EXP10)
+                return 0;
+        if (exp10 > SL_DBL_MAX_EXP10)
+                return -EINVAL;
+        for (size_t k = 0; k < nsig || k < sizeof(dbl_max_digits) - 1; k++) {
+                char a = k < nsig ? sig[k] : '0';
+                char b = k < sizeof(dbl_max_digits) - 1 ? dbl_max_digits[k] : '0';
+
+                if (a != b)
+                        return a < b ? 0 : -EINVAL;
+        }
+        return 0;
+}
+
+int slp_value_check(enum slp_type type, const char *value, size_t len)
+{
+        int r = check_value('D', value, len);
+
+        if (r < 0)
+                return r;
+        switch (type) {
+        case SLP_TYPE_LONG:
+                return check_long(value, len);
+        case SLP_TYPE_DOUBLE:
+                return check_double(value, len);
+        case SLP_TYPE_STRING:
+                return 0;
+        }
+        return -EINVAL;
+}
+
+int slp_name_check(const char *name, size_t len)
+{
+        if (len == 0)
+                return -EINVAL;
+        if (len > SLP_VALUE_MAX)
+                return -EMSGSIZE;
+        for (size_t i = 0; i < len; i++) {
+                char c = name[i];
+
+                if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || is_digit(c) ||
+                      c == '_' || c == '.' || c == '-'))
+                        return -EINVAL;
+        }
+        return 0;
+}
+
+static bool has_letter(const struct slp_frame *f, char letter)
+{
+        for (size_t i = 1; i < f->nfields; i++)
+                if (f->fields[i].letter == letter)
+                        return true;
+        return false;
+}
+
+static bool is_mu(const struct slp_field *f)
+{
+        static const char *const mus[] = { "UI", "UO", "L", "W" };
+
+        if (f->letter != 'M')
+                return false;
+        for (size_t i = 0; i < sizeof(mus) / sizeof(mus[0]); i++)
+                if (f->len == strlen(mus[i]) && memcmp(f->value, mus[i], f->len) == 0)
+                        return true;
+        return false;
+}
+
+enum slp_p4_kind slp_p4_kind_of(const struct slp_frame *frame)
+{
+        const struct slp_field *head;
+        bool q, d;
+
+        if (frame->nfields == 0)
+                return SLP_P4_OTHER;
+        head = &frame->fields[0];
+        switch (head->letter) {
+        case 'P':
+                return SLP_P4_PING;
+        case 'G':
+                return SLP_P4_PONG;
+        case 'E':
+                return SLP_P4_COMMAND;
+        case 'M':
+                return frame->nfields == 1 && is_mu(head) ? SLP_P4_MU : SLP_P4_OTHER;
+        case 'N':
+        case 'L':
+                break;
+        default:
+                return SLP_P4_OTHER;
+        }
+        if (head->index == SLP_INDEX_QUERY)
+                return SLP_P4_LIST_QUERY;
+        /* Decision (docs/pronto4.md §4, §7): a Q makes a declaration, a Q with a D a
+         * self-describing frame; an R after N an acknowledgement; else N is positional data. */
+        q = has_letter(frame, 'Q');
+        d = has_letter(frame, 'D');
+        if (q)
+                return d && head->letter == 'N' ? SLP_P4_SELF_DESCRIBING : SLP_P4_DECLARATION;
+        if (head->letter == 'L')
+                return SLP_P4_OTHER;
+        return has_letter(frame, 'R') ? SLP_P4_ACKNOWLEDGEMENT : SLP_P4_DATA;
+}
+
+int slp_entry_next(const struct slp_frame *frame, size_t *pos, struct slp_entry *ret_entry)
+{
+        const struct slp_field *f = frame->fields;
+        size_t n = frame->nfields, i = *pos;
+        struct slp_entry e = { .type = SLP_TYPE_DOUBLE };
+        bool bad = false;
+
+        if (i >= n)
+                return 0;
+        if (f[i].letter == 'T') {
+                bad = slp_type_parse(f[i].value, f[i].len, &e.type) < 0;
+                e.typed = true;
+                i++;
+        }
+        if (i >= n || (f[i].letter != 'Q' && f[i].letter != 'R')) {
+                /* A T without its name, a stray D or another letter: one field, bad. */
+                *pos = e.typed ? i : i + 1;
+                return -EINVAL;
+        }
+        e.letter = f[i].letter;
+        e.name = f[i].value;
+        e.name_len = f[i].len;
+        bad |= slp_name_check(e.name, e.name_len) < 0;
+        i++;
+        if (i < n && f[i].letter == 'D') {
+                e.value = f[i].value;
+                e.value_len = f[i].len;
+                e.has_value = true;
+                i++;
+        }
+        *pos = i;
+        if (bad)
+                return -EINVAL;
+        *ret_entry = e;
+        return 1;
+}
+
+/* The two fields of position @pos of a named list: T/Q (declaration) or R/D (acknowledgement). */
+static int named_entry(const struct slp_named_list *l, size_t pos, bool declaration,
+                       struct slp_field ret[2])
+{
+        const char *name = l->names[pos];
+        size_t nlen;
+        int r;
+
+        if (!name)
+                return -EINVAL;
+        nlen = value_len(name);
+        r = slp_name_check(name, nlen);
+        if (r < 0)
+                return r;
+        if (declaration) {
+                if (!slp_type_digit(l->types[pos]))
+                        return -EINVAL;
+                ret[0] = (struct slp_field){ .letter = 'T', .len = 1,
+                                             .value = &type_digits[l->types[pos]] };
+                ret[1] = (struct slp_field){ .letter = 'Q', .value = name, .len = (uint16_t)nlen };
+                return 0;
+        }
+        ret[0] = (struct slp_field){ .letter = 'R', .value = name, .len = (uint16_t)nlen };
+        ret[1] = (struct slp_field){ .letter = 'D', .value = l->values[pos] };
+        if (!ret[1].value)
+                return -EINVAL;
+        r = list_value_check(ret[1].value, &nlen);
+        ret[1].len = (uint16_t)nlen;
+        return r;
+}
+
+/* The frame of a named list from *cursor: as slp_encode_list(), two fields per position. */
+static int encode_named(const struct slp_named_list *l, bool declaration, size_t *cursor,
+                        char *buf, size_t size)
+{
+        size_t max_frame = l->max_frame ? l->max_frame : SLP_FRAME_DEFAULT;
+        size_t limit = max_frame < size ? max_frame : size;
+        size_t start = *cursor, pos = start;
+        size_t total, at;
+        int r;
+
+        if (!is_addr(l->dst) || !is_addr(l->src) || (l->head != 'N' && l->head != 'L') ||
+            max_frame > SLP_FRAME_MAX || (l->one_frame && start != 0 && start < l->count))
+                return -EINVAL;
+        if (start >= l->count)
+                return 0;
+
+        r = put_list_head(buf, limit, max_frame, l->dst, l->src, l->head, start, l->crlf, &total);
+        if (r < 0)
+                return r;
+        at = (size_t)r;
+
+        for (; pos < l->count; pos++) {
+                struct slp_field f[2];
+                size_t need;
+
+                r = named_entry(l, pos, declaration, f);
+                need = r < 0 ? 0 : 4 + (size_t)f[0].len + f[1].len;    /* "|T0|Qname" */
+
+                if (r == 0 && total + need > limit)
+                        r = total + need > max_frame ? -EMSGSIZE : -ENOSPC;
+                if (r < 0) {
+                        /* As slp_encode_list(): the call that starts at a bad entry names it. */
+                        if (pos > start && !l->one_frame)
+                                break;
+                        return r;
+                }
+                total += need;
+                for (size_t k = 0; k < 2; k++) {
+                        buf[at++] = '|';
+                        buf[at++] = f[k].letter;
+                        at = put(buf, at, f[k].value, f[k].len);
+                }
+        }
+        at = put_trailer(buf, at, l->crlf);
+        *cursor = pos;
+        return (int)at;
+}
+
+int slp_encode_declaration(const struct slp_named_list *list, size_t *cursor, char *buf,
+                           size_t size)
+{
+        if (!list->types)
+                return -EINVAL;
+        return encode_named(list, true, cursor, buf, size);
+}
+
+int slp_encode_acknowledgement(const struct slp_named_list *list, size_t *cursor, char *buf,
+                               size_t size)
+{
+        if (!list->values)
+                return -EINVAL;
+        return encode_named(list, false, cursor, buf, size);
+}
+
+int slp_encode_list_query(char *buf, size_t size, char dst, char src, char head, unsigned flags)
+{
+        struct slp_field f = { .letter = head, .value = "?", .len = 1 };
+
+        if (head != 'N' && head != 'L')
+                return -EINVAL;
+        return slp_frame_encode(buf, size, dst, src, &f, 1, flags);
+}
+
+int slp_encode_command(char *buf, size_t size, char dst, char src, const char *module,
+                       const char *text, unsigned flags)
+{
+        int r = slp_name_check(module, value_len(module));
+
+        if (r < 0)
+                return r;
+        return encode_pair(buf, size, dst, src, 'E', module, text, flags);
+}
+
+size_t slp_list_frame_len(size_t fields_len, bool crlf)
+{
+        return SL_HEADER_LEN + 3 + fields_len + SL_TRAILER_LEN + (crlf ? SL_CRLF_LEN : 0);
+}
+
+int slp_encode_list_whole(const struct slp_list *list, char *buf, size_t size)
+{
+        size_t max_frame = list->max_frame ? list->max_frame : SLP_FRAME_DEFAULT;
+        size_t total = slp_list_frame_len(0, list->crlf);
+        size_t cursor = 0;
+        int r;
+
+        if (!is_addr(list->dst) || !is_addr(list->src) || max_frame > SLP_FRAME_MAX)
+                return -EINVAL;
+        if (list->count == 0)
+                return 0;
+        /* Measure first: slp_encode_list() would split, and this caller wants one frame. */
+        for (size_t pos = 0; pos < list->count; pos++) {
+                size_t vlen;
+
+                r = list_value_check(list_value_to_send(list, pos), &vlen);
+                if (r < 0)
+                        return r;
+                total += 2 + vlen;
+        }
+        if (total > max_frame)
+                return -EMSGSIZE;
+        if (total > size)
+                return -ENOSPC;
+        r = slp_encode_list(list, &cursor, buf, size);
+        return r >= 0 && cursor != list->count ? -EMSGSIZE : r;
 }

@@ -194,4 +194,124 @@ struct slp_list {
  * before a bad value, so the error always names the offending position. */
 int slp_encode_list(const struct slp_list *list, size_t *cursor, char *buf, size_t size);
 
+/* ---------------------------------------------------------------------------------------------
+ * Pronto4 dialect (docs/pronto4.md): variable types, value and name checks, declarations,
+ * their acknowledgement, list queries, module commands, and the one-frame data list. */
+
+/* The digit after T. Decision: any other digit, or anything but one digit, is an error. */
+enum slp_type {
+        SLP_TYPE_LONG = 0,              /* "T0": optional sign and decimal digits, fits int64 */
+        SLP_TYPE_DOUBLE = 2,            /* "T2": decimal, finite; also a name without T */
+        SLP_TYPE_STRING = 4,            /* "T4": any value of the wire charset */
+};
+
+/* Longest long: "-9223372036854775808". Longest double we emit with %.17g:
+ * "-1.7976931348623157e+308". The worst case of a data list at config check (config.c). */
+#define SLP_LONG_TEXT_MAX        20
+#define SLP_DOUBLE_TEXT_MAX      24
+
+/* The type a T field's value names ("0", "2" or "4"): 0 and *@ret_type, or -EINVAL. */
+int slp_type_parse(const char *value, size_t len, enum slp_type *ret_type);
+
+/* The T digit of @type ('0', '2', '4'), or 0 for a value outside enum slp_type. */
+char slp_type_digit(enum slp_type type);
+
+/*
+ * Whether @value (@len bytes, not NUL-terminated) is a valid value of @type: 0, -EINVAL, or
+ * -EMSGSIZE (longer than SLP_VALUE_MAX). Every type: wire charset (0x20-0x7E without | [ ]).
+ * Long: [+-] 1*DIGIT within int64. Double: [+-] (1*DIGIT ["." *DIGIT] / "." 1*DIGIT)
+ * [("e"/"E") [+-] 1*DIGIT], at most 1.7976931348623157e308 in magnitude (so strtod() gives a
+ * finite number), no spaces, no hex, inf or nan: the same answer in every locale. An empty value
+ * is not a long or a double (an empty D means "unchanged": the caller handles it first).
+ */
+int slp_value_check(enum slp_type type, const char *value, size_t len);
+
+/* What a decoded frame is in the Pronto4 dialect, told by its first field and the letters after
+ * it (docs/pronto4.md §2); bulletin traffic that means nothing more is SLP_P4_OTHER. */
+enum slp_p4_kind {
+        SLP_P4_OTHER = 0,               /* Q, R answers, D without N, L<k> without Q ... */
+        SLP_P4_DATA,                    /* N<k> and D fields only: positional data */
+        SLP_P4_DECLARATION,             /* N<k> or L<k>, then [T] Q entries, no D */
+        SLP_P4_ACKNOWLEDGEMENT,         /* N<k>, then R D pairs: the answer to a declaration */
+        SLP_P4_SELF_DESCRIBING,         /* N<k>, then [T] Q D triples: values by name */
+        SLP_P4_LIST_QUERY,              /* N? or L? (fields[0].letter says which) */
+        SLP_P4_PING,                    /* P<n>: answer G<n> */
+        SLP_P4_PONG,                    /* G<n> */
+        SLP_P4_COMMAND,                 /* E<module> [D<text>] */
+        SLP_P4_MU,                      /* MUI, MUO, ML or MW alone */
+};
+
+/* Classifies @frame; pure, never fails. */
+enum slp_p4_kind slp_p4_kind_of(const struct slp_frame *frame);
+
+/* One entry of a declaration, an acknowledgement or a self-describing frame: [T<t>] Q<name> or
+ * R<name>, then an optional D<value>. Pointers into the frame (valid as the frame is). */
+struct slp_entry {
+        const char *name;
+        const char *value;              /* has_value only */
+        uint16_t name_len, value_len;
+        enum slp_type type;             /* SLP_TYPE_DOUBLE when !typed (a name without T) */
+        bool typed, has_value;
+        char letter;                    /* 'Q' or 'R' */
+};
+
+/*
+ * Walks the entries of @frame from field *@pos (1 = after the head N/L field; the caller starts
+ * there). Returns 1 with the entry in *@ret_entry, 0 at the end, or -EINVAL for a bad entry (a T
+ * whose value is not 0, 2 or 4, a T not followed by a name, a name that fails slp_name_check(),
+ * a stray D or another letter); *@pos always moves past what was read, so the caller counts the
+ * bad entry and goes on (the entry of a bad T is consumed with it: never learned untyped).
+ */
+int slp_entry_next(const struct slp_frame *frame, size_t *pos, struct slp_entry *ret_entry);
+
+/* A declared name (Q of a declaration, R of an acknowledgement, E's module): 1..SLP_VALUE_MAX
+ * bytes of letters, digits, '_', '.', '-'. Returns 0, -EINVAL or -EMSGSIZE. */
+int slp_name_check(const char *name, size_t len);
+
+/*
+ * A named list: a declaration "N0|T<t>|Q<name>|..." (or "L0|..."), or the acknowledgement of a
+ * declaration "N0|R<name>|D<value>|...". Split into frames like slp_encode_list() (each frame
+ * starts "N<k>" or "L<k>" at its first position), or in exactly one frame with one_frame.
+ */
+struct slp_named_list {
+        char dst, src;
+        char head;                      /* 'N' (the list the sender sends) or 'L' (receives) */
+        const char *const *names;       /* count NUL-terminated names, position 0 first */
+        const enum slp_type *types;     /* declarations: the type of each name */
+        const char *const *values;      /* acknowledgements: the value of each name */
+        size_t count;                   /* 0: a declaration of an empty list, "N0" alone */
+        size_t max_frame;               /* 0 = SLP_FRAME_DEFAULT; includes the CR LF when crlf */
+        bool crlf;
+        bool one_frame;                 /* -EMSGSIZE unless the whole list fits one frame */
+};
+
+/* Encodes the declaration frame that starts at *@cursor, "N<cursor>|T<t>|Q<name>..." with every
+ * entry typed (never the untyped double); same contract as slp_encode_list(). An empty list
+ * gives one frame "N0" (or "L0"): the peer learns the list is empty. -EINVAL also for a head
+ * other than N/L, a bad name or a type outside enum slp_type. */
+int slp_encode_declaration(const struct slp_named_list *list, size_t *cursor, char *buf,
+                           size_t size);
+
+/* Encodes the acknowledgement frame that starts at *@cursor, "N<cursor>|R<name>|D<value>..."
+ * (values may be empty); same contract as slp_encode_declaration(). */
+int slp_encode_acknowledgement(const struct slp_named_list *list, size_t *cursor, char *buf,
+                               size_t size);
+
+/* Encodes "N?" (@head 'N': send me your N list) or "L?" ('L'); returns the length or an error. */
+int slp_encode_list_query(char *buf, size_t size, char dst, char src, char head, unsigned flags);
+
+/* Encodes "E<module>|D<text>" (NUL-terminated; module as slp_name_check(), text the wire charset,
+ * at most SLP_VALUE_MAX bytes, may be empty); returns the length or an error. */
+int slp_encode_command(char *buf, size_t size, char dst, char src, const char *module,
+                       const char *text, unsigned flags);
+
+/* Length of a list frame "[:AB|N0" ... "|C" hh "]" [CR LF] whose fields after the N0 take
+ * @fields_len bytes (each "|", a letter and its value): what a configuration check needs. */
+size_t slp_list_frame_len(size_t fields_len, bool crlf);
+
+/* Encodes the whole list in one frame starting "N0" (compression and changed as in
+ * slp_encode_list()); returns its length, -EMSGSIZE when it cannot fit max_frame, -ENOSPC when
+ * it fits max_frame but not @size, or -EINVAL for a bad value or address. */
+int slp_encode_list_whole(const struct slp_list *list, char *buf, size_t size);
+
 #endif

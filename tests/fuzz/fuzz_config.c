@@ -36,6 +36,27 @@ static void check_error(int r, const struct config_error *e)
         }
 }
 
+/* What the Pronto4 settings of an accepted peer always satisfy (docs/pronto4.md). */
+static void check_dialect(const struct config_peer *p)
+{
+        bool learned = p->outbound_learn || p->inbound_learn;
+
+        if ((p->outbound_learn && p->n_outbound) || (p->inbound_learn && p->n_inbound))
+                abort();
+        if (p->dialect == CONFIG_DIALECT_BULLETIN) {
+                if (p->declare || learned || p->learn_max != 0)
+                        abort();
+                return;
+        }
+        if (p->dialect != CONFIG_DIALECT_PRONTO4)
+                abort();
+        if (p->declare && (learned || p->n_outbound + p->n_inbound == 0))
+                abort();
+        if (learned != (p->learn_max >= CONFIG_LEARN_MAX_MIN && p->learn_max <=
+                        CONFIG_LEARN_MAX_MAX) || (!learned && p->learn_max != 0))
+                abort();
+}
+
 static void check_config(const struct config *c, const struct config *again)
 {
         unsigned vars = 0;
@@ -52,8 +73,10 @@ static void check_config(const struct config *c, const struct config *again)
                 if (l->sl.n_peers > CONFIG_PEERS_MAX || l->n_devices > CONFIG_DEVICES_MAX ||
                     l->circe.n_emulate > CONFIG_EMULATE_MAX)
                         abort();
-                for (unsigned j = 0; j < l->sl.n_peers; j++)
+                for (unsigned j = 0; j < l->sl.n_peers; j++) {
                         vars += l->sl.peers[j].n_outbound + l->sl.peers[j].n_inbound;
+                        check_dialect(&l->sl.peers[j]);
+                }
         }
         if (vars != c->n_vars)
                 abort();

@@ -19,9 +19,15 @@
  *   - every decoded frame re-encodes (or is refused for a value over SLP_VALUE_MAX) and decodes
  *     back to the same addresses and fields; a canonical frame re-encodes to the same bytes;
  *   - the list encoder covers every position once, in frames of at most max_frame with the
- *     right N offsets and values, and fails exactly when a value is invalid or cannot fit.
+ *     right N offsets and values, and fails exactly when a value is invalid or cannot fit;
+ *   - Pronto4: slp_value_check() of every decoded value agrees with strtoll()/strtod() (C locale)
+ *     as the reference; the declaration and acknowledgement encoders, fed the same values as
+ *     names, cover every entry once with its T/Q or R/D pair, and fail at the first bad name;
+ *     slp_encode_list_whole() gives one frame exactly when the list fits max_frame.
  */
 #include <errno.h>
+#include <float.h>
+#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -167,6 +173,84 @@ static void check_reencode(const struct slp_frame *f, bool crlf)
         }
 }
 
+/* ---------------------------------------------------------------------------------------------
+ * Pronto4 value types, against the C library as the reference (the fuzzer never sets a locale) */
+
+static bool only_chars(const char *v, size_t n, const char *set)
+{
+        for (size_t i = 0; i < n; i++)
+                if (!strchr(set, v[i]))
+                        return false;
+        return true;
+}
+
+static void check_value_types(const char *v, size_t n)
+{
+        static char z[SLP_VALUE_MAX + 1];
+        bool valid = n <= SLP_VALUE_MAX && printable_value(v, n);
+        int rl = slp_value_check(SLP_TYPE_LONG, v, n);
+        int rd = slp_value_check(SLP_TYPE_DOUBLE, v, n);
+        int rs = slp_value_check(SLP_TYPE_STRING, v, n);
+        bool sign_digits;
+        size_t sign;
+        char *end;
+        double d;
+
+        CHECK(rs == (n > SLP_VALUE_MAX ? -EMSGSIZE : valid ? 0 : -EINVAL));
+        if (!valid) {
+                CHECK(rl == rs && rd == rs);
+                return;
+        }
+        memcpy(z, v, n);
+        z[n] = '\0';
+        /* long: [+-] digits, and strtoll() takes it all without ERANGE. */
+        sign = n > 0 && (z[0] == '+' || z[0] == '-');
+        sign_digits = n > sign && only_chars(z + sign, n - sign, "0123456789");
+        errno = 0;
+        (void)strtoll(z, &end, 10);
+        CHECK((rl == 0) == (sign_digits && errno == 0 && end == z + n));
+        CHECK(rl == 0 || rl == -EINVAL);
+        /* double: accepted only if strtod() takes it all and it is finite; a plain decimal that
+         * strtod() reads whole to below DBL_MAX must be accepted. */
+        errno = 0;
+        d = strtod(z, &end);
+        if (rd == 0) {
+                CHECK(n > 0 && end == z + n && isfinite(d) && fabs(d) <= DBL_MAX);
+                CHECK(only_chars(z, n, "0123456789+-.eE"));
+        } else {
+                CHECK(rd == -EINVAL);
+                CHECK(!(n > 0 && only_chars(z, n, "0123456789+-.eE") && end == z + n &&
+                        fabs(d) < DBL_MAX));
+        }
+}
+
+/* The dialect's reading of a frame: a kind in range; entries that always move on, lie inside
+ * the frame and are what slp_entry_next() promises. */
+static void check_entries(const struct slp_frame *f)
+{
+        enum slp_p4_kind k = slp_p4_kind_of(f);
+        struct slp_entry e;
+        size_t pos = 1, prev = 1;
+        int r;
+
+        CHECK(k >= SLP_P4_OTHER && k <= SLP_P4_MU);
+        while ((r = slp_entry_next(f, &pos, &e)) != 0) {
+                CHECK(pos > prev && pos <= f->nfields);
+                prev = pos;
+                if (r < 0) {
+                        CHECK(r == -EINVAL);
+                        continue;
+                }
+                CHECK(r == 1 && (e.letter == 'Q' || e.letter == 'R'));
+                CHECK(slp_name_check(e.name, e.name_len) == 0);
+                CHECK(e.name > f->raw && e.name + e.name_len < f->raw + f->raw_len);
+                CHECK(slp_type_digit(e.type) != 0 && (e.typed || e.type == SLP_TYPE_DOUBLE));
+                if (e.has_value)
+                        CHECK(e.value > f->raw && e.value + e.value_len < f->raw + f->raw_len);
+        }
+        CHECK(pos >= f->nfields);
+}
+
 static void on_result(struct run *run, const struct slp_decode_result *r)
 {
         hash_word(run, (uint64_t)r->kind << 32 | (uint64_t)r->reason);
@@ -177,6 +261,9 @@ static void on_result(struct run *run, const struct slp_decode_result *r)
 
                 CHECK(r->reason == SLP_REASON_NONE && r->bytes == f->raw_len);
                 check_frame_shape(f, dec.max_frame);
+                for (size_t i = 0; i < f->nfields; i++)
+                        check_value_types(f->fields[i].value, f->fields[i].len);
+                check_entries(f);
                 hash_bytes(run, f->raw, f->raw_len);
                 if (run->reencode)
                         check_reencode(f, run->crlf_flag);
@@ -294,6 +381,128 @@ static size_t digits(size_t k)
         return n;
 }
 
+/* ---------------------------------------------------------------------------------------------
+ * Pronto4 named lists (declaration, acknowledgement) and the one-frame data list */
+
+#define NAME_CHARS "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_.-"
+
+static enum slp_type list_types[LIST_MAX];
+
+/* What the named-list encoders must say about position p (names = values = list_values). */
+static int named_error(const struct slp_named_list *l, size_t p, bool declaration)
+{
+        size_t len = strlen(l->names[p]);
+        size_t max = l->max_frame ? l->max_frame : SLP_FRAME_DEFAULT;
+        size_t entry = declaration ? 4 + 1 + len : 4 + len + len;
+
+        if (len > SLP_VALUE_MAX)
+                return -EMSGSIZE;
+        if (len == 0 || !only_chars(l->names[p], len, NAME_CHARS))
+                return -EINVAL;
+        if (6 + digits(p) + entry + 5 + (l->crlf ? 2 : 0) > max)
+                return -EMSGSIZE;
+        return 0;
+}
+
+static void fuzz_named(const struct slp_list *data_list, bool declaration, bool one_frame)
+{
+        static char out[SLP_FRAME_MAX];
+        struct slp_named_list l = {
+                .dst = 'B', .src = 'A', .head = declaration && (data_list->count & 1) ? 'L' : 'N',
+                .names = list_values, .types = list_types, .values = list_values,
+                .count = data_list->count, .max_frame = data_list->max_frame,
+                .crlf = data_list->crlf, .one_frame = one_frame,
+        };
+        size_t max = l.max_frame ? l.max_frame : SLP_FRAME_DEFAULT;
+        size_t first_bad, cursor = 0, frames = 0, total = 0;
+        int want = 0, r;
+
+        /* "[:BA|N0" + entries + "|C" hh "]" [CR LF]: one_frame fails at the first entry that is
+         * bad or overflows, and leaves the cursor at 0. */
+        for (first_bad = 0; first_bad < l.count; first_bad++) {
+                want = named_error(&l, first_bad, declaration);
+                if (want != 0)
+                        break;
+                total += declaration ? 5 + strlen(l.names[first_bad])
+                                     : 4 + 2 * strlen(l.names[first_bad]);
+                if (one_frame && 7 + total + 5 + (l.crlf ? 2 : 0) > max) {
+                        want = -EMSGSIZE;
+                        break;
+                }
+        }
+        if (one_frame && want != 0)
+                first_bad = 0;
+        while ((r = declaration ? slp_encode_declaration(&l, &cursor, out, sizeof(out))
+                                : slp_encode_acknowledgement(&l, &cursor, out, sizeof(out))) > 0) {
+                struct slp_decode_result res;
+                size_t start, body = (size_t)r - (l.crlf ? 2 : 0);
+                const struct slp_frame *f;
+
+                CHECK(++frames <= l.count && (size_t)r <= max && cursor <= first_bad);
+                CHECK(!one_frame || cursor == l.count);
+                CHECK(slp_decoder_init(&redec, SLP_FRAME_MAX) == 0);
+                CHECK(slp_decoder_feed(&redec, (const uint8_t *)out, body, &res) == body);
+                CHECK(res.kind == SLP_RESULT_FRAME);
+                f = res.frame;
+                CHECK(f->dst == 'B' && f->src == 'A' && f->fields[0].letter == l.head);
+                start = f->fields[0].index;
+                CHECK(start < cursor && f->nfields == 1 + 2 * (cursor - start));
+                for (size_t p = start; p < cursor; p++) {
+                        const struct slp_field *a = &f->fields[1 + 2 * (p - start)];
+                        size_t len = strlen(l.names[p]);
+
+                        CHECK(a[0].letter == (declaration ? 'T' : 'R'));
+                        CHECK(a[1].letter == (declaration ? 'Q' : 'D'));
+                        CHECK(a[declaration].len == len);
+                        CHECK(memcmp(a[declaration].value, l.names[p], len) == 0);
+                        if (declaration)
+                                CHECK(a[0].len == 1 && a[0].value[0] == slp_type_digit(
+                                      l.types[p]));
+                        else
+                                CHECK(a[1].len == len && memcmp(a[1].value, l.values[p], len) == 0);
+                }
+        }
+        if (want != 0) {
+                CHECK(r == want && cursor == first_bad);
+        } else {
+                CHECK(r == 0 && cursor == l.count);
+        }
+}
+
+/* One frame for the whole list exactly when every value is good and the total fits. */
+static void fuzz_whole(const struct slp_list *l)
+{
+        static char out[SLP_FRAME_MAX];
+        size_t max = l->max_frame ? l->max_frame : SLP_FRAME_DEFAULT;
+        size_t total = 4 + 3 + 5 + (l->crlf ? 2 : 0);
+        int want = 0, r = slp_encode_list_whole(l, out, sizeof(out));
+
+        for (size_t p = 0; p < l->count && want == 0; p++) {
+                bool sent = !l->compress || l->full || l->changed[p];
+                const char *v = sent ? l->values[p] : "";
+                size_t len = strlen(v);
+
+                want = len > SLP_VALUE_MAX ? -EMSGSIZE : !printable_value(v, len) ? -EINVAL : 0;
+                total += 2 + len;
+        }
+        if (want == 0 && total > max)
+                want = -EMSGSIZE;
+        if (l->count == 0) {
+                CHECK(r == 0);
+        } else if (want != 0) {
+                CHECK(r == want);
+        } else {
+                struct slp_decode_result res;
+                size_t body = total - (l->crlf ? 2 : 0);
+
+                CHECK(r == (int)total);
+                CHECK(slp_decoder_init(&redec, SLP_FRAME_MAX) == 0);
+                CHECK(slp_decoder_feed(&redec, (const uint8_t *)out, body, &res) == body);
+                CHECK(res.kind == SLP_RESULT_FRAME && res.frame->nfields == 1 + l->count);
+                CHECK(res.frame->fields[0].type == SLP_FIELD_N && res.frame->fields[0].index == 0);
+        }
+}
+
 /* What slp_encode_list() must say about position p: 0 if it can be sent. */
 static int position_error(const struct slp_list *l, size_t p)
 {
@@ -386,6 +595,11 @@ static void fuzz_list(const uint8_t *data, const uint8_t *wire, size_t len)
         } else {
                 CHECK(r == 0 && cursor == count);
         }
+        for (size_t p = 0; p < count; p++)
+                list_types[p] = (enum slp_type)(2 * (p < len ? wire[p] % 3 : 0));
+        fuzz_whole(&l);
+        fuzz_named(&l, true, data[1] & 1);
+        fuzz_named(&l, false, data[1] & 2);
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)

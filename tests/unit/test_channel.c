@@ -644,6 +644,57 @@ static void test_udp_datagrams(void **state)
         free(peer);
 }
 
+/*
+ * Issue 13.8: a host sends before the vehicle's socket exists. On loopback the ICMP port
+ * unreachable comes back within the first send, so the next send reports ECONNREFUSED and the
+ * kernel drops that datagram: the channel sends it again and counts a refusal, not an io_error.
+ * A refusal picked up by a read (POLLERR) is counted the same way.
+ */
+static void test_udp_peer_not_listening_yet(void **state)
+{
+        struct link *l = *state;
+        struct link *peer = calloc(1, sizeof(*peer));
+        struct transport_params pa, pb;
+        struct channel_stats st;
+        char addr[TRANSPORT_ADDR_MAX];
+
+        assert_non_null(peer);
+        peer->loop = l->loop;
+        snprintf(addr, sizeof(addr), "127.0.0.1:%u", free_udp_port());
+        transport_params_init(&pa, TRANSPORT_UDP);
+        assert_int_equal(transport_params_set_udp(&pa, NULL, addr), 0);
+        assert_int_equal(channel_new(l->loop, &pa, NULL, &link_ops, l, &l->ch), 0);
+        assert_int_equal(channel_start(l->ch), 0);
+
+        /* Nobody listens: the datagram goes, the ICMP answer waits on the socket. */
+        assert_int_equal(channel_send(l->ch, "[:BA|P0|C78]", 12), 0);
+        /* The peer starts; the next datagram must reach it, without an error anywhere. */
+        transport_params_init(&pb, TRANSPORT_UDP);
+        assert_int_equal(transport_params_set_udp(&pb, addr, NULL), 0);
+        assert_int_equal(channel_new(l->loop, &pb, NULL, &link_ops, peer, &peer->ch), 0);
+        assert_int_equal(channel_start(peer->ch), 0);
+        assert_int_equal(channel_send(l->ch, "[:BA|G0|C6F]", 12), 0);
+        peer->want_datagrams = 1;
+        run(peer);
+        assert_int_equal(peer->in_len, 12);
+        assert_memory_equal(peer->in, "[:BA|G0|C6F]", 12);
+        channel_get_stats(l->ch, &st);
+        assert_int_equal(st.refused, 1);
+        assert_int_equal(st.io_errors, 0);
+        assert_int_equal(st.tx_dropped, 0);
+        assert_int_equal(st.datagrams_out, 2);
+        assert_int_equal(channel_state(l->ch), CHANNEL_STATE_UP);
+
+        /* The peer goes away: the refusal of the next datagram is read by the loop (POLLERR). */
+        peer->ch = channel_free(peer->ch);
+        assert_int_equal(channel_send(l->ch, "[:BA|P0|C78]", 12), 0);
+        while (channel_get_stats(l->ch, &st), st.refused < 2)
+                assert_true(evloop_run_once(l->loop) >= 0);
+        assert_int_equal(st.io_errors, 0);
+        assert_int_equal(channel_state(l->ch), CHANNEL_STATE_UP);
+        free(peer);
+}
+
 static void test_new_rejects_bad_input(void **state)
 {
         struct link *l = *state;
@@ -681,6 +732,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_free_from_callbacks, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_pty_kind_survives_peers, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_udp_datagrams, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_udp_peer_not_listening_yet, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_new_rejects_bad_input, setup, teardown),
         };
 

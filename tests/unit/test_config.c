@@ -75,7 +75,7 @@ static void test_reference(void **state)
         assert_true(c->runtime_dir_set);
         assert_string_equal(c->group, "sharedlink");
         assert_int_equal(c->n_links, 4);
-        assert_int_equal(c->n_vars, 12);
+        assert_int_equal(c->n_vars, 23);
 
         l = link_named(c, "vehicle");
         assert_ptr_equal(l, &c->links[0]);
@@ -124,9 +124,29 @@ static void test_reference(void **state)
         in4 = (const struct sockaddr_in *)&l->remote.addr;
         assert_int_equal(ntohs(in4->sin_port), 4000);
         assert_int_equal(ntohl(in4->sin_addr.s_addr), INADDR_LOOPBACK);
-        assert_int_equal(l->sl.peers[0].outbound[1].type, CONFIG_VAR_LONG);
-        assert_int_equal(l->sl.peers[0].compression, true);     /* default */
-        assert_int_equal(l->sl.peers[0].on_change, false);      /* default */
+        /* The Pronto4 host: node A, the vehicle is peer B (issue 13.1). */
+        assert_int_equal(l->sl.address, 'A');
+        assert_true(l->sl.crlf);
+        p = &l->sl.peers[0];
+        assert_int_equal(p->address, 'B');
+        assert_int_equal(p->dialect, CONFIG_DIALECT_PRONTO4);
+        assert_true(p->declare);
+        assert_false(p->outbound_learn);
+        assert_false(p->inbound_learn);
+        assert_int_equal(p->learn_max, 0);
+        assert_int_equal(p->n_outbound, 10);
+        assert_string_equal(p->outbound[0].name, "video_mux1");
+        assert_int_equal(p->outbound[1].type, CONFIG_VAR_LONG);
+        assert_int_equal(p->outbound[4].type, CONFIG_VAR_DOUBLE);
+        assert_int_equal(p->n_inbound, 5);
+        assert_int_equal(p->inbound[4].type, CONFIG_VAR_STRING);
+        assert_int_equal(p->compression, true);      /* default */
+        assert_int_equal(p->on_change, false);       /* default */
+        /* The serial link is bulletin, without the pronto4 settings. */
+        p = &link_named(c, "vehicle")->sl.peers[0];
+        assert_int_equal(p->dialect, CONFIG_DIALECT_BULLETIN);
+        assert_false(p->declare);
+        assert_false(link_named(c, "vehicle")->sl.crlf);
 
         l = link_named(c, "agility");
         assert_int_equal(l->protocol, CONFIG_PROTOCOL_CIRCE);
@@ -1274,6 +1294,224 @@ static void test_names(void **state)
         config_free(c);
 }
 
+/* ---------------------------------------------------------------------------------------------
+ * SharedLink peers of the Pronto4 dialect (docs/pronto4.md) */
+
+#define P4_LINK(extra) \
+        "links:\n" \
+        "  - name: p4\n" \
+        "    protocol: sharedlink\n" \
+        "    transport: udp\n" \
+        "    local: '127.0.0.1:4220'\n" \
+        "    remote: '127.0.0.1:4000'\n" \
+        extra \
+        "    address: A\n" \
+        "    peers:\n" \
+        "      - address: B\n"
+
+struct pronto4_case {
+        const char *name, *yaml;
+        enum config_dialect dialect;
+        bool declare, outbound_learn, inbound_learn, crlf;
+        uint32_t learn_max;
+        unsigned n_outbound, n_inbound;
+};
+
+static const struct pronto4_case pronto4_cases[] = {
+        { "host: configured lists, so it declares; crlf follows the dialect",
+          P4_LINK("") "        dialect: pronto4\n"
+          "        outbound: [{name: a, type: long}]\n        inbound: [b]\n",
+          CONFIG_DIALECT_PRONTO4, true, false, false, true, 0, 1, 1 },
+        { "vehicle: learns both lists, does not declare, learn_max defaults",
+          P4_LINK("") "        dialect: pronto4\n        outbound: learn\n        inbound: learn\n",
+          CONFIG_DIALECT_PRONTO4, false, true, true, true, CONFIG_LEARN_MAX_DEFAULT, 0, 0 },
+        { "one list learned (quoted), the other configured, learn_max at its top",
+          P4_LINK("") "        dialect: pronto4\n"
+          "        outbound: [x]\n        inbound: 'learn'\n        learn_max: 256\n",
+          CONFIG_DIALECT_PRONTO4, false, false, true, true, 256, 1, 0 },
+        { "learn_max at its bottom",
+          P4_LINK("") "        dialect: pronto4\n        inbound: learn\n        learn_max: 1\n",
+          CONFIG_DIALECT_PRONTO4, false, false, true, true, 1, 0, 0 },
+        { "explicit declare: false and crlf: false",
+          P4_LINK("    crlf: false\n") "        dialect: pronto4\n"
+          "        declare: false\n        outbound: [x]\n",
+          CONFIG_DIALECT_PRONTO4, false, false, false, false, 0, 1, 0 },
+        { "a bulletin peer is as before: no crlf unless asked",
+          P4_LINK("") "        outbound: [x]\n",
+          CONFIG_DIALECT_BULLETIN, false, false, false, false, 0, 1, 0 },
+        { "crlf asked on a bulletin link",
+          P4_LINK("    crlf: true\n") "        dialect: bulletin\n",
+          CONFIG_DIALECT_BULLETIN, false, false, false, true, 0, 0, 0 },
+        { "one pronto4 peer among bulletin ones turns the link's crlf on",
+          P4_LINK("") "      - {address: C, dialect: pronto4, inbound: learn}\n",
+          CONFIG_DIALECT_BULLETIN, false, false, false, true, 0, 0, 0 },
+};
+
+static void test_pronto4(void **state)
+{
+        (void)state;
+        for (size_t i = 0; i < sizeof(pronto4_cases) / sizeof(pronto4_cases[0]); i++) {
+                const struct pronto4_case *t = &pronto4_cases[i];
+                struct config *c = parse_ok(t->yaml);
+                const struct config_peer *p = &c->links[0].sl.peers[0];
+
+                print_message("case: %s\n", t->name);
+                assert_int_equal(p->dialect, t->dialect);
+                assert_int_equal(p->declare, t->declare);
+                assert_int_equal(p->outbound_learn, t->outbound_learn);
+                assert_int_equal(p->inbound_learn, t->inbound_learn);
+                assert_int_equal(p->learn_max, t->learn_max);
+                assert_int_equal(p->n_outbound, t->n_outbound);
+                assert_int_equal(p->n_inbound, t->n_inbound);
+                assert_int_equal(c->n_vars, t->n_outbound + t->n_inbound);
+                assert_int_equal(c->links[0].sl.crlf, t->crlf);
+                config_free(c);
+        }
+        assert_string_equal(config_dialect_name(CONFIG_DIALECT_BULLETIN), "bulletin");
+        assert_string_equal(config_dialect_name(CONFIG_DIALECT_PRONTO4), "pronto4");
+}
+
+/*
+ * The whole outbound list at its longest, as one frame: "[:BA|N0", 22 bytes per long ("|D" and
+ * 20), "|C" hh "]", CR LF. 45 longs take 1004 bytes, 46 take 1026: one too many for 1024, unless
+ * crlf: false (1024 exactly).
+ */
+static void test_pronto4_one_frame(void **state)
+{
+        struct text t = { 0 };
+        struct config *c;
+
+        (void)state;
+        for (unsigned n = 45; n <= 46; n++) {
+                free(t.buf);
+                t = (struct text){ 0 };
+                text_add(&t, P4_LINK("") "        dialect: pronto4\n        outbound:\n");
+                for (unsigned i = 0; i < n; i++)
+                        text_add(&t, "          - {name: v%02u, type: long}\n", i);
+                if (n == 45) {
+                        c = parse_ok(t.buf);
+                        assert_int_equal(c->links[0].sl.peers[0].n_outbound, 45);
+                        config_free(c);
+                } else {
+                        expect_error(&t, -EINVAL, "t.yaml:12:11: outbound: 46 variables take up to "
+                                     "1026 bytes as one frame, more than max_frame 1024 (a "
+                                     "pronto4 peer gets every data frame as one full N0 list)");
+                }
+        }
+        free(t.buf);
+        t = (struct text){ 0 };
+        text_add(&t, P4_LINK("    crlf: false\n") "        dialect: pronto4\n        outbound:\n");
+        for (unsigned i = 0; i < 46; i++)
+                text_add(&t, "          - {name: v%02u, type: long}\n", i);
+        c = parse_ok(t.buf);
+        config_free(c);
+        free(t.buf);
+}
+
+static struct bad_case pronto4_bad_cases[] = {
+        { "p4_dialect_unknown", P4_LINK("") "        dialect: kairos\n",
+          "t.yaml:10:18: dialect: expected bulletin or pronto4, got \"kairos\"" },
+        { "p4_learn_on_bulletin", P4_LINK("") "        inbound: learn\n",
+          "t.yaml:10:18: inbound: learn needs dialect: pronto4 (a bulletin peer never declares "
+          "its lists)" },
+        { "p4_outbound_learn_on_bulletin", P4_LINK("") "        dialect: bulletin\n"
+          "        outbound: learn\n",
+          "t.yaml:11:19: outbound: learn needs dialect: pronto4 (a bulletin peer never declares "
+          "its lists)" },
+        { "p4_declare_on_bulletin", P4_LINK("") "        declare: true\n        outbound: [x]\n",
+          "t.yaml:10:9: key \"declare\" needs dialect: pronto4" },
+        { "p4_learn_max_on_bulletin", P4_LINK("") "        learn_max: 5\n",
+          "t.yaml:10:9: key \"learn_max\" needs dialect: pronto4" },
+        { "p4_declare_with_learn", P4_LINK("") "        dialect: pronto4\n"
+          "        declare: true\n        inbound: learn\n        outbound: [x]\n",
+          "t.yaml:11:18: declare: true with a learned list (the side that learns answers "
+          "declarations, it does not send them)" },
+        { "p4_declare_nothing", P4_LINK("") "        dialect: pronto4\n        declare: true\n",
+          "t.yaml:11:18: declare: true, but the peer has no outbound or inbound variables to "
+          "declare" },
+        { "p4_learn_max_without_learn", P4_LINK("") "        dialect: pronto4\n"
+          "        learn_max: 5\n        outbound: [x]\n",
+          "t.yaml:11:9: learn_max needs outbound: learn or inbound: learn" },
+        { "p4_learn_max_zero", P4_LINK("") "        dialect: pronto4\n        inbound: learn\n"
+          "        learn_max: 0\n",
+          "t.yaml:12:20: learn_max 0 out of range (1..256)" },
+        { "p4_learn_max_too_big", P4_LINK("") "        dialect: pronto4\n        inbound: learn\n"
+          "        learn_max: 257\n",
+          "t.yaml:12:20: learn_max 257 out of range (1..256)" },
+        { "p4_learn_misspelt", P4_LINK("") "        dialect: pronto4\n        inbound: learned\n",
+          "t.yaml:11:18: inbound: expected a list, got \"learned\"" },
+        { "p4_declare_not_bool", P4_LINK("") "        dialect: pronto4\n        declare: yes\n",
+          "t.yaml:11:18: declare: expected true or false, got \"yes\"" },
+        { "p4_crlf_on_serial",
+          "links:\n  - {name: s, protocol: sharedlink, transport: serial, device: /dev/ttyS0, "
+          "crlf: true, address: A, peers: [{address: B}]}\n",
+          "t.yaml:2:76: key \"crlf\" is not valid for transport serial" },
+        { "p4_crlf_on_circe",
+          "links:\n  - {name: u, protocol: circe, role: controller, transport: udp, "
+          "local: '127.0.0.1:1', crlf: true}\n",
+          "t.yaml:2:88: key \"crlf\" is not valid for protocol circe" },
+        { "p4_crlf_not_bool", P4_LINK("    crlf: 1\n") "        dialect: pronto4\n",
+          "t.yaml:7:11: crlf: expected true or false, got \"1\"" },
+        { "p4_string_list_too_long", P4_LINK("") "        dialect: pronto4\n"
+          "        max_frame: 200\n        outbound: [a, b, c]\n",
+          "t.yaml:12:19: outbound: 3 variables take up to 209 bytes as one frame, more than "
+          "max_frame 200 (a pronto4 peer gets every data frame as one full N0 list)" },
+        { "p4_declaration_too_long", P4_LINK("") "        dialect: pronto4\n"
+          "        max_frame: 48\n        outbound: [{name: a_rather_long_variable_name_here, "
+          "type: long}]\n",
+          "t.yaml:12:19: outbound: its declaration N0|T|Q... takes 51 bytes, more than max_frame "
+          "48 (a pronto4 peer wants it in one frame)" },
+        { "p4_inbound_declaration_too_long", P4_LINK("") "        dialect: pronto4\n"
+          "        max_frame: 40\n        inbound: [abcdefghijklmnopqrstuvwxyz0123]\n",
+          "t.yaml:12:18: inbound: its declaration L0|T|Q... takes 49 bytes, more than max_frame "
+          "40 (a pronto4 peer wants it in one frame)" },
+};
+
+static void test_pronto4_bad(void **state)
+{
+        (void)state;
+        for (size_t i = 0; i < sizeof(pronto4_bad_cases) / sizeof(pronto4_bad_cases[0]); i++) {
+                void *one = &pronto4_bad_cases[i];
+
+                print_message("case %s\n", pronto4_bad_cases[i].name);
+                test_bad(&one);
+        }
+}
+
+/* Reload: every dialect setting is part of the link's identity. */
+static void test_pronto4_equal(void **state)
+{
+        static const char *const variants[] = {
+                P4_LINK("") "        dialect: pronto4\n        outbound: [x]\n",
+                P4_LINK("") "        dialect: pronto4\n        outbound: [x]\n"
+                "        declare: false\n",
+                P4_LINK("    crlf: false\n") "        dialect: pronto4\n        outbound: [x]\n",
+                P4_LINK("") "        outbound: [x]\n",
+                P4_LINK("") "        dialect: pronto4\n        outbound: [x]\n"
+                "        inbound: learn\n        declare: false\n",
+                P4_LINK("") "        dialect: pronto4\n        outbound: [x]\n"
+                "        inbound: learn\n        declare: false\n        learn_max: 7\n",
+                P4_LINK("") "        dialect: pronto4\n        outbound: learn\n",
+        };
+        struct config *cfg[sizeof(variants) / sizeof(variants[0])];
+        size_t n = sizeof(variants) / sizeof(variants[0]);
+
+        (void)state;
+        for (size_t i = 0; i < n; i++)
+                cfg[i] = parse_ok(variants[i]);
+        for (size_t i = 0; i < n; i++) {
+                struct config *again = parse_ok(variants[i]);
+
+                assert_true(config_link_equal(&cfg[i]->links[0], &again->links[0]));
+                config_free(again);
+                for (size_t j = 0; j < n; j++)
+                        if (i != j && config_link_equal(&cfg[i]->links[0], &cfg[j]->links[0]))
+                                fail_msg("variants %zu and %zu compare equal", i, j);
+        }
+        for (size_t i = 0; i < n; i++)
+                config_free(cfg[i]);
+}
+
 int main(void)
 {
         static const struct CMUnitTest fixed[] = {
@@ -1293,6 +1531,10 @@ int main(void)
                 cmocka_unit_test(test_link_equal),
                 cmocka_unit_test(test_link_equal_udp),
                 cmocka_unit_test(test_names),
+                cmocka_unit_test(test_pronto4),
+                cmocka_unit_test(test_pronto4_one_frame),
+                cmocka_unit_test(test_pronto4_bad),
+                cmocka_unit_test(test_pronto4_equal),
         };
         size_t n_fixed = sizeof(fixed) / sizeof(fixed[0]);
         size_t n_bad = sizeof(bad_cases) / sizeof(bad_cases[0]);

@@ -186,6 +186,25 @@ struct vector {
 #define X32 "[:AB|D01234567890123456789x|CCE]"      /* exactly 32 bytes */
 #define X33 "[:AB|D01234567890123456789xy|C47]"     /* 33 bytes */
 
+#define P4_PING_BA "[:BA|P0|C78]"
+#define P4_ACK "[:AB|N0|Rvideo_mux1|D0|Rveh_start|D0|Rveh_enable|D0|Rveh_motion|D0|Rjoy_steer|D0" \
+        "|Rveh_steer|D0|Rveh_brake|D100|Rveh_throttle|D0|Rveh_shift|D0|Rveh_clutch|D0|C92]"
+#define P4_DECL_N "[:BA|N0|T0|Qvideo_mux1|T0|Qveh_start|T0|Qveh_enable|T0|Qveh_motion" \
+        "|T2|Qjoy_steer|T0|Qveh_steer|T0|Qveh_brake|T0|Qveh_throttle|T0|Qveh_shift" \
+        "|T0|Qveh_clutch|CC9]"
+#define P4_DECL_L_FIELDS "L0|T2|QAutoGpsHead|T2|QAutoGpsLat|T2|QAutoGpsLon|T2|QAutoGpsVel" \
+        "|T0|QAutoGpsReferences|T0|QAutoGpsQuality|T2|QAutoGpsStamp|T0|Qpause|T0|Qkey_on" \
+        "|T0|Qeng_enb|T0|Qpe7|T0|Qbbrake|T0|Qfbrake|T2|Qsteerang|T0|Qthrottle|Qsvp_enb_eng" \
+        "|T0|Qserialpck|T0|Qveh_gear|T0|Qveh_state|T0|Qveh_estop|T0|Qveh_obstacle|T2|Qvehicle_bat" \
+        "|T4|Qrun_composite|T4|QVehicleName|T0|QHealth_total|T0|Qrpm|T0|Qfuel|T2|Qsys_thd"
+#define P4_DECL_L "[:BA|" P4_DECL_L_FIELDS "|C52]"
+#define P4_DECL_L_OUT "BA|L0@0" \
+        "|T2|QAutoGpsHead|T2|QAutoGpsLat|T2|QAutoGpsLon|T2|QAutoGpsVel" \
+        "|T0|QAutoGpsReferences|T0|QAutoGpsQuality|T2|QAutoGpsStamp|T0|Qpause|T0|Qkey_on" \
+        "|T0|Qeng_enb|T0|Qpe7|T0|Qbbrake|T0|Qfbrake|T2|Qsteerang|T0|Qthrottle|Qsvp_enb_eng" \
+        "|T0|Qserialpck|T0|Qveh_gear|T0|Qveh_state|T0|Qveh_estop|T0|Qveh_obstacle|T2|Qvehicle_bat" \
+        "|T4|Qrun_composite|T4|QVehicleName|T0|QHealth_total|T0|Qrpm|T0|Qfuel|T2|Qsys_thd"
+
 static const struct vector vectors[] = {
         /* PROTOCOLS.md 1.3 worked examples, and the captured ping */
         { "spec data", { SPEC_DATA }, 0, 0, SPEC_DATA_OUT },
@@ -256,6 +275,39 @@ static const struct vector vectors[] = {
         { "pong", { "[:BA|G0|C6F]" }, 0, 0, "BA|G0" },
         { "module command", { "[:BA|ELink|D0, outbound, on|CA0]" }, 0, 0,
           "BA|ELink|D0, outbound, on" },
+        /* Pronto4 field traffic (docs/pronto4.md), byte for byte from the public clients */
+        { "vehicle acknowledges a declaration", { P4_ACK }, 0, 0,
+          "AB|N0@0|Rvideo_mux1|D0|Rveh_start|D0|Rveh_enable|D0|Rveh_motion|D0|Rjoy_steer|D0"
+          "|Rveh_steer|D0|Rveh_brake|D100|Rveh_throttle|D0|Rveh_shift|D0|Rveh_clutch|D0" },
+        { "host N0 declaration", { P4_DECL_N }, 0, 0,
+          "BA|N0@0|T0|Qvideo_mux1|T0|Qveh_start|T0|Qveh_enable|T0|Qveh_motion|T2|Qjoy_steer"
+          "|T0|Qveh_steer|T0|Qveh_brake|T0|Qveh_throttle|T0|Qveh_shift|T0|Qveh_clutch" },
+        { "host L0 declaration, one entry untyped", { P4_DECL_L }, 0, 0, P4_DECL_L_OUT },
+        { "Q inside a declaration, no T",
+          { "[:BA|N0|T0|Qthrottle|Qsvp_enb_eng|T0|Qserialpck|C97]" }, 0, 0,
+          "BA|N0@0|T0|Qthrottle|Qsvp_enb_eng|T0|Qserialpck" },
+        { "data with an empty field and empty D", { "[:AB|N0||D0|D|D|C62]" }, 0, 0,
+          "AB|N0@0|D0|D|D {e=1}" },
+        { "uppercase unpadded checksum, a letter", { "[:AB|N0|D0|Dxl|CA]" }, 0, 0,
+          "AB|N0@0|D0|Dxl" },
+        { "uppercase unpadded checksum, a digit", { "[:BA|EServoPod|D0,TELEOP START|C2]" }, 0,
+          0, "BA|EServoPod|D0,TELEOP START" },
+        { "padded module command", { "[:BA|EServoPod|D0,TELEOP START|C02]" }, 0, 0,
+          "BA|EServoPod|D0,TELEOP START" },
+        { "datagrams ending LF CR and CR LF", { P4_PING_BA "\n\r", P4_PING_BA "\r\n" }, 0, 0,
+          "BA|P0 ; BA|P0" },
+        { "connect sequence",
+          { "[:BA|ELink|D0, SetIP, 192.168.200.10:4220, 4000|CE2]\r\n",
+            "[:BA|ELink|D0, outbound, on|CA0]\r\n", "[:BA|ELink|D0, inbound, on|C1F]\r\n" },
+          0, 0, "BA|ELink|D0, SetIP, 192.168.200.10:4220, 4000 ; BA|ELink|D0, outbound, on ; "
+          "BA|ELink|D0, inbound, on" },
+        { "MUI MUO MW ML are unknown types to the codec",
+          { "[:BA|MUI|CE3]", "[:BA|MUO|CE9]", "[:BA|MW|C9C]", "[:BA|ML|C91]" }, 0, 0,
+          "BA|*MUI {u=1} ; BA|*MUO {u=1} ; BA|*MW {u=1} ; BA|*ML {u=1}" },
+        { "physics command", { "[:BA|EPhysics|D0,Stop|CE2]" }, 0, 0, "BA|EPhysics|D0,Stop" },
+        { "self-describing frame from the host",
+          { "[:BA|N0|T4|QVehicleName|DVEH_1|T4|QAutoGpsLat|D0|C60]" }, 0, 0,
+          "BA|N0@0|T4|QVehicleName|DVEH_1|T4|QAutoGpsLat|D0" },
         /* garbage before, between and inside frames */
         { "garbage before", { "xyz" PING }, 0, 0, "!noise/3 ; AB|P0" },
         { "garbage between", { PING "\r\nab\r\n" PING }, 0, 0, "AB|P0 ; !noise/2 ; AB|P0" },
@@ -933,6 +985,632 @@ static void test_roundtrip_vectors(void **state)
         assert_true(checked >= 30);
 }
 
+/* ---------------------------------------------------------------------------------------------
+ * Pronto4 dialect helpers and encoders (docs/pronto4.md) */
+
+static void test_type_parse(void **state)
+{
+        enum slp_type t = SLP_TYPE_STRING;
+
+        (void)state;
+        assert_int_equal(slp_type_parse("0", 1, &t), 0);
+        assert_int_equal(t, SLP_TYPE_LONG);
+        assert_int_equal(slp_type_parse("2", 1, &t), 0);
+        assert_int_equal(t, SLP_TYPE_DOUBLE);
+        assert_int_equal(slp_type_parse("4", 1, &t), 0);
+        assert_int_equal(t, SLP_TYPE_STRING);
+        /* Anything else is an error and leaves the output alone. */
+        static const char *const bad[] = { "1", "3", "5", "9", "x", "00", "02", " 0", "", "?" };
+        for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+                t = SLP_TYPE_LONG;
+                assert_int_equal(slp_type_parse(bad[i], strlen(bad[i]), &t), -EINVAL);
+                assert_int_equal(t, SLP_TYPE_LONG);
+        }
+        assert_int_equal(slp_type_digit(SLP_TYPE_LONG), '0');
+        assert_int_equal(slp_type_digit(SLP_TYPE_DOUBLE), '2');
+        assert_int_equal(slp_type_digit(SLP_TYPE_STRING), '4');
+        assert_int_equal(slp_type_digit((enum slp_type)1), 0);
+        assert_int_equal(slp_type_digit((enum slp_type)3), 0);
+        assert_int_equal(slp_type_digit((enum slp_type)5), 0);
+        assert_int_equal(slp_type_digit((enum slp_type)-1), 0);
+}
+
+struct value_case {
+        enum slp_type type;
+        const char *value;
+        int expect;
+};
+
+#define V64 "0123456789012345678901234567890123456789012345678901234567890123"
+
+static const struct value_case value_cases[] = {
+        /* long */
+        { SLP_TYPE_LONG, "0", 0 },
+        { SLP_TYPE_LONG, "-0", 0 },
+        { SLP_TYPE_LONG, "+17", 0 },
+        { SLP_TYPE_LONG, "007", 0 },
+        { SLP_TYPE_LONG, "100", 0 },
+        { SLP_TYPE_LONG, "9223372036854775807", 0 },
+        { SLP_TYPE_LONG, "-9223372036854775808", 0 },
+        { SLP_TYPE_LONG, "00000000000000000000009223372036854775807", 0 },
+        { SLP_TYPE_LONG, "9223372036854775808", -EINVAL },
+        { SLP_TYPE_LONG, "-9223372036854775809", -EINVAL },
+        { SLP_TYPE_LONG, "18446744073709551616", -EINVAL },
+        { SLP_TYPE_LONG, "99999999999999999999999", -EINVAL },
+        { SLP_TYPE_LONG, "", -EINVAL },
+        { SLP_TYPE_LONG, "-", -EINVAL },
+        { SLP_TYPE_LONG, "+", -EINVAL },
+        { SLP_TYPE_LONG, "+-1", -EINVAL },
+        { SLP_TYPE_LONG, "1.0", -EINVAL },
+        { SLP_TYPE_LONG, "1e3", -EINVAL },
+        { SLP_TYPE_LONG, " 1", -EINVAL },
+        { SLP_TYPE_LONG, "1 ", -EINVAL },
+        { SLP_TYPE_LONG, "0x10", -EINVAL },
+        { SLP_TYPE_LONG, "12a", -EINVAL },
+        { SLP_TYPE_LONG, "1|2", -EINVAL },
+        { SLP_TYPE_LONG, V64, -EMSGSIZE },
+        /* double */
+        { SLP_TYPE_DOUBLE, "0", 0 },
+        { SLP_TYPE_DOUBLE, "-113.12345678", 0 },
+        { SLP_TYPE_DOUBLE, "+40.5", 0 },
+        { SLP_TYPE_DOUBLE, ".5", 0 },
+        { SLP_TYPE_DOUBLE, "5.", 0 },
+        { SLP_TYPE_DOUBLE, "-.5e-3", 0 },
+        { SLP_TYPE_DOUBLE, "1E10", 0 },
+        { SLP_TYPE_DOUBLE, "1e+10", 0 },
+        { SLP_TYPE_DOUBLE, "100", 0 },
+        { SLP_TYPE_DOUBLE, "1e-400", 0 },               /* underflows to 0: finite */
+        { SLP_TYPE_DOUBLE, "0e999999999999999999999", 0 },
+        { SLP_TYPE_DOUBLE, "0.000e400", 0 },
+        { SLP_TYPE_DOUBLE, "1.7976931348623157e308", 0 },
+        { SLP_TYPE_DOUBLE, "-1.7976931348623157e+308", 0 },
+        { SLP_TYPE_DOUBLE, "17976931348623157e292", 0 },
+        { SLP_TYPE_DOUBLE, "0.017976931348623157e310", 0 },
+        { SLP_TYPE_DOUBLE, "1.79769313486231569e308", 0 },
+        { SLP_TYPE_DOUBLE, "9.9e307", 0 },
+        { SLP_TYPE_DOUBLE, "1.79769313486231571e308", -EINVAL },
+        { SLP_TYPE_DOUBLE, "1.8e308", -EINVAL },
+        { SLP_TYPE_DOUBLE, "1e309", -EINVAL },
+        { SLP_TYPE_DOUBLE, "0.1e310", -EINVAL },
+        { SLP_TYPE_DOUBLE, "1e99999999999999999999", -EINVAL },
+        { SLP_TYPE_DOUBLE, "", -EINVAL },
+        { SLP_TYPE_DOUBLE, ".", -EINVAL },
+        { SLP_TYPE_DOUBLE, "-", -EINVAL },
+        { SLP_TYPE_DOUBLE, "-.", -EINVAL },
+        { SLP_TYPE_DOUBLE, "e5", -EINVAL },
+        { SLP_TYPE_DOUBLE, "1e", -EINVAL },
+        { SLP_TYPE_DOUBLE, "1e+", -EINVAL },
+        { SLP_TYPE_DOUBLE, "1.2.3", -EINVAL },
+        { SLP_TYPE_DOUBLE, "1,5", -EINVAL },           /* no locale: ',' is never a point */
+        { SLP_TYPE_DOUBLE, "0x1p3", -EINVAL },
+        { SLP_TYPE_DOUBLE, "inf", -EINVAL },
+        { SLP_TYPE_DOUBLE, "-infinity", -EINVAL },
+        { SLP_TYPE_DOUBLE, "nan", -EINVAL },
+        { SLP_TYPE_DOUBLE, "NAN(1)", -EINVAL },
+        { SLP_TYPE_DOUBLE, " 1.5", -EINVAL },
+        { SLP_TYPE_DOUBLE, "1.5 ", -EINVAL },
+        { SLP_TYPE_DOUBLE, "1.5x", -EINVAL },
+        { SLP_TYPE_DOUBLE, "1e5.0", -EINVAL },
+        { SLP_TYPE_DOUBLE, "++1", -EINVAL },
+        { SLP_TYPE_DOUBLE, V64, -EMSGSIZE },
+        /* string */
+        { SLP_TYPE_STRING, "", 0 },
+        { SLP_TYPE_STRING, "VEH_1", 0 },
+        { SLP_TYPE_STRING, "0, TELEOP START ~!@#$%^&*(){}", 0 },
+        { SLP_TYPE_STRING, "a|b", -EINVAL },
+        { SLP_TYPE_STRING, "a[", -EINVAL },
+        { SLP_TYPE_STRING, "]", -EINVAL },
+        { SLP_TYPE_STRING, "tab\there", -EINVAL },
+        { SLP_TYPE_STRING, "\x7f", -EINVAL },
+        { SLP_TYPE_STRING, "\xc3\xa9", -EINVAL },
+        { SLP_TYPE_STRING, V64, -EMSGSIZE },
+        /* not a type */
+        { (enum slp_type)1, "0", -EINVAL },
+        { (enum slp_type)3, "0", -EINVAL },
+};
+
+static void test_value_check(void **state)
+{
+        (void)state;
+        for (size_t i = 0; i < sizeof(value_cases) / sizeof(value_cases[0]); i++) {
+                const struct value_case *c = &value_cases[i];
+                int r = slp_value_check(c->type, c->value, strlen(c->value));
+
+                if (r != c->expect)
+                        print_error("value check T%d \"%s\": got %d want %d\n", (int)c->type,
+                                    c->value, r, c->expect);
+                assert_int_equal(r, c->expect);
+        }
+        /* The length is the caller's, not strlen(): a NUL inside is a bad byte. */
+        assert_int_equal(slp_value_check(SLP_TYPE_LONG, "12", 1), 0);
+        assert_int_equal(slp_value_check(SLP_TYPE_STRING, "a\0b", 3), -EINVAL);
+        assert_int_equal(slp_value_check(SLP_TYPE_DOUBLE, "1e5\0", 4), -EINVAL);
+        assert_int_equal(slp_value_check(SLP_TYPE_STRING, V64, SLP_VALUE_MAX), 0);
+}
+
+static void test_name_check(void **state)
+{
+        static const char *const good[] = { "a", "AutoGpsLat", "veh_start", "b.Cmd-1", "7" };
+        static const char *const bad[] = { "", "a b", "a|b", "a]", "ä", "a\tb", "a,b", "Link:" };
+
+        (void)state;
+        for (size_t i = 0; i < sizeof(good) / sizeof(good[0]); i++)
+                assert_int_equal(slp_name_check(good[i], strlen(good[i])), 0);
+        for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++)
+                assert_int_equal(slp_name_check(bad[i], strlen(bad[i])), -EINVAL);
+        assert_int_equal(slp_name_check(V64, SLP_VALUE_MAX), 0);
+        assert_int_equal(slp_name_check(V64, SLP_VALUE_MAX + 1), -EMSGSIZE);
+}
+
+/* The host list of the public clients: the vehicle's N0 declaration and its acknowledgement. */
+static const char *const p4_names[] = {
+        "video_mux1", "veh_start", "veh_enable", "veh_motion", "joy_steer",
+        "veh_steer", "veh_brake", "veh_throttle", "veh_shift", "veh_clutch",
+};
+static const enum slp_type p4_types[] = {
+        SLP_TYPE_LONG, SLP_TYPE_LONG, SLP_TYPE_LONG, SLP_TYPE_LONG, SLP_TYPE_DOUBLE,
+        SLP_TYPE_LONG, SLP_TYPE_LONG, SLP_TYPE_LONG, SLP_TYPE_LONG, SLP_TYPE_LONG,
+};
+static const char *const p4_values[] = { "0", "0", "0", "0", "0", "0", "100", "0", "0", "0" };
+#define P4_COUNT (sizeof(p4_names) / sizeof(p4_names[0]))
+
+/* Decodes buf (one frame, optional CR LF) into the shared decoder and returns the frame. */
+static const struct slp_frame *decode_one(const char *buf, size_t len)
+{
+        struct slp_decode_result r;
+        size_t used;
+
+        assert_int_equal(slp_decoder_init(&dec, SLP_FRAME_MAX), 0);
+        used = slp_decoder_feed(&dec, (const uint8_t *)buf, len, &r);
+        assert_int_equal(r.kind, SLP_RESULT_FRAME);
+        assert_true(len - used == 0 || (len - used == 2 && memcmp(buf + used, "\r\n", 2) == 0));
+        return r.frame;
+}
+
+static bool field_is(const struct slp_field *f, char letter, const char *value)
+{
+        return f->letter == letter && f->len == strlen(value) &&
+               memcmp(f->value, value, f->len) == 0;
+}
+
+/*
+ * Encodes a named list frame by frame and checks, through the decoder, that every position
+ * comes out once, in order, with its T/Q or R/D pair, each frame starting at its own offset and
+ * no longer than max_frame. Returns the number of frames.
+ */
+static size_t check_named_roundtrip(const struct slp_named_list *l, bool declaration)
+{
+        size_t max = l->max_frame ? l->max_frame : SLP_FRAME_DEFAULT, cursor = 0, frames = 0;
+        char buf[SLP_FRAME_MAX];
+        int r;
+
+        while ((r = declaration ? slp_encode_declaration(l, &cursor, buf, sizeof(buf))
+                                : slp_encode_acknowledgement(l, &cursor, buf, sizeof(buf))) > 0) {
+                const struct slp_frame *f = decode_one(buf, (size_t)r);
+                size_t start;
+
+                assert_true((size_t)r <= max);
+                assert_true(++frames <= l->count);
+                assert_int_equal(f->dst, l->dst);
+                assert_int_equal(f->src, l->src);
+                assert_int_equal(f->fields[0].letter, l->head);
+                start = f->fields[0].index;
+                assert_true(cursor > start);
+                assert_int_equal(f->nfields, 1 + 2 * (cursor - start));
+                for (size_t i = start; i < cursor; i++) {
+                        const struct slp_field *a = &f->fields[1 + 2 * (i - start)];
+                        char digit[2] = { slp_type_digit(declaration ? l->types[i] : 0), 0 };
+
+                        if (declaration) {
+                                assert_true(field_is(&a[0], 'T', digit));
+                                assert_true(field_is(&a[1], 'Q', l->names[i]));
+                        } else {
+                                assert_true(field_is(&a[0], 'R', l->names[i]));
+                                assert_true(field_is(&a[1], 'D', l->values[i]));
+                        }
+                }
+        }
+        assert_int_equal(r, 0);
+        assert_int_equal(cursor, l->count);
+        return frames;
+}
+
+static void test_declaration_encode(void **state)
+{
+        struct slp_named_list l = {
+                .dst = 'A', .src = 'B', .head = 'N', .names = p4_names, .types = p4_types,
+                .count = P4_COUNT,
+        };
+        char buf[SLP_FRAME_MAX];
+        size_t cursor = 0;
+        int r;
+
+        (void)state;
+        /* The host's N0 declaration of the public clients, byte for byte (sent by B to A). */
+        l.dst = 'B';
+        l.src = 'A';
+        r = slp_encode_declaration(&l, &cursor, buf, sizeof(buf));
+        assert_int_equal(r, strlen(P4_DECL_N));
+        assert_memory_equal(buf, P4_DECL_N, (size_t)r);
+        assert_int_equal(cursor, P4_COUNT);
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), 0);
+        assert_int_equal(check_named_roundtrip(&l, true), 1);
+
+        /* L form, CR LF, every type. */
+        l = (struct slp_named_list){
+                .dst = 'A', .src = 'B', .head = 'L', .crlf = true,
+                .names = (const char *const[]){ "a", "b", "c" },
+                .types = (const enum slp_type[]){ SLP_TYPE_LONG, SLP_TYPE_DOUBLE,
+                                                  SLP_TYPE_STRING },
+                .count = 3,
+        };
+        cursor = 0;
+        r = slp_encode_declaration(&l, &cursor, buf, sizeof(buf));
+        assert_int_equal(r, strlen("[:AB|L0|T0|Qa|T2|Qb|T4|Qc|C07]\r\n"));
+        assert_memory_equal(buf, "[:AB|L0|T0|Qa|T2|Qb|T4|Qc|C07]\r\n", (size_t)r);
+
+        /* Split over frames of 64 bytes: "L<k>" offsets, every entry exactly once. */
+        l = (struct slp_named_list){ .dst = 'B', .src = 'A', .head = 'L', .names = p4_names,
+                                     .types = p4_types, .count = P4_COUNT, .max_frame = 64 };
+        assert_true(check_named_roundtrip(&l, true) >= 3);
+        /* ... unless one frame is demanded: too long for 64 bytes, fine in 1024. */
+        l.one_frame = true;
+        cursor = 0;
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
+        assert_int_equal(cursor, 0);
+        l.max_frame = 0;
+        assert_int_equal(check_named_roundtrip(&l, true), 1);
+        /* The caller's buffer is the limit: -ENOSPC, not -EMSGSIZE. */
+        cursor = 0;
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, 100), -ENOSPC);
+        /* one_frame never starts in the middle. */
+        cursor = 3;
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+}
+
+static void test_declaration_errors(void **state)
+{
+        static const char *const names[] = { "ok", "bad name", "" };
+        static const enum slp_type types[] = { SLP_TYPE_LONG, SLP_TYPE_LONG, SLP_TYPE_LONG };
+        static const enum slp_type bad_types[] = { SLP_TYPE_LONG, (enum slp_type)3 };
+        struct slp_named_list l = { .dst = 'A', .src = 'B', .head = 'N', .names = names,
+                                    .types = types, .count = 2 };
+        char buf[SLP_FRAME_MAX];
+        size_t cursor = 0;
+
+        (void)state;
+        /* A bad name ends the frame before it; the next call names it. */
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)),
+                         strlen("[:AB|N0|T0|Qok|C1D]"));
+        assert_memory_equal(buf, "[:AB|N0|T0|Qok|C1D]", strlen("[:AB|N0|T0|Qok|C1D]"));
+        assert_int_equal(cursor, 1);
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        assert_int_equal(cursor, 1);
+        /* With one_frame the whole list fails. */
+        l.one_frame = true;
+        cursor = 0;
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        l.one_frame = false;
+        /* Empty name, unknown type, no types, bad head, bad address, NULL name. */
+        l.names = (const char *const[]){ "" };
+        l.count = 1;
+        cursor = 0;
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        l.names = (const char *const[]){ "a", "b" };
+        l.types = bad_types;
+        l.count = 2;
+        cursor = 1;
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        l.types = NULL;
+        cursor = 0;
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        l.types = types;
+        l.head = 'D';
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        l.head = 'N';
+        l.src = 'Q';
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        l.src = 'B';
+        l.names = (const char *const[]){ NULL, "b" };
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        l.names = (const char *const[]){ V64, "b" };
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
+        /* An entry that can never fit max_frame alone. */
+        l.names = (const char *const[]){ "a01234567890123456789" };
+        l.count = 1;
+        l.max_frame = SLP_FRAME_MIN;
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
+        /* An empty list: nothing to send. */
+        l.count = 0;
+        l.max_frame = 0;
+        assert_int_equal(slp_encode_declaration(&l, &cursor, buf, sizeof(buf)), 0);
+}
+
+static void test_acknowledgement_encode(void **state)
+{
+        struct slp_named_list l = {
+                .dst = 'A', .src = 'B', .head = 'N', .names = p4_names, .values = p4_values,
+                .count = P4_COUNT, .one_frame = true,
+        };
+        char buf[SLP_FRAME_MAX];
+        size_t cursor = 0;
+        int r;
+
+        (void)state;
+        /* The vehicle's answer to the declaration above, byte for byte (the C92 frame). */
+        r = slp_encode_acknowledgement(&l, &cursor, buf, sizeof(buf));
+        assert_int_equal(r, strlen(P4_ACK));
+        assert_memory_equal(buf, P4_ACK, (size_t)r);
+        assert_int_equal(check_named_roundtrip(&l, false), 1);
+        /* Split, with CR LF. */
+        l.one_frame = false;
+        l.crlf = true;
+        l.max_frame = 48;
+        assert_true(check_named_roundtrip(&l, false) >= 4);
+        /* Empty values are fine (nothing known yet); bad ones are not. */
+        l = (struct slp_named_list){ .dst = 'A', .src = 'B', .head = 'N',
+                                     .names = (const char *const[]){ "ok", "x" },
+                                     .values = (const char *const[]){ "1", "" }, .count = 2 };
+        cursor = 0;
+        r = slp_encode_acknowledgement(&l, &cursor, buf, sizeof(buf));
+        assert_int_equal(r, strlen("[:AB|N0|Rok|D1|Rx|D|C15]"));
+        assert_memory_equal(buf, "[:AB|N0|Rok|D1|Rx|D|C15]", (size_t)r);
+        assert_int_equal(check_named_roundtrip(&l, false), 1);
+        l.values = (const char *const[]){ "1", "a]" };
+        cursor = 0;
+        assert_int_equal(slp_encode_acknowledgement(&l, &cursor, buf, sizeof(buf)),
+                         strlen("[:AB|N0|Rok|D1|C0F]"));
+        assert_memory_equal(buf, "[:AB|N0|Rok|D1|C0F]", strlen("[:AB|N0|Rok|D1|C0F]"));
+        assert_int_equal(slp_encode_acknowledgement(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        l.values = (const char *const[]){ "1", V64 };
+        assert_int_equal(slp_encode_acknowledgement(&l, &cursor, buf, sizeof(buf)), -EMSGSIZE);
+        l.values = (const char *const[]){ "1", NULL };
+        assert_int_equal(slp_encode_acknowledgement(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+        l.values = NULL;
+        cursor = 0;
+        assert_int_equal(slp_encode_acknowledgement(&l, &cursor, buf, sizeof(buf)), -EINVAL);
+}
+
+static void test_list_query_encode(void **state)
+{
+        char buf[64];
+        int r;
+
+        (void)state;
+        r = slp_encode_list_query(buf, sizeof(buf), 'A', 'B', 'N', 0);
+        assert_int_equal(r, strlen("[:AB|N?|C85]"));
+        assert_memory_equal(buf, "[:AB|N?|C85]", (size_t)r);
+        r = slp_encode_list_query(buf, sizeof(buf), 'B', 'A', 'L', SLP_ENCODE_CRLF);
+        assert_int_equal(r, strlen("[:BA|L?|C83]\r\n"));
+        assert_memory_equal(buf, "[:BA|L?|C83]\r\n", (size_t)r);
+        assert_int_equal(decode_one(buf, (size_t)r)->fields[0].index, SLP_INDEX_QUERY);
+        assert_int_equal(slp_encode_list_query(buf, sizeof(buf), 'A', 'B', 'Q', 0), -EINVAL);
+        assert_int_equal(slp_encode_list_query(buf, sizeof(buf), 'A', 'b', 'N', 0), -EINVAL);
+        assert_int_equal(slp_encode_list_query(buf, 11, 'A', 'B', 'N', 0), -ENOSPC);
+}
+
+static void test_command_encode(void **state)
+{
+        static const char *const cmds[][3] = {
+                { "Link", "0, SetIP, 192.168.200.10:4220, 4000",
+                  "[:BA|ELink|D0, SetIP, 192.168.200.10:4220, 4000|CE2]" },
+                { "Link", "0, outbound, on", "[:BA|ELink|D0, outbound, on|CA0]" },
+                { "Link", "0, inbound, on", "[:BA|ELink|D0, inbound, on|C1F]" },
+                /* Sum 0x02: we pad it, where some senders write "C2". */
+                { "ServoPod", "0,TELEOP START", "[:BA|EServoPod|D0,TELEOP START|C02]" },
+                { "Physics", "0,Stop", "[:BA|EPhysics|D0,Stop|CE2]" },
+        };
+        char buf[128];
+        int r;
+
+        (void)state;
+        for (size_t i = 0; i < sizeof(cmds) / sizeof(cmds[0]); i++) {
+                const struct slp_frame *f;
+
+                r = slp_encode_command(buf, sizeof(buf), 'B', 'A', cmds[i][0], cmds[i][1], 0);
+                assert_int_equal(r, strlen(cmds[i][2]));
+                assert_memory_equal(buf, cmds[i][2], (size_t)r);
+                f = decode_one(buf, (size_t)r);
+                assert_int_equal(f->nfields, 2);
+                assert_true(field_is(&f->fields[0], 'E', cmds[i][0]));
+                assert_int_equal(f->fields[0].type, SLP_FIELD_E);
+                assert_true(field_is(&f->fields[1], 'D', cmds[i][1]));
+        }
+        r = slp_encode_command(buf, sizeof(buf), 'A', 'B', "Link", "", SLP_ENCODE_CRLF);
+        assert_int_equal(r, strlen("[:AB|ELink|D|C8B]\r\n"));
+        assert_memory_equal(buf, "[:AB|ELink|D|C8B]\r\n", (size_t)r);
+        /* Bad module, bad text, too long, too small a buffer. */
+        assert_int_equal(slp_encode_command(buf, sizeof(buf), 'A', 'B', "", "x", 0), -EINVAL);
+        assert_int_equal(slp_encode_command(buf, sizeof(buf), 'A', 'B', "Servo Pod", "x", 0),
+                         -EINVAL);
+        assert_int_equal(slp_encode_command(buf, sizeof(buf), 'A', 'B', "a|D1", "x", 0), -EINVAL);
+        assert_int_equal(slp_encode_command(buf, sizeof(buf), 'A', 'B', V64, "x", 0), -EMSGSIZE);
+        assert_int_equal(slp_encode_command(buf, sizeof(buf), 'A', 'B', "Link", "0|x", 0),
+                         -EINVAL);
+        assert_int_equal(slp_encode_command(buf, sizeof(buf), 'A', 'B', "Link", "[", 0), -EINVAL);
+        assert_int_equal(slp_encode_command(buf, sizeof(buf), 'A', 'B', "Link", V64, 0),
+                         -EMSGSIZE);
+        assert_int_equal(slp_encode_command(buf, sizeof(buf), 'A', 'B', "Link", "\n", 0), -EINVAL);
+        assert_int_equal(slp_encode_command(buf, 10, 'A', 'B', "Link", "0", 0), -ENOSPC);
+        assert_int_equal(slp_encode_command(buf, sizeof(buf), 'A', 'R', "Link", "0", 0), -EINVAL);
+}
+
+static void test_list_whole(void **state)
+{
+        static const char *const v[] = { "1", "2.5", "hello" };
+        static const char *const spec[] = { "40.12345678", "-113.12345678", "85.7", "22.1" };
+        struct slp_list l = { .dst = 'A', .src = 'B', .values = v, .count = 3 };
+        char buf[SLP_FRAME_MAX];
+        int r;
+
+        (void)state;
+        r = slp_encode_list_whole(&l, buf, sizeof(buf));
+        assert_int_equal(r, strlen("[:AB|N0|D1|D2.5|Dhello|C90]"));
+        assert_memory_equal(buf, "[:AB|N0|D1|D2.5|Dhello|C90]", (size_t)r);
+        /* Compressed, still the whole length (empty D for unchanged positions). */
+        l = (struct slp_list){ .dst = 'A', .src = 'B', .values = spec, .count = 4,
+                               .compress = true,
+                               .changed = (const bool[]){ false, false, true, false } };
+        r = slp_encode_list_whole(&l, buf, sizeof(buf));
+        assert_int_equal(r, strlen("[:AB|N0|D|D|D85.7|D|C48]"));
+        assert_memory_equal(buf, "[:AB|N0|D|D|D85.7|D|C48]", (size_t)r);
+        /* Exactly max_frame fits; one byte less does not, and nothing is split. */
+        l.crlf = true;
+        l.max_frame = (size_t)r + 2;
+        assert_int_equal(slp_encode_list_whole(&l, buf, sizeof(buf)), r + 2);
+        assert_memory_equal(buf + r, "\r\n", 2);
+        l.max_frame = (size_t)r + 1;
+        assert_int_equal(slp_encode_list_whole(&l, buf, sizeof(buf)), -EMSGSIZE);
+        /* The full refresh of a long list that slp_encode_list() would split. */
+        make_values(100);
+        l = (struct slp_list){ .dst = 'A', .src = 'B', .values = list_values, .count = 100 };
+        assert_int_equal(slp_encode_list_whole(&l, buf, sizeof(buf)), -EMSGSIZE);
+        l.count = 10;
+        r = slp_encode_list_whole(&l, buf, sizeof(buf));
+        assert_true(r > 0);
+        assert_int_equal(decode_one(buf, (size_t)r)->nfields, 11);
+        /* What a configuration check computes from the lengths alone. */
+        size_t fields = 0, names = 0;
+        for (size_t i = 0; i < 10; i++)
+                fields += 2 + strlen(list_values[i]);
+        assert_int_equal(slp_list_frame_len(fields, false), r);
+        assert_int_equal(slp_list_frame_len(fields, true), r + 2);
+        for (size_t i = 0; i < P4_COUNT; i++)
+                names += 2 + 1 + 2 + strlen(p4_names[i]);
+        assert_int_equal(slp_list_frame_len(names, false), strlen(P4_DECL_N));
+        assert_int_equal(slp_list_frame_len(0, false), strlen("[:AB|N0|C00]"));
+        assert_int_equal(slp_encode_list_whole(&l, buf, (size_t)r - 1), -ENOSPC);
+        /* Bad values and addresses; an empty list sends nothing. */
+        l = (struct slp_list){ .dst = 'A', .src = 'B', .values = (const char *const[]){ "1", "|" },
+                               .count = 2 };
+        assert_int_equal(slp_encode_list_whole(&l, buf, sizeof(buf)), -EINVAL);
+        l.values = (const char *const[]){ "1", V64 };
+        assert_int_equal(slp_encode_list_whole(&l, buf, sizeof(buf)), -EMSGSIZE);
+        l.values = v;
+        l.dst = '@';
+        assert_int_equal(slp_encode_list_whole(&l, buf, sizeof(buf)), -EINVAL);
+        l.dst = 'A';
+        l.count = 0;
+        assert_int_equal(slp_encode_list_whole(&l, buf, sizeof(buf)), 0);
+}
+
+/* The dialect's reading of decoded frames: what each is, and its entries. */
+
+static const struct kind_case {
+        const char *wire;
+        enum slp_p4_kind kind;
+} kind_cases[] = {
+        { P4_DECL_N, SLP_P4_DECLARATION },
+        { P4_DECL_L, SLP_P4_DECLARATION },
+        { "[:BA|L1|T0|Qz|CBC]", SLP_P4_DECLARATION },
+        { P4_ACK, SLP_P4_ACKNOWLEDGEMENT },
+        { "[:AB|N0|T4|QVehicleName|DVEH_1|T2|QAutoGpsLat|D0|C5E]", SLP_P4_SELF_DESCRIBING },
+        { "[:AB|N0||D0|D|D|C62]", SLP_P4_DATA },
+        { "[:BA|N5|D1|D2|C5E]", SLP_P4_DATA },
+        { "[:BA|N?|C85]", SLP_P4_LIST_QUERY },
+        { "[:BA|L?|C83]", SLP_P4_LIST_QUERY },
+        { "[:AB|P0|C78]", SLP_P4_PING },
+        { "[:BA|G0|C6F]", SLP_P4_PONG },
+        { "[:BA|EServoPod|D0,TELEOP START|C2]", SLP_P4_COMMAND },
+        { "[:BA|MUI|CE3]", SLP_P4_MU },
+        { "[:BA|MUO|CE9]", SLP_P4_MU },
+        { "[:BA|MW|C9C]", SLP_P4_MU },
+        { "[:BA|ML|C91]", SLP_P4_MU },
+        { "[:BA|MX|C9D]", SLP_P4_OTHER },
+        { "[:BA|MUI|D1|CD4]", SLP_P4_OTHER },
+        { "[:AB|RAutoGpsLat|D1|C1F]", SLP_P4_OTHER },          /* a bulletin answer */
+        { "[:AB|QAutoGpsLat|C2D]", SLP_P4_OTHER },              /* a bulletin query */
+        { "[:AB|D1|D2|C5F]", SLP_P4_OTHER },
+        { "[:BA|L0|D1|C65]", SLP_P4_OTHER },
+};
+
+static void test_p4_kind(void **state)
+{
+        (void)state;
+        for (size_t i = 0; i < sizeof(kind_cases) / sizeof(kind_cases[0]); i++) {
+                const struct slp_frame *f = decode_one(kind_cases[i].wire,
+                                                       strlen(kind_cases[i].wire));
+                enum slp_p4_kind k = slp_p4_kind_of(f);
+
+                if (k != kind_cases[i].kind)
+                        print_error("%s: kind %d, want %d\n", kind_cases[i].wire, (int)k,
+                                    (int)kind_cases[i].kind);
+                assert_int_equal(k, kind_cases[i].kind);
+        }
+}
+
+/* Entries of a frame as text: "name:type" ("name:2?" untyped), "=value" when it has one,
+ * "!" for a bad entry; separated by spaces. */
+static void entries_text(const char *wire, char *out, size_t size)
+{
+        const struct slp_frame *f = decode_one(wire, strlen(wire));
+        struct slp_entry e;
+        size_t pos = 1, n = 0, last = 0;
+        int r;
+
+        out[0] = '\0';
+        while ((r = slp_entry_next(f, &pos, &e)) != 0) {
+                int w;
+
+                assert_true(pos > last && pos <= f->nfields);  /* always moves on */
+                last = pos;
+                if (r < 0) {
+                        assert_int_equal(r, -EINVAL);
+                        w = snprintf(out + n, size - n, "%s!", n ? " " : "");
+                } else {
+                        w = snprintf(out + n, size - n, "%s%c%.*s:%d%s", n ? " " : "", e.letter,
+                                     (int)e.name_len, e.name, (int)e.type, e.typed ? "" : "?");
+                        if (w > 0 && e.has_value)
+                                w += snprintf(out + n + (size_t)w, size - n - (size_t)w, "=%.*s",
+                                              (int)e.value_len, e.value);
+                }
+                assert_true(w > 0 && (size_t)w < size - n);
+                n += (size_t)w;
+        }
+        assert_int_equal(pos, f->nfields);
+}
+
+static void test_p4_entries(void **state)
+{
+        static const char *const cases[][2] = {
+                { "[:BA|N0|T0|Qthrottle|Qsvp_enb_eng|T0|Qserialpck|C97]",
+                  "Qthrottle:0 Qsvp_enb_eng:2? Qserialpck:0" },
+                { "[:AB|N0|T4|QVehicleName|DVEH_1|T2|QAutoGpsLat|D0|C5E]",
+                  "QVehicleName:4=VEH_1 QAutoGpsLat:2=0" },
+                { "[:AB|N0|Rok|D1|Rx|D|C15]", "Rok:2?=1 Rx:2?=" },
+                { "[:BA|N0|Rsvp_enb_eng|CCA]", "Rsvp_enb_eng:2?" },
+                /* bad entries: the T 3 takes its name with it; a T without a name; a bad name;
+                 * a stray D; a T at the end */
+                { "[:BA|N0|T3|Qa|T0|Qb|CD6]", "! Qb:0" },
+                { "[:BA|N0|T0|T2|Qb|CA7]", "! Qb:2" },
+                { "[:BA|N0|T0|Qa b|T2|Qc|C58]", "! Qc:2" },
+                { "[:BA|N0|Dx|T0|Qa|CDC]", "! Qa:0" },
+                { "[:BA|N0|T0|Qa|T4|CA8]", "Qa:0 !" },
+                { "[:BA|N?|C85]", "" },
+        };
+        char out[1024];
+
+        (void)state;
+        for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+                entries_text(cases[i][0], out, sizeof(out));
+                if (strcmp(out, cases[i][1]) != 0)
+                        print_error("%s\n  got:  %s\n  want: %s\n", cases[i][0], out, cases[i][1]);
+                assert_string_equal(out, cases[i][1]);
+        }
+        /* The field lists: 10 typed entries, and 31 with one untyped (a double). */
+        entries_text(P4_DECL_N, out, sizeof(out));
+        assert_string_equal(out, "Qvideo_mux1:0 Qveh_start:0 Qveh_enable:0 Qveh_motion:0 "
+                            "Qjoy_steer:2 Qveh_steer:0 Qveh_brake:0 Qveh_throttle:0 Qveh_shift:0 "
+                            "Qveh_clutch:0");
+        entries_text(P4_DECL_L, out, sizeof(out));
+        assert_non_null(strstr(out, " Qthrottle:0 Qsvp_enb_eng:2? Qserialpck:0 "));
+        assert_null(strchr(out, '!'));
+        entries_text(P4_ACK, out, sizeof(out));
+        assert_string_equal(out, "Rvideo_mux1:2?=0 Rveh_start:2?=0 Rveh_enable:2?=0 "
+                            "Rveh_motion:2?=0 Rjoy_steer:2?=0 Rveh_steer:2?=0 Rveh_brake:2?=100 "
+                            "Rveh_throttle:2?=0 Rveh_shift:2?=0 Rveh_clutch:2?=0");
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -950,6 +1628,17 @@ int main(void)
                 cmocka_unit_test(test_list_split),
                 cmocka_unit_test(test_list_errors),
                 cmocka_unit_test(test_roundtrip_vectors),
+                cmocka_unit_test(test_type_parse),
+                cmocka_unit_test(test_value_check),
+                cmocka_unit_test(test_name_check),
+                cmocka_unit_test(test_declaration_encode),
+                cmocka_unit_test(test_declaration_errors),
+                cmocka_unit_test(test_acknowledgement_encode),
+                cmocka_unit_test(test_list_query_encode),
+                cmocka_unit_test(test_command_encode),
+                cmocka_unit_test(test_list_whole),
+                cmocka_unit_test(test_p4_kind),
+                cmocka_unit_test(test_p4_entries),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

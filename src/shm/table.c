@@ -84,7 +84,8 @@ struct shm_table {
         struct shm_slot *out_slots;
         uint32_t capacity;
         uint32_t count;
-        uint32_t out_capacity;
+        uint32_t out_capacity;          /* configured outbound variables + out_spare */
+        uint32_t out_used;              /* .out slots given to a variable: [0, out_used) */
         uint32_t event_capacity;
         uint32_t link_count;
         uint32_t out_generation;
@@ -419,6 +420,8 @@ static int config_check(const struct shm_table_config *cfg)
                 return -EINVAL;
         if (capacity > SHM_CAPACITY_MAX || cfg->nlinks > SHM_LINKS_MAX)
                 return -EINVAL;
+        if (cfg->out_spare > cfg->adhoc_capacity)
+                return -EINVAL;         /* a spare slot without a directory entry to name it */
         if (cfg->nvars && !cfg->vars)
                 return -EINVAL;
         if (cfg->nlinks && !cfg->links)
@@ -505,6 +508,7 @@ static int vars_index(struct shm_table *t, const struct shm_table_config *cfg)
                 }
                 hash_insert(t, tv->name, (int32_t)i);
         }
+        t->out_used = out;
         return 0;
 }
 
@@ -579,6 +583,7 @@ int shm_table_create(const struct shm_table_config *cfg, struct shm_table **ret_
         for (uint32_t i = 0; i < cfg->nvars; i++)
                 if (cfg->vars[i].direction == SHM_DIR_OUT)
                         t->out_capacity++;
+        t->out_capacity += cfg->out_spare;
         random_epoch(&t->epoch);
         if (shm_layout_object_name(cfg->instance, "in", t->in_name, sizeof(t->in_name)) < 0 ||
             shm_layout_object_name(cfg->instance, "out", t->out_name, sizeof(t->out_name)) < 0) {
@@ -811,22 +816,32 @@ int shm_table_add(struct shm_table *t, const struct shm_var *v)
         uint32_t id = t->count;
         struct table_var *tv;
 
-        if (var_check(v, t->link_count) < 0 || v->direction != SHM_DIR_IN)
+        uint32_t slot = SHM_OUT_NONE;
+
+        if (var_check(v, t->link_count) < 0)
                 return -EINVAL;
         if (hash_lookup(t, v->name) >= 0)
                 return -EEXIST;
         if (id >= t->capacity)
                 return -ENOSPC;
+        if (v->direction == SHM_DIR_OUT) {
+                /* A spare .out slot: the scan has kept its word in out_seen[] all along, so
+                 * only what a client writes from now on is reported for the new variable. */
+                if (t->out_used >= t->out_capacity)
+                        return -ENOSPC;
+                slot = t->out_used++;
+                t->out_ids[slot] = id;
+        }
         tv = &t->vars[id];
         copy_field(tv->name, sizeof(tv->name), v->name);
-        tv->direction = SHM_DIR_IN;
+        tv->direction = v->direction;
         tv->link = v->link;
-        tv->out_slot = SHM_OUT_NONE;
+        tv->out_slot = slot;
         tv->flags = 0;
         hash_insert(t, tv->name, (int32_t)id);
         /* Entry and slot first, then the count (release): readers acquire the count, so an entry
          * below it is complete when they read it. */
-        dir_fill(&t->dir[id], v, SHM_OUT_NONE, SHM_DIR_ADHOC);
+        dir_fill(&t->dir[id], v, slot, SHM_DIR_ADHOC);
         t->count = id + 1u;
         atomic_store_explicit(&t->in->count, t->count, memory_order_release);
         atomic_fetch_add_explicit(&t->in->dir_generation, 1u, memory_order_release);
@@ -1059,6 +1074,15 @@ static int scan_report(struct shm_table *t, uint32_t i, shm_table_out_fn fn, voi
         const struct shm_slot_copy *c = &t->out_copy[i];
         struct shm_out_change ch;
 
+        if (i >= t->out_used) {
+                /* A spare slot no variable owns yet: nothing to report, whatever a client put
+                 * there; what it wrote is refused as invalid. */
+                if (s->state == SCAN_COPIED) {
+                        t->out_seen[i] = s->word;
+                        shm_table_counter_add(t, SHM_LINK_NONE, SHM_COUNTER_OUT_INVALID, 1);
+                }
+                return 0;
+        }
         memset(&ch, 0, sizeof(ch));
         ch.id = t->out_ids[i];
         ch.writer_pid = shm_seqlock_pid(s->word);

@@ -44,7 +44,10 @@ struct shm_table_config {
         uint32_t nvars;
         const struct shm_link_def *links;
         uint32_t nlinks;                /* <= SHM_LINKS_MAX */
-        uint32_t adhoc_capacity;        /* room for inbound names added at run time */
+        uint32_t adhoc_capacity;        /* room for names added at run time (either direction) */
+        uint32_t out_spare;             /* .out slots kept for outbound names added at run time
+                                         * (lists learned from a peer); they also take room
+                                         * from adhoc_capacity */
         uint32_t event_capacity;        /* 0: SHM_EVENTS_DEFAULT; rounded up to a power of two */
         uint32_t heartbeat_interval_ms; /* how often the daemon calls shm_table_heartbeat; 0: never */
         int has_group;                  /* 1: .in 0640 and both objects owned by `gid` */
@@ -131,8 +134,9 @@ int shm_table_set_link_stale(struct shm_table *t, uint32_t link, int stale);
 int shm_table_commit(struct shm_table *t);
 
 /*
- * Adds an inbound variable at run time (v->direction must be SHM_DIR_IN): bumps the directory
- * generation and publishes a change. Returns the new id, -ENOSPC when the ad hoc room is used up,
+ * Adds a variable at run time: bumps the directory generation and publishes a change. An outbound
+ * one takes a spare .out slot (shm_table_config.out_spare) that clients may write from then on.
+ * Returns the new id, -ENOSPC when the ad hoc room (or, outbound, the spare slots) is used up,
  * -EEXIST or -EINVAL.
  */
 int shm_table_add(struct shm_table *t, const struct shm_var *v);

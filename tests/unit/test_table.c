@@ -634,7 +634,7 @@ static void test_adhoc(void **state)
         assert_int_equal(shm_table_add(f->t, &vars[LAT]), -EEXIST);
         adhoc.name = "OutAdhoc";
         adhoc.direction = SHM_DIR_OUT;
-        assert_int_equal(shm_table_add(f->t, &adhoc), -EINVAL);         /* .out is fixed */
+        assert_int_equal(shm_table_add(f->t, &adhoc), -ENOSPC);         /* no spare .out slot */
         adhoc.direction = SHM_DIR_IN;
         adhoc.link = 5;
         assert_int_equal(shm_table_add(f->t, &adhoc), -EINVAL);         /* no such link */
@@ -719,6 +719,49 @@ static void test_heartbeat_and_events(void **state)
 }
 
 /* ---- outbound: well-behaved clients --------------------------------------------------------- */
+
+/* Outbound variables added at run time take the spare .out slots, in order. */
+static void test_out_spare(void **state)
+{
+        struct fixture *f = *state;
+        struct view v;
+        struct shm_var learned = { "Learned0", SHM_DIR_OUT, SHM_TYPE_LONG, 0, "A", 0 };
+        struct seen s;
+        int id;
+
+        f->cfg.out_spare = ADHOC + 1;
+        assert_int_equal(shm_table_create(&f->cfg, &f->t), -EINVAL);   /* more than adhoc room */
+        f->cfg.out_spare = 2;
+        assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
+        v = view_open(f->in_name, 0);
+        assert_int_equal(in_header(&v)->out_capacity, NOUT + 2);
+
+        /* A client scribbling on a spare slot nobody owns: refused, never reported. */
+        assert_int_equal(scan(f->t, &s), 0);
+        assert_int_equal(out_write(f->out_name, NOUT, "junk"), 0);
+        assert_int_equal(scan(f->t, &s), 0);
+        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_INVALID), 1);
+
+        id = shm_table_add(f->t, &learned);
+        assert_int_equal(id, NVARS);
+        assert_int_equal(in_dir(&v)[id].out_slot, NOUT);
+        assert_int_equal(in_dir(&v)[id].direction, SHM_DIR_OUT);
+        assert_int_equal(in_dir(&v)[id].flags, SHM_DIR_ADHOC);
+        assert_int_equal(scan(f->t, &s), 0);            /* what was there before is not news */
+        assert_int_equal(out_write(f->out_name, NOUT, "42"), 0);
+        assert_int_equal(scan(f->t, &s), 1);
+        assert_int_equal(s.c[0].id, (uint32_t)id);
+        assert_string_equal(s.c[0].value, "42");
+        expect_slot(&v, (unsigned)id, "42", SHM_SLOT_VALID | SHM_SLOT_OUTBOUND);
+
+        learned.name = "Learned1";
+        assert_int_equal(shm_table_add(f->t, &learned), NVARS + 1);
+        learned.name = "Learned2";
+        assert_int_equal(shm_table_add(f->t, &learned), -ENOSPC);      /* spare slots used up */
+        learned.direction = SHM_DIR_IN;                                 /* inbound room is left */
+        assert_int_equal(shm_table_add(f->t, &learned), NVARS + 2);
+        view_close(&v);
+}
 
 static void test_out_scan(void **state)
 {
@@ -1141,6 +1184,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_adhoc, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_links_counters, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_heartbeat_and_events, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_spare, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_out_scan, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_validation, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_length_field_hostile, setup, teardown),

@@ -5,6 +5,8 @@
 #   src/daemon/*.c                 sharedlinkd (main.c holds main(), the rest is archived for tests)
 #   src/lib/*.c + src/shm/*.c      libsharedlink.so.1 / .a (exports: src/lib/libsharedlink.sym)
 #   src/cli/*.c                    slctl, linked against libsharedlink.a
+#   src/mqtt/*.c                   sharedlink-mqtt (main.c holds main(), the rest is archived for
+#                                  tests), linked against libsharedlink.so and libmosquitto only
 #   tests/common/*.c               helpers linked into every test binary
 #   tests/unit/test_*.c            one cmocka binary per module, run by `make check`
 #   tests/integration/test_*.c     cmocka binaries that start the real daemon, run by `make check`
@@ -54,13 +56,14 @@ Q     :=
 quiet  =
 endif
 
-DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev
+DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev \
+                  libmosquitto-dev mosquitto mosquitto-clients
 DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
 
 # ---------------------------------------------------------------------------------------------
 # Dependencies: when pkg-config cannot find one, run `make deps` once before anything else.
 
-PC_REQUIRED := yaml-0.1 cmocka
+PC_REQUIRED := yaml-0.1 cmocka libmosquitto
 ifeq ($(WITH_SYSTEMD),1)
 PC_REQUIRED += libsystemd
 endif
@@ -81,6 +84,8 @@ YAML_CFLAGS := $(shell pkg-config --cflags yaml-0.1 2>/dev/null)
 YAML_LIBS   := $(shell pkg-config --libs yaml-0.1 2>/dev/null)
 CMOCKA_CFLAGS := $(shell pkg-config --cflags cmocka 2>/dev/null)
 CMOCKA_LIBS   := $(shell pkg-config --libs cmocka 2>/dev/null)
+MOSQ_CFLAGS   := $(shell pkg-config --cflags libmosquitto 2>/dev/null)
+MOSQ_LIBS     := $(shell pkg-config --libs libmosquitto 2>/dev/null)
 ifeq ($(WITH_SYSTEMD),1)
 SYSTEMD_CFLAGS := $(shell pkg-config --cflags libsystemd 2>/dev/null) -DHAVE_LIBSYSTEMD=1
 SYSTEMD_LIBS   := $(shell pkg-config --libs libsystemd 2>/dev/null)
@@ -119,7 +124,7 @@ endif
 
 CPPFLAGS_ALL := -Iinclude -Isrc -D_DEFAULT_SOURCE -DSHAREDLINK_VERSION='"$(VERSION)"'
 CFLAGS_ALL   := -std=c11 $(OPT) $(WARN) $(HARDEN) $(SANFLAGS) -fPIC -fvisibility=hidden \
-                -MMD -MP $(YAML_CFLAGS) $(SYSTEMD_CFLAGS) $(CFLAGS)
+                -MMD -MP $(YAML_CFLAGS) $(SYSTEMD_CFLAGS) $(MOSQ_CFLAGS) $(CFLAGS)
 LDFLAGS_ALL  := $(SANFLAGS) -Wl,-z,relro,-z,now $(LDFLAGS)
 LDFLAGS_EXE  := $(LDFLAGS_ALL) -pie
 TEST_CFLAGS  := $(CMOCKA_CFLAGS) -Itests
@@ -133,6 +138,8 @@ LIB_SRC    := $(wildcard src/lib/*.c)
 DAEMON_MAIN:= $(wildcard src/daemon/main.c)
 DAEMON_SRC := $(filter-out src/daemon/main.c,$(wildcard src/daemon/*.c))
 CLI_SRC    := $(wildcard src/cli/*.c)
+MQTT_MAIN  := $(wildcard src/mqtt/main.c)
+MQTT_SRC   := $(filter-out src/mqtt/main.c,$(wildcard src/mqtt/*.c))
 TCOMMON_SRC:= $(wildcard tests/common/*.c)
 UNIT_SRC   := $(wildcard tests/unit/test_*.c)
 INTEG_SRC  := $(wildcard tests/integration/test_*.c)
@@ -148,7 +155,8 @@ A_SHM    := $(O)/internal/libshm.a
 A_CLIENT := $(O)/internal/libclient.a
 A_DAEMON := $(O)/internal/libdaemon.a
 A_TCOMMON:= $(O)/internal/libtestcommon.a
-INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_CLIENT) $(A_PROTO) $(A_SHM)
+A_MQTT   := $(O)/internal/libmqtt.a
+INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_CLIENT) $(A_PROTO) $(A_SHM)
 SYS_LIBS := $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lutil -lm
 
 LIBSL_SO   := $(O)/libsharedlink.so.$(SOVERSION)
@@ -156,6 +164,7 @@ LIBSL_A    := $(O)/libsharedlink.a
 LIBSL_SYM  := src/lib/libsharedlink.sym
 SHAREDLINKD:= $(O)/sharedlinkd
 SLCTL      := $(O)/slctl
+MQTT_BRIDGE:= $(O)/sharedlink-mqtt
 PCFILE     := $(O)/sharedlink.pc
 
 UNIT_BIN   := $(patsubst tests/%.c,$(O)/tests/%,$(UNIT_SRC))
@@ -165,7 +174,7 @@ REPLAY_BIN := $(patsubst tests/fuzz/%.c,$(O)/tests/fuzz/%-replay,$(FUZZ_SRC))
 EXAMPLE_BIN:= $(patsubst examples/%.c,$(O)/examples/%,$(EXAMPLE_SRC))
 
 PROGRAMS := $(if $(DAEMON_MAIN),$(SHAREDLINKD)) $(if $(CLI_SRC),$(SLCTL)) \
-            $(if $(LIB_SRC),$(LIBSL_SO) $(LIBSL_A) $(PCFILE))
+            $(if $(LIB_SRC),$(LIBSL_SO) $(LIBSL_A) $(PCFILE)) $(if $(MQTT_MAIN),$(MQTT_BRIDGE))
 
 # ---------------------------------------------------------------------------------------------
 # Top-level targets
@@ -247,6 +256,7 @@ $(A_SHM): $(call obj,$(SHM_SRC))
 $(A_CLIENT): $(call obj,$(LIB_SRC))
 $(A_DAEMON): $(call obj,$(DAEMON_SRC))
 $(A_TCOMMON): $(call obj,$(TCOMMON_SRC))
+$(A_MQTT): $(call obj,$(MQTT_SRC))
 
 # An archive with no members still needs one object to be a valid archive.
 $(INTERNAL_ARCHIVES): | $(O)/obj/empty.o
@@ -281,6 +291,13 @@ $(PCFILE): Makefile
 
 $(SLCTL): $(call obj,$(CLI_SRC)) $(LIBSL_A)
 	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $^ -lpthread
+
+# The bridge links the shared library the installed way: only its exported (versioned) symbols
+# resolve, which proves the public API is enough. RUNPATH $ORIGIN finds the library next to the
+# binary in the build tree; installed, the system's library path finds it.
+$(MQTT_BRIDGE): $(call obj,$(MQTT_MAIN)) $(A_MQTT) $(LIBSL_SO)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) $(A_MQTT) -L$(O) -lsharedlink \
+	    -Wl,-rpath,'$$ORIGIN' $(MOSQ_LIBS) $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread
 
 # ---------------------------------------------------------------------------------------------
 # Install (DESIGN.md §2.1): `make install PREFIX=/usr/local DESTDIR=`, and `make uninstall`.
@@ -371,9 +388,15 @@ uninstall:
 # ---------------------------------------------------------------------------------------------
 # Tests
 
+# Tests that speak MQTT themselves (tests/common/mqtt.c) also link libmosquitto.
+MQTT_TESTS := $(O)/tests/integration/test_mqtt $(O)/bench/bench_mqtt
+$(MQTT_TESTS): EXTRA_LIBS := $(MOSQ_LIBS)
+# The integration test runs the bridge under test.
+$(O)/tests/integration/test_mqtt: | $(MQTT_BRIDGE)
+
 $(O)/tests/%: $(O)/obj/tests/%.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)
-	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL) $(CMOCKA_LIBS)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL) $(CMOCKA_LIBS) $(EXTRA_LIBS)
 
 # Fuzz targets replayed over their saved corpus with the test compiler.
 $(O)/tests/fuzz/%-replay: $(O)/obj/tests/fuzz/%.o $(O)/obj/tests/fuzz/replay_main.o $(INTERNAL_ARCHIVES)
@@ -415,7 +438,7 @@ bench:
 BENCH_BIN := $(patsubst tests/bench/%.c,$(O)/bench/%,$(BENCH_SRC))
 $(O)/bench/%: $(O)/obj/tests/bench/%.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)
-	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL) $(EXTRA_LIBS)
 
 bench-run: all $(BENCH_BIN)
 	@set -e; for b in $(BENCH_BIN); do echo "== $$b"; SHAREDLINK_BUILD=$(O) $$b; done

@@ -316,10 +316,11 @@ mandir_of     = $(DESTDIR)$(MANDIR)/man$(subst .,,$(suffix $(1)))
 # One alias page per exported function, so that `man sl_read` opens libsharedlink(3).
 MAN_ALIASES   = $(shell sed -n 's/^[[:space:]]*\(sl_[a-z0-9_]*\);$$/\1/p' $(LIBSL_SYM))
 UNIT_FILES   := $(wildcard systemd/*.service)
-UNIT_SED     := -e 's|^ExecStart=/usr/local/sbin/sharedlinkd |ExecStart=$(SBINDIR)/sharedlinkd |' \
+UNIT_SED     := -e 's|^ExecStart=/usr/local/sbin/\(sharedlinkd\|sharedlink-mqtt\) |ExecStart=$(SBINDIR)/\1 |' \
                 -e 's|^\(ExecStart=.* -c \)/etc/sharedlink/|\1$(SYSCONFDIR)/sharedlink/|'
 TMPFILES_SED := -e 's|^d /etc/sharedlink |d $(SYSCONFDIR)/sharedlink |'
 CONF_DEST    := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlinkd.yaml
+MQTT_CONF_DEST := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlink-mqtt.yaml
 PC_STAMP     := $(O)/install-paths
 
 ifneq ($(filter install,$(MAKECMDGOALS)),)
@@ -344,6 +345,7 @@ install: all
 	    $(sort $(foreach p,$(MAN_PAGES),$(call mandir_of,$(p))))
 	$(INSTALL) -m 0755 $(SHAREDLINKD) $(DESTDIR)$(SBINDIR)/sharedlinkd
 	$(if $(CLI_SRC),$(INSTALL) -m 0755 $(SLCTL) $(DESTDIR)$(BINDIR)/slctl)
+	$(if $(MQTT_MAIN),$(INSTALL) -m 0755 $(MQTT_BRIDGE) $(DESTDIR)$(SBINDIR)/sharedlink-mqtt)
 	$(INSTALL) -m 0755 $(LIBSL_SO) $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION)
 	ln -sf libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so
 	$(INSTALL) -m 0644 $(LIBSL_A) $(DESTDIR)$(LIBDIR)/libsharedlink.a
@@ -356,8 +358,10 @@ install: all
 	@set -e; for u in $(UNIT_FILES); do \
 	    d=$(DESTDIR)$(UNITDIR)/$${u##*/}; \
 	    sed $(UNIT_SED) $$u > $$d.tmp; \
-	    if ! grep -qF 'ExecStart=$(SBINDIR)/sharedlinkd ' $$d.tmp; then \
-	        echo "make install: $$u: ExecStart= does not name /usr/local/sbin/sharedlinkd" >&2; \
+	    if ! grep -qF 'ExecStart=$(SBINDIR)/sharedlinkd ' $$d.tmp && \
+	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-mqtt ' $$d.tmp; then \
+	        echo "make install: $$u: ExecStart= does not name /usr/local/sbin/sharedlinkd" \
+	             "or sharedlink-mqtt" >&2; \
 	        rm -f $$d.tmp; exit 1; \
 	    fi; \
 	    chmod 0644 $$d.tmp; mv -f $$d.tmp $$d; echo "$$d: $$(grep '^ExecStart=' $$d)"; \
@@ -367,6 +371,9 @@ install: all
 	chmod 0644 $(DESTDIR)$(TMPFILESDIR)/sharedlink.conf
 	@if [ -e $(CONF_DEST) ]; then echo "$(CONF_DEST): exists, kept"; \
 	else $(INSTALL) -m 0644 conf/sharedlinkd.yaml $(CONF_DEST) && echo "$(CONF_DEST): installed"; fi
+	@if [ -e $(MQTT_CONF_DEST) ]; then echo "$(MQTT_CONF_DEST): exists, kept"; \
+	else $(INSTALL) -m 0640 conf/sharedlink-mqtt.yaml $(MQTT_CONF_DEST) && \
+	    echo "$(MQTT_CONF_DEST): installed"; fi
 	@# A library installed straight into the system is found by the loader only after this.
 	@if [ -z "$(DESTDIR)" ] && [ "$$(id -u)" = 0 ] && command -v $(LDCONFIG) >/dev/null; then \
 	    echo $(LDCONFIG); $(LDCONFIG); fi
@@ -374,6 +381,7 @@ install: all
 # Removes what install put there; the configuration only when it is still the one shipped.
 uninstall:
 	rm -f $(DESTDIR)$(SBINDIR)/sharedlinkd $(DESTDIR)$(BINDIR)/slctl \
+	    $(DESTDIR)$(SBINDIR)/sharedlink-mqtt \
 	    $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so \
 	    $(DESTDIR)$(LIBDIR)/libsharedlink.a $(DESTDIR)$(PKGCONFIGDIR)/sharedlink.pc \
 	    $(DESTDIR)$(INCDIR)/sharedlink.h \
@@ -381,6 +389,8 @@ uninstall:
 	    $(DESTDIR)$(SYSUSERSDIR)/sharedlink.conf $(DESTDIR)$(TMPFILESDIR)/sharedlink.conf \
 	    $(foreach p,$(MAN_PAGES),$(call mandir_of,$(p))/$(notdir $(p))) \
 	    $(foreach f,$(MAN_ALIASES),$(DESTDIR)$(MANDIR)/man3/$(f).3)
+	@if cmp -s conf/sharedlink-mqtt.yaml $(MQTT_CONF_DEST); then rm -f $(MQTT_CONF_DEST); \
+	elif [ -e $(MQTT_CONF_DEST) ]; then echo "$(MQTT_CONF_DEST): changed since install, kept"; fi
 	@if cmp -s conf/sharedlinkd.yaml $(CONF_DEST); then rm -f $(CONF_DEST); \
 	    rmdir $(DESTDIR)$(SYSCONFDIR)/sharedlink 2>/dev/null || true; \
 	elif [ -e $(CONF_DEST) ]; then echo "$(CONF_DEST): changed since install, kept"; fi

@@ -28,6 +28,7 @@
 #define PORT_MAX                65535u
 #define KEEPALIVE_MIN           5u      /* seconds; libmosquitto refuses less */
 #define KEEPALIVE_MAX           65535u
+#define NUMBER_ECHO_MAX         24u     /* digits of an out-of-range number echoed */
 #define QOS_MAX                 2u
 #define PASSWORD_FILE_MAX       4096u   /* bytes read from password_file */
 
@@ -263,9 +264,10 @@ static int get_uint(struct pctx *c, const char *what, unsigned min, unsigned max
         if (len > 1 && s[0] == '0')
                 return fail_at(c, &c->ev.start_mark, "%s: leading zeros are not allowed in %s",
                                what, describe(c));
-        if (v < min || v > max)
-                return fail_at(c, &c->ev.start_mark, "%s: %s out of range %u..%u", what,
-                               describe(c), min, max);
+        if (v < min || v > max)         /* only digits get here: echoed as written */
+                return fail_at(c, &c->ev.start_mark, "%s: %.*s%s out of range %u..%u", what,
+                               (int)(len > NUMBER_ECHO_MAX ? NUMBER_ECHO_MAX : len), s,
+                               len > NUMBER_ECHO_MAX ? "..." : "", min, max);
         *ret = (unsigned)v;
         return 0;
 }
@@ -414,6 +416,11 @@ static int k_reconnect_max(struct pctx *c, struct bridge_config *cfg)
         return get_uint(c, "reconnect_max_ms", 1, BRIDGE_RECONNECT_LIMIT, &cfg->reconnect_max_ms);
 }
 
+static int k_max_inflight(struct pctx *c, struct bridge_config *cfg)
+{
+        return get_uint(c, "max_inflight", 1, BRIDGE_INFLIGHT_MAX, &cfg->max_inflight);
+}
+
 static int k_ca_file(struct pctx *c, struct bridge_config *cfg)
 {
         cfg->tls = true;
@@ -453,13 +460,14 @@ static const struct key tls_keys[] = {
 
 static int k_tls(struct pctx *c, struct bridge_config *cfg)
 {
+        yaml_mark_t at = c->ev.start_mark;     /* checks of the whole mapping point at it */
         int r = parse_mapping(c, cfg, "tls", tls_keys, sizeof(tls_keys) / sizeof(tls_keys[0]));
 
         cfg->tls = true;
         if (r == 0 && !cfg->ca_file[0] && !cfg->ca_path[0])
-                return fail_at(c, &c->ev.start_mark, "tls: needs ca_file or ca_path");
+                return fail_at(c, &at, "tls: needs ca_file or ca_path");
         if (r == 0 && !cfg->cert_file[0] != !cfg->key_file[0])
-                return fail_at(c, &c->ev.start_mark, "tls: cert_file and key_file go together");
+                return fail_at(c, &at, "tls: cert_file and key_file go together");
         return r;
 }
 
@@ -473,25 +481,26 @@ static const struct key broker_keys[] = {
         { "password_file", k_password_file },
         { "reconnect_min_ms", k_reconnect_min },
         { "reconnect_max_ms", k_reconnect_max },
+        { "max_inflight", k_max_inflight },
         { "tls", k_tls },
 };
 
 static int k_broker(struct pctx *c, struct bridge_config *cfg)
 {
+        yaml_mark_t at = c->ev.start_mark;
         int r = parse_mapping(c, cfg, "broker", broker_keys,
                               sizeof(broker_keys) / sizeof(broker_keys[0]));
 
         if (r < 0)
                 return r;
         if (cfg->reconnect_min_ms > cfg->reconnect_max_ms)
-                return fail_at(c, &c->ev.start_mark, "broker: reconnect_min_ms (%u) is more "
-                               "than reconnect_max_ms (%u)", cfg->reconnect_min_ms,
+                return fail_at(c, &at, "broker: reconnect_min_ms (%u) is more than "
+                               "reconnect_max_ms (%u)", cfg->reconnect_min_ms,
                                cfg->reconnect_max_ms);
         if (cfg->password[0] && cfg->password_file[0])
-                return fail_at(c, &c->ev.start_mark, "broker: password and password_file "
-                               "exclude each other");
+                return fail_at(c, &at, "broker: password and password_file exclude each other");
         if ((cfg->password[0] || cfg->password_file[0]) && !cfg->username[0])
-                return fail_at(c, &c->ev.start_mark, "broker: a password needs a username");
+                return fail_at(c, &at, "broker: a password needs a username");
         return 0;
 }
 
@@ -668,6 +677,7 @@ void bridge_config_defaults(struct bridge_config *ret)
         ret->keepalive_s = BRIDGE_KEEPALIVE_DEFAULT;
         ret->reconnect_min_ms = BRIDGE_RECONNECT_MIN_DEFAULT;
         ret->reconnect_max_ms = BRIDGE_RECONNECT_MAX_DEFAULT;
+        ret->max_inflight = BRIDGE_INFLIGHT_DEFAULT;
         ret->publish.count = 1;
         snprintf(ret->publish.glob[0], sizeof(ret->publish.glob[0]), "*");
         ret->qos = 0;

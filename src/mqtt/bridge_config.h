@@ -32,6 +32,10 @@
 #define BRIDGE_RECONNECT_MAX_DEFAULT 5000u
 #define BRIDGE_RECONNECT_LIMIT  600000u /* reconnect_*_ms */
 #define BRIDGE_WINDOW_DEFAULT   64u
+/* mosquitto's max_inflight_messages default: an MQTT 3.1.1 broker cannot tell a client its limit,
+ * and one that gets more unacknowledged QoS 2 messages than it allows drops the connection. */
+#define BRIDGE_INFLIGHT_DEFAULT 20u
+#define BRIDGE_INFLIGHT_MAX     65535u
 #define BRIDGE_CURSOR_SYNC_DEFAULT 1000u
 #define BRIDGE_CURSOR_SYNC_LIMIT 60000u
 #define BRIDGE_DRAIN_DEFAULT    5000u   /* stop: wait this long for acknowledgements */
@@ -58,6 +62,7 @@ struct bridge_config {
         char password[BRIDGE_PASSWORD_MAX];     /* inline, or read from password_file */
         char password_file[BRIDGE_PATH_MAX];
         unsigned reconnect_min_ms, reconnect_max_ms;
+        unsigned max_inflight;                  /* QoS 1/2 messages unacknowledged at once */
         bool tls;                               /* any tls: key given */
         char ca_file[BRIDGE_PATH_MAX], ca_path[BRIDGE_PATH_MAX];
         char cert_file[BRIDGE_PATH_MAX], key_file[BRIDGE_PATH_MAX];

@@ -189,9 +189,9 @@ static int setup(struct bridge_mqtt *bm, char *err, size_t err_size)
                 snprintf(err, err_size, "broker: %s", mosquitto_strerror(r));
                 return -EINVAL;
         }
-        /* The bridge keeps its own window of unacknowledged events; libmosquitto may have as
-         * many in flight (values with QoS > 0 queue behind them in the library). */
-        mosquitto_max_inflight_messages_set(bm->m, c->events_window);
+        /* At most max_inflight unacknowledged messages on the wire (the broker's limit); the
+         * rest of the bridge's event window waits in libmosquitto's queue. */
+        mosquitto_max_inflight_messages_set(bm->m, c->max_inflight);
         mosquitto_int_option(bm->m, MOSQ_OPT_TCP_NODELAY, 1);
         if (c->tls && setup_tls(bm, err, err_size) < 0)
                 return -EINVAL;

@@ -154,11 +154,12 @@ static void status_update(struct main_ctx *ctx)
 {
         char s[STATUS_MAX];
 
-        snprintf(s, sizeof(s), "STATUS=broker %s, sharedlinkd %s, %u events unacknowledged",
+        /* Only states, no counts: sd_notify blocks when nobody reads fast enough, and a count
+         * would change with every event. */
+        snprintf(s, sizeof(s), "STATUS=broker %s, sharedlinkd %s",
                  bridge_mqtt_connected(ctx->bm) ? "connected" : "disconnected",
                  !bridge_attached(ctx->b) ? "not found" :
-                 !strcmp(bridge_status(ctx->b), "online") ? "running" : "not running",
-                 bridge_unacked(ctx->b));
+                 !strcmp(bridge_status(ctx->b), "online") ? "running" : "not running");
         if (strcmp(s, ctx->status) != 0) {
                 memcpy(ctx->status, s, sizeof(s));
                 notify(s);

@@ -347,8 +347,8 @@ void bridge_mqtt_disconnect(struct bridge_mqtt *bm)
                 return;
         mosquitto_publish(bm->m, NULL, bm->status_topic, (int)strlen(STATUS_OFFLINE),
                           STATUS_OFFLINE, STATUS_QOS, true);
-        mosquitto_disconnect(bm->m);
         bm->state = CONN_IDLE;          /* on_disconnect: no reconnection now */
+        mosquitto_disconnect(bm->m);
         /* Flush the last packets (bounded): the socket is local or the broker is gone. */
         deadline = now_ns() + MISC_INTERVAL_MS * NS_PER_MS;
         while (mosquitto_want_write(bm->m) && now_ns() < deadline) {

@@ -331,6 +331,8 @@ static void record_event(struct mqtt_client *c, const char *p, size_t len, int m
         }
         if ((s = json_after(p, len, "\"seq\":")))
                 e.seq = strtoull(s, NULL, 10);
+        if ((s = json_after(p, len, "\"lost\":")))
+                e.lost = strtoull(s, NULL, 10);
         if ((s = json_after(p, len, "\"sensor_time\":\"")))
                 e.sensor_time = strtol(s, NULL, 10);
         if ((s = json_after(p, len, "\"type\":\""))) {
@@ -607,6 +609,19 @@ static int sensor_time_seen(struct mqtt_client *c, const void *arg)
 int mqtt_client_wait_sensor_time(struct mqtt_client *c, long sensor_time, int timeout_ms)
 {
         return wait_until(c, sensor_time_seen, &sensor_time, timeout_ms);
+}
+
+static int type_seen(struct mqtt_client *c, const void *arg)
+{
+        for (size_t i = 0; i < c->n_events; i++)
+                if (!strcmp(c->events[i].type, arg))
+                        return 1;
+        return 0;
+}
+
+int mqtt_client_wait_event_type(struct mqtt_client *c, const char *type, int timeout_ms)
+{
+        return wait_until(c, type_seen, type, timeout_ms);
 }
 
 size_t mqtt_client_events(struct mqtt_client *c)

@@ -48,6 +48,7 @@ struct mqtt_value {
 struct mqtt_event {
         uint64_t seq;
         int mid;                        /* the broker's message id (a redelivery keeps it) */
+        uint64_t lost;                  /* an "overrun" notice: events lost */
         long sensor_time;               /* -1 when none */
         char type[24];
 };
@@ -131,6 +132,9 @@ int mqtt_client_wait_events(struct mqtt_client *c, size_t n, int timeout_ms);
 
 /* Waits until an event with that sensor_time was recorded; 0 or -ETIMEDOUT. */
 int mqtt_client_wait_sensor_time(struct mqtt_client *c, long sensor_time, int timeout_ms);
+
+/* Waits until an event of that type (e.g. "overrun") was recorded; 0 or -ETIMEDOUT. */
+int mqtt_client_wait_event_type(struct mqtt_client *c, const char *type, int timeout_ms);
 
 /* Events recorded so far. */
 size_t mqtt_client_events(struct mqtt_client *c);

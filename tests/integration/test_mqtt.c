@@ -16,6 +16,9 @@
  *    restart (a PUBLISH it sent but whose PUBREC it never got: the same message id) is told
  *    apart from a second publish by the bridge (a new message id) and counted, not failed: that
  *    hop is the broker's and the subscriber's, and every event's seq lets a subscriber drop it;
+ *  - a bridge killed in mid-burst (QoS 1) loses nothing and repeats at most its window;
+ *  - more events than the ring holds while the bridge is away: one "overrun" notice with the
+ *    exact number lost, where the gap is; a daemon restart: a "daemon-restarted" notice;
  *  - `sharedlink-mqtt -n` reports FILE:LINE:COL.
  */
 #define _GNU_SOURCE
@@ -52,6 +55,9 @@
 #define BURST           200     /* ... then sent while the bridge or broker stops ... */
 #define AWAY            300     /* ... and while it is away: 700 < the 1024-event ring */
 #define BATCH           100     /* packets per write */
+#define RING_EVENTS     1024    /* the daemon's event ring (SHM_EVENTS_DEFAULT) */
+#define OVERRUN_AWAY    1500    /* passages while the bridge is away: more than the ring */
+#define BRIDGE_WINDOW   64      /* events_window's default */
 
 struct fx {
         struct harness h;
@@ -360,6 +366,8 @@ static void test_stale_and_daemon_restart(void **state)
 
         start_daemon(f);
         wait_value(f, topic(f, "status", NULL), "online");
+        /* The new run's first event comes with a notice: the old run's unread tail is gone. */
+        assert_int_equal(mqtt_client_wait_event_type(&f->sub, "daemon-restarted", T_WAIT_MS), 0);
         set(f, "a.Lat", "4.5", 3);
         wait_value(f, topic(f, "b.Lat", NULL), "4.5");
         wait_contains(f, topic(f, "b.Lat", "meta"), "\"stale\":false", NULL, 0);
@@ -398,6 +406,24 @@ static void dump_logs(struct fx *f)
         }
 }
 
+/* The CIRCE link's counters, for a failure message: did the daemon get every packet? */
+static void dump_link(struct fx *f)
+{
+        struct sl_link_info li = { .size = sizeof(li) };
+        int n = sl_link_count(f->cl);
+
+        for (int l = 0; l < n; l++) {
+                if (sl_link_info(f->cl, l, &li) < 0 || strcmp(li.name, "agility") != 0)
+                        continue;
+                print_message("link %s: %s for %llu ms\n", li.name, li.state_name,
+                              (unsigned long long)(li.state_age_ns / 1000000u));
+                for (unsigned k = 0; k < li.counter_count; k++)
+                        if (li.counters[k].value)
+                                print_message("  %s %llu\n", li.counters[k].name,
+                                              (unsigned long long)li.counters[k].value);
+        }
+}
+
 /* Gate passages first..last-1 (sensor time = number), in batches, never more than EVENTS_AHEAD
  * ahead of the subscriber unless the bridge or the broker is down (then `ahead` is raised). */
 static void passages(struct fx *f, int first, int last, bool wait_subscriber)
@@ -423,49 +449,72 @@ static void passages(struct fx *f, int first, int last, bool wait_subscriber)
         }
 }
 
+/* What a check allows to come twice. */
+enum repeats {
+        REPEATS_NONE,                   /* exactly once */
+        REPEATS_BROKER,                 /* mosquitto's redeliveries (same message id) only */
+        REPEATS_BRIDGE,                 /* a killed bridge's unconfirmed tail (new ids) */
+};
+
+/* A copy of what the subscriber recorded: a failure jumps out of the caller, which must not
+ * hold the client's lock then. Free it. */
+static struct mqtt_event *events_copy(struct fx *f, size_t *ret_n)
+{
+        struct mqtt_event *events;
+
+        pthread_mutex_lock(&f->sub.lock);
+        *ret_n = f->sub.n_events;
+        events = malloc(*ret_n * sizeof(*events) + 1);
+        if (events)
+                memcpy(events, f->sub.events, *ret_n * sizeof(*events));
+        pthread_mutex_unlock(&f->sub.lock);
+        assert_non_null(events);
+        return events;
+}
+
+/* Sends the fence (passage number `fence`) and waits for it: everything before it is in. */
+static void fence(struct fx *f, int number)
+{
+        passages(f, number, number + 1, false);
+        if (mqtt_client_wait_sensor_time(&f->sub, number, T_EVENTS_MS) != 0) {
+                dump_logs(f);
+                fail_msg("the fence never arrived (%zu events)", mqtt_client_events(&f->sub));
+        }
+}
+
 /* Exactly EVENTS_TOTAL actions, sensor times 0..N-1 in order, seq strictly increasing, no
- * overrun: nothing lost, nothing repeated, nothing reordered. Other events (link-state) may
- * come in between. One more passage (number EVENTS_TOTAL) is the fence: once it arrived,
- * everything before it is in, repeats included. */
-static void check_events(struct fx *f, bool allow_repeats)
+ * overrun: nothing lost, nothing reordered, and nothing repeated beyond what `allow` says.
+ * Other events (link-state) may come in between. Returns the repeats seen. */
+static size_t check_events(struct fx *f, enum repeats allow)
 {
         struct mqtt_event *events;
         long next = 0;
         uint64_t last_seq = 0;
         size_t repeats = 0, n;
 
-        passages(f, EVENTS_TOTAL, EVENTS_TOTAL + 1, false);
-        if (mqtt_client_wait_sensor_time(&f->sub, EVENTS_TOTAL, T_EVENTS_MS) != 0) {
-                dump_logs(f);
-                fail_msg("the fence never arrived (%zu events)", mqtt_client_events(&f->sub));
-        }
-        /* A copy: a failure jumps out of this function, and must not hold the client's lock. */
-        pthread_mutex_lock(&f->sub.lock);
-        n = f->sub.n_events;
-        events = malloc(n * sizeof(*events));
-        if (events)
-                memcpy(events, f->sub.events, n * sizeof(*events));
-        pthread_mutex_unlock(&f->sub.lock);
-        assert_non_null(events);
+        fence(f, EVENTS_TOTAL);
+        events = events_copy(f, &n);
         for (size_t i = 0; i < n; i++) {
                 const struct mqtt_event *e = &events[i];
 
                 if (e->sensor_time == EVENTS_TOTAL)
                         break;
-
                 if (strcmp(e->type, "overrun") == 0 || strcmp(e->type, "daemon-restarted") == 0)
                         fail_msg("unexpected %s notice before seq %llu", e->type,
                                  (unsigned long long)e->seq);
-                if (allow_repeats && e->seq <= last_seq) {
-                        /* Only something already received may come again, and only as the
-                         * broker's redelivery (the same message id, see test_events_*). */
+                if (allow != REPEATS_NONE && e->seq <= last_seq) {
+                        /* Only something already received may come again; from the broker,
+                         * as a redelivery with the same message id. */
                         size_t k = i;
 
                         while (k-- > 0 && events[k].seq != e->seq)
                                 ;
-                        if (k == SIZE_MAX || events[k].mid != e->mid)
-                                fail_msg("event %zu: seq %llu again, not a redelivery", i,
+                        if (k == SIZE_MAX)
+                                fail_msg("event %zu: seq %llu out of order", i,
                                          (unsigned long long)e->seq);
+                        if (allow == REPEATS_BROKER && events[k].mid != e->mid)
+                                fail_msg("event %zu: seq %llu published again, not a broker "
+                                         "redelivery", i, (unsigned long long)e->seq);
                         repeats++;
                         continue;
                 }
@@ -475,16 +524,23 @@ static void check_events(struct fx *f, bool allow_repeats)
                 last_seq = e->seq;
                 if (strcmp(e->type, "action") != 0)
                         continue;
-                if (e->sensor_time != next)
-                        fail_msg("event %zu: gate passage %ld, expected %ld", i,
-                                 e->sensor_time, next);
+                if (e->sensor_time != next) {
+                        dump_logs(f);
+                        dump_link(f);
+                        fail_msg("event %zu: gate passage %ld (seq %llu), expected %ld; the one "
+                                 "before: seq %llu", i, e->sensor_time,
+                                 (unsigned long long)e->seq, next,
+                                 (unsigned long long)(i ? events[i - 1].seq : 0));
+                }
                 next++;
         }
         free(events);
         assert_int_equal(next, EVENTS_TOTAL);
-        if (allow_repeats)
-                print_message("%zu events redelivered by the broker to the subscriber\n",
-                              repeats);
+        if (allow != REPEATS_NONE)
+                print_message("%zu events repeated (%s)\n", repeats,
+                              allow == REPEATS_BROKER ? "broker redeliveries" :
+                              "the killed bridge's unconfirmed tail");
+        return repeats;
 }
 
 static void events_start(struct fx *f, int qos, const char *sub_id)
@@ -525,7 +581,7 @@ static void test_events_exactly_once(void **state)
         start_broker(f);
         assert_int_equal(mqtt_client_wait_connects(&f->sub, connects, T_WAIT_MS), 0);
         passages(f, i + BURST + AWAY, EVENTS_TOTAL, true);
-        check_events(f, true);
+        check_events(f, REPEATS_BROKER);
         assert_int_equal(mqtt_bridge_log_contains(&f->bridge, "resuming after event"), 1);
 }
 
@@ -542,7 +598,64 @@ static void test_events_qos1_bridge_restart(void **state)
         passages(f, i + BURST, i + BURST + AWAY, false);
         start_bridge(f);
         passages(f, i + BURST + AWAY, EVENTS_TOTAL, true);
-        check_events(f, false);
+        check_events(f, REPEATS_NONE);
+}
+
+/* QoS 1, a bridge killed in mid-burst: nothing lost; what it had not seen confirmed (at most
+ * its window of 64) comes again after its restart, with the same seq. */
+static void test_events_bridge_killed(void **state)
+{
+        struct fx *f = *state;
+        int i = 3000;
+
+        events_start(f, 1, "test-events-kill");
+        passages(f, 0, i, true);
+        passages(f, i, i + BURST, false);
+        stop_bridge(f, SIGKILL);
+        passages(f, i + BURST, i + BURST + AWAY, false);
+        start_bridge(f);
+        passages(f, i + BURST + AWAY, EVENTS_TOTAL, true);
+        assert_true(check_events(f, REPEATS_BRIDGE) <= BRIDGE_WINDOW);
+}
+
+/* More events than the ring holds while the bridge is away: an "overrun" notice with the exact
+ * number lost, right where the gap is, then everything after it in order. */
+static void test_events_overrun(void **state)
+{
+        struct fx *f = *state;
+        struct mqtt_event *events;
+        size_t n, notices = 0;
+        long next = 0;
+        uint64_t lost = 0;
+
+        events_start(f, 1, "test-events-overrun");
+        passages(f, 0, 100, true);
+        fence(f, 100);
+        stop_bridge(f, SIGTERM);
+        passages(f, 101, 101 + OVERRUN_AWAY, false);
+        start_bridge(f);
+        fence(f, 101 + OVERRUN_AWAY);
+        events = events_copy(f, &n);
+        for (size_t i = 0; i < n; i++) {
+                const struct mqtt_event *e = &events[i];
+
+                if (!strcmp(e->type, "overrun")) {
+                        notices++;
+                        lost = e->lost;
+                        next += (long)e->lost;  /* only passages were written meanwhile */
+                        continue;
+                }
+                if (strcmp(e->type, "action") != 0)
+                        continue;
+                if (e->sensor_time != next)
+                        fail_msg("event %zu: gate passage %ld, expected %ld", i,
+                                 e->sensor_time, next);
+                next++;
+        }
+        free(events);
+        assert_int_equal(notices, 1);
+        assert_true(lost >= OVERRUN_AWAY - RING_EVENTS);
+        assert_int_equal(next, 101 + OVERRUN_AWAY + 1);
 }
 
 static void test_check_config(void **state)
@@ -575,6 +688,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_events_exactly_once, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_events_qos1_bridge_restart, setup,
                                                 teardown),
+                cmocka_unit_test_setup_teardown(test_events_bridge_killed, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_events_overrun, setup, teardown),
         };
 
         /* MQTT_TEST_FILTER=test_values* runs only the matching tests (debugging). */

@@ -7,6 +7,8 @@
 #     + LIB_PROTO_SRC              with the codecs the client speaks (control protocol, CIRCE)
 #   src/cli/*.c                    slctl, linked against libsharedlink.a (all but slctl.c also
 #                                  archived for unit tests)
+#   src/mqtt/*.c                   sharedlink-mqtt (main.c holds main(), the rest is archived for
+#                                  tests), linked against libsharedlink.so and libmosquitto only
 #   tests/common/*.c               helpers linked into every test binary
 #   tests/unit/test_*.c            one cmocka binary per module, run by `make check`
 #   tests/integration/test_*.c     cmocka binaries that start the real daemon, run by `make check`
@@ -66,13 +68,15 @@ quiet  =
 endif
 
 # python3: the Python binding (python/tests) and tests/peers/ (the Pronto4 test peer), in `make check`.
-DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev python3
+# mosquitto: the MQTT bridge's tests start a broker of their own.
+DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev python3 \
+                  libmosquitto-dev mosquitto mosquitto-clients
 DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
 
 # ---------------------------------------------------------------------------------------------
 # Dependencies: when pkg-config cannot find one, run `make deps` once before anything else.
 
-PC_REQUIRED := yaml-0.1 cmocka
+PC_REQUIRED := yaml-0.1 cmocka libmosquitto
 ifeq ($(WITH_SYSTEMD),1)
 PC_REQUIRED += libsystemd
 endif
@@ -95,6 +99,8 @@ YAML_CFLAGS := $(shell pkg-config --cflags yaml-0.1 2>/dev/null)
 YAML_LIBS   := $(shell pkg-config --libs yaml-0.1 2>/dev/null)
 CMOCKA_CFLAGS := $(shell pkg-config --cflags cmocka 2>/dev/null)
 CMOCKA_LIBS   := $(shell pkg-config --libs cmocka 2>/dev/null)
+MOSQ_CFLAGS   := $(shell pkg-config --cflags libmosquitto 2>/dev/null)
+MOSQ_LIBS     := $(shell pkg-config --libs libmosquitto 2>/dev/null)
 ifeq ($(WITH_SYSTEMD),1)
 SYSTEMD_CFLAGS := $(shell pkg-config --cflags libsystemd 2>/dev/null) -DHAVE_LIBSYSTEMD=1
 SYSTEMD_LIBS   := $(shell pkg-config --libs libsystemd 2>/dev/null)
@@ -133,7 +139,7 @@ endif
 
 CPPFLAGS_ALL := -Iinclude -Isrc -D_DEFAULT_SOURCE -DSHAREDLINK_VERSION='"$(VERSION)"'
 CFLAGS_ALL   := -std=c11 $(OPT) $(WARN) $(HARDEN) $(SANFLAGS) -fPIC -fvisibility=hidden \
-                -MMD -MP $(YAML_CFLAGS) $(SYSTEMD_CFLAGS) $(CFLAGS)
+                -MMD -MP $(YAML_CFLAGS) $(SYSTEMD_CFLAGS) $(MOSQ_CFLAGS) $(CFLAGS)
 LDFLAGS_ALL  := $(SANFLAGS) -Wl,-z,relro,-z,now $(LDFLAGS)
 LDFLAGS_EXE  := $(LDFLAGS_ALL) -pie
 TEST_CFLAGS  := $(CMOCKA_CFLAGS) -Itests
@@ -150,6 +156,8 @@ LIB_PROTO_SRC := $(filter src/proto/control.c src/proto/circe.c,$(PROTO_SRC))
 DAEMON_MAIN:= $(wildcard src/daemon/main.c)
 DAEMON_SRC := $(filter-out src/daemon/main.c,$(wildcard src/daemon/*.c))
 CLI_SRC    := $(wildcard src/cli/*.c)
+MQTT_MAIN  := $(wildcard src/mqtt/main.c)
+MQTT_SRC   := $(filter-out src/mqtt/main.c,$(wildcard src/mqtt/*.c))
 TCOMMON_SRC:= $(wildcard tests/common/*.c)
 UNIT_SRC   := $(wildcard tests/unit/test_*.c)
 INTEG_SRC  := $(wildcard tests/integration/test_*.c)
@@ -170,7 +178,8 @@ A_CLIENT := $(O)/internal/libclient.a
 A_DAEMON := $(O)/internal/libdaemon.a
 A_TCOMMON:= $(O)/internal/libtestcommon.a
 A_CLI    := $(O)/internal/libcli.a
-INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_CLIENT) $(A_CLI) $(A_PROTO) $(A_SHM)
+A_MQTT   := $(O)/internal/libmqtt.a
+INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_CLIENT) $(A_CLI) $(A_PROTO) $(A_SHM)
 SYS_LIBS := $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lutil -lm
 
 LIBSL_SO   := $(O)/libsharedlink.so.$(SOVERSION)
@@ -178,6 +187,7 @@ LIBSL_A    := $(O)/libsharedlink.a
 LIBSL_SYM  := src/lib/libsharedlink.sym
 SHAREDLINKD:= $(O)/sharedlinkd
 SLCTL      := $(O)/slctl
+MQTT_BRIDGE:= $(O)/sharedlink-mqtt
 PCFILE     := $(O)/sharedlink.pc
 
 UNIT_BIN   := $(patsubst tests/%.c,$(O)/tests/%,$(UNIT_SRC))
@@ -188,7 +198,7 @@ EXAMPLE_BIN:= $(patsubst examples/%.c,$(O)/examples/%,$(EXAMPLE_SRC))
 PYHELP_BIN := $(patsubst tests/%.c,$(O)/tests/%,$(PYHELP_SRC))
 
 PROGRAMS := $(if $(DAEMON_MAIN),$(SHAREDLINKD)) $(if $(CLI_SRC),$(SLCTL)) \
-            $(if $(LIB_SRC),$(LIBSL_SO) $(LIBSL_A) $(PCFILE))
+            $(if $(LIB_SRC),$(LIBSL_SO) $(LIBSL_A) $(PCFILE)) $(if $(MQTT_MAIN),$(MQTT_BRIDGE))
 
 # ---------------------------------------------------------------------------------------------
 # Top-level targets
@@ -282,6 +292,7 @@ $(A_DAEMON): $(call obj,$(DAEMON_SRC))
 $(A_TCOMMON): $(call obj,$(TCOMMON_SRC))
 # slctl's modules for unit tests (slctl.c holds main()).
 $(A_CLI): $(call obj,$(filter-out src/cli/slctl.c,$(CLI_SRC)))
+$(A_MQTT): $(call obj,$(MQTT_SRC))
 
 # An archive with no members still needs one object to be a valid archive.
 $(INTERNAL_ARCHIVES): | $(O)/obj/empty.o
@@ -317,6 +328,13 @@ $(PCFILE): Makefile
 $(SLCTL): $(call obj,$(CLI_SRC)) $(LIBSL_A)
 	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $^ -lpthread
 
+# The bridge links the shared library the installed way: only its exported (versioned) symbols
+# resolve, which proves the public API is enough. RUNPATH $ORIGIN finds the library next to the
+# binary in the build tree; installed, the system's library path finds it.
+$(MQTT_BRIDGE): $(call obj,$(MQTT_MAIN)) $(A_MQTT) $(LIBSL_SO)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) $(A_MQTT) -L$(O) -lsharedlink \
+	    -Wl,-rpath,'$$ORIGIN' $(MOSQ_LIBS) $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread
+
 # ---------------------------------------------------------------------------------------------
 # Install (DESIGN.md §2.1): `make install PREFIX=/usr/local DESTDIR=`, and `make uninstall`.
 # Paths come from the variables at the top; DESTDIR is prepended to each and recorded nowhere.
@@ -334,10 +352,11 @@ mandir_of     = $(DESTDIR)$(MANDIR)/man$(subst .,,$(suffix $(1)))
 # One alias page per exported function, so that `man sl_read` opens libsharedlink(3).
 MAN_ALIASES   = $(shell sed -n 's/^[[:space:]]*\(sl_[a-z0-9_]*\);$$/\1/p' $(LIBSL_SYM))
 UNIT_FILES   := $(wildcard systemd/*.service)
-UNIT_SED     := -e 's|^ExecStart=/usr/local/sbin/sharedlinkd |ExecStart=$(SBINDIR)/sharedlinkd |' \
+UNIT_SED     := -e 's@^ExecStart=/usr/local/sbin/\(sharedlinkd\|sharedlink-mqtt\) @ExecStart=$(SBINDIR)/\1 @' \
                 -e 's|^\(ExecStart=.* -c \)/etc/sharedlink/|\1$(SYSCONFDIR)/sharedlink/|'
 TMPFILES_SED := -e 's|^d /etc/sharedlink |d $(SYSCONFDIR)/sharedlink |'
 CONF_DEST    := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlinkd.yaml
+MQTT_CONF_DEST := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlink-mqtt.yaml
 PC_STAMP     := $(O)/install-paths
 
 ifneq ($(filter install,$(MAKECMDGOALS)),)
@@ -362,6 +381,7 @@ install: all
 	    $(sort $(foreach p,$(MAN_PAGES),$(call mandir_of,$(p))))
 	$(INSTALL) -m 0755 $(SHAREDLINKD) $(DESTDIR)$(SBINDIR)/sharedlinkd
 	$(if $(CLI_SRC),$(INSTALL) -m 0755 $(SLCTL) $(DESTDIR)$(BINDIR)/slctl)
+	$(if $(MQTT_MAIN),$(INSTALL) -m 0755 $(MQTT_BRIDGE) $(DESTDIR)$(SBINDIR)/sharedlink-mqtt)
 	$(INSTALL) -m 0755 $(LIBSL_SO) $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION)
 	ln -sf libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so
 	$(INSTALL) -m 0644 $(LIBSL_A) $(DESTDIR)$(LIBDIR)/libsharedlink.a
@@ -374,8 +394,10 @@ install: all
 	@set -e; for u in $(UNIT_FILES); do \
 	    d=$(DESTDIR)$(UNITDIR)/$${u##*/}; \
 	    sed $(UNIT_SED) $$u > $$d.tmp; \
-	    if ! grep -qF 'ExecStart=$(SBINDIR)/sharedlinkd ' $$d.tmp; then \
-	        echo "make install: $$u: ExecStart= does not name /usr/local/sbin/sharedlinkd" >&2; \
+	    if ! grep -qF 'ExecStart=$(SBINDIR)/sharedlinkd ' $$d.tmp && \
+	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-mqtt ' $$d.tmp; then \
+	        echo "make install: $$u: ExecStart= does not name /usr/local/sbin/sharedlinkd" \
+	             "or sharedlink-mqtt" >&2; \
 	        rm -f $$d.tmp; exit 1; \
 	    fi; \
 	    chmod 0644 $$d.tmp; mv -f $$d.tmp $$d; echo "$$d: $$(grep '^ExecStart=' $$d)"; \
@@ -397,6 +419,9 @@ install: all
 	chmod 0644 $(DESTDIR)$(TMPFILESDIR)/sharedlink.conf
 	@if [ -e $(CONF_DEST) ]; then echo "$(CONF_DEST): exists, kept"; \
 	else $(INSTALL) -m 0644 conf/sharedlinkd.yaml $(CONF_DEST) && echo "$(CONF_DEST): installed"; fi
+	@if [ -e $(MQTT_CONF_DEST) ]; then echo "$(MQTT_CONF_DEST): exists, kept"; \
+	else $(INSTALL) -m 0640 conf/sharedlink-mqtt.yaml $(MQTT_CONF_DEST) && \
+	    echo "$(MQTT_CONF_DEST): installed"; fi
 	@# A library installed straight into the system is found by the loader only after this.
 	@if [ -z "$(DESTDIR)" ] && [ "$$(id -u)" = 0 ] && command -v $(LDCONFIG) >/dev/null; then \
 	    echo $(LDCONFIG); $(LDCONFIG); fi
@@ -404,6 +429,7 @@ install: all
 # Removes what install put there; the configuration only when it is still the one shipped.
 uninstall:
 	rm -f $(DESTDIR)$(SBINDIR)/sharedlinkd $(DESTDIR)$(BINDIR)/slctl \
+	    $(DESTDIR)$(SBINDIR)/sharedlink-mqtt \
 	    $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so \
 	    $(DESTDIR)$(LIBDIR)/libsharedlink.a $(DESTDIR)$(PKGCONFIGDIR)/sharedlink.pc \
 	    $(DESTDIR)$(INCDIR)/sharedlink.h \
@@ -415,6 +441,8 @@ uninstall:
 	@if [ -n '$(PYTHONDIR)' ]; then d='$(DESTDIR)$(PYTHONDIR)/sharedlink'; \
 	    rm -f $(addprefix "$$d"/,$(notdir $(PY_SRC)) _paths.py); rm -rf "$$d/__pycache__"; \
 	    [ ! -d "$$d" ] || rmdir "$$d"; fi
+	@if cmp -s conf/sharedlink-mqtt.yaml $(MQTT_CONF_DEST); then rm -f $(MQTT_CONF_DEST); \
+	elif [ -e $(MQTT_CONF_DEST) ]; then echo "$(MQTT_CONF_DEST): changed since install, kept"; fi
 	@if cmp -s conf/sharedlinkd.yaml $(CONF_DEST); then rm -f $(CONF_DEST); \
 	    rmdir $(DESTDIR)$(SYSCONFDIR)/sharedlink 2>/dev/null || true; \
 	elif [ -e $(CONF_DEST) ]; then echo "$(CONF_DEST): changed since install, kept"; fi
@@ -422,9 +450,15 @@ uninstall:
 # ---------------------------------------------------------------------------------------------
 # Tests
 
+# Tests that speak MQTT themselves (tests/common/mqtt.c) also link libmosquitto.
+MQTT_TESTS := $(O)/tests/integration/test_mqtt $(O)/bench/bench_mqtt
+$(MQTT_TESTS): EXTRA_LIBS := $(MOSQ_LIBS)
+# The integration test runs the bridge under test.
+$(O)/tests/integration/test_mqtt: | $(MQTT_BRIDGE)
+
 $(O)/tests/%: $(O)/obj/tests/%.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)
-	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL) $(CMOCKA_LIBS)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL) $(CMOCKA_LIBS) $(EXTRA_LIBS)
 
 # Fuzz targets replayed over their saved corpus with the test compiler.
 $(O)/tests/fuzz/%-replay: $(O)/obj/tests/fuzz/%.o $(O)/obj/tests/fuzz/replay_main.o $(INTERNAL_ARCHIVES)
@@ -466,7 +500,7 @@ bench:
 BENCH_BIN := $(patsubst tests/bench/%.c,$(O)/bench/%,$(BENCH_SRC))
 $(O)/bench/%: $(O)/obj/tests/bench/%.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)
-	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $< $(LINK_INTERNAL) $(EXTRA_LIBS)
 
 # The Python read next to the C one (tests/bench/python_read.py): its C side goes through the
 # shared library, as the binding does.

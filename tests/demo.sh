@@ -7,6 +7,8 @@
 #               arrive on the other (`slctl get`, a short `slctl watch`); `slctl stats` at the end.
 #   CIRCE:      agility (controller) <-> arena (the built-in mediator emulator); see the marked
 #               section below.
+#   MQTT:       when mosquitto and its clients are installed, sharedlink-mqtt bridges the instance
+#               to a private broker on 127.0.0.1 (marked section below); skipped otherwise.
 # then stops the daemon with SIGTERM and checks that it cleaned up after itself.
 #
 # Runs as any user: runtime_dir in demo.yaml is under /tmp. Environment: SHAREDLINK_BUILD (the
@@ -22,6 +24,7 @@ instance=$(sed -n 's/^instance:[[:space:]]*\([^[:space:]#]*\).*/\1/p' "$conf")
 rundir=$(sed -n 's/^runtime_dir:[[:space:]]*\([^[:space:]#]*\).*/\1/p' "$conf")
 wait_s=10                       # how long a step may take before the demo gives up
 pid=
+mqtt_pids=()
 
 export SHAREDLINK_INSTANCE=$instance SHAREDLINK_RUNTIME_DIR=$rundir
 
@@ -30,6 +33,11 @@ run()  { printf '$ %s\n' "$*"; "$@"; }
 fail() { printf 'demo: %s\n' "$*" >&2; [ -f "$rundir/sharedlinkd.log" ] && tail -n 20 "$rundir/sharedlinkd.log" >&2; exit 1; }
 
 cleanup() {
+        local p
+        for p in "${mqtt_pids[@]}"; do
+                kill -TERM "$p" 2>/dev/null || true
+                wait "$p" 2>/dev/null || true
+        done
         if [ -n "$pid" ] && kill -0 "$pid" 2>/dev/null; then
                 kill -TERM "$pid" 2>/dev/null || true
                 wait "$pid" 2>/dev/null || true
@@ -139,6 +147,80 @@ if [ "$have_circe" = 1 ]; then
         run "$slctl" circe agility sync-clocks
 fi
 # --- end of the CIRCE part ----------------------------------------------------------------------
+
+# --- MQTT: sharedlink-mqtt and a private broker -------------------------------------------------
+# A broker of our own on a free 127.0.0.1 port (never the system's), the bridge, and the real
+# mosquitto clients: a retained value, a write through set/, a gate passage as an event, and a
+# refused write with its error reply.
+bridge=$build/sharedlink-mqtt
+broker=$(command -v mosquitto || echo /usr/sbin/mosquitto)
+port_free() { ! (exec 3<>"/dev/tcp/127.0.0.1/$1") 2>/dev/null; }
+port_open() { ! port_free "$1"; }
+# Prints the next message on topic $1 (retained ones included), waiting at most wait_s seconds.
+mqtt_next() { mosquitto_sub -p "$mport" -t "$1" -C 1 -W "$wait_s" 2>/dev/null; }
+if [ ! -x "$broker" ] || ! command -v mosquitto_sub >/dev/null || ! command -v mosquitto_pub >/dev/null; then
+        say "MQTT: skipped (mosquitto or mosquitto-clients not installed: make deps)"
+elif [ ! -x "$bridge" ]; then
+        say "MQTT: skipped ($bridge is not built)"
+else
+        say "MQTT: a private broker and sharedlink-mqtt (log: $rundir/mqtt/bridge.log)"
+        mkdir -p "$rundir/mqtt"
+        mport=
+        for try in 1 2 3 4 5 6 7 8; do
+                p=$((20000 + RANDOM % 20000))
+                port_free "$p" && { mport=$p; break; }
+        done
+        [ -n "$mport" ] || fail "no free port for the broker"
+        printf 'listener %s 127.0.0.1\nallow_anonymous true\n%s' "$mport" \
+                "$([ "$(id -u)" = 0 ] && echo 'user root')" > "$rundir/mqtt/broker.conf"
+        "$broker" -c "$rundir/mqtt/broker.conf" 2>"$rundir/mqtt/broker.log" &
+        mqtt_pids+=($!)
+        until_ok port_open "$mport" || fail "the broker did not come up"
+        cat > "$rundir/mqtt/bridge.yaml" <<EOC
+instance: $instance
+broker: {host: 127.0.0.1, port: $mport}
+cursor_file: $rundir/mqtt/cursor
+writable: ["a.*"]
+EOC
+        run "$bridge" -n -c "$rundir/mqtt/bridge.yaml"
+        "$bridge" -c "$rundir/mqtt/bridge.yaml" 2>"$rundir/mqtt/bridge.log" &
+        mqtt_pids+=($!)
+        base=sharedlink/$instance
+        [ "$(mqtt_next "$base/status")" = online ] || fail "the bridge never came online"
+        run mqtt_next "$base/status"
+        echo "\$ mosquitto_sub -t $base/b.AutoGpsVel -C 1   # retained"
+        mqtt_next "$base/b.AutoGpsVel"
+        mqtt_next "$base/b.AutoGpsVel/meta"; echo
+
+        say "MQTT: a write through set/ goes out on node A and comes back on node B"
+        run mosquitto_pub -p "$mport" -t "$base/set/a.AutoGpsVel" -m 5.5
+        until_ok value_is b.AutoGpsVel 5.5 || fail "b.AutoGpsVel never became 5.5"
+        echo "\$ mosquitto_sub -t $base/b.AutoGpsVel -C 1"
+        mqtt_next "$base/b.AutoGpsVel"
+
+        if [ "$have_circe" = 1 ]; then
+                say "MQTT: a gate passage arrives as an event"
+                mqtt_next "$base/events/agility" > "$rundir/mqtt/event.json" &
+                sub=$!
+                sleep 0.5       # the subscription is in place (a demo may wait; tests do not)
+                run "$slctl" circe arena emulate action E1E1E1 --sensor-time 6000
+                wait "$sub" || fail "no event arrived over MQTT"
+                cat "$rundir/mqtt/event.json"
+        fi
+
+        say "MQTT: a write to an inbound variable is refused, with a reason"
+        mqtt_next "$base/set/b.AutoGpsVel/error" > "$rundir/mqtt/error.json" &
+        sub=$!
+        sleep 0.5
+        run mosquitto_pub -p "$mport" -t "$base/set/b.AutoGpsVel" -m 1
+        wait "$sub" || fail "no error reply arrived"
+        cat "$rundir/mqtt/error.json"; echo
+        run "$slctl" get b.AutoGpsVel
+        for p in "${mqtt_pids[@]}"; do kill -TERM "$p" 2>/dev/null || true; wait "$p" 2>/dev/null || true; done
+        mqtt_pids=()
+        echo "sharedlink-mqtt and the broker stopped"
+fi
+# --- end of the MQTT part -----------------------------------------------------------------------
 
 say "link statistics"
 run "$slctl" stats

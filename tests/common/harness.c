@@ -548,6 +548,22 @@ int harness_write_all(int fd, const void *buf, size_t len, int timeout_ms)
         return 0;
 }
 
+size_t harness_circe_packet(const char *body, char *out)
+{
+        unsigned sum = 0x02;
+        size_t n = 0;
+
+        out[n++] = 0x02;
+        for (const char *p = body; *p; p++) {
+                out[n++] = *p;
+                sum += (uint8_t)*p;
+        }
+        n += (size_t)sprintf(out + n, "%02X", sum & 0xFF);
+        out[n++] = 0x03;
+        out[n] = '\0';
+        return n;
+}
+
 int harness_count_fds(pid_t pid)
 {
         char path[64];

@@ -87,6 +87,10 @@ ssize_t harness_read_until(int fd, char *buf, size_t size, char delim, int timeo
 /* Writes all of buf (retrying on EAGAIN with poll); 0 or -errno. */
 int harness_write_all(int fd, const void *buf, size_t len, int timeout_ms);
 
+/* Frames a CIRCE packet body ("OP<TAB>PID:VALUE<TAB>...") as STX body checksum ETX into out
+ * (room for strlen(body) + 4 bytes + NUL); returns its length. */
+size_t harness_circe_packet(const char *body, char *out);
+
 /* Counts the open fds of a process (from /proc/PID/fd); -errno on error. */
 int harness_count_fds(pid_t pid);
 

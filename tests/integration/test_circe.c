@@ -329,18 +329,7 @@ static void test_back_to_back_slctl(void **state)
 /* STX body checksum ETX into out; the length. */
 static size_t pkt(const char *body, char *out)
 {
-        unsigned sum = 0x02;
-        size_t n = 0;
-
-        out[n++] = 0x02;
-        for (const char *p = body; *p; p++) {
-                out[n++] = *p;
-                sum += (uint8_t)*p;
-        }
-        n += (size_t)sprintf(out + n, "%02X", sum & 0xFF);
-        out[n++] = 0x03;
-        out[n] = '\0';
-        return n;
+        return harness_circe_packet(body, out);
 }
 
 static void put_raw(struct fx *f, int side, const void *data, size_t len)

@@ -1,0 +1,326 @@
+/*
+ * sharedlink-mqtt wire formats (see bridge_format.h).
+ */
+#include "mqtt/bridge_format.h"
+
+#include <errno.h>
+#include <inttypes.h>
+#include <stdio.h>
+#include <string.h>
+
+#define NS_PER_MS               1000000u
+#define SET_LEVEL               "/set/"
+#define ERROR_SUFFIX            "/error"
+
+static const char *const reserved_words[] = { "set", "events", "links", "status", "bridge" };
+
+static const char *const refusal_text[BRIDGE_REFUSE_COUNT] = {
+        [BRIDGE_REFUSE_NONE] = "accepted",
+        [BRIDGE_REFUSE_TOPIC] = "not a set topic of one variable name",
+        [BRIDGE_REFUSE_UNKNOWN] = "no such variable",
+        [BRIDGE_REFUSE_INBOUND] = "an inbound variable is read only",
+        [BRIDGE_REFUSE_NOT_WRITABLE] = "not writable from MQTT (writable: in the configuration)",
+        [BRIDGE_REFUSE_TOO_LONG] = "value longer than 63 bytes",
+        [BRIDGE_REFUSE_NOT_UTF8] = "value is not UTF-8",
+        [BRIDGE_REFUSE_BAD_VALUE] = "value cannot go on the wire (printable ASCII without | [ ])",
+        [BRIDGE_REFUSE_FAILED] = "write failed",
+};
+
+static const char *const refusal_code[BRIDGE_REFUSE_COUNT] = {
+        [BRIDGE_REFUSE_NONE] = "ok",
+        [BRIDGE_REFUSE_TOPIC] = "bad-topic",
+        [BRIDGE_REFUSE_UNKNOWN] = "unknown",
+        [BRIDGE_REFUSE_INBOUND] = "inbound",
+        [BRIDGE_REFUSE_NOT_WRITABLE] = "not-writable",
+        [BRIDGE_REFUSE_TOO_LONG] = "too-long",
+        [BRIDGE_REFUSE_NOT_UTF8] = "not-utf8",
+        [BRIDGE_REFUSE_BAD_VALUE] = "bad-value",
+        [BRIDGE_REFUSE_FAILED] = "failed",
+};
+
+int bridge_format_topic(char *buf, size_t size, const char *base, const char *a, const char *b)
+{
+        int n = b ? snprintf(buf, size, "%s/%s/%s", base, a, b) :
+                    snprintf(buf, size, "%s/%s", base, a);
+
+        return n < 0 || (size_t)n >= size ? -ENAMETOOLONG : 0;
+}
+
+int bridge_format_name_ok(const char *name)
+{
+        if (!name[0] || strlen(name) >= SL_NAME_SIZE)
+                return 0;
+        for (const char *p = name; *p; p++)
+                if (*p < 0x21 || *p > 0x7e || *p == '/' || *p == '+' || *p == '#')
+                        return 0;
+        for (size_t i = 0; i < sizeof(reserved_words) / sizeof(reserved_words[0]); i++)
+                if (!strcmp(name, reserved_words[i]))
+                        return 0;
+        return 1;
+}
+
+int bridge_format_set_topic(const char *base, const char *topic, char *ret_name)
+{
+        size_t bl = strlen(base), sl = strlen(SET_LEVEL), nl;
+        const char *name, *slash;
+
+        if (strncmp(topic, base, bl) != 0 || strncmp(topic + bl, SET_LEVEL, sl) != 0)
+                return -EINVAL;
+        name = topic + bl + sl;
+        slash = strchr(name, '/');
+        if (slash) {
+                /* Our own replies come back to us through the set/# subscription. */
+                if (!strcmp(slash, ERROR_SUFFIX) && slash > name)
+                        return 0;
+                return -EINVAL;
+        }
+        nl = strlen(name);
+        if (nl == 0 || nl >= SL_NAME_SIZE || !bridge_format_name_ok(name))
+                return -EINVAL;
+        memcpy(ret_name, name, nl + 1);
+        return 1;
+}
+
+/* Length of the UTF-8 sequence at p (at most left bytes), or 0 when it is not valid UTF-8:
+ * no overlong forms, no surrogates, nothing above U+10FFFF. */
+static size_t utf8_sequence(const unsigned char *p, size_t left)
+{
+        uint32_t cp;
+        size_t n;
+
+        if (p[0] < 0x80)
+                return 1;
+        if (p[0] >= 0xC2 && p[0] <= 0xDF)
+                n = 2, cp = p[0] & 0x1Fu;
+        else if (p[0] >= 0xE0 && p[0] <= 0xEF)
+                n = 3, cp = p[0] & 0x0Fu;
+        else if (p[0] >= 0xF0 && p[0] <= 0xF4)
+                n = 4, cp = p[0] & 0x07u;
+        else
+                return 0;
+        if (n > left)
+                return 0;
+        for (size_t i = 1; i < n; i++) {
+                if ((p[i] & 0xC0) != 0x80)
+                        return 0;
+                cp = (cp << 6) | (p[i] & 0x3Fu);
+        }
+        if ((n == 3 && cp < 0x800) || (n == 4 && cp < 0x10000) || cp > 0x10FFFF ||
+            (cp >= 0xD800 && cp <= 0xDFFF))
+                return 0;
+        return n;
+}
+
+enum bridge_refusal bridge_format_check_value(const void *payload, size_t len)
+{
+        const unsigned char *p = payload;
+
+        if (len > BRIDGE_SET_PAYLOAD_MAX)
+                return BRIDGE_REFUSE_TOO_LONG;
+        for (size_t i = 0; i < len;) {
+                size_t n = utf8_sequence(p + i, len - i);
+
+                if (n == 0)
+                        return BRIDGE_REFUSE_NOT_UTF8;
+                if (p[i] == 0)
+                        return BRIDGE_REFUSE_BAD_VALUE;
+                i += n;
+        }
+        return BRIDGE_REFUSE_NONE;
+}
+
+const char *bridge_format_refusal(enum bridge_refusal r)
+{
+        return (unsigned)r < BRIDGE_REFUSE_COUNT ? refusal_text[r] : "refused";
+}
+
+/* ---- JSON ------------------------------------------------------------------------------------ */
+
+static void json_put(struct bridge_json *j, const char *s, size_t n)
+{
+        if (j->overflow || j->len + n >= j->size) {
+                j->overflow = true;
+                return;
+        }
+        memcpy(j->buf + j->len, s, n);
+        j->len += n;
+        j->buf[j->len] = '\0';
+}
+
+/* A JSON string: quotes, backslashes and control bytes escaped; bytes >= 0x80 pass (the daemon's
+ * texts are ASCII; set/ payloads echoed in errors were checked to be UTF-8). */
+static void json_quoted(struct bridge_json *j, const char *s, size_t len)
+{
+        json_put(j, "\"", 1);
+        for (size_t i = 0; i < len; i++) {
+                unsigned char ch = (unsigned char)s[i];
+                char esc[8];
+
+                if (ch == '"' || ch == '\\') {
+                        esc[0] = '\\';
+                        esc[1] = (char)ch;
+                        json_put(j, esc, 2);
+                } else if (ch < 0x20 || ch == 0x7f) {
+                        snprintf(esc, sizeof(esc), "\\u%04x", ch);
+                        json_put(j, esc, 6);
+                } else {
+                        json_put(j, s + i, 1);
+                }
+        }
+        json_put(j, "\"", 1);
+}
+
+static void json_key(struct bridge_json *j, const char *key)
+{
+        if (j->need_comma)
+                json_put(j, ",", 1);
+        j->need_comma = true;
+        json_quoted(j, key, strlen(key));
+        json_put(j, ":", 1);
+}
+
+void bridge_json_begin(struct bridge_json *j, char *buf, size_t size)
+{
+        *j = (struct bridge_json){ .buf = buf, .size = size };
+        if (size)
+                buf[0] = '\0';
+        json_put(j, "{", 1);
+}
+
+void bridge_json_str(struct bridge_json *j, const char *key, const char *value)
+{
+        json_key(j, key);
+        json_quoted(j, value, strlen(value));
+}
+
+void bridge_json_u64(struct bridge_json *j, const char *key, uint64_t value)
+{
+        char num[24];
+
+        json_key(j, key);
+        json_put(j, num, (size_t)snprintf(num, sizeof(num), "%" PRIu64, value));
+}
+
+void bridge_json_bool(struct bridge_json *j, const char *key, bool value)
+{
+        json_key(j, key);
+        json_put(j, value ? "true" : "false", value ? 4 : 5);
+}
+
+int bridge_json_end(struct bridge_json *j)
+{
+        json_put(j, "}", 1);
+        return j->overflow ? -ENOBUFS : (int)j->len;
+}
+
+int bridge_format_error(char *buf, size_t size, const char *name, enum bridge_refusal r,
+                        int err)
+{
+        struct bridge_json j;
+
+        bridge_json_begin(&j, buf, size);
+        bridge_json_str(&j, "name", name);
+        bridge_json_str(&j, "code", (unsigned)r < BRIDGE_REFUSE_COUNT ? refusal_code[r] : "?");
+        bridge_json_str(&j, "error", bridge_format_refusal(r));
+        if (err < 0)
+                bridge_json_str(&j, "detail", sl_strerror(err));
+        return bridge_json_end(&j);
+}
+
+static const char *type_name(int type)
+{
+        switch (type) {
+        case SL_VAR_LONG:
+                return "long";
+        case SL_VAR_DOUBLE:
+                return "double";
+        default:
+                return "string";
+        }
+}
+
+int bridge_format_meta(char *buf, size_t size, const struct sl_var_info *info,
+                       const struct sl_meta *meta, const char *link_name)
+{
+        struct bridge_json j;
+
+        bridge_json_begin(&j, buf, size);
+        bridge_json_bool(&j, "valid", meta->flags & SL_FLAG_VALID);
+        bridge_json_bool(&j, "stale", meta->flags & SL_FLAG_STALE);
+        bridge_json_u64(&j, "age_ms", meta->age_ns / NS_PER_MS);
+        bridge_json_u64(&j, "seq", meta->sequence);
+        bridge_json_u64(&j, "time_ns", meta->real_ns);
+        bridge_json_str(&j, "direction", info->direction == SL_DIR_OUT ? "out" : "in");
+        bridge_json_str(&j, "type", type_name(info->type));
+        bridge_json_str(&j, "link", link_name);
+        bridge_json_str(&j, "peer", info->peer);
+        bridge_json_bool(&j, "repaired", meta->flags & SL_FLAG_REPAIRED);
+        return bridge_json_end(&j);
+}
+
+static void epoch_hex(char out[17], uint64_t epoch)
+{
+        snprintf(out, 17, "%016" PRIx64, epoch);
+}
+
+/* "k=v k2=v2" as an object; a word without '=' becomes a key with an empty value. */
+static void json_fields(struct bridge_json *j, const char *text)
+{
+        bool first = true;
+
+        json_key(j, "fields");
+        json_put(j, "{", 1);
+        for (const char *p = text; *p;) {
+                size_t wl = strcspn(p, " "), kl;
+                const char *eq;
+
+                if (wl == 0) {
+                        p++;
+                        continue;
+                }
+                eq = memchr(p, '=', wl);
+                kl = eq ? (size_t)(eq - p) : wl;
+                if (!first)
+                        json_put(j, ",", 1);
+                first = false;
+                json_quoted(j, p, kl);
+                json_put(j, ":", 1);
+                json_quoted(j, eq ? eq + 1 : p + wl, eq ? wl - kl - 1 : 0);
+                p += wl;
+        }
+        json_put(j, "}", 1);
+}
+
+int bridge_format_event(char *buf, size_t size, uint64_t epoch, const struct sl_event *ev)
+{
+        struct bridge_json j;
+        char hex[17];
+
+        epoch_hex(hex, epoch);
+        bridge_json_begin(&j, buf, size);
+        bridge_json_str(&j, "epoch", hex);
+        bridge_json_u64(&j, "seq", ev->seq);
+        bridge_json_u64(&j, "time_ns", ev->real_ns);
+        bridge_json_str(&j, "link", ev->link_name);
+        bridge_json_str(&j, "type", ev->type_name);
+        bridge_json_str(&j, "text", ev->text);
+        json_fields(&j, ev->text);
+        bridge_json_bool(&j, "truncated", ev->flags & SL_EVENT_TRUNCATED);
+        return bridge_json_end(&j);
+}
+
+int bridge_format_notice(char *buf, size_t size, const char *type, uint64_t epoch, uint64_t seq,
+                         uint64_t lost)
+{
+        struct bridge_json j;
+        char hex[17];
+
+        epoch_hex(hex, epoch);
+        bridge_json_begin(&j, buf, size);
+        bridge_json_str(&j, "epoch", hex);
+        bridge_json_u64(&j, "seq", seq);
+        bridge_json_str(&j, "link", "");
+        bridge_json_str(&j, "type", type);
+        bridge_json_u64(&j, "lost", lost);
+        return bridge_json_end(&j);
+}

@@ -1,0 +1,98 @@
+/*
+ * sharedlink-mqtt: what goes on the wire, as pure functions (no I/O, no allocation): topics, the
+ * JSON of metadata, events and errors, and the checks of what arrives on a set/ topic. Unit
+ * tested on their own (tests/unit/test_bridge_format.c).
+ *
+ * Topics, under base = "<prefix>/<instance>":
+ *   base/<name>             a variable's value text (retained)
+ *   base/<name>/meta        its metadata as JSON (retained)
+ *   base/events/<link>      events of a link (JSON, QoS events_qos); base/events for none
+ *   base/set/<name>         writes to an outbound variable (subscribed)
+ *   base/set/<name>/error   the bridge's answer to a refused write (JSON)
+ *   base/links/<link>       a link's state name (retained)
+ *   base/status             online / offline (retained; "offline" is the last will)
+ *   base/bridge             the bridge's counters (JSON, retained)
+ */
+#ifndef SHAREDLINK_MQTT_BRIDGE_FORMAT_H
+#define SHAREDLINK_MQTT_BRIDGE_FORMAT_H
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <sharedlink.h>
+
+#define BRIDGE_TOPIC_MAX        512     /* bytes of a topic + NUL */
+#define BRIDGE_JSON_MAX         1024    /* bytes of one JSON payload + NUL */
+#define BRIDGE_SET_PAYLOAD_MAX  (SL_VALUE_SIZE - 1)
+
+/* Why a set/ message was refused (bridge_format_refusal names them). */
+enum bridge_refusal {
+        BRIDGE_REFUSE_NONE,
+        BRIDGE_REFUSE_TOPIC,            /* not base/set/<one level> */
+        BRIDGE_REFUSE_UNKNOWN,          /* no such variable */
+        BRIDGE_REFUSE_INBOUND,          /* an inbound variable: read only */
+        BRIDGE_REFUSE_NOT_WRITABLE,     /* outbound, but not in writable: */
+        BRIDGE_REFUSE_TOO_LONG,         /* payload over the value size */
+        BRIDGE_REFUSE_NOT_UTF8,         /* payload is not UTF-8 */
+        BRIDGE_REFUSE_BAD_VALUE,        /* the library refused the text (-EINVAL) */
+        BRIDGE_REFUSE_FAILED,           /* the write failed (no daemon, no permission, busy) */
+        BRIDGE_REFUSE_COUNT
+};
+
+/* A growing JSON text in a caller's buffer; overflow is sticky and reported by the finisher. */
+struct bridge_json {
+        char *buf;
+        size_t size, len;
+        bool overflow, need_comma;
+};
+
+/* "<base>/<a>[/<b>]" into buf (BRIDGE_TOPIC_MAX); b may be NULL. 0 or -ENAMETOOLONG. */
+int bridge_format_topic(char *buf, size_t size, const char *base, const char *a, const char *b);
+
+/* 1 when a variable or link name can be a topic level under base: non-empty, printable ASCII
+ * without '/', '+', '#', and not one of the bridge's own words (set, events, links, status,
+ * bridge); 0 otherwise. */
+int bridge_format_name_ok(const char *name);
+
+/*
+ * Splits a topic received under base/set/: returns 1 and the variable name in ret_name
+ * (SL_NAME_SIZE) for "base/set/<name>", 0 for the bridge's own "base/set/<name>/error" replies
+ * (to be ignored), -EINVAL for anything else (other levels, a name too long or not allowed).
+ */
+int bridge_format_set_topic(const char *base, const char *topic, char *ret_name);
+
+/* Checks a set/ payload before it goes to sl_write: BRIDGE_REFUSE_NONE, _TOO_LONG, _NOT_UTF8
+ * or _BAD_VALUE (a NUL byte). */
+enum bridge_refusal bridge_format_check_value(const void *payload, size_t len);
+
+/* A short English reason, e.g. "an inbound variable is read only". */
+const char *bridge_format_refusal(enum bridge_refusal r);
+
+/* {"error":"<reason>","name":"...","code":"..."} for base/set/<name>/error; its length or
+ * -ENOBUFS. */
+int bridge_format_error(char *buf, size_t size, const char *name, enum bridge_refusal r,
+                        int err);
+
+/* The metadata JSON of a variable: valid, stale, age_ms, seq, time_ns, direction, type, link,
+ * peer, repaired. link_name may be "". Its length or -ENOBUFS. */
+int bridge_format_meta(char *buf, size_t size, const struct sl_var_info *info,
+                       const struct sl_meta *meta, const char *link_name);
+
+/* The JSON of an event: epoch (hex), seq, time_ns, link, type, text, fields (text split at
+ * spaces into key=value), truncated. Its length or -ENOBUFS. */
+int bridge_format_event(char *buf, size_t size, uint64_t epoch, const struct sl_event *ev);
+
+/* The JSON of an event the bridge makes itself ("overrun": lost events, "daemon-restarted");
+ * seq is the number of the event that follows. Its length or -ENOBUFS. */
+int bridge_format_notice(char *buf, size_t size, const char *type, uint64_t epoch, uint64_t seq,
+                         uint64_t lost);
+
+/* JSON builder: begin an object into buf; add members; end gives the length or -ENOBUFS. */
+void bridge_json_begin(struct bridge_json *j, char *buf, size_t size);
+void bridge_json_str(struct bridge_json *j, const char *key, const char *value);
+void bridge_json_u64(struct bridge_json *j, const char *key, uint64_t value);
+void bridge_json_bool(struct bridge_json *j, const char *key, bool value);
+int bridge_json_end(struct bridge_json *j);
+
+#endif

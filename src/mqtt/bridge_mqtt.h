@@ -1,0 +1,53 @@
+/*
+ * sharedlink-mqtt: the libmosquitto side. One client, driven without a thread of its own from
+ * main.c's poll loop (socket, want_write, misc), with a persistent session (clean_session
+ * false, fixed client id: see bridge.h for what that buys the events), the last will "offline"
+ * on base/status, TLS and username/password from the configuration, and reconnection with a
+ * doubling backoff (reconnect_min_ms .. reconnect_max_ms) whenever the broker is down or drops
+ * the connection.
+ */
+#ifndef SHAREDLINK_MQTT_BRIDGE_MQTT_H
+#define SHAREDLINK_MQTT_BRIDGE_MQTT_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "mqtt/bridge.h"
+#include "mqtt/bridge_config.h"
+
+struct bridge_mqtt;
+
+/* A client for cfg that hands acknowledgements and set/ messages to b. 0 or -errno (message in
+ * err: a TLS file that cannot be used, say). */
+int bridge_mqtt_new(const struct bridge_config *cfg, struct bridge *b, struct bridge_mqtt **ret,
+                    char *err, size_t err_size);
+
+/* Frees; NULL-safe; returns NULL. */
+struct bridge_mqtt *bridge_mqtt_free(struct bridge_mqtt *bm);
+
+/* The sink that publishes through this client. */
+const struct bridge_sink *bridge_mqtt_sink(struct bridge_mqtt *bm);
+
+/* Starts a connection attempt when none runs and the backoff allows it at now_ns. */
+void bridge_mqtt_connect_due(struct bridge_mqtt *bm, uint64_t now_ns);
+
+/* The socket to poll (-1 when none) and whether POLLOUT is wanted. */
+int bridge_mqtt_fd(struct bridge_mqtt *bm);
+bool bridge_mqtt_want_write(struct bridge_mqtt *bm);
+
+/* Handles poll results of the socket (revents may be 0) and the periodic keepalive work. */
+void bridge_mqtt_io(struct bridge_mqtt *bm, short revents, uint64_t now_ns);
+
+/* Milliseconds until bridge_mqtt_io or _connect_due have something to do (a bound). */
+int bridge_mqtt_timeout_ms(const struct bridge_mqtt *bm, uint64_t now_ns);
+
+/* 1 once CONNACK accepted and until the connection drops. */
+bool bridge_mqtt_connected(const struct bridge_mqtt *bm);
+
+/* 1 once after each accepted (re)connection: the caller then publishes everything. */
+bool bridge_mqtt_take_fresh(struct bridge_mqtt *bm);
+
+/* Publishes "offline" and disconnects cleanly (the broker then drops the will). */
+void bridge_mqtt_disconnect(struct bridge_mqtt *bm);
+
+#endif

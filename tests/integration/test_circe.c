@@ -35,6 +35,7 @@
 
 #include "common/circe_sessions.h"
 #include "common/harness.h"
+#include "common/wire.h"
 #include "proto/circe.h"
 
 #define T_START_MS      15000   /* READY=1 (ASan build) */
@@ -326,23 +327,6 @@ static void test_back_to_back_slctl(void **state)
  * would: slctl get / events / stats --json, and the library.
  */
 
-/* STX body checksum ETX into out; the length. */
-static size_t pkt(const char *body, char *out)
-{
-        unsigned sum = 0x02;
-        size_t n = 0;
-
-        out[n++] = 0x02;
-        for (const char *p = body; *p; p++) {
-                out[n++] = *p;
-                sum += (uint8_t)*p;
-        }
-        n += (size_t)sprintf(out + n, "%02X", sum & 0xFF);
-        out[n++] = 0x03;
-        out[n] = '\0';
-        return n;
-}
-
 static void put_raw(struct fx *f, int side, const void *data, size_t len)
 {
         assert_int_equal(harness_write_all(f->master[side], data, len, T_WAIT_MS), 0);
@@ -351,37 +335,23 @@ static void put_raw(struct fx *f, int side, const void *data, size_t len)
 /* Sends one packet (with checksum) to the daemon on dev<side>. */
 static void put(struct fx *f, int side, const char *body)
 {
-        char buf[PKT_MAX];
+        uint8_t buf[PKT_MAX];
 
-        put_raw(f, side, buf, pkt(body, buf));
-}
-
-/* Control bytes made visible, for failure messages. */
-static void show(const char *p, size_t n, char *out, size_t size)
-{
-        size_t o = 0;
-
-        for (size_t i = 0; i < n && o + 8 < size; i++)
-                if (p[i] == 0x02 || p[i] == 0x03 || p[i] == '\t')
-                        o += (size_t)snprintf(out + o, size - o, "%s",
-                                              p[i] == 0x02 ? "<STX>" : p[i] == 0x03 ? "<ETX>" :
-                                              "<TAB>");
-                else
-                        out[o++] = p[i];
-        out[o] = '\0';
+        put_raw(f, side, buf, wire_circe_str(buf, sizeof(buf), body, WIRE_CS_UPPER));
 }
 
 /* Reads the next packet the daemon sent on dev<side>; it must be exactly body (+ checksum). */
 static void expect(struct fx *f, int side, const char *body)
 {
-        char want[PKT_MAX], got[PKT_MAX], a[2 * PKT_MAX], b[2 * PKT_MAX];
-        size_t wn = pkt(body, want);
+        uint8_t want[PKT_MAX];
+        char got[PKT_MAX], a[2 * PKT_MAX], b[2 * PKT_MAX];
+        size_t wn = wire_circe_str(want, sizeof(want), body, WIRE_CS_UPPER);
         ssize_t gn = harness_read_until(f->master[side], got, sizeof(got), 0x03, T_WAIT_MS);
 
-        show(want, wn, a, sizeof(a));
+        wire_circe_show(want, wn, a, sizeof(a));
         if (gn <= 0)
                 fail_msg("dev%d: no packet (%zd); expected %s", side, gn, a);
-        show(got, (size_t)gn, b, sizeof(b));
+        wire_circe_show((const uint8_t *)got, (size_t)gn, b, sizeof(b));
         if ((size_t)gn != wn || memcmp(got, want, wn) != 0)
                 fail_msg("dev%d: got %s, expected %s", side, b, a);
 }
@@ -874,7 +844,8 @@ static void test_bad_input(void **state)
                 "agility action device=A00006 sensor_time=11",
         };
         struct fx *f = *state;
-        char p[CIRCE_PACKET_MAX * 2], events[EVENTS_MAX];
+        uint8_t p[CIRCE_PACKET_MAX * 2];
+        char events[EVENTS_MAX];
         size_t n;
 
         need_slctl();
@@ -886,15 +857,12 @@ static void test_bad_input(void **state)
         put_raw(f, 0, "garbage\x03", 8);
         put(f, 0, "53\t015:A00001\t025:1\t");
         /* bad checksum */
-        n = pkt("53\t015:B00001\t025:1\t", p);
+        n = wire_circe_str(p, sizeof(p), "53\t015:B00001\t025:1\t", WIRE_CS_UPPER);
         p[n - 2] = p[n - 2] == '0' ? '1' : '0';
         put_raw(f, 0, p, n);
         put(f, 0, "53\t015:A00002\t025:2\t");
         /* checksum accepted in lower case; no checksum at all is fine too */
-        n = pkt("53\t015:A0000A\t025:3\t", p);
-        for (size_t i = n - 3; i < n; i++)
-                if (p[i] >= 'A' && p[i] <= 'F')
-                        p[i] = (char)(p[i] - 'A' + 'a');
+        n = wire_circe_str(p, sizeof(p), "53\t015:A0000A\t025:3\t", WIRE_CS_LOWER);
         put_raw(f, 0, p, n);
         put_raw(f, 0, "\x02" "53\t015:A0000B\t025:4\t\x03", 22);
         /* unknown operation */

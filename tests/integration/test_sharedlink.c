@@ -31,6 +31,7 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/wire.h"
 #include "proto/sharedlink.h"
 
 #define START_MS        20000
@@ -85,19 +86,6 @@ static int teardown(void **state)
                 free(t->mem[i]);
         free(t);
         return 0;
-}
-
-/* "[" text "|C" hh "]" (+ CR LF); text starts at the ':'. */
-static size_t mkraw(char *out, size_t size, const char *text, int crlf)
-{
-        unsigned sum = '|' + 'C';
-        int n;
-
-        for (const char *p = text; *p; p++)
-                sum += (unsigned char)*p;
-        n = snprintf(out, size, "[%s|C%02X]%s", text, sum & 0xffu, crlf ? "\r\n" : "");
-        assert_true(n > 0 && (size_t)n < size);
-        return (size_t)n;
 }
 
 /* Zeroed memory that teardown frees, so a failing assertion leaks nothing. */
@@ -159,7 +147,7 @@ static void expect_frame(struct it *t, const char *text)
         char want[512], line[LINE_MAX_T];
         uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * 1000000u;
 
-        mkraw(want, sizeof(want), text, 0);
+        wire_slp_raw(want, sizeof(want), text, 0);
         while (harness_now_ns() < deadline) {
                 ssize_t n = harness_read_until(t->master, line, sizeof(line), '\n', WAIT_MS);
                 char *s;
@@ -176,7 +164,7 @@ static void expect_frame(struct it *t, const char *text)
 static void send_frame(int fd, const char *text)
 {
         char buf[512];
-        size_t n = mkraw(buf, sizeof(buf), text, 1);
+        size_t n = wire_slp_raw(buf, sizeof(buf), text, 1);
 
         assert_int_equal(harness_write_all(fd, buf, n, WAIT_MS), 0);
 }
@@ -434,10 +422,10 @@ static void test_udp_loopback(void **state)
         n = recvfrom(t->udp, buf, sizeof(buf) - 1, 0, (struct sockaddr *)&from, &flen);
         assert_true(n > 0);
         buf[n] = '\0';
-        mkraw(want, sizeof(want), ":AB|N0|D", 0);
+        wire_slp_raw(want, sizeof(want), ":AB|N0|D", 0);
         assert_string_equal(buf, want);
 
-        len = mkraw(buf, sizeof(buf), ":BA|N0|D12.5", 0);
+        len = wire_slp_raw(buf, sizeof(buf), ":BA|N0|D12.5", 0);
         assert_int_equal(sendto(t->udp, buf, len, 0, (struct sockaddr *)&from, flen),
                          (ssize_t)len);
         wait_value(t, "sys_speed", "12.5");
@@ -447,7 +435,7 @@ static void test_udp_loopback(void **state)
         n = recv(t->udp, buf, sizeof(buf) - 1, 0);
         assert_true(n > 0);
         buf[n] = '\0';
-        mkraw(want, sizeof(want), ":AB|N0|D1", 0);
+        wire_slp_raw(want, sizeof(want), ":AB|N0|D1", 0);
         assert_string_equal(buf, want);
 }
 
@@ -460,7 +448,7 @@ static void check_raw(const struct slp_frame *f)
 {
         const char *raw = f->raw;
         size_t len = f->raw_len;
-        unsigned sum = 0, want;
+        unsigned want;
 
         assert_true(len >= 9);
         assert_int_equal(raw[0], '[');
@@ -469,10 +457,8 @@ static void check_raw(const struct slp_frame *f)
         assert_int_equal(raw[len - 4], 'C');
         for (size_t i = len - 3; i < len - 1; i++)
                 assert_true((raw[i] >= '0' && raw[i] <= '9') || (raw[i] >= 'A' && raw[i] <= 'F'));
-        for (size_t i = 1; i <= len - 4; i++)
-                sum += (unsigned char)raw[i];
         assert_int_equal(sscanf(raw + len - 3, "%2X", &want), 1);
-        assert_int_equal(sum & 0xffu, want);
+        assert_int_equal(wire_slp_sum(raw + 1, len - 4), want);
         assert_int_equal(f->unknown_fields, 0);
         assert_int_equal(f->empty_fields, 0);
 }
@@ -912,7 +898,7 @@ static void tally_send(struct it *t, struct tally *y, const void *buf, size_t le
 static void tally_frame_text(struct it *t, struct tally *y, const char *text)
 {
         char buf[512];
-        size_t n = mkraw(buf, sizeof(buf), text, 1);
+        size_t n = wire_slp_raw(buf, sizeof(buf), text, 1);
 
         tally_send(t, y, buf, n);
 }
@@ -972,7 +958,7 @@ static void test_garbage_counters(void **state)
         tally_send(t, y, noise, sizeof(noise) - 1);
         tally_round(t, y, ++round);
         /* Bad checksum: a valid frame with its checksum's last digit changed. */
-        n = mkraw(buf, sizeof(buf), ":BA|N0|Dbad|Dbad", 1);
+        n = wire_slp_raw(buf, sizeof(buf), ":BA|N0|Dbad|Dbad", 1);
         buf[n - 4] = buf[n - 4] == '0' ? '1' : '0';
         tally_send(t, y, buf, n);
         tally_frame_text(t, y, ":BA|N0|Dbad|Dbad|Cxy");         /* malformed checksum */

@@ -36,6 +36,7 @@
 
 #include "common/circe_sessions.h"
 #include "common/harness.h"
+#include "common/wire.h"
 #include "daemon/config.h"
 #include "daemon/control.h"
 #include "daemon/evloop.h"
@@ -330,23 +331,6 @@ static void run_for(struct fx *f, unsigned ms)
 
 /* ---- packets --------------------------------------------------------------------------------- */
 
-/* STX body checksum ETX; body is "OP\tPPP:V\t...". */
-static size_t pkt_build(const char *body, bool cs, uint8_t *out)
-{
-        size_t n = 0;
-        unsigned sum = CIRCE_STX;
-
-        out[n++] = CIRCE_STX;
-        for (const char *p = body; *p; p++) {
-                out[n++] = (uint8_t)*p;
-                sum += (uint8_t)*p;
-        }
-        if (cs)
-                n += (size_t)sprintf((char *)out + n, "%02X", sum & 0xFF);
-        out[n++] = CIRCE_ETX;
-        return n;
-}
-
 static void put_raw(struct fx *f, unsigned side, const void *data, size_t len)
 {
         assert_int_equal(harness_write_all(f->master[side], data, len, WAIT_MS), 0);
@@ -357,7 +341,7 @@ static void put(struct fx *f, unsigned side, const char *body)
 {
         uint8_t pkt[CIRCE_PACKET_MAX + 8];
 
-        put_raw(f, side, pkt, pkt_build(body, true, pkt));
+        put_raw(f, side, pkt, wire_circe_str(pkt, sizeof(pkt), body, WIRE_CS_UPPER));
 }
 
 static bool has_packet(struct fx *f, const void *arg)
@@ -385,23 +369,6 @@ static size_t next_packet(struct fx *f, unsigned side, uint8_t *out, unsigned ms
         return len - (size_t)(stx - f->rx[side]);
 }
 
-static void show(const uint8_t *p, size_t n, char *out, size_t size)
-{
-        size_t o = 0;
-
-        for (size_t i = 0; i < n && o + 8 < size; i++) {
-                if (p[i] == CIRCE_STX)
-                        o += (size_t)snprintf(out + o, size - o, "<STX>");
-                else if (p[i] == CIRCE_ETX)
-                        o += (size_t)snprintf(out + o, size - o, "<ETX>");
-                else if (p[i] == CIRCE_TAB)
-                        o += (size_t)snprintf(out + o, size - o, "<TAB>");
-                else
-                        out[o++] = (char)p[i];
-        }
-        out[o] = '\0';
-}
-
 /*
  * Expects the next packet on side to be exactly body (+ checksum). With skip_status, Notify
  * Status packets in between are skipped: the emulator's periodic statuses may interleave with
@@ -410,12 +377,12 @@ static void show(const uint8_t *p, size_t n, char *out, size_t size)
 static void expect_ex(struct fx *f, unsigned side, const char *body, bool skip_status)
 {
         uint8_t want[CIRCE_PACKET_MAX + 8], got[CIRCE_PACKET_MAX + 8];
-        size_t wn = pkt_build(body, true, want), gn;
+        size_t wn = wire_circe_str(want, sizeof(want), body, WIRE_CS_UPPER), gn;
         char a[2048], b[2048];
 
         for (;;) {
                 gn = next_packet(f, side, got, WAIT_MS);
-                show(want, wn, a, sizeof(a));
+                wire_circe_show(want, wn, a, sizeof(a));
                 if (gn == 0)
                         fail_msg("no packet on dev%u; expected %s", side, a);
                 if (skip_status && gn > 3 && memcmp(got + 1, "52\t", 3) == 0 &&
@@ -424,7 +391,7 @@ static void expect_ex(struct fx *f, unsigned side, const char *body, bool skip_s
                         continue;
                 break;
         }
-        show(got, gn, b, sizeof(b));
+        wire_circe_show(got, gn, b, sizeof(b));
         if (gn != wn || memcmp(got, want, wn) != 0)
                 fail_msg("dev%u: got %s, expected %s", side, b, a);
 }
@@ -979,17 +946,15 @@ static void test_ctl_bad_input(void **state)
         put_raw(f, 0, "garbage\x03", 8);
         put(f, 0, "53\t015:A00001\t025:1\t");
         /* bad checksum */
-        n = pkt_build("53\t015:B00001\t025:1\t", true, pkt);
+        n = wire_circe_str(pkt, sizeof(pkt), "53\t015:B00001\t025:1\t", WIRE_CS_UPPER);
         pkt[n - 2] = pkt[n - 2] == '0' ? '1' : '0';
         put_raw(f, 0, pkt, n);
         put(f, 0, "53\t015:A00002\t025:2\t");
         /* checksum accepted in lower case; no checksum at all is fine too */
-        n = pkt_build("53\t015:A0000A\t025:3\t", true, pkt);
-        for (size_t i = 0; i < n; i++)
-                if (pkt[i] >= 'A' && pkt[i] <= 'F' && i >= n - 3)
-                        pkt[i] = (uint8_t)(pkt[i] - 'A' + 'a');
+        n = wire_circe_str(pkt, sizeof(pkt), "53\t015:A0000A\t025:3\t", WIRE_CS_LOWER);
         put_raw(f, 0, pkt, n);
-        put_raw(f, 0, pkt, pkt_build("53\t015:A0000B\t025:4\t", false, pkt));
+        n = wire_circe_str(pkt, sizeof(pkt), "53\t015:A0000B\t025:4\t", WIRE_CS_NONE);
+        put_raw(f, 0, pkt, n);
         /* unknown operation */
         put(f, 0, "99\t015:B00002\t");
         /* bad values: signal over 255, a lowercase address, an empty value */
@@ -1363,7 +1328,7 @@ static void test_emu_keepalive(void **state)
         run_for(f, 300);
         assert_int_equal(f->rx_len[0], 0);
         put(f, 0, CIRCE_S_LOGIN);
-        wn = pkt_build(CIRCE_S_KA_023, false, want);
+        wn = wire_circe_str(want, sizeof(want), CIRCE_S_KA_023, WIRE_CS_NONE);
         for (int k = 0; k < 6; k++) {
                 size_t gn = next_packet(f, 0, got, WAIT_MS);
 

@@ -15,6 +15,7 @@
 
 #include <cmocka.h>
 
+#include "common/wire.h"
 #include "daemon/link.h"
 #include "daemon/link_circe_command.h"
 
@@ -35,21 +36,9 @@ static void render(const struct circe_msg *m, char *out, size_t size)
 {
         char pkt[CIRCE_PACKET_MAX];
         int n = circe_encode(m, 0, pkt, sizeof(pkt));
-        size_t o = 0;
 
         assert_true(n > 0);
-        for (int i = 0; i < n && o + 6 < size; i++) {
-                const char *w = pkt[i] == CIRCE_STX ? "<STX>" : pkt[i] == CIRCE_TAB ? "<TAB>" :
-                                pkt[i] == CIRCE_ETX ? "<ETX>" : NULL;
-
-                if (w) {
-                        memcpy(out + o, w, strlen(w));
-                        o += strlen(w);
-                } else {
-                        out[o++] = pkt[i];
-                }
-        }
-        out[o] = '\0';
+        wire_circe_show((const uint8_t *)pkt, (size_t)n, out, size);
 }
 
 struct ok_case {

@@ -37,6 +37,7 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/wire.h"
 #include "daemon/config.h"
 #include "daemon/control.h"
 #include "daemon/evloop.h"
@@ -105,23 +106,6 @@ struct fx {
 };
 
 static const struct link_ops *ops = &link_sharedlink_ops;
-
-/* ---------------------------------------------------------------------------------------------
- * Frames the test sends */
-
-/* "[" + text + "|C" + checksum + "]" (+ CR LF); text starts at the ':' (any header, for tests
- * of bad ones). The checksum is computed here, independently of the codec. */
-static size_t mkraw(char *out, size_t size, const char *text, bool crlf)
-{
-        unsigned sum = '|' + 'C';
-        int n;
-
-        for (const char *p = text; *p; p++)
-                sum += (unsigned char)*p;
-        n = snprintf(out, size, "[%s|C%02X]%s", text, sum & 0xffu, crlf ? "\r\n" : "");
-        assert_true(n > 0 && (size_t)n < size);
-        return (size_t)n;
-}
 
 /* ---------------------------------------------------------------------------------------------
  * Peer ends */
@@ -259,7 +243,7 @@ static void peer_send_str(struct peer_end *pe, const char *s)
 static void peer_frame(struct peer_end *pe, const char *text)
 {
         char buf[TEXT_MAX];
-        size_t n = mkraw(buf, sizeof(buf), text, !pe->datagram);
+        size_t n = wire_slp_raw(buf, sizeof(buf), text, !pe->datagram);
 
         peer_send(pe, buf, n);
 }
@@ -664,7 +648,7 @@ static size_t sync_peer(struct fx *fx, unsigned peer, char self, char engine)
         snprintf(text, sizeof(text), ":%c%c|P%u", engine, self, n);
         peer_frame(pe, text);
         snprintf(text, sizeof(text), ":%c%c|G%u", self, engine, n);
-        mkraw(want, sizeof(want), text, false);
+        wire_slp_raw(want, sizeof(want), text, false);
         for (size_t i = pe->nrx;; i++) {
                 const char *f = wait_frames(fx, peer, i + 1);
 
@@ -866,26 +850,6 @@ static const char yaml_udp[] =
 /* ---------------------------------------------------------------------------------------------
  * Tests */
 
-/* The test's own checksum helper against PROTOCOLS.md 1.3's worked examples. */
-static void test_mkraw_vectors(void **state)
-{
-        static const char *const vec[][2] = {
-                { ":AB|N0|D40.12345678|D-113.12345678|D85.6|D22.1",
-                  "[:AB|N0|D40.12345678|D-113.12345678|D85.6|D22.1|CD4]" },
-                { ":AB|QAutoGpsLat", "[:AB|QAutoGpsLat|C2D]" },
-                { ":BA|RAutoGpsLat|D40.12345678", "[:BA|RAutoGpsLat|D40.12345678|C24]" },
-                { ":AB|N0|D|D|D85.7|D", "[:AB|N0|D|D|D85.7|D|C48]" },
-                { ":AB|P0", "[:AB|P0|C78]" },
-        };
-        char buf[TEXT_MAX];
-
-        (void)state;
-        for (size_t i = 0; i < sizeof(vec) / sizeof(vec[0]); i++) {
-                mkraw(buf, sizeof(buf), vec[i][0], false);
-                assert_string_equal(buf, vec[i][1]);
-        }
-}
-
 static void test_declare(void **state)
 {
         static const char yaml[] =
@@ -958,7 +922,7 @@ static const enum shm_counter checked[] = {
 struct inbound_row {
         const char *what;
         const char *raw;                /* sent first, as is (may be NULL) */
-        const char *text;               /* then framed by mkraw (may be NULL) */
+        const char *text;               /* then framed by wire_slp_raw (may be NULL) */
         const char *values[4];          /* AutoGpsLat, Lon, Head, Vel afterwards; NULL: same */
         uint32_t bumps;                 /* change-word bumps */
         struct {
@@ -1190,7 +1154,7 @@ static bool frame_is(const char *f, const char *text)
 {
         char want[TEXT_MAX];
 
-        mkraw(want, sizeof(want), text, false);
+        wire_slp_raw(want, sizeof(want), text, false);
         return strcmp(f, want) == 0;
 }
 
@@ -1198,7 +1162,7 @@ static void expect_frame(const char *f, const char *text)
 {
         char want[TEXT_MAX];
 
-        mkraw(want, sizeof(want), text, false);
+        wire_slp_raw(want, sizeof(want), text, false);
         assert_string_equal(f, want);
 }
 
@@ -1603,14 +1567,14 @@ static void test_udp(void **state)
         assert_int_equal(pe->rx_bytes, pe->rx_frame_bytes);     /* no CR LF on UDP */
 
         /* Two frames in one datagram. */
-        n = mkraw(buf, sizeof(buf), ":BA|N0|D1", false);
-        n += mkraw(buf + n, sizeof(buf) - n, ":BA|N1|D2", false);
+        n = wire_slp_raw(buf, sizeof(buf), ":BA|N0|D1", false);
+        n += wire_slp_raw(buf + n, sizeof(buf) - n, ":BA|N1|D2", false);
         peer_send(pe, buf, n);
         wait_value(fx, "AutoGpsLon", "2");
         check_value(fx, "AutoGpsLat", "1", false);
 
         /* A trailing partial frame is dropped with its datagram's end. */
-        n = mkraw(buf, sizeof(buf), ":BA|N0|D3", false);
+        n = wire_slp_raw(buf, sizeof(buf), ":BA|N0|D3", false);
         n += (size_t)snprintf(buf + n, sizeof(buf) - n, "[:BA|N0|D4");
         peer_send(pe, buf, n);
         peer_send(pe, "xyz", 3);
@@ -1894,7 +1858,6 @@ static void test_query_link_down(void **state)
 int main(void)
 {
         const struct CMUnitTest tests[] = {
-                cmocka_unit_test(test_mkraw_vectors),
                 cmocka_unit_test(test_declare),
                 cmocka_unit_test_setup_teardown(test_inbound_rows, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_garbage_megabytes, setup, teardown),

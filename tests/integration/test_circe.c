@@ -35,6 +35,7 @@
 
 #include "common/circe_sessions.h"
 #include "common/harness.h"
+#include "common/testdata.h"
 #include "common/wire.h"
 #include "proto/circe.h"
 
@@ -101,12 +102,13 @@ static int teardown(void **state)
         return 0;
 }
 
+/* Starts the daemon on links (a "links:" document) under the test's instance. */
 static void start(struct fx *f, const char *links)
 {
         char text[CONFIG_MAX], path[PATH_BUF], sock[PATH_BUF];
         int st = 0;
 
-        snprintf(text, sizeof(text), "instance: %s\nlinks:\n%s", f->h.instance, links);
+        snprintf(text, sizeof(text), "instance: %s\n%s", f->h.instance, links);
         assert_int_equal(harness_write_file(&f->h, "circe.yaml", text, path), 0);
         f->h.capture_log = 1;
         if (harness_start_daemon(&f->h, path, T_START_MS, &st, NULL) != 0) {
@@ -193,27 +195,12 @@ static void wait_event(struct fx *f, const char *link, const char *type, const c
 
 /* ---- back to back ---------------------------------------------------------------------------- */
 
+/* The mediator emulator and a controller on its pty (tests/data/circe_pair.yaml). */
 static void pair_links(struct fx *f, char *buf, size_t size)
 {
-        snprintf(buf, size,
-                 "  - name: arena\n"
-                 "    protocol: circe\n"
-                 "    role: mediator\n"
-                 "    transport: pty\n"
-                 "    device: %s/arena.tty\n"
-                 "    version: \"0.2.3\"\n"
-                 "    keepalive_ms: 750\n"
-                 "    emulate:\n"
-                 "      - {address: E1E1E1, capabilities: 32, signal: 150, battery: 200}\n"
-                 "      - {address: AAAAAA, capabilities: 31}\n"
-                 "      - {address: D15D15, capabilities: 64}\n"
-                 "  - name: agility\n"
-                 "    protocol: circe\n"
-                 "    role: controller\n"
-                 "    transport: serial\n"
-                 "    device: %s/arena.tty\n"
-                 "    expect_version: \"0.2\"\n",
-                 f->h.dir, f->h.dir);
+        const char *const subst[] = { "@DIR@", f->h.dir, NULL };
+
+        assert_true(testdata_load("circe_pair.yaml", subst, buf, size) > 0);
 }
 
 static void test_back_to_back(void **state)
@@ -380,6 +367,7 @@ static void mediator_start(struct fx *f, const char *expect_version, int idle_ti
         }
         /* A generous login timeout: the test answers at once, an ASan build is slow. */
         snprintf(links, sizeof(links),
+                 "links:\n"
                  "  - name: agility\n"
                  "    protocol: circe\n"
                  "    role: controller\n"

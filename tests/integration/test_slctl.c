@@ -32,6 +32,7 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/testdata.h"
 #include "common/shmtest.h"
 #include "shm/table.h"
 
@@ -907,13 +908,14 @@ static void test_dead_daemon(void **state)
 
 /* ---- against the real daemon: commands ----------------------------------------------------- */
 
-/* Starts sharedlinkd on links (YAML list items); skips the test when the build lacks an engine. */
+/* Starts sharedlinkd on links (a "links:" document); skips the test when the build lacks an
+ * engine. */
 static void daemon_start(struct fixture *f, const char *links)
 {
         char text[CONFIG_MAX], path[HARNESS_PATH_MAX];
         int st = 0;
 
-        snprintf(text, sizeof(text), "instance: %s\nlinks:\n%s", f->h.instance, links);
+        snprintf(text, sizeof(text), "instance: %s\n%s", f->h.instance, links);
         assert_int_equal(harness_write_file(&f->h, "slctl.yaml", text, path), 0);
         f->h.capture_log = 1;
         if (harness_start_daemon(&f->h, path, START_MS, &st, NULL) != 0) {
@@ -930,24 +932,9 @@ static void daemon_start(struct fixture *f, const char *links)
 static void daemon_start_circe(struct fixture *f)
 {
         char links[CONFIG_MAX];
+        const char *const subst[] = { "@DIR@", f->h.dir, NULL };
 
-        snprintf(links, sizeof(links),
-                 "  - name: arena\n"
-                 "    protocol: circe\n"
-                 "    role: mediator\n"
-                 "    transport: pty\n"
-                 "    device: %s/arena.tty\n"
-                 "    version: \"0.2.3\"\n"
-                 "    emulate:\n"
-                 "      - {address: E1E1E1, capabilities: 32, signal: 150, battery: 200}\n"
-                 "      - {address: AAAAAA, capabilities: 31}\n"
-                 "      - {address: D15D15, capabilities: 64}\n"
-                 "  - name: agility\n"
-                 "    protocol: circe\n"
-                 "    role: controller\n"
-                 "    transport: serial\n"
-                 "    device: %s/arena.tty\n",
-                 f->h.dir, f->h.dir);
+        assert_true(testdata_load("slctl_circe_pair.yaml", subst, links, sizeof(links)) > 0);
         daemon_start(f, links);
 }
 
@@ -1076,6 +1063,7 @@ static void test_daemon_link_down(void **state)
         char links[CONFIG_MAX];
 
         snprintf(links, sizeof(links),
+                 "links:\n"
                  "  - name: agility\n"
                  "    protocol: circe\n"
                  "    role: controller\n"
@@ -1172,32 +1160,9 @@ static void test_daemon_library(void **state)
 static void daemon_start_sharedlink(struct fixture *f)
 {
         char links[CONFIG_MAX];
+        const char *const subst[] = { "@DIR@", f->h.dir, NULL };
 
-        snprintf(links, sizeof(links),
-                 "  - name: node_a\n"
-                 "    protocol: sharedlink\n"
-                 "    transport: pty\n"
-                 "    device: %s/node-a.tty\n"
-                 "    address: A\n"
-                 "    peers:\n"
-                 "      - address: B\n"
-                 "        period_ms: 100\n"
-                 "        outbound: [a.Lat, a.Head]\n"
-                 "        inbound: [a.Cmd]\n"
-                 "  - name: node_b\n"
-                 "    protocol: sharedlink\n"
-                 "    transport: serial\n"
-                 "    device: %s/node-a.tty\n"
-                 "    address: B\n"
-                 "    peers:\n"
-                 "      - address: A\n"
-                 "        period_ms: 100\n"
-                 "        outbound: [b.Cmd]\n"
-                 "        inbound: [b.Lat, b.Head]\n"
-                 "      - address: C\n"
-                 "        period_ms: 100\n"
-                 "        outbound: [b.ForC]\n",
-                 f->h.dir, f->h.dir);
+        assert_true(testdata_load("slctl_sharedlink_pair.yaml", subst, links, sizeof(links)) > 0);
         daemon_start(f, links);
 }
 

@@ -36,6 +36,7 @@
 
 #include "common/circe_sessions.h"
 #include "common/harness.h"
+#include "common/testdata.h"
 #include "common/wire.h"
 #include "daemon/config.h"
 #include "daemon/control.h"
@@ -248,31 +249,23 @@ static int teardown(void **state)
 }
 
 /*
- * Parses the YAML (where "@DEV0@", "@DEV1@" and "@DIR@" stand for the test's paths), declares
- * every link's variables, creates the table and the engines, opens the client.
+ * Parses tests/data/<file> (where "@DEV0@", "@DEV1@" and "@DIR@" stand for the test's paths),
+ * declares every link's variables, creates the table and the engines, opens the client.
  */
-static void start(struct fx *f, const char *yaml_template)
+static void start(struct fx *f, const char *file)
 {
         static struct shm_var vars[VARS_MAX];
         static char names[NAMES_SIZE];
+        const char *const subst[] = { "@DEV0@", f->dev[0], "@DEV1@", f->dev[1], "@DIR@", f->dir,
+                                      NULL };
         struct shm_link_def defs[LINKS_MAX];
         char yaml[YAML_MAX];
         struct config_error err;
-        size_t n = 0, used = 0, o = 0;
+        size_t n = 0, used = 0;
+        ssize_t o = testdata_load(file, subst, yaml, sizeof(yaml));
 
-        for (const char *p = yaml_template; *p && o < sizeof(yaml) - 160; ) {
-                if (strncmp(p, "@DEV0@", 6) == 0 || strncmp(p, "@DEV1@", 6) == 0) {
-                        o += (size_t)snprintf(yaml + o, sizeof(yaml) - o, "%s", f->dev[p[4] - '0']);
-                        p += 6;
-                } else if (strncmp(p, "@DIR@", 5) == 0) {
-                        o += (size_t)snprintf(yaml + o, sizeof(yaml) - o, "%s", f->dir);
-                        p += 5;
-                } else {
-                        yaml[o++] = *p++;
-                }
-        }
-        yaml[o] = '\0';
-        if (config_parse(yaml, o, "test.yaml", &f->cfg, &err) != 0)
+        assert_true(o > 0);
+        if (config_parse(yaml, (size_t)o, file, &f->cfg, &err) != 0)
                 fail_msg("config: %s", err.message);
         f->n_links = f->cfg->n_links;
         assert_true(f->n_links >= 1 && f->n_links <= LINKS_MAX);
@@ -639,39 +632,12 @@ static const char *request(struct fx *f, const char *line)
         return request_wait(f, WAIT_MS);
 }
 
-/* ---- configurations -------------------------------------------------------------------------- */
-
-/* Controller on dev0 then dev1, speaking the spec examples' version. */
-static const char *const ctl_yaml_spec =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: agility\n"
-        "    protocol: circe\n"
-        "    role: controller\n"
-        "    transport: serial\n"
-        "    devices: [@DEV0@, @DEV1@]\n"
-        "    expect_version: \"1.2\"\n"
-        "    login_timeout_ms: 2000\n"
-        "    idle_timeout_ms: 10000\n";
-
-static const char *const ctl_yaml_fast =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: agility\n"
-        "    protocol: circe\n"
-        "    role: controller\n"
-        "    transport: serial\n"
-        "    devices: [@DEV0@, @DEV1@]\n"
-        "    expect_version: \"0.2\"\n"
-        "    login_timeout_ms: 200\n"
-        "    idle_timeout_ms: 300\n";
+/* ---- controller start (configurations in tests/data/link_circe_*.yaml) ---------------------- */
 
 /* Starts a controller and answers its Login on dev0. */
-static void ctl_logged_in(struct fx *f, const char *yaml, const char *keep_alive)
+static void ctl_logged_in(struct fx *f, const char *file, const char *keep_alive)
 {
-        start(f, yaml);
+        start(f, file);
         expect(f, 0, CIRCE_S_LOGIN);
         wait_value(f, "agility.state", "connecting");
         put(f, 0, keep_alive);
@@ -685,7 +651,7 @@ static void test_ctl_example_assigning_addresses(void **state)
 {
         struct fx *f = *state;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA_UNCONF);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA_UNCONF);
         wait_value(f, "agility.state", "unconfigured");
         assert_string_equal(link_state(f, 0), "unconfigured");
         assert_value(f, "agility.mediator.version", "1.2.34");
@@ -725,7 +691,7 @@ static void test_ctl_example_forming_network(void **state)
 {
         struct fx *f = *state;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         wait_value(f, "agility.state", "connected");
         put(f, 0, CIRCE_S_NET_STATUS_AAAAAA);
         put(f, 0, CIRCE_S_NET_STATUS_E1E1E1);
@@ -755,7 +721,7 @@ static void test_ctl_example_clock_sync(void **state)
         struct fx *f = *state;
         const char *r;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         put(f, 0, CIRCE_S_SYNC_STATUS_AAAAAA);
         put(f, 0, CIRCE_S_SYNC_STATUS_E1E1E1);
         wait_value(f, "agility.device.E1E1E1.clock_sync", "1");
@@ -777,7 +743,7 @@ static void test_ctl_example_race(void **state)
         struct fx *f = *state;
         unsigned a, b, c, d;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         put(f, 0, CIRCE_S_RACE_READY_DOWN);
         put(f, 0, CIRCE_S_RACE_READY_UP);
         put(f, 0, CIRCE_S_RACE_START);
@@ -807,7 +773,7 @@ static void test_ctl_sync_sequence_and_timeout(void **state)
         struct fx *f = *state;
         const char *r;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         put(f, 0, "52\t015:AAAAAA\t016:1\t019:1\t020:1\t021:200\t");
         put(f, 0, "52\t015:E1E1E1\t016:1\t019:32\t020:2\t021:150\t027:2\t");
         put(f, 0, "52\t015:E2E2E2\t016:1\t019:32\t020:4\t021:150\t027:1\t");
@@ -840,7 +806,7 @@ static void test_ctl_login_timeout_next_port(void **state)
         struct fx *f = *state;
         unsigned i;
 
-        start(f, ctl_yaml_fast);
+        start(f, "link_circe_ctl_fast.yaml");
         expect(f, 0, CIRCE_S_LOGIN);
         expect(f, 0, CIRCE_S_LOGOUT);
         expect(f, 1, CIRCE_S_LOGIN);
@@ -861,7 +827,7 @@ static void test_ctl_idle_timeout_reconnect(void **state)
         struct fx *f = *state;
         unsigned i;
 
-        start(f, ctl_yaml_fast);
+        start(f, "link_circe_ctl_fast.yaml");
         expect(f, 0, CIRCE_S_LOGIN);
         put(f, 0, CIRCE_S_KA_023);
         wait_value(f, "agility.state", "connected");
@@ -891,7 +857,7 @@ static void test_ctl_version_mismatch(void **state)
 {
         struct fx *f = *state;
 
-        start(f, ctl_yaml_fast);
+        start(f, "link_circe_ctl_fast.yaml");
         expect(f, 0, CIRCE_S_LOGIN);
         put(f, 0, CIRCE_S_KA);
         expect(f, 0, CIRCE_S_LOGOUT);
@@ -913,7 +879,7 @@ static void test_ctl_device_offline(void **state)
         struct fx *f = *state;
         unsigned on, off;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         put(f, 0, "52\t015:E1E1E1\t016:1\t019:32\t020:2\t021:150\t022:200\t023:1\t037:0\t");
         on = wait_event(f, "device-online", "device=E1E1E1");
         wait_value(f, "agility.device.E1E1E1.online", "1");
@@ -939,7 +905,7 @@ static void test_ctl_bad_input(void **state)
         uint8_t pkt[CIRCE_PACKET_MAX * 2];
         size_t n;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         wait_value(f, "agility.state", "connected");
 
         /* noise between packets: 7 bytes, plus a stray ETX */
@@ -1028,7 +994,7 @@ static void test_ctl_log(void **state)
         ssize_t n;
         int fd;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         put(f, 0, "54\t036:48656C6C6F0A\t");
         wait_event(f, "log", "bytes=6 data=48656C6C6F0A");
         for (int k = 0; k < 30; k++)
@@ -1058,7 +1024,7 @@ static void test_ctl_commands(void **state)
 {
         struct fx *f = *state;
 
-        start(f, ctl_yaml_spec);
+        start(f, "link_circe_ctl_spec.yaml");
         expect(f, 0, CIRCE_S_LOGIN);
         assert_string_equal(request(f, "circe agility alert E1E1E1"),
                             "ERR 107 link agility is not connected (state connecting)\n");
@@ -1084,26 +1050,11 @@ static void test_ctl_commands(void **state)
 
 /* ---- emulator: the spec's sessions from the other side ----------------------------------------- */
 
-static const char *const emu_yaml_assign =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: arena\n"
-        "    protocol: circe\n"
-        "    role: mediator\n"
-        "    transport: serial\n"
-        "    device: @DEV0@\n"
-        "    version: \"1.2.34\"\n"
-        "    status: 1\n"
-        "    keepalive_ms: 60000\n"
-        "    emulate:\n"
-        "      - {address: \"000000\", capabilities: 1, signal: 150}\n";
-
 static void test_emu_example_assigning_addresses(void **state)
 {
         struct fx *f = *state;
 
-        start(f, emu_yaml_assign);
+        start(f, "link_circe_emu_assign.yaml");
         wait_value(f, "arena.state", "connecting");
         assert_value(f, "arena.mediator.status", "1");
         assert_value(f, "arena.mediator.address", "");
@@ -1128,27 +1079,11 @@ static void test_emu_example_assigning_addresses(void **state)
         assert_int_equal(f->rx_len[0], 0);
 }
 
-static const char *const emu_yaml_network =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: arena\n"
-        "    protocol: circe\n"
-        "    role: mediator\n"
-        "    transport: serial\n"
-        "    device: @DEV0@\n"
-        "    version: \"1.2.34\"\n"
-        "    keepalive_ms: 60000\n"
-        "    emulate:\n"
-        "      - {address: AAAAAA, capabilities: 1, signal: 200}\n"
-        "      - {address: E1E1E1, capabilities: 32, signal: 150}\n"
-        "      - {address: E2E2E2, capabilities: 32, signal: 130}\n";
-
 static void test_emu_example_forming_network(void **state)
 {
         struct fx *f = *state;
 
-        start(f, emu_yaml_network);
+        start(f, "link_circe_emu_network.yaml");
         put(f, 0, CIRCE_S_LOGIN);
         expect(f, 0, CIRCE_S_KA);
         expect(f, 0, CIRCE_S_NET_STATUS_AAAAAA);
@@ -1177,27 +1112,12 @@ static void test_emu_example_forming_network(void **state)
         assert_null(value(f, "arena.device.999999.alerts"));
 }
 
-static const char *const emu_yaml_sync =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: arena\n"
-        "    protocol: circe\n"
-        "    role: mediator\n"
-        "    transport: serial\n"
-        "    device: @DEV0@\n"
-        "    version: \"1.2.34\"\n"
-        "    keepalive_ms: 60000\n"
-        "    emulate:\n"
-        "      - {address: AAAAAA, capabilities: 31, roles: 3, signal: 200}\n"
-        "      - {address: E1E1E1, capabilities: 32, roles: 4, signal: 150, membership: true}\n";
-
 /* The spec's gate asks for sync while a member (our model: members power up needing sync). */
 static void test_emu_example_clock_sync(void **state)
 {
         struct fx *f = *state;
 
-        start(f, emu_yaml_sync);
+        start(f, "link_circe_emu_sync.yaml");
         put(f, 0, CIRCE_S_LOGIN);
         expect(f, 0, CIRCE_S_KA);
         expect(f, 0, CIRCE_S_SYNC_STATUS_AAAAAA);
@@ -1211,30 +1131,13 @@ static void test_emu_example_clock_sync(void **state)
         assert_value(f, "arena.device.E1E1E1.clock_sync", "2");
 }
 
-static const char *const emu_yaml_race =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: arena\n"
-        "    protocol: circe\n"
-        "    role: mediator\n"
-        "    transport: serial\n"
-        "    device: @DEV0@\n"
-        "    version: \"1.2.34\"\n"
-        "    keepalive_ms: 60000\n"
-        "    emulate:\n"
-        "      - {address: AAAAAA, capabilities: 13, roles: 7, signal: 200}\n"
-        "      - {address: E1E1E1, capabilities: 32, roles: 2, signal: 150}\n"
-        "      - {address: E2E2E2, capabilities: 32, roles: 4, signal: 130}\n"
-        "      - {address: D15D15, capabilities: 64, roles: 64}\n";
-
 static void test_emu_example_race(void **state)
 {
         struct fx *f = *state;
         struct circe_result res;
         uint8_t buf[CIRCE_PACKET_MAX];
 
-        start(f, emu_yaml_race);
+        start(f, "link_circe_emu_race.yaml");
         assert_string_equal(request(f, "circe arena emulate action AAAAAA keys=32768"),
                             "ERR 107 link arena is not connected (state connecting)\n");
         put(f, 0, CIRCE_S_LOGIN);
@@ -1281,7 +1184,7 @@ static void test_emu_visualize(void **state)
 {
         struct fx *f = *state;
 
-        start(f, emu_yaml_race);
+        start(f, "link_circe_emu_race.yaml");
         put(f, 0, CIRCE_S_LOGIN);
         expect(f, 0, CIRCE_S_KA);
         assert_value(f, "arena.device.D15D15.current_competitor", "");
@@ -1309,22 +1212,11 @@ static void test_emu_visualize(void **state)
  * Login. Checked as counts of packets, never as durations. */
 static void test_emu_keepalive(void **state)
 {
-        static const char *const yaml =
-                "instance: x\n"
-                "runtime_dir: @DIR@\n"
-                "links:\n"
-                "  - name: arena\n"
-                "    protocol: circe\n"
-                "    role: mediator\n"
-                "    transport: serial\n"
-                "    device: @DEV0@\n"
-                "    checksum: false\n"
-                "    keepalive_ms: 50\n";
         struct fx *f = *state;
         uint8_t want[64], got[64];
         size_t wn;
 
-        start(f, yaml);
+        start(f, "link_circe_emu_keepalive.yaml");
         run_for(f, 300);
         assert_int_equal(f->rx_len[0], 0);
         put(f, 0, CIRCE_S_LOGIN);
@@ -1344,21 +1236,9 @@ static void test_emu_keepalive(void **state)
  * ever needed after the one that answers Login. */
 static void test_emu_status_period(void **state)
 {
-        static const char *const yaml =
-                "instance: x\n"
-                "runtime_dir: @DIR@\n"
-                "links:\n"
-                "  - name: arena\n"
-                "    protocol: circe\n"
-                "    role: mediator\n"
-                "    transport: serial\n"
-                "    device: @DEV0@\n"
-                "    keepalive_ms: 1500\n"
-                "    emulate:\n"
-                "      - {address: E1E1E1, capabilities: 32, signal: 150, battery: 200}\n";
         struct fx *f = *state;
 
-        start(f, yaml);
+        start(f, "link_circe_emu_status_period.yaml");
         put(f, 0, CIRCE_S_LOGIN);
         expect(f, 0, CIRCE_S_KA_023);
         for (int k = 0; k < 3; k++)
@@ -1370,7 +1250,7 @@ static void test_emu_bad_input(void **state)
 {
         struct fx *f = *state;
 
-        start(f, emu_yaml_network);
+        start(f, "link_circe_emu_network.yaml");
         put_raw(f, 0, "\x03noise\x02" "01\tZZ\x03", 13);
         put(f, 0, CIRCE_S_KA_023);            /* a mediator operation */
         put(f, 0, "04\t014:AAAAAA\t017:1\t");           /* 020 missing */
@@ -1387,33 +1267,13 @@ static void test_emu_bad_input(void **state)
 
 /* ---- both engines back to back over one pty (the `make demo` pair) --------------------------- */
 
-static const char *const pair_yaml =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: arena\n"
-        "    protocol: circe\n"
-        "    role: mediator\n"
-        "    transport: pty\n"
-        "    device: @DIR@/arena.tty\n"
-        "    keepalive_ms: 750\n"
-        "    emulate:\n"
-        "      - {address: E1E1E1, capabilities: 32, signal: 150, battery: 200}\n"
-        "      - {address: AAAAAA, capabilities: 31}\n"
-        "      - {address: D15D15, capabilities: 64}\n"
-        "  - name: agility\n"
-        "    protocol: circe\n"
-        "    role: controller\n"
-        "    transport: serial\n"
-        "    device: @DIR@/arena.tty\n";
-
 static void test_back_to_back(void **state)
 {
         struct fx *f = *state;
         const char *r;
         unsigned i;
 
-        start(f, pair_yaml);
+        start(f, "link_circe_pair.yaml");
         wait_value(f, "agility.state", "connected");
         assert_value(f, "arena.state", "connected");
         assert_value(f, "agility.mediator.version", "0.2.3");

@@ -71,6 +71,27 @@ void shmtest_table_destroy(struct shmtest_table *f)
         shmtest_unlink(f->instance);
 }
 
+int shmtest_table_strings(const char *instance, const char *prefix, unsigned direction,
+                          unsigned n, struct shm_table **ret)
+{
+        char names[SHMTEST_STRINGS_MAX][SHM_NAME_SIZE];   /* copied by shm_table_create */
+        struct shm_var vars[SHMTEST_STRINGS_MAX];
+        struct shm_table_config cfg;
+
+        if (n > SHMTEST_STRINGS_MAX)
+                return -EINVAL;
+        for (unsigned i = 0; i < n; i++) {
+                snprintf(names[i], sizeof(names[i]), "%s%u", prefix, i);
+                vars[i] = (struct shm_var){ names[i], direction, SHM_TYPE_STRING, SHM_LINK_NONE,
+                                            NULL, SHM_POSITION_NONE };
+        }
+        memset(&cfg, 0, sizeof(cfg));
+        cfg.instance = instance;
+        cfg.vars = vars;
+        cfg.nvars = n;
+        return shm_table_create(&cfg, ret);
+}
+
 struct shmtest_view shmtest_view_open(const char *name, bool writable)
 {
         struct shmtest_view v = { NULL, 0 };

@@ -19,6 +19,7 @@
 #define SHMTEST_INSTANCE_SIZE   64
 #define SHMTEST_NLINKS          2
 #define SHMTEST_EVENTS          16      /* event ring of the fixture's tables */
+#define SHMTEST_STRINGS_MAX     64      /* variables of shmtest_table_strings() */
 
 /* The links of the fixture's tables: 0 "vehicle" (sharedlink), 1 "agility" (circe). */
 extern const struct shm_link_def shmtest_links[SHMTEST_NLINKS];
@@ -57,6 +58,11 @@ int shmtest_table_create(struct shmtest_table *f);
 
 /* Destroys f->t (if any) and removes both objects, whatever a test left them as. */
 void shmtest_table_destroy(struct shmtest_table *f);
+
+/* Creates a table of n string variables <prefix>0 .. <prefix>n-1, all of one direction, no
+ * links (what the stress tests hammer); 0 or -errno (-EINVAL above SHMTEST_STRINGS_MAX). */
+int shmtest_table_strings(const char *instance, const char *prefix, unsigned direction,
+                          unsigned n, struct shm_table **ret);
 
 /* Maps the object called name whole (read-only, or read-write); base is NULL when it cannot. */
 struct shmtest_view shmtest_view_open(const char *name, bool writable);

@@ -10,6 +10,8 @@ set -u
 timeout_s=${TEST_TIMEOUT:-300}
 passed=0 failed=0 failed_bins=()
 logdir=${SHAREDLINK_BUILD:-build}/test-logs
+# Configurations the tests load (tests/common/testdata.h), wherever the binaries run from.
+export SHAREDLINK_TESTDATA=${SHAREDLINK_TESTDATA:-$(cd "$(dirname "$0")" && pwd)/data}
 mkdir -p "$logdir"
 
 run_one() {  # kind binary [args...]

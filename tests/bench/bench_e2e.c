@@ -46,6 +46,7 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/wire.h"
 
 #define SAMPLES         3000
 #define WARMUP          200
@@ -80,16 +81,6 @@ static void percentiles(struct sample_set *s, double *ret_med_us, double *ret_p9
         qsort(s->v, s->n, sizeof(s->v[0]), cmp_u64);
         *ret_med_us = (double)s->v[s->n / 2] / NS_PER_US;
         *ret_p99_us = (double)s->v[(s->n * 99) / 100] / NS_PER_US;
-}
-
-/* "[:" dst src "|" body "|C" hh "]\r\n" */
-static size_t make_frame(char *out, size_t size, char dst, char src, const char *body)
-{
-        unsigned sum = ':' + dst + src + '|' + '|' + 'C';
-
-        for (const char *p = body; *p; p++)
-                sum += (unsigned char)*p;
-        return (size_t)snprintf(out, size, "[:%c%c|%s|C%02X]\r\n", dst, src, body, sum & 0xffu);
 }
 
 static int write_all(int fd, const char *buf, size_t len)
@@ -298,7 +289,7 @@ static int cause_frame(void *arg, unsigned i)
         size_t n;
 
         snprintf(body, sizeof(body), "N0|Dv%u", i);
-        n = make_frame(frame, sizeof(frame), c->dst, c->src, body);
+        n = wire_slp_frame(frame, sizeof(frame), c->dst, c->src, body, true);
         return write_all(c->fd, frame, n);
 }
 

@@ -9,6 +9,7 @@
 #include <grp.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -31,6 +32,115 @@ void shmtest_unlink(const char *instance)
         shm_unlink(name);
         snprintf(name, sizeof(name), "/sharedlink.%s.out", instance);
         shm_unlink(name);
+}
+
+const struct shm_link_def shmtest_links[SHMTEST_NLINKS] = {
+        { "vehicle", "sharedlink" },
+        { "agility", "circe" },
+};
+
+void shmtest_table_init(struct shmtest_table *f, const char *tag)
+{
+        memset(f, 0, sizeof(*f));
+        shmtest_instance(f->instance, sizeof(f->instance), tag);
+        shm_layout_object_name(f->instance, "in", f->in_name, sizeof(f->in_name));
+        shm_layout_object_name(f->instance, "out", f->out_name, sizeof(f->out_name));
+}
+
+void shmtest_table_config(struct shmtest_table *f, const struct shm_var *vars, uint32_t nvars,
+                          uint32_t adhoc)
+{
+        memset(&f->cfg, 0, sizeof(f->cfg));
+        f->cfg.instance = f->instance;
+        f->cfg.vars = vars;
+        f->cfg.nvars = nvars;
+        f->cfg.links = shmtest_links;
+        f->cfg.nlinks = SHMTEST_NLINKS;
+        f->cfg.adhoc_capacity = adhoc;
+        f->cfg.event_capacity = SHMTEST_EVENTS;
+}
+
+int shmtest_table_create(struct shmtest_table *f)
+{
+        return shm_table_create(&f->cfg, &f->t);
+}
+
+void shmtest_table_destroy(struct shmtest_table *f)
+{
+        f->t = shm_table_destroy(f->t);
+        shmtest_unlink(f->instance);
+}
+
+int shmtest_table_strings(const char *instance, const char *prefix, unsigned direction,
+                          unsigned n, struct shm_table **ret)
+{
+        char names[SHMTEST_STRINGS_MAX][SHM_NAME_SIZE];   /* copied by shm_table_create */
+        struct shm_var vars[SHMTEST_STRINGS_MAX];
+        struct shm_table_config cfg;
+
+        if (n > SHMTEST_STRINGS_MAX)
+                return -EINVAL;
+        for (unsigned i = 0; i < n; i++) {
+                snprintf(names[i], sizeof(names[i]), "%s%u", prefix, i);
+                vars[i] = (struct shm_var){ names[i], direction, SHM_TYPE_STRING, SHM_LINK_NONE,
+                                            NULL, SHM_POSITION_NONE };
+        }
+        memset(&cfg, 0, sizeof(cfg));
+        cfg.instance = instance;
+        cfg.vars = vars;
+        cfg.nvars = n;
+        return shm_table_create(&cfg, ret);
+}
+
+struct shmtest_view shmtest_view_open(const char *name, bool writable)
+{
+        struct shmtest_view v = { NULL, 0 };
+        struct stat st;
+        int fd = shm_open(name, writable ? O_RDWR : O_RDONLY, 0);
+
+        if (fd < 0)
+                return v;
+        if (fstat(fd, &st) == 0 && st.st_size > 0) {
+                v.base = mmap(NULL, (size_t)st.st_size, PROT_READ | (writable ? PROT_WRITE : 0),
+                              MAP_SHARED, fd, 0);
+                v.size = (size_t)st.st_size;
+                if (v.base == MAP_FAILED)
+                        v.base = NULL;
+        }
+        close(fd);
+        return v;
+}
+
+void shmtest_view_close(struct shmtest_view *v)
+{
+        if (v->base)
+                munmap(v->base, v->size);
+        v->base = NULL;
+}
+
+struct shm_in_header *shmtest_in_header(const struct shmtest_view *v)
+{
+        return v->base;
+}
+
+struct shm_dir_entry *shmtest_in_dir(const struct shmtest_view *v)
+{
+        return (struct shm_dir_entry *)((char *)v->base + shmtest_in_header(v)->dir_offset);
+}
+
+struct shm_slot *shmtest_in_slot(const struct shmtest_view *v, unsigned id)
+{
+        return (struct shm_slot *)((char *)v->base + shmtest_in_header(v)->slots_offset) + id;
+}
+
+struct shm_link *shmtest_in_link(const struct shmtest_view *v, unsigned link)
+{
+        return (struct shm_link *)((char *)v->base + shmtest_in_header(v)->links_offset) + link;
+}
+
+struct shm_slot *shmtest_out_slot(const struct shmtest_view *v, unsigned slot)
+{
+        return (struct shm_slot *)((char *)v->base + sizeof(struct shm_out_header)) + slot;
 }
 
 pid_t shmtest_fork(int (*fn)(void *arg), void *arg)

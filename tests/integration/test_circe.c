@@ -33,8 +33,11 @@
 
 #include <sharedlink.h>
 
+#include "common/circe_garbage.h"
 #include "common/circe_sessions.h"
 #include "common/harness.h"
+#include "common/testdata.h"
+#include "common/wire.h"
 #include "proto/circe.h"
 
 #define T_START_MS      15000   /* READY=1 (ASan build) */
@@ -100,12 +103,13 @@ static int teardown(void **state)
         return 0;
 }
 
+/* Starts the daemon on links (a "links:" document) under the test's instance. */
 static void start(struct fx *f, const char *links)
 {
         char text[CONFIG_MAX], path[PATH_BUF], sock[PATH_BUF];
         int st = 0;
 
-        snprintf(text, sizeof(text), "instance: %s\nlinks:\n%s", f->h.instance, links);
+        snprintf(text, sizeof(text), "instance: %s\n%s", f->h.instance, links);
         assert_int_equal(harness_write_file(&f->h, "circe.yaml", text, path), 0);
         f->h.capture_log = 1;
         if (harness_start_daemon(&f->h, path, T_START_MS, &st, NULL) != 0) {
@@ -192,27 +196,12 @@ static void wait_event(struct fx *f, const char *link, const char *type, const c
 
 /* ---- back to back ---------------------------------------------------------------------------- */
 
+/* The mediator emulator and a controller on its pty (tests/data/circe_pair.yaml). */
 static void pair_links(struct fx *f, char *buf, size_t size)
 {
-        snprintf(buf, size,
-                 "  - name: arena\n"
-                 "    protocol: circe\n"
-                 "    role: mediator\n"
-                 "    transport: pty\n"
-                 "    device: %s/arena.tty\n"
-                 "    version: \"0.2.3\"\n"
-                 "    keepalive_ms: 750\n"
-                 "    emulate:\n"
-                 "      - {address: E1E1E1, capabilities: 32, signal: 150, battery: 200}\n"
-                 "      - {address: AAAAAA, capabilities: 31}\n"
-                 "      - {address: D15D15, capabilities: 64}\n"
-                 "  - name: agility\n"
-                 "    protocol: circe\n"
-                 "    role: controller\n"
-                 "    transport: serial\n"
-                 "    device: %s/arena.tty\n"
-                 "    expect_version: \"0.2\"\n",
-                 f->h.dir, f->h.dir);
+        const char *const subst[] = { "@DIR@", f->h.dir, NULL };
+
+        assert_true(testdata_load("circe_pair.yaml", subst, buf, size) > 0);
 }
 
 static void test_back_to_back(void **state)
@@ -326,12 +315,6 @@ static void test_back_to_back_slctl(void **state)
  * would: slctl get / events / stats --json, and the library.
  */
 
-/* STX body checksum ETX into out; the length. */
-static size_t pkt(const char *body, char *out)
-{
-        return harness_circe_packet(body, out);
-}
-
 static void put_raw(struct fx *f, int side, const void *data, size_t len)
 {
         assert_int_equal(harness_write_all(f->master[side], data, len, T_WAIT_MS), 0);
@@ -340,37 +323,23 @@ static void put_raw(struct fx *f, int side, const void *data, size_t len)
 /* Sends one packet (with checksum) to the daemon on dev<side>. */
 static void put(struct fx *f, int side, const char *body)
 {
-        char buf[PKT_MAX];
+        uint8_t buf[PKT_MAX];
 
-        put_raw(f, side, buf, pkt(body, buf));
-}
-
-/* Control bytes made visible, for failure messages. */
-static void show(const char *p, size_t n, char *out, size_t size)
-{
-        size_t o = 0;
-
-        for (size_t i = 0; i < n && o + 8 < size; i++)
-                if (p[i] == 0x02 || p[i] == 0x03 || p[i] == '\t')
-                        o += (size_t)snprintf(out + o, size - o, "%s",
-                                              p[i] == 0x02 ? "<STX>" : p[i] == 0x03 ? "<ETX>" :
-                                              "<TAB>");
-                else
-                        out[o++] = p[i];
-        out[o] = '\0';
+        put_raw(f, side, buf, wire_circe_str(buf, sizeof(buf), body, WIRE_CS_UPPER));
 }
 
 /* Reads the next packet the daemon sent on dev<side>; it must be exactly body (+ checksum). */
 static void expect(struct fx *f, int side, const char *body)
 {
-        char want[PKT_MAX], got[PKT_MAX], a[2 * PKT_MAX], b[2 * PKT_MAX];
-        size_t wn = pkt(body, want);
+        uint8_t want[PKT_MAX];
+        char got[PKT_MAX], a[2 * PKT_MAX], b[2 * PKT_MAX];
+        size_t wn = wire_circe_str(want, sizeof(want), body, WIRE_CS_UPPER);
         ssize_t gn = harness_read_until(f->master[side], got, sizeof(got), 0x03, T_WAIT_MS);
 
-        show(want, wn, a, sizeof(a));
+        wire_circe_show(want, wn, a, sizeof(a));
         if (gn <= 0)
                 fail_msg("dev%d: no packet (%zd); expected %s", side, gn, a);
-        show(got, (size_t)gn, b, sizeof(b));
+        wire_circe_show((const uint8_t *)got, (size_t)gn, b, sizeof(b));
         if ((size_t)gn != wn || memcmp(got, want, wn) != 0)
                 fail_msg("dev%d: got %s, expected %s", side, b, a);
 }
@@ -399,6 +368,7 @@ static void mediator_start(struct fx *f, const char *expect_version, int idle_ti
         }
         /* A generous login timeout: the test answers at once, an ASan build is slow. */
         snprintf(links, sizeof(links),
+                 "links:\n"
                  "  - name: agility\n"
                  "    protocol: circe\n"
                  "    role: controller\n"
@@ -863,58 +833,16 @@ static void test_bad_input(void **state)
                 "agility action device=A00006 sensor_time=11",
         };
         struct fx *f = *state;
-        char p[CIRCE_PACKET_MAX * 2], events[EVENTS_MAX];
-        size_t n;
+        uint8_t p[CIRCE_PACKET_MAX * 2];
+        char events[EVENTS_MAX];
 
         need_slctl();
         mediator_start(f, "1.2", 60000);
         put(f, 0, CIRCE_S_KA);
         wait_get(f, "agility.state", "connected");
 
-        /* noise between packets: 7 bytes, plus a stray ETX */
-        put_raw(f, 0, "garbage\x03", 8);
-        put(f, 0, "53\t015:A00001\t025:1\t");
-        /* bad checksum */
-        n = pkt("53\t015:B00001\t025:1\t", p);
-        p[n - 2] = p[n - 2] == '0' ? '1' : '0';
-        put_raw(f, 0, p, n);
-        put(f, 0, "53\t015:A00002\t025:2\t");
-        /* checksum accepted in lower case; no checksum at all is fine too */
-        n = pkt("53\t015:A0000A\t025:3\t", p);
-        for (size_t i = n - 3; i < n; i++)
-                if (p[i] >= 'A' && p[i] <= 'F')
-                        p[i] = (char)(p[i] - 'A' + 'a');
-        put_raw(f, 0, p, n);
-        put_raw(f, 0, "\x02" "53\t015:A0000B\t025:4\t\x03", 22);
-        /* unknown operation */
-        put(f, 0, "99\t015:B00002\t");
-        /* bad values: signal over 255, a lowercase address, an empty value */
-        put(f, 0, "52\t015:B00003\t016:0\t019:32\t020:0\t021:256\t");
-        put(f, 0, "53\t015:b00004\t025:1\t");
-        put(f, 0, "53\t015:\t025:1\t");
-        /* a mandatory parameter missing (Notify Status without 021) */
-        put(f, 0, "52\t015:B00005\t016:0\t019:32\t020:0\t");
-        /* a repeated parameter keeps its first occurrence */
-        put(f, 0, "53\t015:A00003\t025:7\t025:8\t");
-        /* a parameter not allowed for the operation is skipped, unchecked */
-        put(f, 0, "53\t015:A00004\t025:9\t031:xyz\t");
-        /* a second STX abandons the partial packet */
-        put_raw(f, 0, "\x02" "53\t015:B00006", 13);
-        put(f, 0, "53\t015:A00005\t025:10\t");
-        /* an overlong packet is abandoned, the next one still lands */
-        memset(p, 'x', sizeof(p));
-        p[0] = 0x02;
-        put_raw(f, 0, p, CIRCE_PACKET_MAX + 10);
-        put(f, 0, "53\t015:A00006\t025:11\t");
-        /* non-compliant statuses: ignored and counted */
-        put(f, 0, "52\t015:C00001\t016:0\t019:0\t020:0\t021:1\t");
-        put(f, 0, "52\t015:C00002\t016:0\t019:33\t020:0\t021:1\t");
-        put(f, 0, "52\t015:C00003\t016:0\t019:65\t020:0\t021:1\t");
-        put(f, 0, "52\t015:000000\t016:0\t019:32\t020:0\t021:1\t");
-        /* an operation of the controller's own, from the mediator */
-        put(f, 0, CIRCE_S_NET_ALERT_E1E1E1);
-        put(f, 0, "52\t015:A00007\t016:0\t019:96\t020:0\t021:1\t");       /* 96 = 64|32: no */
-        put(f, 0, "52\t015:A00008\t016:0\t019:31\t020:0\t021:1\t");
+        for (unsigned k = 0; k < CIRCE_GARBAGE_STEPS; k++)
+                put_raw(f, 0, p, circe_garbage_bytes(k, p, sizeof(p)));
 
         wait_get(f, "agility.device.A00008.online", "1");
         wait_events(f, "agility device-online device=A00008 capabilities=31 roles=0", events);
@@ -925,22 +853,14 @@ static void test_bad_input(void **state)
         assert_null(strstr(events, "device=000000"));
         assert_null(strstr(events, "device=A00007"));
 
-        /* "garbage" + stray ETX; the overlong packet's bytes after STX fill the CIRCE_PACKET_MAX
-         * - 2 bytes of room, the rest is discarded as noise up to the next STX. */
-        assert_int_equal(counter(f, "agility", "noise_bytes"),
-                         8 + (CIRCE_PACKET_MAX + 10 - 1) - (CIRCE_PACKET_MAX - 2));
-        assert_int_equal(counter(f, "agility", "bad_checksum"), 1);
-        assert_int_equal(counter(f, "agility", "unknown_op"), 2);
-        assert_int_equal(counter(f, "agility", "bad_value"), 3);
-        assert_int_equal(counter(f, "agility", "missing_param"), 1);
-        assert_int_equal(counter(f, "agility", "repeated_param"), 1);
-        assert_int_equal(counter(f, "agility", "skipped_param"), 1);
-        assert_int_equal(counter(f, "agility", "resync"), 1);
-        assert_int_equal(counter(f, "agility", "overlong"), 1);
-        assert_int_equal(counter(f, "agility", "noncompliant_status"), 5);
-        /* KA + A00001..6 + A0000A + A0000B + 5 non-compliant (A00007 among them) + 03 +
-         * A00008 */
-        assert_int_equal(counter(f, "agility", "frames_in"), 1 + 6 + 2 + 5 + 1 + 1);
+        for (unsigned k = 0; k < CIRCE_GARBAGE_COUNTERS; k++) {
+                const struct circe_garbage_count *c = &circe_garbage_counts[k];
+
+                if (counter(f, "agility", c->counter) != c->value)
+                        fail_msg("%s: %llu, expected %llu", c->counter,
+                                 (unsigned long long)counter(f, "agility", c->counter),
+                                 (unsigned long long)c->value);
+        }
         assert_get(f, "agility.state", "connected");
 }
 

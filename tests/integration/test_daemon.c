@@ -709,6 +709,35 @@ static void hold_pty(struct harness *h, const char *name, struct held *ret)
         assert_true(ret->fd >= 0);
 }
 
+/* start_two(), then the epoch of its tables, and both ptys held. */
+static uint64_t start_two_held(struct harness *h, struct held *p1, struct held *p2)
+{
+        uint64_t epoch;
+
+        start_two(h);
+        epoch = ping_epoch(h);
+        hold_pty(h, "p1.tty", p1);
+        hold_pty(h, "p2.tty", p2);
+        return epoch;
+}
+
+static void stop_two_held(struct harness *h, struct held *p1, struct held *p2)
+{
+        close(p1->fd);
+        close(p2->fd);
+        stop_ok(h, SIGTERM);
+}
+
+/* Rewrites a.yaml as two_links(period_ms, extra) under head (may be NULL) and reloads. */
+static void reload_two(struct harness *h, const char *head, unsigned period_ms, const char *extra)
+{
+        char links[2 * LINK_MAX], path[PATH_BUF];
+
+        two_links(h, links, sizeof(links), period_ms, extra);
+        write_config(h, "a.yaml", head, links, path);
+        reload_ok(h);
+}
+
 /* Waits for the daemon's end of a held pty to go away (the link was reopened): 1, or 0. */
 static int hung_up(const struct held *p, int timeout_ms)
 {
@@ -741,18 +770,13 @@ static void pty_target(struct harness *h, const char *name, char *buf, size_t si
 static void test_reload_settings(void **state)
 {
         struct harness *h = *state;
-        char links[2 * LINK_MAX], path[PATH_BUF], target[256];
+        char target[256];
         struct held p1, p2;
         uint64_t epoch;
 
-        start_two(h);
-        epoch = ping_epoch(h);
-        hold_pty(h, "p1.tty", &p1);
-        hold_pty(h, "p2.tty", &p2);
+        epoch = start_two_held(h, &p1, &p2);
 
-        two_links(h, links, sizeof(links), 250, NULL);          /* p2: period 100 -> 250 */
-        write_config(h, "a.yaml", NULL, links, path);
-        reload_ok(h);
+        reload_two(h, NULL, 250, NULL);          /* p2: period 100 -> 250 */
         assert_true(hung_up(&p2, T_HANGUP_MS));
         pty_target(h, "p2.tty", target, sizeof(target));
         assert_string_not_equal(target, p2.target);
@@ -766,71 +790,54 @@ static void test_reload_settings(void **state)
         /* The same file again: nothing restarts. */
         reload_ok(h);
         assert_int_equal(harness_wait_log(h, "0 of 2 links restarted", T_REPLY_MS), 0);
-        close(p1.fd);
-        close(p2.fd);
-        stop_ok(h, SIGTERM);
+        stop_two_held(h, &p1, &p2);
 }
 
 /* A variable list changes: new tables (new epoch), every link restarted. */
 static void test_reload_variables(void **state)
 {
         struct harness *h = *state;
-        char links[2 * LINK_MAX], path[PATH_BUF];
         struct held p1, p2;
         uint64_t epoch;
 
-        start_two(h);
-        epoch = ping_epoch(h);
-        hold_pty(h, "p1.tty", &p1);
-        hold_pty(h, "p2.tty", &p2);
-        two_links(h, links, sizeof(links), 100, ", p2.out3");
-        write_config(h, "a.yaml", NULL, links, path);
-        reload_ok(h);
+        epoch = start_two_held(h, &p1, &p2);
+        reload_two(h, NULL, 100, ", p2.out3");
         assert_true(hung_up(&p1, T_HANGUP_MS));
         assert_true(hung_up(&p2, T_HANGUP_MS));
         assert_true(ping_epoch(h) != epoch);
         assert_int_equal(harness_log_contains(h, "tables recreated"), 1);
-        close(p1.fd);
-        close(p2.fd);
-        stop_ok(h, SIGTERM);
+        stop_two_held(h, &p1, &p2);
 }
 
 /* A bad new config (syntax, a group that does not exist) keeps the old one running untouched. */
 static void test_reload_bad(void **state)
 {
         struct harness *h = *state;
-        char links[2 * LINK_MAX], path[PATH_BUF];
+        char path[PATH_BUF];
         struct held p1, p2;
         uint64_t epoch;
 
-        start_two(h);
-        epoch = ping_epoch(h);
-        hold_pty(h, "p1.tty", &p1);
-        hold_pty(h, "p2.tty", &p2);
+        epoch = start_two_held(h, &p1, &p2);
 
         assert_int_equal(harness_write_file(h, "a.yaml", "links: [\n", path), 0);
         reload_ok(h);
         assert_int_equal(harness_log_contains(h, "keeping the running configuration"), 1);
         assert_non_null(strstr(h->last_notify, "STATUS=2 of 2 links up"));
 
-        two_links(h, links, sizeof(links), 250, NULL);
-        write_config(h, "a.yaml", "group: nosuchgroup-sl\n", links, path);
-        reload_ok(h);
+        reload_two(h, "group: nosuchgroup-sl\n", 250, NULL);
         assert_int_equal(harness_log_contains(h, "group \"nosuchgroup-sl\" does not exist"), 1);
 
         assert_false(hung_up(&p1, 0));
         assert_false(hung_up(&p2, 0));
         assert_true(ping_epoch(h) == epoch);
-        close(p1.fd);
-        close(p2.fd);
-        stop_ok(h, SIGTERM);
+        stop_two_held(h, &p1, &p2);
 }
 
 /* Every kind of reload, several times: the daemon's fd count comes back to where it was. */
 static void test_reload_no_fd_leak(void **state)
 {
         struct harness *h = *state;
-        char links[2 * LINK_MAX], path[PATH_BUF], reply[REPLY_MAX];
+        char path[PATH_BUF], reply[REPLY_MAX];
         int before, after, fd;
 
         start_two(h);
@@ -843,18 +850,12 @@ static void test_reload_no_fd_leak(void **state)
         before = harness_count_fds(h->pid);
         assert_true(before > 0);
         for (int round = 0; round < 3; round++) {
-                two_links(h, links, sizeof(links), 200 + (unsigned)round, NULL);
-                write_config(h, "a.yaml", NULL, links, path);
-                reload_ok(h);                                   /* one link */
-                two_links(h, links, sizeof(links), 100, round % 2 ? ", p2.out3" : NULL);
-                write_config(h, "a.yaml", NULL, links, path);
-                reload_ok(h);                                   /* tables */
+                reload_two(h, NULL, 200 + (unsigned)round, NULL);       /* one link */
+                reload_two(h, NULL, 100, round % 2 ? ", p2.out3" : NULL);       /* tables */
                 assert_int_equal(harness_write_file(h, "a.yaml", "links: [\n", path), 0);
                 reload_ok(h);                                   /* refused */
         }
-        two_links(h, links, sizeof(links), 100, NULL);
-        write_config(h, "a.yaml", NULL, links, path);
-        reload_ok(h);
+        reload_two(h, NULL, 100, NULL);
         assert_true(harness_control_request(fd, "ping", reply, sizeof(reply), T_REPLY_MS) > 0);
         after = harness_count_fds(h->pid);
         assert_int_equal(after, before);

@@ -31,6 +31,8 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/testdata.h"
+#include "common/wire.h"
 #include "proto/sharedlink.h"
 
 #define START_MS        20000
@@ -48,6 +50,7 @@ struct it {
         int master, slave;              /* the pty pair the daemon's serial link opens */
         char dev[HARNESS_PATH_MAX + 8];
         int udp;                        /* the test's UDP socket, -1 when none */
+        uint16_t test_port;             /* its port: @PORT@ in the configuration */
         uint16_t udp_port;
         struct slp_decoder *dec;        /* the real codec, decoding what the daemon sends */
         uint8_t rbuf[4096];             /* bytes read from the master, not fed yet */
@@ -85,19 +88,6 @@ static int teardown(void **state)
                 free(t->mem[i]);
         free(t);
         return 0;
-}
-
-/* "[" text "|C" hh "]" (+ CR LF); text starts at the ':'. */
-static size_t mkraw(char *out, size_t size, const char *text, int crlf)
-{
-        unsigned sum = '|' + 'C';
-        int n;
-
-        for (const char *p = text; *p; p++)
-                sum += (unsigned char)*p;
-        n = snprintf(out, size, "[%s|C%02X]%s", text, sum & 0xffu, crlf ? "\r\n" : "");
-        assert_true(n > 0 && (size_t)n < size);
-        return (size_t)n;
 }
 
 /* Zeroed memory that teardown frees, so a failing assertion leaks nothing. */
@@ -139,13 +129,19 @@ static void unplug(struct it *t)
         t->master = t->slave = -1;
 }
 
-static void start(struct it *t, const char *links_yaml)
+/* Starts the daemon on tests/data/<file>, its links with @DEV@ (the pty), @DIR@ and @PORT@
+ * replaced, under the test's instance and runtime dir. */
+static void start(struct it *t, const char *file)
 {
-        char yaml[YAML_MAX], path[HARNESS_PATH_MAX];
+        char port[8], links[YAML_MAX], path[HARNESS_PATH_MAX];
+        char yaml[YAML_MAX + 2 * HARNESS_PATH_MAX];
+        const char *const subst[] = { "@DEV@", t->dev, "@DIR@", t->h.dir, "@PORT@", port, NULL };
         int st = 0, r;
 
-        snprintf(yaml, sizeof(yaml), "instance: %s\nruntime_dir: %s\nlinks:\n%s", t->h.instance,
-                 t->h.dir, links_yaml);
+        snprintf(port, sizeof(port), "%u", t->test_port);
+        assert_true(testdata_load(file, subst, links, sizeof(links)) > 0);
+        snprintf(yaml, sizeof(yaml), "instance: %s\nruntime_dir: %s\n%s", t->h.instance, t->h.dir,
+                 links);
         assert_int_equal(harness_write_file(&t->h, "sl.yaml", yaml, path), 0);
         r = harness_start_daemon(&t->h, path, START_MS, &st, NULL);
         if (r < 0)
@@ -159,7 +155,7 @@ static void expect_frame(struct it *t, const char *text)
         char want[512], line[LINE_MAX_T];
         uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * 1000000u;
 
-        mkraw(want, sizeof(want), text, 0);
+        wire_slp_raw(want, sizeof(want), text, 0);
         while (harness_now_ns() < deadline) {
                 ssize_t n = harness_read_until(t->master, line, sizeof(line), '\n', WAIT_MS);
                 char *s;
@@ -176,7 +172,7 @@ static void expect_frame(struct it *t, const char *text)
 static void send_frame(int fd, const char *text)
 {
         char buf[512];
-        size_t n = mkraw(buf, sizeof(buf), text, 1);
+        size_t n = wire_slp_raw(buf, sizeof(buf), text, 1);
 
         assert_int_equal(harness_write_all(fd, buf, n, WAIT_MS), 0);
 }
@@ -266,32 +262,16 @@ static void control_reply(int fd, char *out, size_t size)
 /* ---------------------------------------------------------------------------------------------
  * Tests */
 
-static const char link_serial[] =
-        "  - name: veh\n"
-        "    protocol: sharedlink\n"
-        "    transport: serial\n"
-        "    device: %s\n"
-        "    address: B\n"
-        "    peers:\n"
-        "      - address: A\n"
-        "        period_ms: 0\n"
-        "        on_change: true\n"
-        "        min_interval_ms: 0\n"
-        "        stale_ms: 0\n"
-        "        outbound: [CmdThrottle, CmdSteer]\n"
-        "        inbound: [AutoGpsLat, AutoGpsLon]\n";
-
 /* The test plays peer A on a pty master: frames in, values out, Q/R through the control socket,
  * unplug and recovery. */
 static void test_peer_on_pty(void **state)
 {
         struct it *t = *state;
-        char links[YAML_MAX], reply[LINE_MAX_T];
+        char reply[LINE_MAX_T];
         int fd;
 
         plug(t);
-        snprintf(links, sizeof(links), link_serial, t->dev);
-        start(t, links);
+        start(t, "sharedlink_peer_on_pty.yaml");
         expect_frame(t, ":AB|N0|D|D");         /* up: the full list at once */
         wait_state(t, 0, "up");
 
@@ -345,35 +325,11 @@ static void test_peer_on_pty(void **state)
 /* Two links of one daemon back to back over a pty: node_a makes it, node_b opens it. */
 static void test_back_to_back(void **state)
 {
-        static const char fmt[] =
-                "  - name: node_a\n"
-                "    protocol: sharedlink\n"
-                "    transport: pty\n"
-                "    device: %s/node-a.tty\n"
-                "    address: A\n"
-                "    peers:\n"
-                "      - address: B\n"
-                "        period_ms: 100\n"
-                "        on_change: true\n"
-                "        outbound: [a.AutoGpsLat, a.AutoGpsLon]\n"
-                "        inbound: [a.CmdThrottle]\n"
-                "  - name: node_b\n"
-                "    protocol: sharedlink\n"
-                "    transport: serial\n"
-                "    device: %s/node-a.tty\n"
-                "    address: B\n"
-                "    peers:\n"
-                "      - address: A\n"
-                "        period_ms: 100\n"
-                "        on_change: true\n"
-                "        outbound: [b.CmdThrottle]\n"
-                "        inbound: [b.AutoGpsLat, b.AutoGpsLon]\n";
         struct it *t = *state;
-        char links[YAML_MAX], reply[LINE_MAX_T];
+        char reply[LINE_MAX_T];
         int fd;
 
-        snprintf(links, sizeof(links), fmt, t->h.dir, t->h.dir);
-        start(t, links);
+        start(t, "sharedlink_back_to_back.yaml");
         wait_state(t, 0, "up");
         wait_state(t, 1, "up");
         client_write(t, "a.AutoGpsLat", "40.12345678");
@@ -397,26 +353,11 @@ static void test_back_to_back(void **state)
 /* A UDP link on loopback: the test is the remote. */
 static void test_udp_loopback(void **state)
 {
-        static const char fmt[] =
-                "  - name: pronto\n"
-                "    protocol: sharedlink\n"
-                "    transport: udp\n"
-                "    local: \"127.0.0.1:0\"\n"
-                "    remote: \"127.0.0.1:%u\"\n"
-                "    address: B\n"
-                "    peers:\n"
-                "      - address: A\n"
-                "        period_ms: 0\n"
-                "        on_change: true\n"
-                "        min_interval_ms: 0\n"
-                "        stale_ms: 0\n"
-                "        outbound: [veh_start]\n"
-                "        inbound: [sys_speed]\n";
         struct it *t = *state;
         struct sockaddr_in a = { .sin_family = AF_INET, .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
         struct sockaddr_in from;
         socklen_t alen = sizeof(a), flen = sizeof(from);
-        char links[YAML_MAX], buf[512], want[512];
+        char buf[512], want[512];
         struct pollfd p;
         ssize_t n;
         size_t len;
@@ -425,8 +366,8 @@ static void test_udp_loopback(void **state)
         assert_true(t->udp >= 0);
         assert_int_equal(bind(t->udp, (struct sockaddr *)&a, sizeof(a)), 0);
         assert_int_equal(getsockname(t->udp, (struct sockaddr *)&a, &alen), 0);
-        snprintf(links, sizeof(links), fmt, ntohs(a.sin_port));
-        start(t, links);
+        t->test_port = ntohs(a.sin_port);
+        start(t, "sharedlink_udp_loopback.yaml");
 
         /* Up: the full list, one datagram, no CR LF; it tells us the daemon's port. */
         p = (struct pollfd){ .fd = t->udp, .events = POLLIN };
@@ -434,10 +375,10 @@ static void test_udp_loopback(void **state)
         n = recvfrom(t->udp, buf, sizeof(buf) - 1, 0, (struct sockaddr *)&from, &flen);
         assert_true(n > 0);
         buf[n] = '\0';
-        mkraw(want, sizeof(want), ":AB|N0|D", 0);
+        wire_slp_raw(want, sizeof(want), ":AB|N0|D", 0);
         assert_string_equal(buf, want);
 
-        len = mkraw(buf, sizeof(buf), ":BA|N0|D12.5", 0);
+        len = wire_slp_raw(buf, sizeof(buf), ":BA|N0|D12.5", 0);
         assert_int_equal(sendto(t->udp, buf, len, 0, (struct sockaddr *)&from, flen),
                          (ssize_t)len);
         wait_value(t, "sys_speed", "12.5");
@@ -447,7 +388,7 @@ static void test_udp_loopback(void **state)
         n = recv(t->udp, buf, sizeof(buf) - 1, 0);
         assert_true(n > 0);
         buf[n] = '\0';
-        mkraw(want, sizeof(want), ":AB|N0|D1", 0);
+        wire_slp_raw(want, sizeof(want), ":AB|N0|D1", 0);
         assert_string_equal(buf, want);
 }
 
@@ -460,7 +401,7 @@ static void check_raw(const struct slp_frame *f)
 {
         const char *raw = f->raw;
         size_t len = f->raw_len;
-        unsigned sum = 0, want;
+        unsigned want;
 
         assert_true(len >= 9);
         assert_int_equal(raw[0], '[');
@@ -469,10 +410,8 @@ static void check_raw(const struct slp_frame *f)
         assert_int_equal(raw[len - 4], 'C');
         for (size_t i = len - 3; i < len - 1; i++)
                 assert_true((raw[i] >= '0' && raw[i] <= '9') || (raw[i] >= 'A' && raw[i] <= 'F'));
-        for (size_t i = 1; i <= len - 4; i++)
-                sum += (unsigned char)raw[i];
         assert_int_equal(sscanf(raw + len - 3, "%2X", &want), 1);
-        assert_int_equal(sum & 0xffu, want);
+        assert_int_equal(wire_slp_sum(raw + 1, len - 4), want);
         assert_int_equal(f->unknown_fields, 0);
         assert_int_equal(f->empty_fields, 0);
 }
@@ -619,33 +558,18 @@ static void stats_json(struct it *t, char *out, size_t size)
  * the query is answered with exactly the spec's answer frame. */
 static void test_spec_examples(void **state)
 {
-        static const char fmt[] =
-                "  - name: veh\n"
-                "    protocol: sharedlink\n"
-                "    transport: serial\n"
-                "    device: %s\n"
-                "    address: A\n"
-                "    peers:\n"
-                "      - address: B\n"
-                "        period_ms: 0\n"
-                "        on_change: true\n"
-                "        min_interval_ms: 0\n"
-                "        stale_ms: 0\n"
-                "        outbound: [AutoGpsLat]\n"
-                "        inbound: [g.lat, g.lon, g.head, g.speed]\n";
         static const char list[] = "[:AB|N0|D40.12345678|D-113.12345678|D85.6|D22.1|CD4]\r\n";
         static const char compressed[] = "[:AB|N0|D|D|D85.7|D|C48]\r\n";
         static const char query[] = "[:AB|QAutoGpsLat|C2D]\r\n";
         static const char answer[] = "[:BA|RAutoGpsLat|D40.12345678|C24]";
         struct it *t = *state;
-        char links[YAML_MAX], out[LINE_MAX_T];
+        char out[LINE_MAX_T];
         struct sl_meta meta = { .size = sizeof(meta) };
         char buf[SL_VALUE_SIZE];
         const struct slp_frame *f;
 
         plug(t);
-        snprintf(links, sizeof(links), fmt, t->dev);
-        start(t, links);
+        start(t, "sharedlink_spec_examples.yaml");
         wait_state(t, 0, "up");
 
         assert_int_equal(harness_write_all(t->master, list, strlen(list), WAIT_MS), 0);
@@ -686,33 +610,15 @@ static void test_spec_examples(void **state)
  * The cadence is counted in lists, never timed. */
 static void test_periodic_split_compress_refresh(void **state)
 {
-        static const char fmt[] =
-                "  - name: veh\n"
-                "    protocol: sharedlink\n"
-                "    transport: serial\n"
-                "    device: %s\n"
-                "    address: B\n"
-                "    peers:\n"
-                "      - address: A\n"
-                "        period_ms: 50\n"
-                "        refresh_ms: 200\n"
-                "        compression: true\n"
-                "        on_change: false\n"
-                "        max_frame: 64\n"
-                "        stale_ms: 0\n"
-                "        outbound: [o0, o1, o2, o3, o4, o5]\n"
-                "        inbound: [i0]\n";
         static const char *const vals[] = { "value0.123", "value1.123", "value2.123",
                                             "value3.123", "value4.123", "value5.123" };
         enum { COUNT = 6, LISTS = 13, MAX_FRAME = 64, EVERY = 4, SKIP_MAX = 40 };
         struct it *t = *state;
-        char links[YAML_MAX];
         struct list_rx lr;
         int first_full = -1, fulls = 0, i;
 
         plug(t);
-        snprintf(links, sizeof(links), fmt, t->dev);
-        start(t, links);
+        start(t, "sharedlink_periodic.yaml");
         wait_state(t, 0, "up");
         for (i = 0; i < COUNT; i++) {
                 char name[16];
@@ -764,29 +670,12 @@ static void test_periodic_split_compress_refresh(void **state)
  * on_change frame: exactly "N<pos>|D<value>". */
 static void test_on_change_frame(void **state)
 {
-        static const char fmt[] =
-                "  - name: veh\n"
-                "    protocol: sharedlink\n"
-                "    transport: serial\n"
-                "    device: %s\n"
-                "    address: B\n"
-                "    peers:\n"
-                "      - address: A\n"
-                "        period_ms: 60000\n"
-                "        refresh_ms: 600000\n"
-                "        compression: true\n"
-                "        on_change: true\n"
-                "        min_interval_ms: 0\n"
-                "        stale_ms: 0\n"
-                "        outbound: [o0, o1, o2]\n"
-                "        inbound: [i0]\n";
         struct it *t = *state;
-        char links[YAML_MAX], out[STATS_MAX];
+        char out[STATS_MAX];
         struct list_rx lr;
 
         plug(t);
-        snprintf(links, sizeof(links), fmt, t->dev);
-        start(t, links);
+        start(t, "sharedlink_on_change.yaml");
         read_list(t, 'A', 'B', 3, SLP_FRAME_DEFAULT, &lr);      /* up: the full list */
         assert_int_equal(lr.nonempty, 0);
         assert_int_equal(lr.nframes, 1);
@@ -912,7 +801,7 @@ static void tally_send(struct it *t, struct tally *y, const void *buf, size_t le
 static void tally_frame_text(struct it *t, struct tally *y, const char *text)
 {
         char buf[512];
-        size_t n = mkraw(buf, sizeof(buf), text, 1);
+        size_t n = wire_slp_raw(buf, sizeof(buf), text, 1);
 
         tally_send(t, y, buf, n);
 }
@@ -938,23 +827,10 @@ static void tally_round(struct it *t, struct tally *y, int round)
  * exactly the counts the real codec finds in what was sent. */
 static void test_garbage_counters(void **state)
 {
-        static const char fmt[] =
-                "  - name: veh\n"
-                "    protocol: sharedlink\n"
-                "    transport: serial\n"
-                "    device: %s\n"
-                "    address: B\n"
-                "    peers:\n"
-                "      - address: A\n"
-                "        period_ms: 0\n"
-                "        on_change: false\n"
-                "        stale_ms: 0\n"
-                "        outbound: [out0]\n"
-                "        inbound: [in0, in1]\n";
         static const char noise[] = "line noise \x01\x02\x7f\xff between frames";
         struct it *t = *state;
         struct tally *y = test_alloc(t, sizeof(*y));
-        char links[YAML_MAX], buf[2048];
+        char buf[2048];
         char *json0 = test_alloc(t, STATS_MAX), *json1 = test_alloc(t, STATS_MAX);
         uint8_t *rnd = test_alloc(t, NOISE_BLOCK);
         uint64_t x = 0x9e3779b97f4a7c15u;
@@ -963,8 +839,7 @@ static void test_garbage_counters(void **state)
 
         assert_int_equal(slp_decoder_init(&y->dec, SLP_FRAME_DEFAULT), 0);
         plug(t);
-        snprintf(links, sizeof(links), fmt, t->dev);
-        start(t, links);
+        start(t, "sharedlink_garbage.yaml");
         wait_state(t, 0, "up");
         stats_json(t, json0, STATS_MAX);
 
@@ -972,7 +847,7 @@ static void test_garbage_counters(void **state)
         tally_send(t, y, noise, sizeof(noise) - 1);
         tally_round(t, y, ++round);
         /* Bad checksum: a valid frame with its checksum's last digit changed. */
-        n = mkraw(buf, sizeof(buf), ":BA|N0|Dbad|Dbad", 1);
+        n = wire_slp_raw(buf, sizeof(buf), ":BA|N0|Dbad|Dbad", 1);
         buf[n - 4] = buf[n - 4] == '0' ? '1' : '0';
         tally_send(t, y, buf, n);
         tally_frame_text(t, y, ":BA|N0|Dbad|Dbad|Cxy");         /* malformed checksum */
@@ -1084,24 +959,11 @@ static void list_line(struct it *t, const char *name, char *line, size_t size)
  * `slctl list`), and fresh again with its next frame. */
 static void test_stale_and_fresh(void **state)
 {
-        static const char fmt[] =
-                "  - name: veh\n"
-                "    protocol: sharedlink\n"
-                "    transport: serial\n"
-                "    device: %s\n"
-                "    address: B\n"
-                "    peers:\n"
-                "      - address: A\n"
-                "        period_ms: 0\n"
-                "        stale_ms: 300\n"
-                "        outbound: [out0]\n"
-                "        inbound: [in0]\n";
         struct it *t = *state;
-        char links[YAML_MAX], line[LINE_MAX_T];
+        char line[LINE_MAX_T];
 
         plug(t);
-        snprintf(links, sizeof(links), fmt, t->dev);
-        start(t, links);
+        start(t, "sharedlink_stale.yaml");
         wait_state(t, 0, "up");
         send_frame(t->master, ":BA|N0|D7");
         wait_value(t, "in0", "7");

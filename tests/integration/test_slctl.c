@@ -34,6 +34,7 @@
 
 #include "common/harness.h"
 #include "cli/counters.h"
+#include "common/testdata.h"
 #include "common/shmtest.h"
 #include "shm/table.h"
 
@@ -909,13 +910,14 @@ static void test_dead_daemon(void **state)
 
 /* ---- against the real daemon: commands ----------------------------------------------------- */
 
-/* Starts sharedlinkd on links (YAML list items); skips the test when the build lacks an engine. */
+/* Starts sharedlinkd on links (a "links:" document); skips the test when the build lacks an
+ * engine. */
 static void daemon_start(struct fixture *f, const char *links)
 {
         char text[CONFIG_MAX], path[HARNESS_PATH_MAX];
         int st = 0;
 
-        snprintf(text, sizeof(text), "instance: %s\nlinks:\n%s", f->h.instance, links);
+        snprintf(text, sizeof(text), "instance: %s\n%s", f->h.instance, links);
         assert_int_equal(harness_write_file(&f->h, "slctl.yaml", text, path), 0);
         f->h.capture_log = 1;
         if (harness_start_daemon(&f->h, path, START_MS, &st, NULL) != 0) {
@@ -931,23 +933,9 @@ static void daemon_start(struct fixture *f, const char *links)
 /* The `make demo` CIRCE pair: the emulator "arena" and the controller "agility" on its pty. */
 static void links_circe(struct fixture *f, char *links, size_t size)
 {
-        snprintf(links, size,
-                 "  - name: arena\n"
-                 "    protocol: circe\n"
-                 "    role: mediator\n"
-                 "    transport: pty\n"
-                 "    device: %s/arena.tty\n"
-                 "    version: \"0.2.3\"\n"
-                 "    emulate:\n"
-                 "      - {address: E1E1E1, capabilities: 32, signal: 150, battery: 200}\n"
-                 "      - {address: AAAAAA, capabilities: 31}\n"
-                 "      - {address: D15D15, capabilities: 64}\n"
-                 "  - name: agility\n"
-                 "    protocol: circe\n"
-                 "    role: controller\n"
-                 "    transport: serial\n"
-                 "    device: %s/arena.tty\n",
-                 f->h.dir, f->h.dir);
+        const char *const subst[] = { "@DIR@", f->h.dir, NULL };
+
+        assert_true(testdata_load("slctl_circe_pair.yaml", subst, links, size) > 0);
 }
 
 static void daemon_start_circe(struct fixture *f)
@@ -1083,6 +1071,7 @@ static void test_daemon_link_down(void **state)
         char links[CONFIG_MAX];
 
         snprintf(links, sizeof(links),
+                 "links:\n"
                  "  - name: agility\n"
                  "    protocol: circe\n"
                  "    role: controller\n"
@@ -1176,34 +1165,11 @@ static void test_daemon_library(void **state)
 
 
 /* SharedLink nodes A and B of one daemon, back to back over a pty; B also knows a silent C. */
-/* SharedLink node A <-> node B on a pty; node B also has a peer C that never answers. */
 static void links_sharedlink(struct fixture *f, char *links, size_t size)
 {
-        snprintf(links, size,
-                 "  - name: node_a\n"
-                 "    protocol: sharedlink\n"
-                 "    transport: pty\n"
-                 "    device: %s/node-a.tty\n"
-                 "    address: A\n"
-                 "    peers:\n"
-                 "      - address: B\n"
-                 "        period_ms: 100\n"
-                 "        outbound: [a.Lat, a.Head]\n"
-                 "        inbound: [a.Cmd]\n"
-                 "  - name: node_b\n"
-                 "    protocol: sharedlink\n"
-                 "    transport: serial\n"
-                 "    device: %s/node-a.tty\n"
-                 "    address: B\n"
-                 "    peers:\n"
-                 "      - address: A\n"
-                 "        period_ms: 100\n"
-                 "        outbound: [b.Cmd]\n"
-                 "        inbound: [b.Lat, b.Head]\n"
-                 "      - address: C\n"
-                 "        period_ms: 100\n"
-                 "        outbound: [b.ForC]\n",
-                 f->h.dir, f->h.dir);
+        const char *const subst[] = { "@DIR@", f->h.dir, NULL };
+
+        assert_true(testdata_load("slctl_sharedlink_pair.yaml", subst, links, size) > 0);
 }
 
 static void daemon_start_sharedlink(struct fixture *f)
@@ -1218,13 +1184,17 @@ static void daemon_start_sharedlink(struct fixture *f)
 static void daemon_start_both(struct fixture *f)
 {
         char links[CONFIG_MAX], circe[CONFIG_MAX];
+        const char *more;
         size_t n;
+
 
         links_sharedlink(f, links, sizeof(links));
         links_circe(f, circe, sizeof(circe));
+        /* Both templates start "links:": the second one's entries join the first list. */
+        more = strncmp(circe, "links:\n", 7) == 0 ? circe + 7 : circe;
         n = strlen(links);
-        assert_true(n + strlen(circe) < sizeof(links));
-        memcpy(links + n, circe, strlen(circe) + 1);
+        assert_true(n + strlen(more) < sizeof(links));
+        memcpy(links + n, more, strlen(more) + 1);
         daemon_start(f, links);
 }
 

@@ -93,23 +93,21 @@ static int writer_main(void *arg)
 {
         struct writer_arg *w = arg;
         char value[SL_VALUE_SIZE], name[SHM_OBJECT_NAME_SIZE];
+        struct shmtest_view v = { NULL, 0 };
         struct sl_client *c;
         struct shm_out_header *h = NULL;
         struct shm_slot *slots = NULL;
-        int fd;
 
         if (sl_open(w->instance, &c) < 0)
                 return 1;
         if (w->slow) {
+                /* a rogue's own mapping of .out, as any client could make it */
                 shm_layout_object_name(w->instance, "out", name, sizeof(name));
-                fd = shm_open(name, O_RDWR, 0);
-                if (fd < 0)
+                v = shmtest_view_open(name, true);
+                if (!v.base)
                         return 2;
-                h = mmap(NULL, shm_layout_out_size(NVARS), PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
-                close(fd);
-                if (h == MAP_FAILED)
-                        return 3;
-                slots = (struct shm_slot *)(h + 1);
+                h = v.base;
+                slots = shmtest_out_slot(&v, 0);
         }
         for (uint64_t n = 0;; n++) {
                 unsigned id = (unsigned)((n * 7 + w->index) % NVARS);
@@ -221,22 +219,6 @@ static int all_even(const struct shm_slot *slots)
         return 1;
 }
 
-static int create_table(const char *instance, struct shm_table **ret)
-{
-        static const char *const names[NVARS] = { "o0", "o1", "o2", "o3" };
-        struct shm_var vars[NVARS];
-        struct shm_table_config cfg;
-
-        memset(&cfg, 0, sizeof(cfg));
-        for (int i = 0; i < NVARS; i++)
-                vars[i] = (struct shm_var){ names[i], SHM_DIR_OUT, SHM_TYPE_STRING, SHM_LINK_NONE,
-                                            NULL, SHM_POSITION_NONE };
-        cfg.instance = instance;
-        cfg.vars = vars;
-        cfg.nvars = NVARS;
-        return shm_table_create(&cfg, ret);
-}
-
 static unsigned env_unsigned(const char *name, unsigned def)
 {
         const char *v = getenv(name);
@@ -255,23 +237,23 @@ int main(void)
         struct scan_stats st = { 0, 0, 0, 0 };
         struct reader_arg ra;
         struct shm_table *t;
+        struct shmtest_view view;
         struct shm_out_header *h;
         unsigned kills = 0, wedged = 0, stuck = 0, final_fail = 0;
         struct sl_client *c;
         pid_t reader;
-        int fd, failed;
+        int failed;
 
         srand((unsigned)getpid());
         shmtest_instance(instance, sizeof(instance), "kill");
-        if (sh == MAP_FAILED || create_table(instance, &t) < 0)
+        if (sh == MAP_FAILED || shmtest_table_strings(instance, "o", SHM_DIR_OUT, NVARS, &t) < 0)
                 return 2;
         memset(sh, 0, sizeof(*sh));
         shm_layout_object_name(instance, "out", name, sizeof(name));
-        fd = shm_open(name, O_RDONLY, 0);
-        h = mmap(NULL, shm_layout_out_size(NVARS), PROT_READ, MAP_SHARED, fd, 0);
-        close(fd);
-        if (h == MAP_FAILED)
+        view = shmtest_view_open(name, false);
+        if (!view.base)
                 return 2;
+        h = view.base;
         ra = (struct reader_arg){ instance, sh };
         reader = shmtest_fork(reader_main, &ra);
 
@@ -318,7 +300,7 @@ int main(void)
         printf("stress_kill: reader reads=%" PRIu64 " valid=%" PRIu64 " torn=%" PRIu64 "\n",
                atomic_load(&sh->reads), atomic_load(&sh->valid_reads), atomic_load(&sh->torn));
         printf("stress_kill: %s\n", failed ? "FAILED" : "ok, nothing wedged, nothing half-written");
-        munmap(h, shm_layout_out_size(NVARS));
+        shmtest_view_close(&view);
         shm_table_destroy(t);
         shmtest_unlink(instance);
         return failed;

@@ -137,22 +137,6 @@ static void reader_loop(struct sl_client *c, uint64_t deadline, struct stats *s)
         atomic_fetch_add(&s->changes, changes);
 }
 
-static int create_table(const char *instance, struct shm_table **ret)
-{
-        static const char *const names[NVALUES] = { "v0", "v1", "v2", "v3", "v4", "v5", "v6", "v7" };
-        struct shm_var vars[NVALUES];
-        struct shm_table_config cfg;
-
-        memset(&cfg, 0, sizeof(cfg));
-        for (int i = 0; i < NVALUES; i++)
-                vars[i] = (struct shm_var){ names[i], SHM_DIR_IN, SHM_TYPE_STRING, SHM_LINK_NONE,
-                                            NULL, SHM_POSITION_NONE };
-        cfg.instance = instance;
-        cfg.vars = vars;
-        cfg.nvars = NVALUES;
-        return shm_table_create(&cfg, ret);
-}
-
 /* ---- phase 1: processes ---------------------------------------------------------------------- */
 
 struct proc_arg {
@@ -195,7 +179,7 @@ static int phase_processes(const char *instance, uint64_t seconds, struct stats 
         memset(sh, 0, sizeof(*sh));
         a.sh = sh;
         a.instance = instance;
-        if (create_table(instance, &a.t) < 0)
+        if (shmtest_table_strings(instance, "v", SHM_DIR_IN, NVALUES, &a.t) < 0)
                 return -1;
         a.deadline = now_ns() + seconds * NS_PER_S;
         writer = shmtest_fork(writer_process, &a);
@@ -246,7 +230,7 @@ static int phase_threads(const char *instance, uint64_t seconds, struct stats *r
         memset(&sh, 0, sizeof(sh));
         memset(&w, 0, sizeof(w));
         w.sh = &sh;
-        if (create_table(instance, &w.t) < 0)
+        if (shmtest_table_strings(instance, "v", SHM_DIR_IN, NVALUES, &w.t) < 0)
                 return -1;
         if (sl_open(instance, &shared_client) < 0 || sl_open(instance, &own_client) < 0)
                 return -1;

@@ -3,7 +3,7 @@
  * framing on a byte stream split every way, encoder output and refusals, round trips.
  *
  * Expected checksums are never taken from the codec: the vectors either carry a hand-worked
- * value (sum written out in a comment) or ask the test's own sum8() to append one.
+ * value (sum written out in a comment) or ask wire.h's builder to append one.
  */
 #include <errno.h>
 #include <setjmp.h>
@@ -16,6 +16,7 @@
 
 #include <cmocka.h>
 
+#include "common/wire.h"
 #include "proto/circe.h"
 
 #define STX "\x02"
@@ -35,33 +36,16 @@ enum cs_mode {
         CS_WRONG,       /* append the right checksum + 1 */
 };
 
-/* The checksum rule, written independently of the codec: sum of the bytes, mod 256. */
-static unsigned sum8(const uint8_t *p, size_t n)
-{
-        unsigned s = 0;
-
-        for (size_t i = 0; i < n; i++)
-                s += p[i];
-        return s % 256;
-}
-
-/* STX body [CC] ETX into out; returns the length. */
+/* STX body [CC] ETX into out (room for body_len + 4 bytes); returns the length. The checksum
+ * comes from wire.h, written from PROTOCOLS.md independently of the codec. */
 static size_t build(const char *body, size_t body_len, enum cs_mode cs, uint8_t *out)
 {
-        size_t n = 0;
+        static const enum wire_cs mode[] = {
+                [CS_NONE] = WIRE_CS_NONE, [CS_LITERAL] = WIRE_CS_NONE, [CS_UPPER] = WIRE_CS_UPPER,
+                [CS_LOWER] = WIRE_CS_LOWER, [CS_WRONG] = WIRE_CS_WRONG,
+        };
 
-        out[n++] = 0x02;
-        memcpy(out + n, body, body_len);
-        n += body_len;
-        if (cs == CS_UPPER || cs == CS_LOWER || cs == CS_WRONG) {
-                unsigned s = (sum8(out, n) + (cs == CS_WRONG)) % 256;
-                char cc[3];
-                snprintf(cc, sizeof(cc), cs == CS_LOWER ? "%02x" : "%02X", s);
-                out[n++] = (uint8_t)cc[0];
-                out[n++] = (uint8_t)cc[1];
-        }
-        out[n++] = 0x03;
-        return n;
+        return wire_circe_packet(out, body_len + 4, body, body_len, mode[cs]);
 }
 
 /* ---- Packet vectors -------------------------------------------------------------------------- */
@@ -413,7 +397,7 @@ static void test_checksum_presence_rule(void **state)
         assert_false(r.has_checksum);
 
         /* The 6C of the spec example: sum of STX '0' '1' TAB, computed here. */
-        assert_int_equal(sum8((const uint8_t *)STX "01" T, 4), 0x6C);
+        assert_int_equal(wire_circe_sum((const uint8_t *)STX "01" T, 4), 0x6C);
         len = build("01" T "6C", 5, CS_LITERAL, pkt);
         circe_decode(pkt, len, &r);
         assert_int_equal(r.kind, CIRCE_RESULT_MESSAGE);

@@ -24,6 +24,7 @@
 #include <sys/un.h>
 #include <unistd.h>
 
+#include "common/ctlserver.h"
 #include "common/harness.h"
 #include "daemon/control.h"
 #include "daemon/evloop.h"
@@ -44,16 +45,11 @@ enum mode {
 };
 
 struct fixture {
-        struct harness h;       /* for its temp dir only */
-        struct evloop *loop;
-        struct control *ctl;
-        char path[HARNESS_PATH_MAX + 32];
+        struct ctlserver srv;
         enum mode mode;
         struct control_request *held[HELD_MAX];
         unsigned n_held;
         unsigned calls;
-        struct evloop_timer guard;
-        int timed_out;
 };
 
 static void on_request(struct control_request *req, int argc, char **argv, void *arg)
@@ -86,26 +82,12 @@ static void on_request(struct control_request *req, int argc, char **argv, void 
         }
 }
 
-static void on_guard(struct evloop *loop, struct evloop_timer *t, void *arg)
-{
-        struct fixture *f = arg;
-
-        (void)loop;
-        (void)t;
-        f->timed_out = 1;
-}
-
 static int setup(void **state)
 {
         struct fixture *f = calloc(1, sizeof(*f));
 
-        if (!f || harness_init(&f->h, "ctl") < 0 || evloop_new(&f->loop) < 0)
+        if (!f || ctlserver_init(&f->srv, "ctl", on_request, f) < 0)
                 return -1;
-        log_init(-1, -1);
-        snprintf(f->path, sizeof(f->path), "%s/c.sock", f->h.dir);
-        if (control_new(f->loop, f->path, 0, 0, on_request, f, &f->ctl) < 0)
-                return -1;
-        evloop_timer_init(&f->guard, f->loop, on_guard, f);
         *state = f;
         return 0;
 }
@@ -114,10 +96,7 @@ static int teardown(void **state)
 {
         struct fixture *f = *state;
 
-        evloop_timer_cancel(&f->guard);
-        control_free(f->ctl);
-        evloop_free(f->loop);
-        harness_cleanup(&f->h);
+        ctlserver_free(&f->srv);
         free(f);
         return 0;
 }
@@ -125,29 +104,29 @@ static int teardown(void **state)
 /* Runs the loop until done(f, arg) holds; fails after T_GUARD_MS. */
 static void pump_until(struct fixture *f, int (*done)(struct fixture *f, void *arg), void *arg)
 {
-        f->timed_out = 0;
-        evloop_timer_arm(&f->guard, T_GUARD_MS, 0);
+        f->srv.timed_out = 0;
+        evloop_timer_arm(&f->srv.guard, T_GUARD_MS, 0);
         while (!done(f, arg)) {
-                assert_int_equal(evloop_run_once(f->loop), 0);
-                if (f->timed_out)
+                assert_int_equal(evloop_run_once(f->srv.loop), 0);
+                if (f->srv.timed_out)
                         fail_msg("timed out waiting on the control server");
         }
-        evloop_timer_cancel(&f->guard);
+        evloop_timer_cancel(&f->srv.guard);
 }
 
 /* One round of the loop, which has something to do (data sent to it): never blocks long. */
 static void pump_once(struct fixture *f)
 {
-        f->timed_out = 0;
-        evloop_timer_arm(&f->guard, T_GUARD_MS, 0);
-        assert_int_equal(evloop_run_once(f->loop), 0);
-        assert_false(f->timed_out);
-        evloop_timer_cancel(&f->guard);
+        f->srv.timed_out = 0;
+        evloop_timer_arm(&f->srv.guard, T_GUARD_MS, 0);
+        assert_int_equal(evloop_run_once(f->srv.loop), 0);
+        assert_false(f->srv.timed_out);
+        evloop_timer_cancel(&f->srv.guard);
 }
 
 static int client_connect(struct fixture *f)
 {
-        int fd = harness_connect_unix(f->path);
+        int fd = harness_connect_unix(f->srv.path);
 
         assert_true(fd >= 0);
         fcntl(fd, F_SETFL, fcntl(fd, F_GETFL) | O_NONBLOCK);
@@ -237,7 +216,7 @@ static int orphaned_n(struct fixture *f, void *arg)
 {
         struct control_stats st;
 
-        control_get_stats(f->ctl, &st);
+        control_get_stats(f->srv.ctl, &st);
         return st.orphaned >= (uint64_t)(uintptr_t)arg;
 }
 
@@ -245,7 +224,7 @@ static int slow_n(struct fixture *f, void *arg)
 {
         struct control_stats st;
 
-        control_get_stats(f->ctl, &st);
+        control_get_stats(f->srv.ctl, &st);
         return st.slow_readers >= (uint64_t)(uintptr_t)arg;
 }
 
@@ -253,7 +232,7 @@ static int clients_n(struct fixture *f, void *arg)
 {
         struct control_stats st;
 
-        control_get_stats(f->ctl, &st);
+        control_get_stats(f->srv.ctl, &st);
         return st.clients == (unsigned)(uintptr_t)arg;
 }
 
@@ -265,7 +244,7 @@ static void test_socket_mode(void **state)
         struct fixture *f = *state;
         struct stat st;
 
-        assert_int_equal(lstat(f->path, &st), 0);
+        assert_int_equal(lstat(f->srv.path, &st), 0);
         assert_true(S_ISSOCK(st.st_mode));
         assert_int_equal(st.st_mode & 07777, 0660);
 }
@@ -369,7 +348,7 @@ static void test_orphan(void **state)
         assert_false(control_request_alive(f->held[0]));
         control_reply_data(f->held[0], "nobody reads this");
         control_reply_ok(f->held[0], "late");
-        control_get_stats(f->ctl, &st);
+        control_get_stats(f->srv.ctl, &st);
         assert_int_equal(st.orphan_answers, 1);
         assert_int_equal(st.clients, 0);
 }
@@ -389,7 +368,7 @@ static void test_send_and_close(void **state)
         assert_int_equal(f->n_held, 1);
         assert_false(control_request_alive(f->held[0]));
         control_reply_ok(f->held[0], NULL);
-        control_get_stats(f->ctl, &st);
+        control_get_stats(f->srv.ctl, &st);
         assert_int_equal(st.orphan_answers, 1);
         assert_int_equal(st.requests, 1);
 }
@@ -406,8 +385,8 @@ static void test_server_freed_first(void **state)
         pump_until(f, held_n, (void *)2);
         close(fd1);
         pump_until(f, orphaned_n, (void *)1);           /* one orphan, one still attached */
-        f->ctl = control_free(f->ctl);
-        assert_int_equal(access(f->path, F_OK), -1);    /* socket removed */
+        f->srv.ctl = control_free(f->srv.ctl);
+        assert_int_equal(access(f->srv.path, F_OK), -1);    /* socket removed */
         assert_false(control_request_alive(f->held[0]));
         assert_false(control_request_alive(f->held[1]));
         control_reply_ok(f->held[0], NULL);
@@ -473,7 +452,7 @@ static void test_overlong(void **state)
         pump_until(f, rx_at_eof, &r2);
         assert_string_equal(r2.buf, "OK\nERR 90 request line too long\n");
         close(r2.fd);
-        control_get_stats(f->ctl, &st);
+        control_get_stats(f->srv.ctl, &st);
         assert_int_equal(st.overlong, 2);
 }
 
@@ -496,7 +475,7 @@ static void test_hangup_full_buffer(void **state)
         pump_until(f, orphaned_n, (void *)1);
         assert_false(control_request_alive(f->held[0]));
         control_reply_ok(f->held[0], NULL);
-        control_get_stats(f->ctl, &st);
+        control_get_stats(f->srv.ctl, &st);
         assert_int_equal(st.clients, 0);
         assert_int_equal(st.orphan_answers, 1);
 }
@@ -512,7 +491,7 @@ static void test_slow_reader(void **state)
         f->mode = MODE_FLOOD;
         client_send(r.fd, "flood\n");
         pump_until(f, slow_n, (void *)1);
-        control_get_stats(f->ctl, &st);
+        control_get_stats(f->srv.ctl, &st);
         assert_int_equal(st.slow_readers, 1);
         assert_int_equal(st.clients, 0);
         pump_until(f, rx_at_eof, &r);
@@ -538,7 +517,7 @@ static void test_clients_max(void **state)
         pump_until(f, rx_at_eof, &r);
         assert_string_equal(r.buf, "ERR 87 too many control connections\n");
         close(r.fd);
-        control_get_stats(f->ctl, &st);
+        control_get_stats(f->srv.ctl, &st);
         assert_int_equal(st.refused_full, 1);
         assert_int_equal(st.accepted, CONTROL_CLIENTS_MAX);
         for (int i = 0; i < CONTROL_CLIENTS_MAX; i++)
@@ -557,11 +536,11 @@ static void test_path_taken(void **state)
         struct stat st;
         int fd;
 
-        snprintf(path, sizeof(path), "%s/other.sock", f->h.dir);
+        snprintf(path, sizeof(path), "%s/other.sock", f->srv.h.dir);
         strcpy(sa.sun_path, path);
 
-        assert_int_equal(harness_write_file(&f->h, "other.sock", "not a socket\n", NULL), 0);
-        assert_int_equal(control_new(f->loop, path, 0, 0, on_request, f, &c2), -EADDRINUSE);
+        assert_int_equal(harness_write_file(&f->srv.h, "other.sock", "not a socket\n", NULL), 0);
+        assert_int_equal(control_new(f->srv.loop, path, 0, 0, on_request, f, &c2), -EADDRINUSE);
         assert_int_equal(lstat(path, &st), 0);
         assert_true(S_ISREG(st.st_mode));
         unlink(path);
@@ -569,14 +548,14 @@ static void test_path_taken(void **state)
         fd = socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
         assert_int_equal(bind(fd, (struct sockaddr *)&sa, sizeof(sa)), 0);
         close(fd);                                      /* stale */
-        assert_int_equal(control_new(f->loop, path, 0, 0, on_request, f, &c2), 0);
+        assert_int_equal(control_new(f->srv.loop, path, 0, 0, on_request, f, &c2), 0);
         assert_non_null(c2);
 
         /* c2 lives: a third server on the same path is refused. */
         {
                 struct control *c3 = NULL;
 
-                assert_int_equal(control_new(f->loop, path, 0, 0, on_request, f, &c3),
+                assert_int_equal(control_new(f->srv.loop, path, 0, 0, on_request, f, &c3),
                                  -EADDRINUSE);
                 assert_null(c3);
         }
@@ -594,7 +573,7 @@ static int timer_fires_n(struct fixture *f, void *arg)
 {
         struct evloop_stats st;
 
-        evloop_get_stats(f->loop, &st);
+        evloop_get_stats(f->srv.loop, &st);
         return st.timer_fires >= *(uint64_t *)arg;
 }
 
@@ -623,10 +602,10 @@ static void test_accept_out_of_fds(void **state)
 
         memset(&r, 0, sizeof(r));
         r.fd = client_connect(f);
-        evloop_get_stats(f->loop, &before);
+        evloop_get_stats(f->srv.loop, &before);
         want = before.timer_fires + PAUSES;
         pump_until(f, timer_fires_n, &want);            /* PAUSES pauses of 100 ms */
-        evloop_get_stats(f->loop, &after);
+        evloop_get_stats(f->srv.loop, &after);
         /* One failed accept per pause, not thousands. */
         assert_true(after.fd_events - before.fd_events <= PAUSES + 1);
 

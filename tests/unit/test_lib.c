@@ -42,45 +42,31 @@ static const struct shm_var vars[NVARS] = {
         { "Note", SHM_DIR_OUT, SHM_TYPE_STRING, SHM_LINK_NONE, NULL, SHM_POSITION_NONE },
 };
 
-static const struct shm_link_def links[] = {
-        { "vehicle", "sharedlink" },
-        { "agility", "circe" },
-};
-
 struct fixture {
-        char instance[64];
-        struct shm_table_config cfg;
-        struct shm_table *t;
+        struct shmtest_table tb;        /* the daemon's side */
         struct sl_client *c;
 };
 
 static void config_default(struct fixture *f)
 {
-        memset(&f->cfg, 0, sizeof(f->cfg));
-        f->cfg.instance = f->instance;
-        f->cfg.vars = vars;
-        f->cfg.nvars = NVARS;
-        f->cfg.links = links;
-        f->cfg.nlinks = 2;
-        f->cfg.adhoc_capacity = ADHOC;
-        f->cfg.event_capacity = 16;
+        shmtest_table_config(&f->tb, vars, NVARS, ADHOC);
 }
 
 static int setup_daemon(void **state)
 {
         struct fixture *f = calloc(1, sizeof(*f));
 
-        shmtest_instance(f->instance, sizeof(f->instance), "lib");
+        shmtest_table_init(&f->tb, "lib");
         config_default(f);
         *state = f;
-        return shm_table_create(&f->cfg, &f->t) == 0 ? 0 : -1;
+        return shmtest_table_create(&f->tb) == 0 ? 0 : -1;
 }
 
 static int setup_bare(void **state)
 {
         struct fixture *f = calloc(1, sizeof(*f));
 
-        shmtest_instance(f->instance, sizeof(f->instance), "lib");
+        shmtest_table_init(&f->tb, "lib");
         config_default(f);
         *state = f;
         return 0;
@@ -93,7 +79,7 @@ static int setup(void **state)
         if (setup_daemon(state) < 0)
                 return -1;
         f = *state;
-        return sl_open(f->instance, &f->c) == 0 ? 0 : -1;
+        return sl_open(f->tb.instance, &f->c) == 0 ? 0 : -1;
 }
 
 static int teardown(void **state)
@@ -101,8 +87,7 @@ static int teardown(void **state)
         struct fixture *f = *state;
 
         sl_close(f->c);
-        shm_table_destroy(f->t);
-        shmtest_unlink(f->instance);
+        shmtest_table_destroy(&f->tb);
         free(f);
         return 0;
 }
@@ -123,7 +108,7 @@ static void on_change(void *userdata, const struct shm_out_change *change)
 static int scan(struct fixture *f, struct seen *s)
 {
         memset(s, 0, sizeof(*s));
-        return shm_table_out_scan(f->t, on_change, s);
+        return shm_table_out_scan(f->tb.t, on_change, s);
 }
 
 /* ---- open, ids ------------------------------------------------------------------------------ */
@@ -138,9 +123,9 @@ static void test_open_errors(void **state)
         assert_int_equal(sl_open(other, &c), -ENOENT);
         assert_null(c);
         assert_int_equal(sl_open("bad/name", &c), -EINVAL);
-        assert_int_equal(sl_open(f->instance, NULL), -EINVAL);
+        assert_int_equal(sl_open(f->tb.instance, NULL), -EINVAL);
         /* NULL: the environment names the instance. */
-        setenv("SHAREDLINK_INSTANCE", f->instance, 1);
+        setenv("SHAREDLINK_INSTANCE", f->tb.instance, 1);
         assert_int_equal(sl_open(NULL, &c), 0);
         unsetenv("SHAREDLINK_INSTANCE");
         assert_int_equal(sl_count(c), NVARS);
@@ -191,9 +176,9 @@ static void test_read(void **state)
         assert_int_equal(meta.flags & SL_FLAG_VALID, 0);
         assert_int_equal(meta.sequence, 0);
 
-        shm_table_begin_at(f->t, 5000, 6000);
-        shm_table_set_str(f->t, LAT, "40.12345678");
-        shm_table_commit(f->t);
+        shm_table_begin_at(f->tb.t, 5000, 6000);
+        shm_table_set_str(f->tb.t, LAT, "40.12345678");
+        shm_table_commit(f->tb.t);
         assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 11);
         assert_string_equal(buf, "40.12345678");
         assert_int_equal(meta.size, sizeof(meta));
@@ -202,12 +187,12 @@ static void test_read(void **state)
         assert_int_equal(meta.real_ns, 6000);
         assert_int_equal(meta.sequence, 1);
         assert_true(meta.age_ns > 0);
-        shm_table_set_str(f->t, LAT, "40.2");
+        shm_table_set_str(f->tb.t, LAT, "40.2");
         assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), NULL), 4);
         assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 4);
         assert_int_equal(meta.sequence, 2);
 
-        shm_table_set_link_stale(f->t, 0, 1);
+        shm_table_set_link_stale(f->tb.t, 0, 1);
         assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 4);
         assert_int_equal(meta.flags, SL_FLAG_VALID | SL_FLAG_STALE);
 
@@ -255,7 +240,7 @@ static void test_read_numbers(void **state)
 
         assert_int_equal(sl_read_double(f->c, LAT, &d, &meta), -ENODATA);        /* never set */
         for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
-                shm_table_set_str(f->t, STATE, cases[i].text);
+                shm_table_set_str(f->tb.t, STATE, cases[i].text);
                 assert_int_equal(sl_read_double(f->c, STATE, &d, &meta), cases[i].dr);
                 if (cases[i].dr == 0)
                         assert_true(d == cases[i].d);
@@ -330,7 +315,7 @@ static void test_write_refused(void **state)
         /* Only the 63-byte value reached the table. */
         assert_int_equal(scan(f, &s), 1);
         assert_int_equal(s.last.length, SL_VALUE_SIZE - 1);
-        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_INVALID), 0);
+        assert_int_equal(shm_table_counter_get(f->tb.t, SHM_LINK_NONE, SHM_COUNTER_OUT_INVALID), 0);
 }
 
 static void test_write_numbers(void **state)
@@ -377,33 +362,26 @@ static void test_write_numbers(void **state)
 static void test_write_read_after_repair(void **state)
 {
         struct fixture *f = *state;
-        char name[SHM_OBJECT_NAME_SIZE], buf[SL_VALUE_SIZE];
+        char buf[SL_VALUE_SIZE];
         struct sl_meta meta = { .size = sizeof(meta) };
         struct seen s;
         uint64_t word;
         pid_t pid;
-        int fd;
 
         assert_int_equal(sl_write(f->c, NOTE, "kept"), 0);
         assert_int_equal(scan(f, &s), 1);
         /* A writer dies half-way through the next write (in a child: a real dead pid). */
-        shm_layout_object_name(f->instance, "out", name, sizeof(name));
-        fd = shm_open(name, O_RDWR, 0);
-        assert_true(fd >= 0);
         fflush(NULL);
         pid = fork();
         if (pid == 0) {
-                struct shm_slot *slots = mmap(NULL, shm_layout_out_size(3), PROT_READ | PROT_WRITE,
-                                              MAP_SHARED, fd, 0);
-                struct shm_slot *slot = (struct shm_slot *)((char *)slots +
-                                        sizeof(struct shm_out_header)) + 2;
+                struct shmtest_view v = shmtest_view_open(f->tb.out_name, true);
 
-                if (shm_slot_claim(slot, (uint32_t)getpid(), &word) < 0)
+                if (!v.base || shm_slot_claim(shmtest_out_slot(&v, 2), (uint32_t)getpid(),
+                                              &word) < 0)
                         _exit(1);
-                shm_slot_store_word(slot, 0, 0x4141414141414141ull);
+                shm_slot_store_word(shmtest_out_slot(&v, 2), 0, 0x4141414141414141ull);
                 _exit(0);
         }
-        close(fd);
         assert_int_equal(shmtest_wait(pid), 0);
         assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), &meta), -EAGAIN);   /* held */
         assert_int_equal(scan(f, &s), 1);
@@ -444,9 +422,9 @@ static void test_wait_thread(void **state)
         assert_int_equal(sl_wait(f->c, &w.cursor, 10), 0);      /* times out: nothing changed */
         before = w.cursor;
         assert_int_equal(pthread_create(&th, NULL, waiter_main, &w), 0);
-        shm_table_begin(f->t);
-        shm_table_set_str(f->t, LAT, "1");
-        shm_table_commit(f->t);
+        shm_table_begin(f->tb.t);
+        shm_table_set_str(f->tb.t, LAT, "1");
+        shm_table_commit(f->tb.t);
         pthread_join(th, NULL);
         assert_int_equal(w.result, 1);
         assert_int_equal(w.cursor, before + 1);
@@ -481,7 +459,7 @@ static int wait_child_main(void *arg)
 static void test_wait_process(void **state)
 {
         struct fixture *f = *state;
-        struct wait_child w = { f->instance, { -1, -1 } };
+        struct wait_child w = { f->tb.instance, { -1, -1 } };
         char c;
         pid_t pid;
 
@@ -490,7 +468,7 @@ static void test_wait_process(void **state)
         close(w.ready[1]);
         assert_int_equal(read(w.ready[0], &c, 1), 1);
         close(w.ready[0]);
-        shm_table_event(f->t, SHM_EVENT_LOG, SHM_LINK_NONE, "x=1");     /* events count too */
+        shm_table_event(f->tb.t, SHM_EVENT_LOG, SHM_LINK_NONE, "x=1");     /* events count too */
         assert_int_equal(shmtest_wait(pid), 0);
 }
 
@@ -510,9 +488,9 @@ static void test_events(void **state)
 
         event_init(ev, 4);
         assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 0);
-        shm_table_event(f->t, SHM_EVENT_LINK_STATE, 1, "state=connected");
-        shm_table_eventf(f->t, SHM_EVENT_ACTION, 1, "device=%s sensor_time=%d", "E1E1E1", 5000);
-        shm_table_event(f->t, SHM_EVENT_DEVICE_OFFLINE, 1, "device=AAAAAA");
+        shm_table_event(f->tb.t, SHM_EVENT_LINK_STATE, 1, "state=connected");
+        shm_table_eventf(f->tb.t, SHM_EVENT_ACTION, 1, "device=%s sensor_time=%d", "E1E1E1", 5000);
+        shm_table_event(f->tb.t, SHM_EVENT_DEVICE_OFFLINE, 1, "device=AAAAAA");
         assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 3);
         assert_int_equal(ev[0].seq, 1);
         assert_string_equal(ev[0].type_name, "link-state");
@@ -530,7 +508,7 @@ static void test_events(void **state)
 
         /* Overrun: 16 records retained of 40 written, the reader learns how many it lost. */
         for (int i = 0; i < 40; i++)
-                shm_table_eventf(f->t, SHM_EVENT_LOG, SHM_LINK_NONE, "i=%d", i);
+                shm_table_eventf(f->tb.t, SHM_EVENT_LOG, SHM_LINK_NONE, "i=%d", i);
         assert_int_equal(sl_events_read(f->c, &cursor, ev, 2), 2);
         assert_int_equal(ev[0].seq, 43 - 16 + 1);
         assert_int_equal(ev[0].lost, 24);
@@ -541,7 +519,7 @@ static void test_events(void **state)
 
         /* "now": only what comes next. */
         assert_int_equal(sl_events_now(f->c, &now), 0);
-        shm_table_event(f->t, SHM_EVENT_KEYS, 0, "keys=3");
+        shm_table_event(f->tb.t, SHM_EVENT_KEYS, 0, "keys=3");
         assert_int_equal(sl_events_read(f->c, &now, ev, 4), 1);
         assert_string_equal(ev[0].text, "keys=3");
         assert_string_equal(ev[0].link_name, "vehicle");
@@ -581,9 +559,9 @@ static void test_links(void **state)
         int found = 0;
 
         assert_int_equal(sl_link_count(f->c), 2);
-        shm_table_link_state(f->t, 1, 3, "connected");
-        shm_table_counter_add(f->t, 1, SHM_COUNTER_FRAMES_IN, 7);
-        shm_table_counter_add(f->t, 1, SHM_COUNTER_BAD_CHECKSUM, 2);
+        shm_table_link_state(f->tb.t, 1, 3, "connected");
+        shm_table_counter_add(f->tb.t, 1, SHM_COUNTER_FRAMES_IN, 7);
+        shm_table_counter_add(f->tb.t, 1, SHM_COUNTER_BAD_CHECKSUM, 2);
         assert_int_equal(sl_link_info(f->c, 1, &li), 0);
         assert_string_equal(li.name, "agility");
         assert_string_equal(li.protocol, "circe");
@@ -605,16 +583,16 @@ static void test_links(void **state)
         assert_int_equal(sl_link_info(f->c, -1, &li), -ENOENT);
 
         /* A link added later shows up. */
-        shm_table_link_add(f->t, &(struct shm_link_def){ "arena", "circe" });
+        shm_table_link_add(f->tb.t, &(struct shm_link_def){ "arena", "circe" });
         assert_int_equal(sl_link_count(f->c), 3);
         assert_int_equal(sl_link_info(f->c, 2, &li), 0);
         assert_string_equal(li.name, "arena");
         assert_string_equal(li.state_name, "");
 
-        shm_table_counter_add(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_REPAIRED, 1);
+        shm_table_counter_add(f->tb.t, SHM_LINK_NONE, SHM_COUNTER_OUT_REPAIRED, 1);
         assert_int_equal(sl_daemon_info(f->c, &di), 0);
         assert_int_equal(di.pid, getpid());
-        assert_int_equal(di.epoch, shm_table_epoch(f->t));
+        assert_int_equal(di.epoch, shm_table_epoch(f->tb.t));
         assert_int_equal(di.alive, 1);
         assert_int_equal(di.heartbeat_interval_ms, 0);
         assert_true(di.started_real_ns > 0);
@@ -633,8 +611,8 @@ static void test_adhoc_visible(void **state)
         int id;
 
         sl_wait(f->c, &cursor, 0);
-        assert_int_equal(shm_table_add(f->t, &v), NVARS);
-        shm_table_set_str(f->t, NVARS, "21.5");
+        assert_int_equal(shm_table_add(f->tb.t, &v), NVARS);
+        shm_table_set_str(f->tb.t, NVARS, "21.5");
         assert_int_equal(sl_wait(f->c, &cursor, WAIT_LIMIT_MS), 1);
         assert_int_equal(sl_count(f->c), NVARS + 1);
         id = sl_find(f->c, "AdhocTemp");
@@ -662,16 +640,16 @@ static void test_restart_clean(void **state)
         struct sl_meta meta = { .size = sizeof(meta) };
         struct waiter w = { f->c, 0, -1 };
         char buf[SL_VALUE_SIZE];
-        uint64_t old_epoch = shm_table_epoch(f->t);
+        uint64_t old_epoch = shm_table_epoch(f->tb.t);
         struct seen s;
         pthread_t th;
 
-        shm_table_set_str(f->t, LAT, "1.0");
+        shm_table_set_str(f->tb.t, LAT, "1.0");
         sl_wait(f->c, &w.cursor, 0);
         assert_int_equal(pthread_create(&th, NULL, waiter_main, &w), 0);
 
         /* Clean shutdown: the waiter wakes; values stay readable, flagged stale; no writes. */
-        f->t = shm_table_destroy(f->t);
+        f->tb.t = shm_table_destroy(f->tb.t);
         pthread_join(th, NULL);
         assert_int_equal(w.result, 1);
         assert_int_equal(sl_daemon_alive(f->c), 0);
@@ -681,14 +659,14 @@ static void test_restart_clean(void **state)
         assert_int_equal(sl_wait(f->c, &w.cursor, 0), 0);       /* closed is not a change each time */
 
         /* A new daemon: the same ids keep naming the same variables. */
-        f->cfg.vars = vars2;
-        f->cfg.nvars = 6;
-        assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
-        assert_true(shm_table_epoch(f->t) != old_epoch);
-        shm_table_begin(f->t);
-        shm_table_set_str(f->t, 2, "2.0");              /* AutoGpsLat, now index 2 */
-        shm_table_set_str(f->t, 0, "77");               /* Extra */
-        shm_table_commit(f->t);
+        f->tb.cfg.vars = vars2;
+        f->tb.cfg.nvars = 6;
+        assert_int_equal(shm_table_create(&f->tb.cfg, &f->tb.t), 0);
+        assert_true(shm_table_epoch(f->tb.t) != old_epoch);
+        shm_table_begin(f->tb.t);
+        shm_table_set_str(f->tb.t, 2, "2.0");              /* AutoGpsLat, now index 2 */
+        shm_table_set_str(f->tb.t, 0, "77");               /* Extra */
+        shm_table_commit(f->tb.t);
         assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 3);
         assert_string_equal(buf, "2.0");
         assert_int_equal(meta.flags, SL_FLAG_VALID);
@@ -732,7 +710,7 @@ static int crash_daemon_main(void *arg)
 static void test_restart_after_crash(void **state)
 {
         struct fixture *f = *state;
-        struct crash_daemon d = { &f->cfg, { -1, -1 } };
+        struct crash_daemon d = { &f->tb.cfg, { -1, -1 } };
         struct sl_client *c;
         char buf[SL_VALUE_SIZE];
         uint32_t cursor = 0;
@@ -744,7 +722,7 @@ static void test_restart_after_crash(void **state)
         close(d.ready[1]);
         assert_int_equal(read(d.ready[0], &ch, 1), 1);
         close(d.ready[0]);
-        assert_int_equal(sl_open(f->instance, &c), 0);
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
         assert_int_equal(sl_read(c, LAT, buf, sizeof(buf), NULL), 10);
         assert_string_equal(buf, "from-child");
         sl_wait(c, &cursor, 0);
@@ -754,8 +732,8 @@ static void test_restart_after_crash(void **state)
         assert_int_equal(shmtest_wait(pid), 128 + SIGKILL);
         assert_int_equal(sl_daemon_alive(c), 0);        /* no heartbeat configured: by pid */
         /* The crashed daemon left its objects; the next one replaces them. */
-        assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
-        shm_table_set_str(f->t, LAT, "from-parent");
+        assert_int_equal(shm_table_create(&f->tb.cfg, &f->tb.t), 0);
+        shm_table_set_str(f->tb.t, LAT, "from-parent");
         assert_int_equal(sl_wait(c, &cursor, WAIT_LIMIT_MS), 1);        /* woken by the replace */
         assert_int_equal(sl_read(c, LAT, buf, sizeof(buf), NULL), 11);
         assert_string_equal(buf, "from-parent");
@@ -766,15 +744,13 @@ static void test_restart_after_crash(void **state)
 static void test_out_recreated(void **state)
 {
         struct fixture *f = *state;
-        char name[SHM_OBJECT_NAME_SIZE];
         struct seen s;
         int fd;
 
         assert_int_equal(sl_write(f->c, NOTE, "a"), 0);
         assert_int_equal(scan(f, &s), 1);
         /* Someone truncates .out under everybody's mappings. */
-        shm_layout_object_name(f->instance, "out", name, sizeof(name));
-        fd = shm_open(name, O_RDWR, 0);
+        fd = shm_open(f->tb.out_name, O_RDWR, 0);
         assert_true(fd >= 0);
         assert_int_equal(ftruncate(fd, 0), 0);
         close(fd);
@@ -827,12 +803,12 @@ static int perm_probe_main(void *arg)
 static void test_permissions_no_group(void **state)
 {
         struct fixture *f = *state;
-        struct perm_probe p = { f->instance, 0, -EACCES };
+        struct perm_probe p = { f->tb.instance, 0, -EACCES };
         const gid_t nogroup = SHMTEST_NOBODY;
 
         if (geteuid() != 0)
                 skip();
-        shm_table_set_str(f->t, LAT, "1");
+        shm_table_set_str(f->tb.t, LAT, "1");
         /* Anyone reads 0644; nobody outside the group writes. */
         assert_int_equal(shmtest_as_user(SHMTEST_NOBODY, SHMTEST_NOBODY, 1, &nogroup,
                                          perm_probe_main, &p), 0);
@@ -841,17 +817,17 @@ static void test_permissions_no_group(void **state)
 static void test_permissions_group(void **state)
 {
         struct fixture *f = *state;
-        struct perm_probe outsider = { f->instance, -EACCES, 0 };
-        struct perm_probe member = { f->instance, 0, 0 };
+        struct perm_probe outsider = { f->tb.instance, -EACCES, 0 };
+        struct perm_probe member = { f->tb.instance, 0, 0 };
         const gid_t nogroup = SHMTEST_NOBODY, group = SHMTEST_GROUP;
         struct seen s;
 
         if (geteuid() != 0)
                 skip();
-        f->cfg.has_group = 1;
-        f->cfg.gid = SHMTEST_GROUP;
-        assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
-        shm_table_set_str(f->t, LAT, "1");
+        f->tb.cfg.has_group = 1;
+        f->tb.cfg.gid = SHMTEST_GROUP;
+        assert_int_equal(shm_table_create(&f->tb.cfg, &f->tb.t), 0);
+        shm_table_set_str(f->tb.t, LAT, "1");
         /* 0640: outside the group, not even readable. */
         assert_int_equal(shmtest_as_user(SHMTEST_NOBODY, SHMTEST_NOBODY, 1, &nogroup,
                                          perm_probe_main, &outsider), 0);

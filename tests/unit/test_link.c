@@ -16,7 +16,9 @@
 
 #include <cmocka.h>
 
+#include "common/ctlserver.h"
 #include "common/harness.h"
+#include "common/words.h"
 #include "daemon/control.h"
 #include "daemon/evloop.h"
 #include "daemon/link.h"
@@ -28,15 +30,6 @@
 #define NAME_MAX_LEN    16
 
 #define WORDS_MAX       8
-
-static int split(char *line, char **argv)
-{
-        int n = 0;
-
-        for (char *w = strtok(line, " "); w && n < WORDS_MAX; w = strtok(NULL, " "))
-                argv[n++] = w;
-        return n;
-}
 
 struct wait_case {
         const char *line;
@@ -72,7 +65,7 @@ static void test_command_wait(void **state)
                 int argc, r;
 
                 snprintf(buf, sizeof(buf), "%s", k->line);
-                argc = split(buf, argv);
+                argc = words_split(buf, argv, WORDS_MAX);
                 r = link_command_wait(&argc, argv, &wait_ms, err, sizeof(err));
                 if (r != k->result || argc != k->argc)
                         fail_msg("\"%s\": %d, %d words (want %d, %d)", k->line, r, argc,
@@ -124,12 +117,7 @@ static void test_command_words(void **state)
 /* ---- the wait queue ---------------------------------------------------------------------- */
 
 struct fx {
-        struct harness h;
-        struct evloop *loop;
-        struct control *ctl;
-        char path[HARNESS_PATH_MAX + 32];
-        struct evloop_timer guard;
-        bool timed_out;
+        struct ctlserver srv;
         unsigned calls;
         struct link_waitq q;
         bool ready;
@@ -186,24 +174,12 @@ static void on_request(struct control_request *req, int argc, char **argv, void 
                 control_reply_error(req, r, "queue full");
 }
 
-static void on_guard(struct evloop *loop, struct evloop_timer *t, void *arg)
-{
-        (void)loop;
-        (void)t;
-        ((struct fx *)arg)->timed_out = true;
-}
-
 static int wq_setup(void **state)
 {
         struct fx *f = calloc(1, sizeof(*f));
 
-        if (!f || harness_init(&f->h, "lnk") < 0 || evloop_new(&f->loop) < 0)
+        if (!f || ctlserver_init(&f->srv, "lnk", on_request, f) < 0)
                 return -1;
-        log_init(-1, -1);
-        snprintf(f->path, sizeof(f->path), "%s/c.sock", f->h.dir);
-        if (control_new(f->loop, f->path, 0, 0, on_request, f, &f->ctl) < 0)
-                return -1;
-        evloop_timer_init(&f->guard, f->loop, on_guard, f);
         for (unsigned i = 0; i < CLIENTS; i++)
                 f->fds[i] = -1;
         *state = f;
@@ -217,10 +193,7 @@ static int wq_teardown(void **state)
         for (unsigned i = 0; i < CLIENTS; i++)
                 if (f->fds[i] >= 0)
                         close(f->fds[i]);
-        evloop_timer_cancel(&f->guard);
-        control_free(f->ctl);
-        evloop_free(f->loop);
-        harness_cleanup(&f->h);
+        ctlserver_free(&f->srv);
         free(f);
         return 0;
 }
@@ -228,13 +201,13 @@ static int wq_teardown(void **state)
 /* Runs the loop until cond(f, i) holds, under the guard. */
 static void pump_until(struct fx *f, bool (*cond)(struct fx *f, unsigned i), unsigned i)
 {
-        f->timed_out = false;
-        assert_int_equal(evloop_timer_arm(&f->guard, GUARD_MS, 0), 0);
+        f->srv.timed_out = false;
+        assert_int_equal(evloop_timer_arm(&f->srv.guard, GUARD_MS, 0), 0);
         while (!cond(f, i)) {
-                assert_int_equal(evloop_run_once(f->loop), 0);
-                assert_false(f->timed_out);
+                assert_int_equal(evloop_run_once(f->srv.loop), 0);
+                assert_false(f->srv.timed_out);
         }
-        evloop_timer_cancel(&f->guard);
+        evloop_timer_cancel(&f->srv.guard);
 }
 
 static bool calls_reached(struct fx *f, unsigned n)
@@ -254,7 +227,7 @@ static void client_send(struct fx *f, unsigned i, unsigned wait_ms)
         char line[64];
         int n = snprintf(line, sizeof(line), "w c%u %u\n", i, wait_ms);
 
-        f->fds[i] = harness_connect_unix(f->path);
+        f->fds[i] = harness_connect_unix(f->srv.path);
         assert_true(f->fds[i] >= 0);
         assert_int_equal(harness_write_all(f->fds[i], line, (size_t)n, GUARD_MS), 0);
         pump_until(f, calls_reached, f->calls + 1);

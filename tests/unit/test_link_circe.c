@@ -34,8 +34,11 @@
 
 #include <sharedlink.h>
 
+#include "common/circe_garbage.h"
 #include "common/circe_sessions.h"
 #include "common/harness.h"
+#include "common/testdata.h"
+#include "common/wire.h"
 #include "daemon/config.h"
 #include "daemon/control.h"
 #include "daemon/evloop.h"
@@ -247,31 +250,23 @@ static int teardown(void **state)
 }
 
 /*
- * Parses the YAML (where "@DEV0@", "@DEV1@" and "@DIR@" stand for the test's paths), declares
- * every link's variables, creates the table and the engines, opens the client.
+ * Parses tests/data/<file> (where "@DEV0@", "@DEV1@" and "@DIR@" stand for the test's paths),
+ * declares every link's variables, creates the table and the engines, opens the client.
  */
-static void start(struct fx *f, const char *yaml_template)
+static void start(struct fx *f, const char *file)
 {
         static struct shm_var vars[VARS_MAX];
         static char names[NAMES_SIZE];
+        const char *const subst[] = { "@DEV0@", f->dev[0], "@DEV1@", f->dev[1], "@DIR@", f->dir,
+                                      NULL };
         struct shm_link_def defs[LINKS_MAX];
         char yaml[YAML_MAX];
         struct config_error err;
-        size_t n = 0, used = 0, o = 0;
+        size_t n = 0, used = 0;
+        ssize_t o = testdata_load(file, subst, yaml, sizeof(yaml));
 
-        for (const char *p = yaml_template; *p && o < sizeof(yaml) - 160; ) {
-                if (strncmp(p, "@DEV0@", 6) == 0 || strncmp(p, "@DEV1@", 6) == 0) {
-                        o += (size_t)snprintf(yaml + o, sizeof(yaml) - o, "%s", f->dev[p[4] - '0']);
-                        p += 6;
-                } else if (strncmp(p, "@DIR@", 5) == 0) {
-                        o += (size_t)snprintf(yaml + o, sizeof(yaml) - o, "%s", f->dir);
-                        p += 5;
-                } else {
-                        yaml[o++] = *p++;
-                }
-        }
-        yaml[o] = '\0';
-        if (config_parse(yaml, o, "test.yaml", &f->cfg, &err) != 0)
+        assert_true(o > 0);
+        if (config_parse(yaml, (size_t)o, file, &f->cfg, &err) != 0)
                 fail_msg("config: %s", err.message);
         f->n_links = f->cfg->n_links;
         assert_true(f->n_links >= 1 && f->n_links <= LINKS_MAX);
@@ -330,23 +325,6 @@ static void run_for(struct fx *f, unsigned ms)
 
 /* ---- packets --------------------------------------------------------------------------------- */
 
-/* STX body checksum ETX; body is "OP\tPPP:V\t...". */
-static size_t pkt_build(const char *body, bool cs, uint8_t *out)
-{
-        size_t n = 0;
-        unsigned sum = CIRCE_STX;
-
-        out[n++] = CIRCE_STX;
-        for (const char *p = body; *p; p++) {
-                out[n++] = (uint8_t)*p;
-                sum += (uint8_t)*p;
-        }
-        if (cs)
-                n += (size_t)sprintf((char *)out + n, "%02X", sum & 0xFF);
-        out[n++] = CIRCE_ETX;
-        return n;
-}
-
 static void put_raw(struct fx *f, unsigned side, const void *data, size_t len)
 {
         assert_int_equal(harness_write_all(f->master[side], data, len, WAIT_MS), 0);
@@ -357,7 +335,7 @@ static void put(struct fx *f, unsigned side, const char *body)
 {
         uint8_t pkt[CIRCE_PACKET_MAX + 8];
 
-        put_raw(f, side, pkt, pkt_build(body, true, pkt));
+        put_raw(f, side, pkt, wire_circe_str(pkt, sizeof(pkt), body, WIRE_CS_UPPER));
 }
 
 static bool has_packet(struct fx *f, const void *arg)
@@ -385,23 +363,6 @@ static size_t next_packet(struct fx *f, unsigned side, uint8_t *out, unsigned ms
         return len - (size_t)(stx - f->rx[side]);
 }
 
-static void show(const uint8_t *p, size_t n, char *out, size_t size)
-{
-        size_t o = 0;
-
-        for (size_t i = 0; i < n && o + 8 < size; i++) {
-                if (p[i] == CIRCE_STX)
-                        o += (size_t)snprintf(out + o, size - o, "<STX>");
-                else if (p[i] == CIRCE_ETX)
-                        o += (size_t)snprintf(out + o, size - o, "<ETX>");
-                else if (p[i] == CIRCE_TAB)
-                        o += (size_t)snprintf(out + o, size - o, "<TAB>");
-                else
-                        out[o++] = (char)p[i];
-        }
-        out[o] = '\0';
-}
-
 /*
  * Expects the next packet on side to be exactly body (+ checksum). With skip_status, Notify
  * Status packets in between are skipped: the emulator's periodic statuses may interleave with
@@ -410,12 +371,12 @@ static void show(const uint8_t *p, size_t n, char *out, size_t size)
 static void expect_ex(struct fx *f, unsigned side, const char *body, bool skip_status)
 {
         uint8_t want[CIRCE_PACKET_MAX + 8], got[CIRCE_PACKET_MAX + 8];
-        size_t wn = pkt_build(body, true, want), gn;
+        size_t wn = wire_circe_str(want, sizeof(want), body, WIRE_CS_UPPER), gn;
         char a[2048], b[2048];
 
         for (;;) {
                 gn = next_packet(f, side, got, WAIT_MS);
-                show(want, wn, a, sizeof(a));
+                wire_circe_show(want, wn, a, sizeof(a));
                 if (gn == 0)
                         fail_msg("no packet on dev%u; expected %s", side, a);
                 if (skip_status && gn > 3 && memcmp(got + 1, "52\t", 3) == 0 &&
@@ -424,7 +385,7 @@ static void expect_ex(struct fx *f, unsigned side, const char *body, bool skip_s
                         continue;
                 break;
         }
-        show(got, gn, b, sizeof(b));
+        wire_circe_show(got, gn, b, sizeof(b));
         if (gn != wn || memcmp(got, want, wn) != 0)
                 fail_msg("dev%u: got %s, expected %s", side, b, a);
 }
@@ -672,39 +633,12 @@ static const char *request(struct fx *f, const char *line)
         return request_wait(f, WAIT_MS);
 }
 
-/* ---- configurations -------------------------------------------------------------------------- */
-
-/* Controller on dev0 then dev1, speaking the spec examples' version. */
-static const char *const ctl_yaml_spec =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: agility\n"
-        "    protocol: circe\n"
-        "    role: controller\n"
-        "    transport: serial\n"
-        "    devices: [@DEV0@, @DEV1@]\n"
-        "    expect_version: \"1.2\"\n"
-        "    login_timeout_ms: 2000\n"
-        "    idle_timeout_ms: 10000\n";
-
-static const char *const ctl_yaml_fast =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: agility\n"
-        "    protocol: circe\n"
-        "    role: controller\n"
-        "    transport: serial\n"
-        "    devices: [@DEV0@, @DEV1@]\n"
-        "    expect_version: \"0.2\"\n"
-        "    login_timeout_ms: 200\n"
-        "    idle_timeout_ms: 300\n";
+/* ---- controller start (configurations in tests/data/link_circe_*.yaml) ---------------------- */
 
 /* Starts a controller and answers its Login on dev0. */
-static void ctl_logged_in(struct fx *f, const char *yaml, const char *keep_alive)
+static void ctl_logged_in(struct fx *f, const char *file, const char *keep_alive)
 {
-        start(f, yaml);
+        start(f, file);
         expect(f, 0, CIRCE_S_LOGIN);
         wait_value(f, "agility.state", "connecting");
         put(f, 0, keep_alive);
@@ -718,7 +652,7 @@ static void test_ctl_example_assigning_addresses(void **state)
 {
         struct fx *f = *state;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA_UNCONF);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA_UNCONF);
         wait_value(f, "agility.state", "unconfigured");
         assert_string_equal(link_state(f, 0), "unconfigured");
         assert_value(f, "agility.mediator.version", "1.2.34");
@@ -758,7 +692,7 @@ static void test_ctl_example_forming_network(void **state)
 {
         struct fx *f = *state;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         wait_value(f, "agility.state", "connected");
         put(f, 0, CIRCE_S_NET_STATUS_AAAAAA);
         put(f, 0, CIRCE_S_NET_STATUS_E1E1E1);
@@ -788,7 +722,7 @@ static void test_ctl_example_clock_sync(void **state)
         struct fx *f = *state;
         const char *r;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         put(f, 0, CIRCE_S_SYNC_STATUS_AAAAAA);
         put(f, 0, CIRCE_S_SYNC_STATUS_E1E1E1);
         wait_value(f, "agility.device.E1E1E1.clock_sync", "1");
@@ -810,7 +744,7 @@ static void test_ctl_example_race(void **state)
         struct fx *f = *state;
         unsigned a, b, c, d;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         put(f, 0, CIRCE_S_RACE_READY_DOWN);
         put(f, 0, CIRCE_S_RACE_READY_UP);
         put(f, 0, CIRCE_S_RACE_START);
@@ -840,7 +774,7 @@ static void test_ctl_sync_sequence_and_timeout(void **state)
         struct fx *f = *state;
         const char *r;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         put(f, 0, "52\t015:AAAAAA\t016:1\t019:1\t020:1\t021:200\t");
         put(f, 0, "52\t015:E1E1E1\t016:1\t019:32\t020:2\t021:150\t027:2\t");
         put(f, 0, "52\t015:E2E2E2\t016:1\t019:32\t020:4\t021:150\t027:1\t");
@@ -873,7 +807,7 @@ static void test_ctl_login_timeout_next_port(void **state)
         struct fx *f = *state;
         unsigned i;
 
-        start(f, ctl_yaml_fast);
+        start(f, "link_circe_ctl_fast.yaml");
         expect(f, 0, CIRCE_S_LOGIN);
         expect(f, 0, CIRCE_S_LOGOUT);
         expect(f, 1, CIRCE_S_LOGIN);
@@ -894,7 +828,7 @@ static void test_ctl_idle_timeout_reconnect(void **state)
         struct fx *f = *state;
         unsigned i;
 
-        start(f, ctl_yaml_fast);
+        start(f, "link_circe_ctl_fast.yaml");
         expect(f, 0, CIRCE_S_LOGIN);
         put(f, 0, CIRCE_S_KA_023);
         wait_value(f, "agility.state", "connected");
@@ -924,7 +858,7 @@ static void test_ctl_version_mismatch(void **state)
 {
         struct fx *f = *state;
 
-        start(f, ctl_yaml_fast);
+        start(f, "link_circe_ctl_fast.yaml");
         expect(f, 0, CIRCE_S_LOGIN);
         put(f, 0, CIRCE_S_KA);
         expect(f, 0, CIRCE_S_LOGOUT);
@@ -946,7 +880,7 @@ static void test_ctl_device_offline(void **state)
         struct fx *f = *state;
         unsigned on, off;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         put(f, 0, "52\t015:E1E1E1\t016:1\t019:32\t020:2\t021:150\t022:200\t023:1\t037:0\t");
         on = wait_event(f, "device-online", "device=E1E1E1");
         wait_value(f, "agility.device.E1E1E1.online", "1");
@@ -970,55 +904,12 @@ static void test_ctl_bad_input(void **state)
 {
         struct fx *f = *state;
         uint8_t pkt[CIRCE_PACKET_MAX * 2];
-        size_t n;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         wait_value(f, "agility.state", "connected");
 
-        /* noise between packets: 7 bytes, plus a stray ETX */
-        put_raw(f, 0, "garbage\x03", 8);
-        put(f, 0, "53\t015:A00001\t025:1\t");
-        /* bad checksum */
-        n = pkt_build("53\t015:B00001\t025:1\t", true, pkt);
-        pkt[n - 2] = pkt[n - 2] == '0' ? '1' : '0';
-        put_raw(f, 0, pkt, n);
-        put(f, 0, "53\t015:A00002\t025:2\t");
-        /* checksum accepted in lower case; no checksum at all is fine too */
-        n = pkt_build("53\t015:A0000A\t025:3\t", true, pkt);
-        for (size_t i = 0; i < n; i++)
-                if (pkt[i] >= 'A' && pkt[i] <= 'F' && i >= n - 3)
-                        pkt[i] = (uint8_t)(pkt[i] - 'A' + 'a');
-        put_raw(f, 0, pkt, n);
-        put_raw(f, 0, pkt, pkt_build("53\t015:A0000B\t025:4\t", false, pkt));
-        /* unknown operation */
-        put(f, 0, "99\t015:B00002\t");
-        /* bad values: signal over 255, a lowercase address, an empty value */
-        put(f, 0, "52\t015:B00003\t016:0\t019:32\t020:0\t021:256\t");
-        put(f, 0, "53\t015:b00004\t025:1\t");
-        put(f, 0, "53\t015:\t025:1\t");
-        /* a mandatory parameter missing (Notify Status without 021) */
-        put(f, 0, "52\t015:B00005\t016:0\t019:32\t020:0\t");
-        /* a repeated parameter keeps its first occurrence */
-        put(f, 0, "53\t015:A00003\t025:7\t025:8\t");
-        /* a parameter not allowed for the operation is skipped, unchecked */
-        put(f, 0, "53\t015:A00004\t025:9\t031:xyz\t");
-        /* a second STX abandons the partial packet */
-        put_raw(f, 0, "\x02" "53\t015:B00006", 13);
-        put(f, 0, "53\t015:A00005\t025:10\t");
-        /* an overlong packet is abandoned, the next one still lands */
-        memset(pkt, 'x', sizeof(pkt));
-        pkt[0] = CIRCE_STX;
-        put_raw(f, 0, pkt, CIRCE_PACKET_MAX + 10);
-        put(f, 0, "53\t015:A00006\t025:11\t");
-        /* non-compliant statuses: ignored and counted */
-        put(f, 0, "52\t015:C00001\t016:0\t019:0\t020:0\t021:1\t");
-        put(f, 0, "52\t015:C00002\t016:0\t019:33\t020:0\t021:1\t");
-        put(f, 0, "52\t015:C00003\t016:0\t019:65\t020:0\t021:1\t");
-        put(f, 0, "52\t015:000000\t016:0\t019:32\t020:0\t021:1\t");
-        /* an operation of the controller's own, from the mediator */
-        put(f, 0, CIRCE_S_NET_ALERT_E1E1E1);
-        put(f, 0, "52\t015:A00007\t016:0\t019:96\t020:0\t021:1\t");       /* 96 = 64|32: no */
-        put(f, 0, "52\t015:A00008\t016:0\t019:31\t020:0\t021:1\t");
+        for (unsigned k = 0; k < CIRCE_GARBAGE_STEPS; k++)
+                put_raw(f, 0, pkt, circe_garbage_bytes(k, pkt, sizeof(pkt)));
 
         wait_value(f, "agility.device.A00008.online", "1");
         for (unsigned k = 1; k <= 6; k++) {
@@ -1037,22 +928,14 @@ static void test_ctl_bad_input(void **state)
         assert_int_equal(event_find(f, 0, "device-online", "device=A00007"), -1);
         assert_null(value(f, "agility.device.C00001.online"));
 
-        /* "garbage" + stray ETX; the overlong packet's 1033 bytes after STX fill the 1022 bytes
-         * of room, the rest (11) is discarded as noise up to the next STX. */
-        assert_int_equal(counter(f, 0, "noise_bytes"), 8 + (CIRCE_PACKET_MAX + 10 - 1) -
-                                                       (CIRCE_PACKET_MAX - 2));
-        assert_int_equal(counter(f, 0, "bad_checksum"), 1);
-        assert_int_equal(counter(f, 0, "unknown_op"), 2);
-        assert_int_equal(counter(f, 0, "bad_value"), 3);
-        assert_int_equal(counter(f, 0, "missing_param"), 1);
-        assert_int_equal(counter(f, 0, "repeated_param"), 1);
-        assert_int_equal(counter(f, 0, "skipped_param"), 1);
-        assert_int_equal(counter(f, 0, "resync"), 1);
-        assert_int_equal(counter(f, 0, "overlong"), 1);
-        assert_int_equal(counter(f, 0, "noncompliant_status"), 5);
-        /* KA + A00001..6 + A0000A + A0000B + 5 non-compliant (A00007 among them) + 03 +
-         * A00008 */
-        assert_int_equal(counter(f, 0, "frames_in"), 1 + 6 + 2 + 5 + 1 + 1);
+        for (unsigned k = 0; k < CIRCE_GARBAGE_COUNTERS; k++) {
+                const struct circe_garbage_count *c = &circe_garbage_counts[k];
+
+                if (counter(f, 0, c->counter) != c->value)
+                        fail_msg("%s: %llu, expected %llu", c->counter,
+                                 (unsigned long long)counter(f, 0, c->counter),
+                                 (unsigned long long)c->value);
+        }
 }
 
 /* Log (54): the daemon's log (rate-limited) and an event; counted. */
@@ -1063,7 +946,7 @@ static void test_ctl_log(void **state)
         ssize_t n;
         int fd;
 
-        ctl_logged_in(f, ctl_yaml_spec, CIRCE_S_KA);
+        ctl_logged_in(f, "link_circe_ctl_spec.yaml", CIRCE_S_KA);
         put(f, 0, "54\t036:48656C6C6F0A\t");
         wait_event(f, "log", "bytes=6 data=48656C6C6F0A");
         for (int k = 0; k < 30; k++)
@@ -1093,7 +976,7 @@ static void test_ctl_commands(void **state)
 {
         struct fx *f = *state;
 
-        start(f, ctl_yaml_spec);
+        start(f, "link_circe_ctl_spec.yaml");
         expect(f, 0, CIRCE_S_LOGIN);
         assert_string_equal(request(f, "circe agility alert E1E1E1"),
                             "ERR 107 link agility is not connected (state connecting)\n");
@@ -1119,26 +1002,11 @@ static void test_ctl_commands(void **state)
 
 /* ---- emulator: the spec's sessions from the other side ----------------------------------------- */
 
-static const char *const emu_yaml_assign =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: arena\n"
-        "    protocol: circe\n"
-        "    role: mediator\n"
-        "    transport: serial\n"
-        "    device: @DEV0@\n"
-        "    version: \"1.2.34\"\n"
-        "    status: 1\n"
-        "    keepalive_ms: 60000\n"
-        "    emulate:\n"
-        "      - {address: \"000000\", capabilities: 1, signal: 150}\n";
-
 static void test_emu_example_assigning_addresses(void **state)
 {
         struct fx *f = *state;
 
-        start(f, emu_yaml_assign);
+        start(f, "link_circe_emu_assign.yaml");
         wait_value(f, "arena.state", "connecting");
         assert_value(f, "arena.mediator.status", "1");
         assert_value(f, "arena.mediator.address", "");
@@ -1163,27 +1031,11 @@ static void test_emu_example_assigning_addresses(void **state)
         assert_int_equal(f->rx_len[0], 0);
 }
 
-static const char *const emu_yaml_network =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: arena\n"
-        "    protocol: circe\n"
-        "    role: mediator\n"
-        "    transport: serial\n"
-        "    device: @DEV0@\n"
-        "    version: \"1.2.34\"\n"
-        "    keepalive_ms: 60000\n"
-        "    emulate:\n"
-        "      - {address: AAAAAA, capabilities: 1, signal: 200}\n"
-        "      - {address: E1E1E1, capabilities: 32, signal: 150}\n"
-        "      - {address: E2E2E2, capabilities: 32, signal: 130}\n";
-
 static void test_emu_example_forming_network(void **state)
 {
         struct fx *f = *state;
 
-        start(f, emu_yaml_network);
+        start(f, "link_circe_emu_network.yaml");
         put(f, 0, CIRCE_S_LOGIN);
         expect(f, 0, CIRCE_S_KA);
         expect(f, 0, CIRCE_S_NET_STATUS_AAAAAA);
@@ -1212,27 +1064,12 @@ static void test_emu_example_forming_network(void **state)
         assert_null(value(f, "arena.device.999999.alerts"));
 }
 
-static const char *const emu_yaml_sync =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: arena\n"
-        "    protocol: circe\n"
-        "    role: mediator\n"
-        "    transport: serial\n"
-        "    device: @DEV0@\n"
-        "    version: \"1.2.34\"\n"
-        "    keepalive_ms: 60000\n"
-        "    emulate:\n"
-        "      - {address: AAAAAA, capabilities: 31, roles: 3, signal: 200}\n"
-        "      - {address: E1E1E1, capabilities: 32, roles: 4, signal: 150, membership: true}\n";
-
 /* The spec's gate asks for sync while a member (our model: members power up needing sync). */
 static void test_emu_example_clock_sync(void **state)
 {
         struct fx *f = *state;
 
-        start(f, emu_yaml_sync);
+        start(f, "link_circe_emu_sync.yaml");
         put(f, 0, CIRCE_S_LOGIN);
         expect(f, 0, CIRCE_S_KA);
         expect(f, 0, CIRCE_S_SYNC_STATUS_AAAAAA);
@@ -1246,30 +1083,13 @@ static void test_emu_example_clock_sync(void **state)
         assert_value(f, "arena.device.E1E1E1.clock_sync", "2");
 }
 
-static const char *const emu_yaml_race =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: arena\n"
-        "    protocol: circe\n"
-        "    role: mediator\n"
-        "    transport: serial\n"
-        "    device: @DEV0@\n"
-        "    version: \"1.2.34\"\n"
-        "    keepalive_ms: 60000\n"
-        "    emulate:\n"
-        "      - {address: AAAAAA, capabilities: 13, roles: 7, signal: 200}\n"
-        "      - {address: E1E1E1, capabilities: 32, roles: 2, signal: 150}\n"
-        "      - {address: E2E2E2, capabilities: 32, roles: 4, signal: 130}\n"
-        "      - {address: D15D15, capabilities: 64, roles: 64}\n";
-
 static void test_emu_example_race(void **state)
 {
         struct fx *f = *state;
         struct circe_result res;
         uint8_t buf[CIRCE_PACKET_MAX];
 
-        start(f, emu_yaml_race);
+        start(f, "link_circe_emu_race.yaml");
         assert_string_equal(request(f, "circe arena emulate action AAAAAA keys=32768"),
                             "ERR 107 link arena is not connected (state connecting)\n");
         put(f, 0, CIRCE_S_LOGIN);
@@ -1316,7 +1136,7 @@ static void test_emu_visualize(void **state)
 {
         struct fx *f = *state;
 
-        start(f, emu_yaml_race);
+        start(f, "link_circe_emu_race.yaml");
         put(f, 0, CIRCE_S_LOGIN);
         expect(f, 0, CIRCE_S_KA);
         assert_value(f, "arena.device.D15D15.current_competitor", "");
@@ -1344,26 +1164,15 @@ static void test_emu_visualize(void **state)
  * Login. Checked as counts of packets, never as durations. */
 static void test_emu_keepalive(void **state)
 {
-        static const char *const yaml =
-                "instance: x\n"
-                "runtime_dir: @DIR@\n"
-                "links:\n"
-                "  - name: arena\n"
-                "    protocol: circe\n"
-                "    role: mediator\n"
-                "    transport: serial\n"
-                "    device: @DEV0@\n"
-                "    checksum: false\n"
-                "    keepalive_ms: 50\n";
         struct fx *f = *state;
         uint8_t want[64], got[64];
         size_t wn;
 
-        start(f, yaml);
+        start(f, "link_circe_emu_keepalive.yaml");
         run_for(f, 300);
         assert_int_equal(f->rx_len[0], 0);
         put(f, 0, CIRCE_S_LOGIN);
-        wn = pkt_build(CIRCE_S_KA_023, false, want);
+        wn = wire_circe_str(want, sizeof(want), CIRCE_S_KA_023, WIRE_CS_NONE);
         for (int k = 0; k < 6; k++) {
                 size_t gn = next_packet(f, 0, got, WAIT_MS);
 
@@ -1379,21 +1188,9 @@ static void test_emu_keepalive(void **state)
  * ever needed after the one that answers Login. */
 static void test_emu_status_period(void **state)
 {
-        static const char *const yaml =
-                "instance: x\n"
-                "runtime_dir: @DIR@\n"
-                "links:\n"
-                "  - name: arena\n"
-                "    protocol: circe\n"
-                "    role: mediator\n"
-                "    transport: serial\n"
-                "    device: @DEV0@\n"
-                "    keepalive_ms: 1500\n"
-                "    emulate:\n"
-                "      - {address: E1E1E1, capabilities: 32, signal: 150, battery: 200}\n";
         struct fx *f = *state;
 
-        start(f, yaml);
+        start(f, "link_circe_emu_status_period.yaml");
         put(f, 0, CIRCE_S_LOGIN);
         expect(f, 0, CIRCE_S_KA_023);
         for (int k = 0; k < 3; k++)
@@ -1405,7 +1202,7 @@ static void test_emu_bad_input(void **state)
 {
         struct fx *f = *state;
 
-        start(f, emu_yaml_network);
+        start(f, "link_circe_emu_network.yaml");
         put_raw(f, 0, "\x03noise\x02" "01\tZZ\x03", 13);
         put(f, 0, CIRCE_S_KA_023);            /* a mediator operation */
         put(f, 0, "04\t014:AAAAAA\t017:1\t");           /* 020 missing */
@@ -1422,33 +1219,13 @@ static void test_emu_bad_input(void **state)
 
 /* ---- both engines back to back over one pty (the `make demo` pair) --------------------------- */
 
-static const char *const pair_yaml =
-        "instance: x\n"
-        "runtime_dir: @DIR@\n"
-        "links:\n"
-        "  - name: arena\n"
-        "    protocol: circe\n"
-        "    role: mediator\n"
-        "    transport: pty\n"
-        "    device: @DIR@/arena.tty\n"
-        "    keepalive_ms: 750\n"
-        "    emulate:\n"
-        "      - {address: E1E1E1, capabilities: 32, signal: 150, battery: 200}\n"
-        "      - {address: AAAAAA, capabilities: 31}\n"
-        "      - {address: D15D15, capabilities: 64}\n"
-        "  - name: agility\n"
-        "    protocol: circe\n"
-        "    role: controller\n"
-        "    transport: serial\n"
-        "    device: @DIR@/arena.tty\n";
-
 static void test_back_to_back(void **state)
 {
         struct fx *f = *state;
         const char *r;
         unsigned i;
 
-        start(f, pair_yaml);
+        start(f, "link_circe_pair.yaml");
         wait_value(f, "agility.state", "connected");
         assert_value(f, "arena.state", "connected");
         assert_value(f, "agility.mediator.version", "0.2.3");

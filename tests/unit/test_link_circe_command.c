@@ -15,41 +15,21 @@
 
 #include <cmocka.h>
 
+#include "common/wire.h"
+#include "common/words.h"
 #include "daemon/link.h"
 #include "daemon/link_circe_command.h"
 
 #define WORDS_MAX 40
-
-/* Splits a command line at spaces into argv (in place in buf). */
-static int split(char *buf, char **argv)
-{
-        int argc = 0;
-
-        for (char *t = strtok(buf, " "); t && argc < WORDS_MAX; t = strtok(NULL, " "))
-                argv[argc++] = t;
-        return argc;
-}
 
 /* Renders a packet with <STX>, <TAB>, <ETX> spelled out, no checksum. */
 static void render(const struct circe_msg *m, char *out, size_t size)
 {
         char pkt[CIRCE_PACKET_MAX];
         int n = circe_encode(m, 0, pkt, sizeof(pkt));
-        size_t o = 0;
 
         assert_true(n > 0);
-        for (int i = 0; i < n && o + 6 < size; i++) {
-                const char *w = pkt[i] == CIRCE_STX ? "<STX>" : pkt[i] == CIRCE_TAB ? "<TAB>" :
-                                pkt[i] == CIRCE_ETX ? "<ETX>" : NULL;
-
-                if (w) {
-                        memcpy(out + o, w, strlen(w));
-                        o += strlen(w);
-                } else {
-                        out[o++] = pkt[i];
-                }
-        }
-        out[o] = '\0';
+        wire_circe_show((const uint8_t *)pkt, (size_t)n, out, size);
 }
 
 struct ok_case {
@@ -109,7 +89,7 @@ static void test_accepted(void **state)
                 int argc;
 
                 snprintf(buf, sizeof(buf), "%s", k->line);
-                argc = split(buf, argv);
+                argc = words_split(buf, argv, WORDS_MAX);
                 /* What the core does first: wait=MS comes off the words. */
                 assert_int_equal(link_command_wait(&argc, argv, &wait_ms, err, sizeof(err)), 0);
                 assert_int_equal(wait_ms, k->wait_ms >= 0 ? k->wait_ms : 0);
@@ -131,7 +111,7 @@ static void test_emulate_action_fields(void **state)
         char buf[] = "circe arena emulate action e1e1e1 sensor-time=5000 keys=0";
         char *argv[WORDS_MAX], err[LINK_CIRCE_CMD_ERR_MAX];
         struct link_circe_cmd cmd;
-        int argc = split(buf, argv);
+        int argc = words_split(buf, argv, WORDS_MAX);
 
         (void)state;
         assert_int_equal(link_circe_command_parse(argc, argv, &cmd, err, sizeof(err)), 0);
@@ -140,7 +120,7 @@ static void test_emulate_action_fields(void **state)
         assert_int_equal(cmd.sensor_time_ms, 5000);
 
         char buf2[] = "circe arena emulate action AAAAAA";
-        argc = split(buf2, argv);
+        argc = words_split(buf2, argv, WORDS_MAX);
         assert_int_equal(link_circe_command_parse(argc, argv, &cmd, err, sizeof(err)), 0);
         assert_int_equal(cmd.keys, -1);
         assert_int_equal(cmd.sensor_time_ms, -1);
@@ -214,7 +194,7 @@ static void test_refused(void **state)
                 int argc, r;
 
                 snprintf(buf, sizeof(buf), "%s", k->line);
-                argc = split(buf, argv);
+                argc = words_split(buf, argv, WORDS_MAX);
                 memset(&cmd, 0x5A, sizeof(cmd));
                 /* The core's wait=MS check comes first, then the engine's parser. */
                 r = link_command_wait(&argc, argv, &wait_ms, err, sizeof(err));

@@ -18,6 +18,7 @@
 
 #include <cmocka.h>
 
+#include "common/wire.h"
 #include "daemon/config.h"
 #include "daemon/link_circe_controller.h"
 #include "daemon/link_circe_mediator.h"
@@ -117,12 +118,8 @@ static void parse(const char *text, struct circe_msg *m)
 {
         uint8_t pkt[CIRCE_PACKET_MAX];
         struct circe_result res;
-        size_t n = 0;
+        size_t n = wire_circe_text(pkt, sizeof(pkt), text, WIRE_CS_NONE);
 
-        pkt[n++] = CIRCE_STX;
-        for (const char *p = text; *p; p++)
-                pkt[n++] = *p == '|' ? CIRCE_TAB : (uint8_t)*p;
-        pkt[n++] = CIRCE_ETX;
         circe_decode(pkt, n, &res);
         assert_int_equal(res.kind, CIRCE_RESULT_MESSAGE);
         *m = res.msg;

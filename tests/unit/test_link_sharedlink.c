@@ -37,6 +37,8 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/testdata.h"
+#include "common/wire.h"
 #include "daemon/config.h"
 #include "daemon/control.h"
 #include "daemon/evloop.h"
@@ -105,23 +107,6 @@ struct fx {
 };
 
 static const struct link_ops *ops = &link_sharedlink_ops;
-
-/* ---------------------------------------------------------------------------------------------
- * Frames the test sends */
-
-/* "[" + text + "|C" + checksum + "]" (+ CR LF); text starts at the ':' (any header, for tests
- * of bad ones). The checksum is computed here, independently of the codec. */
-static size_t mkraw(char *out, size_t size, const char *text, bool crlf)
-{
-        unsigned sum = '|' + 'C';
-        int n;
-
-        for (const char *p = text; *p; p++)
-                sum += (unsigned char)*p;
-        n = snprintf(out, size, "[%s|C%02X]%s", text, sum & 0xffu, crlf ? "\r\n" : "");
-        assert_true(n > 0 && (size_t)n < size);
-        return (size_t)n;
-}
 
 /* ---------------------------------------------------------------------------------------------
  * Peer ends */
@@ -259,7 +244,7 @@ static void peer_send_str(struct peer_end *pe, const char *s)
 static void peer_frame(struct peer_end *pe, const char *text)
 {
         char buf[TEXT_MAX];
-        size_t n = mkraw(buf, sizeof(buf), text, !pe->datagram);
+        size_t n = wire_slp_raw(buf, sizeof(buf), text, !pe->datagram);
 
         peer_send(pe, buf, n);
 }
@@ -426,42 +411,30 @@ static void on_wake(struct evloop *loop, int fd, unsigned revents, void *arg)
         assert_true(shm_table_out_scan(fx->table, on_out_change, fx) >= 0);
 }
 
-/* Replaces every `key` in s (in place, within size). */
-static void replace_all(char *s, size_t size, const char *key, const char *value)
-{
-        char *p;
-
-        while ((p = strstr(s, key))) {
-                size_t klen = strlen(key), vlen = strlen(value), rest = strlen(p + klen);
-
-                assert_true(strlen(s) - klen + vlen < size);
-                memmove(p + vlen, p + klen, rest + 1);
-                memcpy(p, value, vlen);
-        }
-}
-
 /*
- * Parses the YAML (with @DIR@ and @P<i>@ = the udp port of peer end i replaced), builds the
- * table the way the core does (each link's declare(), in link order), creates the engines,
+ * Parses tests/data/<file> (with @DIR@ and @P<i>@ = the udp port of peer end i replaced), builds
+ * the table the way the core does (each link's declare(), in link order), creates the engines,
  * opens the client library on the instance.
  */
-static void fx_start(struct fx *fx, const char *yaml)
+static void fx_start(struct fx *fx, const char *file)
 {
         static struct shm_var vars[VARS_MAX];
         struct shm_link_def links[LINKS_MAX];
         struct shm_table_config tc;
         struct config_error err;
-        char text[YAML_MAX], key[16], port[16];
+        char yaml[YAML_MAX], text[YAML_MAX + 128], key[LINKS_MAX][16], port[LINKS_MAX][16];
+        const char *subst[2 * LINKS_MAX + 3] = { "@DIR@", fx->dir };
         size_t n = 0, used = 0;
         int r;
 
-        snprintf(text, sizeof(text), "instance: %s\n%s", fx->instance, yaml);
-        replace_all(text, sizeof(text), "@DIR@", fx->dir);
         for (unsigned i = 0; i < LINKS_MAX; i++) {
-                snprintf(key, sizeof(key), "@P%u@", i);
-                snprintf(port, sizeof(port), "%u", fx->peers[i].port);
-                replace_all(text, sizeof(text), key, port);
+                snprintf(key[i], sizeof(key[i]), "@P%u@", i);
+                snprintf(port[i], sizeof(port[i]), "%u", fx->peers[i].port);
+                subst[2 + 2 * i] = key[i];
+                subst[3 + 2 * i] = port[i];
         }
+        assert_true(testdata_load(file, subst, yaml, sizeof(yaml)) > 0);
+        snprintf(text, sizeof(text), "instance: %s\n%s", fx->instance, yaml);
         r = config_parse(text, strlen(text), "test.yaml", &fx->cfg, &err);
         if (r < 0)
                 fail_msg("config: %s", err.message);
@@ -664,7 +637,7 @@ static size_t sync_peer(struct fx *fx, unsigned peer, char self, char engine)
         snprintf(text, sizeof(text), ":%c%c|P%u", engine, self, n);
         peer_frame(pe, text);
         snprintf(text, sizeof(text), ":%c%c|G%u", self, engine, n);
-        mkraw(want, sizeof(want), text, false);
+        wire_slp_raw(want, sizeof(want), text, false);
         for (size_t i = pe->nrx;; i++) {
                 const char *f = wait_frames(fx, peer, i + 1);
 
@@ -708,183 +681,7 @@ static bool has_event(struct fx *fx, uint64_t cursor, const char *type, const ch
 }
 
 /* ---------------------------------------------------------------------------------------------
- * Configurations */
-
-/* Node B, peer A sends GPS (inbound), we send commands; peer C with a larger max_frame. */
-static const char yaml_inbound[] =
-        "links:\n"
-        "  - name: veh\n"
-        "    protocol: sharedlink\n"
-        "    transport: serial\n"
-        "    device: @DIR@/tty0\n"
-        "    address: B\n"
-        "    peers:\n"
-        "      - address: A\n"
-        "        period_ms: 0\n"
-        "        stale_ms: 0\n"
-        "        max_frame: 256\n"
-        "        outbound: [CmdThrottle, CmdSteer]\n"
-        "        inbound: [{name: AutoGpsLat, type: double}, AutoGpsLon, AutoGpsHead, AutoGpsVel]\n"
-        "      - address: C\n"
-        "        period_ms: 0\n"
-        "        stale_ms: 0\n"
-        "        max_frame: 512\n"
-        "        inbound: [FromC]\n";
-
-/* Node B sends GPS to A every 20 ms, full list every 100 ms. */
-static const char yaml_periodic[] =
-        "links:\n"
-        "  - name: veh\n"
-        "    protocol: sharedlink\n"
-        "    transport: serial\n"
-        "    device: @DIR@/tty0\n"
-        "    address: B\n"
-        "    peers:\n"
-        "      - address: A\n"
-        "        period_ms: 20\n"
-        "        refresh_ms: 100\n"
-        "        compression: true\n"
-        "        outbound: [AutoGpsLat, AutoGpsLon, AutoGpsHead, AutoGpsVel]\n"
-        "        inbound: [CmdThrottle]\n";
-
-static const char yaml_split[] =
-        "links:\n"
-        "  - name: veh\n"
-        "    protocol: sharedlink\n"
-        "    transport: serial\n"
-        "    device: @DIR@/tty0\n"
-        "    address: B\n"
-        "    peers:\n"
-        "      - address: A\n"
-        "        period_ms: 30\n"
-        "        compression: false\n"
-        "        max_frame: 40\n"
-        "        outbound: [V0, V1, V2, V3, V4, V5, V6, V7, V8, V9]\n";
-
-static const char yaml_on_change[] =
-        "links:\n"
-        "  - name: veh\n"
-        "    protocol: sharedlink\n"
-        "    transport: serial\n"
-        "    device: @DIR@/tty0\n"
-        "    address: B\n"
-        "    peers:\n"
-        "      - address: A\n"
-        "        period_ms: 0\n"
-        "        on_change: true\n"
-        "        min_interval_ms: 1000\n"
-        "        outbound: [AutoGpsLat, AutoGpsLon, AutoGpsHead, AutoGpsVel]\n";
-
-/* Two links; the first with two peers and a small max_frame towards A. */
-static const char yaml_query[] =
-        "links:\n"
-        "  - name: veh\n"
-        "    protocol: sharedlink\n"
-        "    transport: serial\n"
-        "    device: @DIR@/tty0\n"
-        "    address: B\n"
-        "    peers:\n"
-        "      - address: A\n"
-        "        period_ms: 0\n"
-        "        stale_ms: 0\n"
-        "        max_frame: 64\n"
-        "        outbound: [CmdThrottle, CmdSteer]\n"
-        "        inbound: [AutoGpsLat, AutoGpsLon]\n"
-        "      - address: C\n"
-        "        period_ms: 0\n"
-        "        stale_ms: 0\n"
-        "        outbound: [ToC]\n"
-        "        inbound: [FromC]\n"
-        "  - name: aux\n"
-        "    protocol: sharedlink\n"
-        "    transport: serial\n"
-        "    device: @DIR@/tty1\n"
-        "    address: A\n"
-        "    peers:\n"
-        "      - address: B\n"
-        "        period_ms: 0\n"
-        "        stale_ms: 0\n"
-        "        outbound: [AuxValue]\n"
-        "        inbound: [AuxIn]\n";
-
-static const char yaml_adhoc[] =
-        "links:\n"
-        "  - name: veh\n"
-        "    protocol: sharedlink\n"
-        "    transport: serial\n"
-        "    device: @DIR@/tty0\n"
-        "    address: B\n"
-        "    peers:\n"
-        "      - address: A\n"
-        "        period_ms: 0\n"
-        "        stale_ms: 0\n"
-        "        outbound: [veh.A.Taken]\n"
-        "        inbound: [AutoGpsLat]\n";
-
-static const char yaml_stale[] =
-        "links:\n"
-        "  - name: veh\n"
-        "    protocol: sharedlink\n"
-        "    transport: serial\n"
-        "    device: @DIR@/tty0\n"
-        "    address: B\n"
-        "    peers:\n"
-        "      - address: A\n"
-        "        period_ms: 0\n"
-        "        stale_ms: 500\n"
-        "        inbound: [AutoGpsLat, AutoGpsLon]\n";
-
-static const char yaml_unplug[] =
-        "links:\n"
-        "  - name: veh\n"
-        "    protocol: sharedlink\n"
-        "    transport: serial\n"
-        "    device: @DIR@/tty0\n"
-        "    address: B\n"
-        "    peers:\n"
-        "      - address: A\n"
-        "        period_ms: 0\n"
-        "        stale_ms: 0\n"
-        "        outbound: [CmdThrottle, CmdSteer]\n"
-        "        inbound: [AutoGpsLat]\n";
-
-static const char yaml_udp[] =
-        "links:\n"
-        "  - name: udp0\n"
-        "    protocol: sharedlink\n"
-        "    transport: udp\n"
-        "    local: \"127.0.0.1:0\"\n"
-        "    remote: \"127.0.0.1:@P0@\"\n"
-        "    address: B\n"
-        "    peers:\n"
-        "      - address: A\n"
-        "        period_ms: 0\n"
-        "        stale_ms: 0\n"
-        "        outbound: [CmdThrottle]\n"
-        "        inbound: [AutoGpsLat, AutoGpsLon]\n";
-
-/* ---------------------------------------------------------------------------------------------
  * Tests */
-
-/* The test's own checksum helper against PROTOCOLS.md 1.3's worked examples. */
-static void test_mkraw_vectors(void **state)
-{
-        static const char *const vec[][2] = {
-                { ":AB|N0|D40.12345678|D-113.12345678|D85.6|D22.1",
-                  "[:AB|N0|D40.12345678|D-113.12345678|D85.6|D22.1|CD4]" },
-                { ":AB|QAutoGpsLat", "[:AB|QAutoGpsLat|C2D]" },
-                { ":BA|RAutoGpsLat|D40.12345678", "[:BA|RAutoGpsLat|D40.12345678|C24]" },
-                { ":AB|N0|D|D|D85.7|D", "[:AB|N0|D|D|D85.7|D|C48]" },
-                { ":AB|P0", "[:AB|P0|C78]" },
-        };
-        char buf[TEXT_MAX];
-
-        (void)state;
-        for (size_t i = 0; i < sizeof(vec) / sizeof(vec[0]); i++) {
-                mkraw(buf, sizeof(buf), vec[i][0], false);
-                assert_string_equal(buf, vec[i][1]);
-        }
-}
 
 static void test_declare(void **state)
 {
@@ -958,7 +755,7 @@ static const enum shm_counter checked[] = {
 struct inbound_row {
         const char *what;
         const char *raw;                /* sent first, as is (may be NULL) */
-        const char *text;               /* then framed by mkraw (may be NULL) */
+        const char *text;               /* then framed by wire_slp_raw (may be NULL) */
         const char *values[4];          /* AutoGpsLat, Lon, Head, Vel afterwards; NULL: same */
         uint32_t bumps;                 /* change-word bumps */
         struct {
@@ -1058,7 +855,7 @@ static void test_inbound_rows(void **state)
 
         build_row_texts();
         fx_pty(fx, 0);
-        fx_start(fx, yaml_inbound);
+        fx_start(fx, "link_sharedlink_inbound.yaml");
         /* Nothing heard yet: never set, and stale. */
         assert_true(client_read(fx, "AutoGpsLat", buf) & SL_FLAG_STALE);
         assert_false(client_read(fx, "AutoGpsLat", buf) & SL_FLAG_VALID);
@@ -1142,7 +939,7 @@ static void test_garbage_megabytes(void **state)
         uint32_t word;
 
         fx_pty(fx, 0);
-        fx_start(fx, yaml_inbound);
+        fx_start(fx, "link_sharedlink_inbound.yaml");
         sync_peer(fx, 0, 'A', 'B');
 
         /* Noise only (no '[', ']', CR, LF): each byte counts exactly once. */
@@ -1190,7 +987,7 @@ static bool frame_is(const char *f, const char *text)
 {
         char want[TEXT_MAX];
 
-        mkraw(want, sizeof(want), text, false);
+        wire_slp_raw(want, sizeof(want), text, false);
         return strcmp(f, want) == 0;
 }
 
@@ -1198,7 +995,7 @@ static void expect_frame(const char *f, const char *text)
 {
         char want[TEXT_MAX];
 
-        mkraw(want, sizeof(want), text, false);
+        wire_slp_raw(want, sizeof(want), text, false);
         assert_string_equal(f, want);
 }
 
@@ -1210,7 +1007,7 @@ static uint64_t timer_fires(struct fx *fx)
         return st.timer_fires;
 }
 
-#define REFRESH_EVERY   5       /* refresh_ms / period_ms in yaml_periodic */
+#define REFRESH_EVERY   5       /* refresh_ms / period_ms in link_sharedlink_periodic.yaml */
 #define OBSERVE         15
 
 /* Periodic send, compression, full refresh cadence (PROTOCOLS.md 1.5 and its examples). */
@@ -1225,7 +1022,7 @@ static void test_outbound_periodic(void **state)
         int phase = -1;
 
         fx_pty(fx, 0);
-        fx_start(fx, yaml_periodic);
+        fx_start(fx, "link_sharedlink_periodic.yaml");
         /* Up: the full list at once (nothing written yet: empty values). */
         expect_frame(wait_frames(fx, 0, 1), empty_text);
 
@@ -1290,7 +1087,7 @@ static void test_outbound_split(void **state)
         size_t m;
 
         fx_pty(fx, 0);
-        fx_start(fx, yaml_split);
+        fx_start(fx, "link_sharedlink_split.yaml");
         for (int i = 0; i < 10; i++) {
                 snprintf(name, sizeof(name), "V%d", i);
                 snprintf(value, sizeof(value), "value-%d", i);
@@ -1332,7 +1129,7 @@ static void test_outbound_on_change(void **state)
         struct fx *fx = *state;
 
         fx_pty(fx, 0);
-        fx_start(fx, yaml_on_change);
+        fx_start(fx, "link_sharedlink_on_change.yaml");
         expect_frame(wait_frames(fx, 0, 1), ":AB|N0|D|D|D|D");          /* up: full list */
 
         client_write(fx, "AutoGpsHead", "85.7");
@@ -1373,7 +1170,7 @@ static void test_query_answers(void **state)
 
         fx_pty(fx, 0);
         fx_pty(fx, 1);
-        fx_start(fx, yaml_query);
+        fx_start(fx, "link_sharedlink_query.yaml");
         wait_frames(fx, 0, 2);          /* up: one full list to A, one to C */
         assert_int_equal(fx->peers[0].rx[0].text[2], 'A');      /* "[:AB|..." */
         assert_int_equal(fx->peers[0].rx[1].text[2], 'C');
@@ -1451,7 +1248,7 @@ static void test_answers_adhoc(void **state)
 
         fx->adhoc_capacity = 2;
         fx_pty(fx, 0);
-        fx_start(fx, yaml_adhoc);
+        fx_start(fx, "link_sharedlink_adhoc.yaml");
         assert_int_equal(sl_events_now(fx->client, &cursor), 0);
         count = sl_count(fx->client);
 
@@ -1520,7 +1317,7 @@ static void test_stale(void **state)
         char buf[SL_VALUE_SIZE];
 
         fx_pty(fx, 0);
-        fx_start(fx, yaml_stale);
+        fx_start(fx, "link_sharedlink_stale.yaml");
         assert_true(client_read(fx, "AutoGpsLat", buf) & SL_FLAG_STALE);
         peer_frame(&fx->peers[0], ":BA|N0|D1|D2|RFoo|D3");
         wait_value(fx, "veh.A.Foo", "3");
@@ -1549,7 +1346,7 @@ static void test_unplug_recovery(void **state)
         size_t n;
 
         fx_pty(fx, 0);
-        fx_start(fx, yaml_unplug);
+        fx_start(fx, "link_sharedlink_unplug.yaml");
         expect_frame(wait_frames(fx, 0, 1), ":AB|N0|D|D");
         assert_string_equal(ops->status(fx->engines[0]), "up");
         assert_true(has_event(fx, 0, "link-state", "state=up"));
@@ -1597,20 +1394,20 @@ static void test_udp(void **state)
         size_t n;
 
         fx_udp(fx, 0);
-        fx_start(fx, yaml_udp);
+        fx_start(fx, "link_sharedlink_udp.yaml");
         expect_frame(wait_frames(fx, 0, 1), ":AB|N0|D");
         assert_int_equal(pe->datagrams, 1);
         assert_int_equal(pe->rx_bytes, pe->rx_frame_bytes);     /* no CR LF on UDP */
 
         /* Two frames in one datagram. */
-        n = mkraw(buf, sizeof(buf), ":BA|N0|D1", false);
-        n += mkraw(buf + n, sizeof(buf) - n, ":BA|N1|D2", false);
+        n = wire_slp_raw(buf, sizeof(buf), ":BA|N0|D1", false);
+        n += wire_slp_raw(buf + n, sizeof(buf) - n, ":BA|N1|D2", false);
         peer_send(pe, buf, n);
         wait_value(fx, "AutoGpsLon", "2");
         check_value(fx, "AutoGpsLat", "1", false);
 
         /* A trailing partial frame is dropped with its datagram's end. */
-        n = mkraw(buf, sizeof(buf), ":BA|N0|D3", false);
+        n = wire_slp_raw(buf, sizeof(buf), ":BA|N0|D3", false);
         n += (size_t)snprintf(buf + n, sizeof(buf) - n, "[:BA|N0|D4");
         peer_send(pe, buf, n);
         peer_send(pe, "xyz", 3);
@@ -1732,7 +1529,7 @@ static void test_query_command(void **state)
         size_t n;
 
         fx_pty(fx, 0);
-        fx_start(fx, yaml_inbound);
+        fx_start(fx, "link_sharedlink_inbound.yaml");
         fx_control(fx);
         sync_peer(fx, 0, 'A', 'B');
         assert_int_equal(sl_events_now(fx->client, &cursor), 0);
@@ -1810,7 +1607,7 @@ static void test_query_bounds(void **state)
         size_t n, len;
 
         fx_pty(fx, 0);
-        fx_start(fx, yaml_inbound);
+        fx_start(fx, "link_sharedlink_inbound.yaml");
         fx_control(fx);
         sync_peer(fx, 0, 'A', 'B');
 
@@ -1858,7 +1655,7 @@ static void test_query_link_down(void **state)
         size_t n;
 
         fx_pty(fx, 0);
-        fx_start(fx, yaml_inbound);
+        fx_start(fx, "link_sharedlink_inbound.yaml");
         fx_control(fx);
         sync_peer(fx, 0, 'A', 'B');
 
@@ -1894,7 +1691,6 @@ static void test_query_link_down(void **state)
 int main(void)
 {
         const struct CMUnitTest tests[] = {
-                cmocka_unit_test(test_mkraw_vectors),
                 cmocka_unit_test(test_declare),
                 cmocka_unit_test_setup_teardown(test_inbound_rows, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_garbage_megabytes, setup, teardown),

@@ -18,6 +18,7 @@
 #include <errno.h>
 #include <cmocka.h>
 
+#include "common/wire.h"
 #include "proto/sharedlink.h"
 
 #define OUT_MAX         16384
@@ -453,21 +454,16 @@ static void test_noise_runs(void **state)
         assert_string_equal(o.s, "!noise/1024 ; !noise/1024 ; !noise/400");
 }
 
-/* Builds "[:AB|D<x...>|Chh]" of exactly @len bytes, with its checksum computed here. */
+/* Builds "[:AB|D<x...>|Chh]" of exactly @len bytes, its checksum by wire.h (not the codec). */
 static size_t make_frame(char *buf, size_t len)
 {
-        unsigned sum = 0;
         size_t n = 0;
 
         assert_true(len >= 12);
         n += (size_t)sprintf(buf, "[:AB|D");
         for (; n < len - 5; n++)
                 buf[n] = (char)('0' + n % 10);
-        buf[n++] = '|';
-        buf[n++] = 'C';
-        for (size_t i = 1; i < n; i++)
-                sum += (unsigned char)buf[i];
-        n += (size_t)sprintf(buf + n, "%02X]", sum & 0xff);
+        n = wire_slp_close(buf, len + 1, n);
         assert_int_equal(n, len);
         return n;
 }
@@ -498,19 +494,6 @@ static void test_max_frame_edges(void **state)
         }
 }
 
-/* Appends "|C" hh "]" to the frame buf[0 .. n), with the checksum computed here; returns n. */
-static size_t close_frame(char *buf, size_t n)
-{
-        unsigned sum = 0;
-
-        buf[n++] = '|';
-        buf[n++] = 'C';
-        for (size_t i = 1; i < n; i++)
-                sum += (unsigned char)buf[i];
-        n += (size_t)sprintf(buf + n, "%02X]", sum & 0xff);
-        return n;
-}
-
 /* A byte outside 0x20-0x7E at any offset (so at every place in an 8-byte word) is found, and a
  * '|' at any offset splits the fields there; both with the right checksum. */
 static void test_every_offset(void **state)
@@ -528,7 +511,7 @@ static void test_every_offset(void **state)
                                 n = (size_t)sprintf(buf, "[:AB|D");
                                 for (size_t i = 0; i < len; i++)
                                         buf[n++] = i == at ? (char)bad[k] : (char)('a' + i % 26);
-                                n = close_frame(buf, n);
+                                n = wire_slp_close(buf, sizeof(buf), n);
                                 assert_int_equal(slp_decoder_init(&dec, 0), 0);
                                 assert_int_equal(
                                         slp_decoder_feed(&dec, (const uint8_t *)buf, n, &r), n);
@@ -541,7 +524,7 @@ static void test_every_offset(void **state)
                                 buf[n++] = i == at ? '|' : (char)('a' + i % 26);
                         if (at + 1 < len)
                                 buf[n - len + at + 1] = 'D';
-                        n = close_frame(buf, n);
+                        n = wire_slp_close(buf, sizeof(buf), n);
                         assert_int_equal(slp_decoder_init(&dec, 0), 0);
                         assert_int_equal(slp_decoder_feed(&dec, (const uint8_t *)buf, n, &r), n);
                         assert_int_equal(r.kind, SLP_RESULT_FRAME);

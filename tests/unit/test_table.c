@@ -46,40 +46,18 @@ static const struct shm_var vars[NVARS] = {
         { "Note", SHM_DIR_OUT, SHM_TYPE_STRING, SHM_LINK_NONE, NULL, SHM_POSITION_NONE },
 };
 
-static const struct shm_link_def links[] = {
-        { "vehicle", "sharedlink" },
-        { "agility", "circe" },
-};
-
-struct fixture {
-        char instance[64];
-        char in_name[SHM_OBJECT_NAME_SIZE];
-        char out_name[SHM_OBJECT_NAME_SIZE];
-        struct shm_table_config cfg;
-        struct shm_table *t;
-};
-
-static void config_default(struct fixture *f)
+static void config_default(struct shmtest_table *f)
 {
-        memset(&f->cfg, 0, sizeof(f->cfg));
-        f->cfg.instance = f->instance;
-        f->cfg.vars = vars;
-        f->cfg.nvars = NVARS;
-        f->cfg.links = links;
-        f->cfg.nlinks = 2;
-        f->cfg.adhoc_capacity = ADHOC;
-        f->cfg.event_capacity = 16;
+        shmtest_table_config(f, vars, NVARS, ADHOC);
 }
 
 static int setup(void **state)
 {
-        struct fixture *f = calloc(1, sizeof(*f));
+        struct shmtest_table *f = calloc(1, sizeof(*f));
 
-        shmtest_instance(f->instance, sizeof(f->instance), "table");
-        shm_layout_object_name(f->instance, "in", f->in_name, sizeof(f->in_name));
-        shm_layout_object_name(f->instance, "out", f->out_name, sizeof(f->out_name));
+        shmtest_table_init(f, "table");
         config_default(f);
-        if (shm_table_create(&f->cfg, &f->t) < 0)
+        if (shmtest_table_create(f) < 0)
                 return -1;
         *state = f;
         return 0;
@@ -87,11 +65,9 @@ static int setup(void **state)
 
 static int setup_bare(void **state)
 {
-        struct fixture *f = calloc(1, sizeof(*f));
+        struct shmtest_table *f = calloc(1, sizeof(*f));
 
-        shmtest_instance(f->instance, sizeof(f->instance), "bare");
-        shm_layout_object_name(f->instance, "in", f->in_name, sizeof(f->in_name));
-        shm_layout_object_name(f->instance, "out", f->out_name, sizeof(f->out_name));
+        shmtest_table_init(f, "bare");
         config_default(f);
         *state = f;
         return 0;
@@ -99,96 +75,39 @@ static int setup_bare(void **state)
 
 static int teardown(void **state)
 {
-        struct fixture *f = *state;
+        struct shmtest_table *f = *state;
 
-        shm_table_destroy(f->t);
-        shmtest_unlink(f->instance);
+        shmtest_table_destroy(f);
         free(f);
         return 0;
 }
 
-/* ---- direct views of the objects, as a client (or a rogue) sees them ------------------------ */
+/* ---- direct views of the objects, as a client (or a rogue) sees them (common/shmtest.h) ---- */
 
-struct view {
-        void *base;
-        size_t size;
-};
-
-static struct view view_open(const char *name, int writable)
+static uint32_t change_of(struct shmtest_view *v)
 {
-        struct view v = { NULL, 0 };
-        struct stat st;
-        int fd = shm_open(name, writable ? O_RDWR : O_RDONLY, 0);
-
-        if (fd < 0)
-                return v;
-        if (fstat(fd, &st) == 0 && st.st_size > 0) {
-                v.base = mmap(NULL, (size_t)st.st_size, PROT_READ | (writable ? PROT_WRITE : 0),
-                              MAP_SHARED, fd, 0);
-                v.size = (size_t)st.st_size;
-                if (v.base == MAP_FAILED)
-                        v.base = NULL;
-        }
-        close(fd);
-        return v;
-}
-
-static void view_close(struct view *v)
-{
-        if (v->base)
-                munmap(v->base, v->size);
-        v->base = NULL;
-}
-
-static struct shm_in_header *in_header(struct view *v)
-{
-        return v->base;
-}
-
-static struct shm_dir_entry *in_dir(struct view *v)
-{
-        return (struct shm_dir_entry *)((char *)v->base + in_header(v)->dir_offset);
-}
-
-static struct shm_slot *in_slot(struct view *v, unsigned id)
-{
-        return (struct shm_slot *)((char *)v->base + in_header(v)->slots_offset) + id;
-}
-
-static struct shm_link *in_link(struct view *v, unsigned link)
-{
-        return (struct shm_link *)((char *)v->base + in_header(v)->links_offset) + link;
-}
-
-static struct shm_slot *out_slot(struct view *v, unsigned slot)
-{
-        return (struct shm_slot *)((char *)v->base + sizeof(struct shm_out_header)) + slot;
-}
-
-static uint32_t change_of(struct view *v)
-{
-        return atomic_load(&in_header(v)->change);
+        return atomic_load(&shmtest_in_header(v)->change);
 }
 
 /* A well-behaved client write of raw bytes (len bytes of value, flags as given). */
 static int out_write_raw(const char *out_name, unsigned slot, const char *value, uint32_t len,
                          uint32_t flags)
 {
-        struct view v = view_open(out_name, 1);
+        struct shmtest_view v = shmtest_view_open(out_name, 1);
         struct shm_out_header *h = v.base;
         uint64_t word;
         int r;
 
         if (!v.base)
                 return -ENOENT;
-        r = shm_slot_claim(out_slot(&v, slot), (uint32_t)getpid(), &word);
+        r = shm_slot_claim(shmtest_out_slot(&v, slot), (uint32_t)getpid(), &word);
         if (r == 0) {
-                shm_slot_store(out_slot(&v, slot), value, len, flags, 1, 2);
-                r = shm_slot_publish(out_slot(&v, slot), word);
+                shm_slot_store(shmtest_out_slot(&v, slot), value, len, flags, 1, 2);
+                r = shm_slot_publish(shmtest_out_slot(&v, slot), word);
                 atomic_fetch_add(&h->change, 1);
                 shm_futex_wake(&h->change, 1);
         }
-        view_close(&v);
+        shmtest_view_close(&v);
         return r;
 }
 
@@ -223,9 +142,9 @@ static int scan(struct shm_table *t, struct seen *s)
 
 static void test_create_layout(void **state)
 {
-        struct fixture *f = *state;
-        struct view v = view_open(f->in_name, 0);
-        struct shm_in_header *h = in_header(&v);
+        struct shmtest_table *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->in_name, 0);
+        struct shm_in_header *h = shmtest_in_header(&v);
         struct shm_in_geometry g;
         unsigned mode;
         gid_t gid;
@@ -243,10 +162,10 @@ static void test_create_layout(void **state)
         assert_int_equal(atomic_load(&h->count), NVARS);
         assert_int_equal(h->out_capacity, NOUT);
         assert_int_equal(atomic_load(&h->link_count), 2);
-        assert_string_equal(in_link(&v, 1)->name, "agility");
-        assert_string_equal(in_link(&v, 1)->protocol, "circe");
+        assert_string_equal(shmtest_in_link(&v, 1)->name, "agility");
+        assert_string_equal(shmtest_in_link(&v, 1)->protocol, "circe");
         for (unsigned i = 0; i < NVARS; i++) {
-                struct shm_dir_entry *e = &in_dir(&v)[i];
+                struct shm_dir_entry *e = &shmtest_in_dir(&v)[i];
 
                 assert_string_equal(e->name, vars[i].name);
                 assert_int_equal(e->direction, vars[i].direction);
@@ -256,15 +175,15 @@ static void test_create_layout(void **state)
                 assert_string_equal(e->peer, vars[i].peer ? vars[i].peer : "");
                 assert_int_equal(e->flags, 0);
         }
-        assert_int_equal(in_dir(&v)[THROTTLE].out_slot, OUT_THROTTLE);
-        assert_int_equal(in_dir(&v)[NOTE].out_slot, OUT_NOTE);
-        assert_int_equal(in_dir(&v)[LAT].out_slot, SHM_OUT_NONE);
+        assert_int_equal(shmtest_in_dir(&v)[THROTTLE].out_slot, OUT_THROTTLE);
+        assert_int_equal(shmtest_in_dir(&v)[NOTE].out_slot, OUT_NOTE);
+        assert_int_equal(shmtest_in_dir(&v)[LAT].out_slot, SHM_OUT_NONE);
         assert_int_equal(shm_table_count(f->t), NVARS);
         assert_int_equal(shm_table_find(f->t, "CmdSteer"), STEER);
         assert_int_equal(shm_table_find(f->t, "nope"), -ENOENT);
         assert_int_equal(shm_table_direction(f->t, NOTE), SHM_DIR_OUT);
         assert_int_equal(shm_table_direction(f->t, 99), -ENOENT);
-        view_close(&v);
+        shmtest_view_close(&v);
 
         assert_int_equal(shmtest_object_mode(f->in_name, &mode, &gid), 0);
         assert_int_equal(mode, 0644);
@@ -279,7 +198,7 @@ static void test_create_layout(void **state)
 
 static void test_create_group(void **state)
 {
-        struct fixture *f = *state;
+        struct shmtest_table *f = *state;
         unsigned mode;
         gid_t gid;
 
@@ -298,7 +217,7 @@ static void test_create_group(void **state)
 
 static void test_create_errors(void **state)
 {
-        struct fixture *f = *state;
+        struct shmtest_table *f = *state;
         struct shm_var bad[2];
         struct shm_link_def many[SHM_LINKS_MAX + 1];
         struct shm_table *t = NULL;
@@ -325,7 +244,7 @@ static void test_create_errors(void **state)
 
         config_default(f);
         for (unsigned i = 0; i <= SHM_LINKS_MAX; i++)
-                many[i] = links[0];
+                many[i] = shmtest_links[0];
         f->cfg.links = many;
         f->cfg.nlinks = SHM_LINKS_MAX + 1;
         assert_int_equal(shm_table_create(&f->cfg, &t), -EINVAL);
@@ -343,18 +262,18 @@ static void test_create_errors(void **state)
 
 static void test_refuse_live_self(void **state)
 {
-        struct fixture *f = *state;
+        struct shmtest_table *f = *state;
         struct shm_table *t2 = NULL;
-        struct view v;
+        struct shmtest_view v;
 
         /* Our own tables: this process is alive, so a second create must not replace them. */
         assert_int_equal(shm_table_create(&f->cfg, &t2), -EBUSY);
         assert_null(t2);
-        v = view_open(f->in_name, 0);
-        assert_int_equal(shm_layout_check_in(in_header(&v), v.size), 0);
-        assert_int_equal(in_header(&v)->epoch, shm_table_epoch(f->t));
-        assert_int_equal(atomic_load(&in_header(&v)->state), SHM_STATE_LIVE);
-        view_close(&v);
+        v = shmtest_view_open(f->in_name, 0);
+        assert_int_equal(shm_layout_check_in(shmtest_in_header(&v), v.size), 0);
+        assert_int_equal(shmtest_in_header(&v)->epoch, shm_table_epoch(f->t));
+        assert_int_equal(atomic_load(&shmtest_in_header(&v)->state), SHM_STATE_LIVE);
+        shmtest_view_close(&v);
 }
 
 struct daemon_child {
@@ -398,20 +317,20 @@ static pid_t daemon_child_start(struct daemon_child *d, uint64_t *ret_epoch)
 
 static void test_replace_stale_refuse_live(void **state)
 {
-        struct fixture *f = *state;
+        struct shmtest_table *f = *state;
         struct daemon_child d = { .cfg = &f->cfg };
         uint64_t child_epoch;
         struct shm_in_header *old;
         uint32_t old_change;
-        struct view v;
+        struct shmtest_view v;
         pid_t pid;
 
         pid = daemon_child_start(&d, &child_epoch);
         assert_true(child_epoch != 0);
         /* Alive: refused. */
         assert_int_equal(shm_table_create(&f->cfg, &f->t), -EBUSY);
-        v = view_open(f->in_name, 0);           /* a client of the child's tables */
-        old = in_header(&v);
+        v = shmtest_view_open(f->in_name, 0);           /* a client of the child's tables */
+        old = shmtest_in_header(&v);
         old_change = atomic_load(&old->change);
         assert_int_equal(old->epoch, child_epoch);
 
@@ -423,16 +342,16 @@ static void test_replace_stale_refuse_live(void **state)
         assert_true(shm_table_epoch(f->t) != child_epoch);
         assert_int_equal(atomic_load(&old->state), SHM_STATE_CLOSED);
         assert_int_not_equal(atomic_load(&old->change), old_change);
-        view_close(&v);
-        v = view_open(f->in_name, 0);
-        assert_int_equal(in_header(&v)->epoch, shm_table_epoch(f->t));
-        assert_int_equal(in_header(&v)->daemon_pid, getpid());
-        view_close(&v);
+        shmtest_view_close(&v);
+        v = shmtest_view_open(f->in_name, 0);
+        assert_int_equal(shmtest_in_header(&v)->epoch, shm_table_epoch(f->t));
+        assert_int_equal(shmtest_in_header(&v)->daemon_pid, getpid());
+        shmtest_view_close(&v);
 }
 
 static void test_replace_garbage(void **state)
 {
-        struct fixture *f = *state;
+        struct shmtest_table *f = *state;
         unsigned char junk[4096];
         int fd;
 
@@ -452,7 +371,7 @@ static void test_replace_garbage(void **state)
 
 static void test_refuse_being_created(void **state)
 {
-        struct fixture *f = *state;
+        struct shmtest_table *f = *state;
         int fd;
 
         /* An object without magic whose creator holds the lock: another daemon mid-creation. */
@@ -467,11 +386,11 @@ static void test_refuse_being_created(void **state)
 
 /* ---- inbound -------------------------------------------------------------------------------- */
 
-static void expect_slot(struct view *v, unsigned id, const char *value, uint32_t flags)
+static void expect_slot(struct shmtest_view *v, unsigned id, const char *value, uint32_t flags)
 {
         struct shm_slot_copy c;
 
-        assert_int_equal(shm_slot_read(in_slot(v, id), &c), 0);
+        assert_int_equal(shm_slot_read(shmtest_in_slot(v, id), &c), 0);
         assert_int_equal(c.flags, flags);
         assert_int_equal(c.length, strlen(value));
         assert_string_equal(c.value, value);
@@ -479,8 +398,8 @@ static void expect_slot(struct view *v, unsigned id, const char *value, uint32_t
 
 static void test_batch_change_word(void **state)
 {
-        struct fixture *f = *state;
-        struct view v = view_open(f->in_name, 0);
+        struct shmtest_table *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->in_name, 0);
         struct shm_slot_copy c;
         uint32_t before = change_of(&v);
 
@@ -493,7 +412,7 @@ static void test_batch_change_word(void **state)
         assert_int_equal(change_of(&v), before + 1);            /* exactly one bump */
         expect_slot(&v, LAT, "40.12345678", SHM_SLOT_VALID);
         expect_slot(&v, STATE, "connected", SHM_SLOT_VALID);
-        assert_int_equal(shm_slot_read(in_slot(&v, LON), &c), 0);
+        assert_int_equal(shm_slot_read(shmtest_in_slot(&v, LON), &c), 0);
         assert_int_equal(c.mono_ns, 1000);
         assert_int_equal(c.real_ns, 2000);
         assert_int_equal(c.word, 2);
@@ -515,7 +434,7 @@ static void test_batch_change_word(void **state)
         assert_int_equal(shm_table_set(f->t, LAT, NULL, 0), -EINVAL);
         assert_int_equal(change_of(&v), before + 2);
         expect_slot(&v, LAT, "41", SHM_SLOT_VALID);
-        view_close(&v);
+        shmtest_view_close(&v);
 }
 
 struct change_waiter {
@@ -537,22 +456,22 @@ static int change_waiter_main(void *arg)
 
 static void test_commit_wakes_other_process(void **state)
 {
-        struct fixture *f = *state;
-        struct view v = view_open(f->in_name, 0);
-        struct change_waiter w = { &in_header(&v)->change, change_of(&v) };
+        struct shmtest_table *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->in_name, 0);
+        struct change_waiter w = { &shmtest_in_header(&v)->change, change_of(&v) };
         pid_t pid = shmtest_fork(change_waiter_main, &w);
 
         shm_table_begin(f->t);
         shm_table_set_str(f->t, LAT, "1");
         shm_table_commit(f->t);
         assert_int_equal(shmtest_wait(pid), 0);
-        view_close(&v);
+        shmtest_view_close(&v);
 }
 
 static void test_stale(void **state)
 {
-        struct fixture *f = *state;
-        struct view v = view_open(f->in_name, 0);
+        struct shmtest_table *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->in_name, 0);
         uint32_t before;
 
         shm_table_begin(f->t);
@@ -578,13 +497,13 @@ static void test_stale(void **state)
         expect_slot(&v, LON, "2", SHM_SLOT_VALID);
         assert_int_equal(shm_table_set_link_stale(f->t, 7, 0), -EINVAL);
         assert_int_equal(shm_table_set_stale(f->t, 99, 0), -ENOENT);
-        view_close(&v);
+        shmtest_view_close(&v);
 }
 
 /* shm_table_get reads back what was published: inbound values, outbound mirrors, flags. */
 static void test_get(void **state)
 {
-        struct fixture *f = *state;
+        struct shmtest_table *f = *state;
         char buf[SHM_VALUE_SIZE], small[2];
         uint32_t flags = 0xffu;
 
@@ -611,21 +530,21 @@ static void test_get(void **state)
 
 static void test_adhoc(void **state)
 {
-        struct fixture *f = *state;
-        struct view v = view_open(f->in_name, 0);
+        struct shmtest_table *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->in_name, 0);
         struct shm_var adhoc = { "Adhoc0", SHM_DIR_IN, SHM_TYPE_STRING, 0, "A", SHM_POSITION_NONE };
-        uint32_t gen = atomic_load(&in_header(&v)->dir_generation);
+        uint32_t gen = atomic_load(&shmtest_in_header(&v)->dir_generation);
         uint32_t before = change_of(&v);
         char name[16];
         int id;
 
         id = shm_table_add(f->t, &adhoc);
         assert_int_equal(id, NVARS);
-        assert_int_equal(atomic_load(&in_header(&v)->count), NVARS + 1);
-        assert_int_equal(atomic_load(&in_header(&v)->dir_generation), gen + 1);
+        assert_int_equal(atomic_load(&shmtest_in_header(&v)->count), NVARS + 1);
+        assert_int_equal(atomic_load(&shmtest_in_header(&v)->dir_generation), gen + 1);
         assert_int_equal(change_of(&v), before + 1);
-        assert_string_equal(in_dir(&v)[id].name, "Adhoc0");
-        assert_int_equal(in_dir(&v)[id].flags, SHM_DIR_ADHOC);
+        assert_string_equal(shmtest_in_dir(&v)[id].name, "Adhoc0");
+        assert_int_equal(shmtest_in_dir(&v)[id].flags, SHM_DIR_ADHOC);
         assert_int_equal(shm_table_find(f->t, "Adhoc0"), id);
         assert_int_equal(shm_table_set_str(f->t, (uint32_t)id, "v"), 0);
         expect_slot(&v, (unsigned)id, "v", SHM_SLOT_VALID);
@@ -646,24 +565,24 @@ static void test_adhoc(void **state)
         }
         adhoc.name = "OneTooMany";
         assert_int_equal(shm_table_add(f->t, &adhoc), -ENOSPC);
-        assert_int_equal(atomic_load(&in_header(&v)->count), NVARS + ADHOC);
-        assert_int_equal(atomic_load(&in_header(&v)->dir_generation), gen + ADHOC);
-        view_close(&v);
+        assert_int_equal(atomic_load(&shmtest_in_header(&v)->count), NVARS + ADHOC);
+        assert_int_equal(atomic_load(&shmtest_in_header(&v)->dir_generation), gen + ADHOC);
+        shmtest_view_close(&v);
 }
 
 static void test_links_counters(void **state)
 {
-        struct fixture *f = *state;
-        struct view v = view_open(f->in_name, 0);
+        struct shmtest_table *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->in_name, 0);
         struct shm_link_def def = { "arena", "circe" };
         struct shm_link *l;
         char name[16];
 
         assert_int_equal(shm_table_link_add(f->t, &def), 2);
-        assert_int_equal(atomic_load(&in_header(&v)->link_count), 3);
-        assert_string_equal(in_link(&v, 2)->name, "arena");
+        assert_int_equal(atomic_load(&shmtest_in_header(&v)->link_count), 3);
+        assert_string_equal(shmtest_in_link(&v, 2)->name, "arena");
         assert_int_equal(shm_table_link_state(f->t, 1, 2, "connected"), 0);
-        l = in_link(&v, 1);
+        l = shmtest_in_link(&v, 1);
         assert_false(shm_seqlock_odd(atomic_load(&l->seq)));
         assert_int_equal(atomic_load(&l->state), 2);
         assert_string_equal((const char *)(uintptr_t)l->state_name, "connected");
@@ -678,9 +597,9 @@ static void test_links_counters(void **state)
         shm_table_counter_add(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_INVALID, 1);
         shm_table_counter_add(f->t, 31, SHM_COUNTER_FRAMES_IN, 1);      /* no such link: ignored */
         assert_int_equal(shm_table_counter_get(f->t, 0, SHM_COUNTER_FRAMES_IN), 5);
-        assert_int_equal(atomic_load(&in_link(&v, 0)->counters[SHM_COUNTER_FRAMES_IN]), 5);
-        assert_int_equal(atomic_load(&in_link(&v, 1)->counters[SHM_COUNTER_BAD_CHECKSUM]), 42);
-        assert_int_equal(atomic_load(&in_header(&v)->counters[SHM_COUNTER_OUT_INVALID]), 1);
+        assert_int_equal(atomic_load(&shmtest_in_link(&v, 0)->counters[SHM_COUNTER_FRAMES_IN]), 5);
+        assert_int_equal(atomic_load(&shmtest_in_link(&v, 1)->counters[SHM_COUNTER_BAD_CHECKSUM]), 42);
+        assert_int_equal(atomic_load(&shmtest_in_header(&v)->counters[SHM_COUNTER_OUT_INVALID]), 1);
         assert_int_equal(shm_table_counter_get(f->t, 31, SHM_COUNTER_FRAMES_IN), 0);
 
         for (unsigned i = 3; i < SHM_LINKS_MAX; i++) {
@@ -691,14 +610,14 @@ static void test_links_counters(void **state)
         assert_int_equal(shm_table_link_add(f->t, &def), -ENOSPC);
         def.name = "";
         assert_int_equal(shm_table_link_add(f->t, &def), -ENOSPC);
-        view_close(&v);
+        shmtest_view_close(&v);
 }
 
 static void test_heartbeat_and_events(void **state)
 {
-        struct fixture *f = *state;
-        struct view v = view_open(f->in_name, 0);
-        struct shm_in_header *h = in_header(&v);
+        struct shmtest_table *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->in_name, 0);
+        struct shm_in_header *h = shmtest_in_header(&v);
         uint64_t beat = atomic_load(&h->heartbeat_ns);
         uint32_t before = change_of(&v);
 
@@ -715,7 +634,7 @@ static void test_heartbeat_and_events(void **state)
         shm_table_commit(f->t);
         assert_int_equal(change_of(&v), before + 3);                    /* batched: one */
         assert_int_equal(atomic_load(&h->counters[SHM_COUNTER_EVENTS]), 4);
-        view_close(&v);
+        shmtest_view_close(&v);
 }
 
 /* ---- outbound: well-behaved clients --------------------------------------------------------- */
@@ -723,18 +642,18 @@ static void test_heartbeat_and_events(void **state)
 /* Outbound variables added at run time take the spare .out slots, in order. */
 static void test_out_spare(void **state)
 {
-        struct fixture *f = *state;
-        struct view v;
+        struct shmtest_table *f = *state;
+        struct shmtest_view v;
         struct shm_var learned = { "Learned0", SHM_DIR_OUT, SHM_TYPE_LONG, 0, "A", 0 };
         struct seen s;
         int id;
 
         f->cfg.out_spare = ADHOC + 1;
-        assert_int_equal(shm_table_create(&f->cfg, &f->t), -EINVAL);   /* more than adhoc room */
+        assert_int_equal(shmtest_table_create(f), -EINVAL);   /* more than adhoc room */
         f->cfg.out_spare = 2;
-        assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
-        v = view_open(f->in_name, 0);
-        assert_int_equal(in_header(&v)->out_capacity, NOUT + 2);
+        assert_int_equal(shmtest_table_create(f), 0);
+        v = shmtest_view_open(f->in_name, 0);
+        assert_int_equal(shmtest_in_header(&v)->out_capacity, NOUT + 2);
 
         /* A client scribbling on a spare slot nobody owns: refused, never reported. */
         assert_int_equal(scan(f->t, &s), 0);
@@ -744,9 +663,9 @@ static void test_out_spare(void **state)
 
         id = shm_table_add(f->t, &learned);
         assert_int_equal(id, NVARS);
-        assert_int_equal(in_dir(&v)[id].out_slot, NOUT);
-        assert_int_equal(in_dir(&v)[id].direction, SHM_DIR_OUT);
-        assert_int_equal(in_dir(&v)[id].flags, SHM_DIR_ADHOC);
+        assert_int_equal(shmtest_in_dir(&v)[id].out_slot, NOUT);
+        assert_int_equal(shmtest_in_dir(&v)[id].direction, SHM_DIR_OUT);
+        assert_int_equal(shmtest_in_dir(&v)[id].flags, SHM_DIR_ADHOC);
         assert_int_equal(scan(f->t, &s), 0);            /* what was there before is not news */
         assert_int_equal(out_write(f->out_name, NOUT, "42"), 0);
         assert_int_equal(scan(f->t, &s), 1);
@@ -760,13 +679,13 @@ static void test_out_spare(void **state)
         assert_int_equal(shm_table_add(f->t, &learned), -ENOSPC);      /* spare slots used up */
         learned.direction = SHM_DIR_IN;                                 /* inbound room is left */
         assert_int_equal(shm_table_add(f->t, &learned), NVARS + 2);
-        view_close(&v);
+        shmtest_view_close(&v);
 }
 
 static void test_out_scan(void **state)
 {
-        struct fixture *f = *state;
-        struct view v = view_open(f->in_name, 0);
+        struct shmtest_table *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->in_name, 0);
         struct seen s;
 
         assert_int_equal(scan(f->t, &s), 0);
@@ -789,13 +708,13 @@ static void test_out_scan(void **state)
         assert_int_equal(scan(f->t, &s), 1);                            /* latest value wins */
         assert_string_equal(s.c[0].value, "0.75");
         assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_ACCEPTED), 3);
-        view_close(&v);
+        shmtest_view_close(&v);
 }
 
 static void test_out_validation(void **state)
 {
-        struct fixture *f = *state;
-        struct view v = view_open(f->in_name, 0);
+        struct shmtest_table *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->in_name, 0);
         char value[SHM_VALUE_SIZE + 8];
         uint64_t invalid = 0;
         struct seen s;
@@ -841,14 +760,14 @@ static void test_out_validation(void **state)
         /* The mirror kept the last valid value (63 x) all along. */
         value[SHM_VALUE_MAX] = '\0';
         expect_slot(&v, NOTE, value, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND);
-        view_close(&v);
+        shmtest_view_close(&v);
 }
 
 static void test_out_length_field_hostile(void **state)
 {
-        struct fixture *f = *state;
-        struct view out = view_open(f->out_name, 1);
-        struct shm_slot *slot = out_slot(&out, OUT_STEER);
+        struct shmtest_table *f = *state;
+        struct shmtest_view out = shmtest_view_open(f->out_name, 1);
+        struct shm_slot *slot = shmtest_out_slot(&out, OUT_STEER);
         uint64_t word;
         struct seen s;
 
@@ -859,7 +778,7 @@ static void test_out_length_field_hostile(void **state)
         assert_int_equal(shm_slot_publish(slot, word), 0);
         assert_int_equal(scan(f->t, &s), 1);
         assert_int_equal(s.c[0].status, SHM_OUT_INVALID);
-        view_close(&out);
+        shmtest_view_close(&out);
 }
 
 /* ---- outbound: dying writers ----------------------------------------------------------------- */
@@ -876,15 +795,15 @@ struct half_writer {
 static int half_writer_main(void *arg)
 {
         struct half_writer *w = arg;
-        struct view v = view_open(w->out_name, 1);
+        struct shmtest_view v = shmtest_view_open(w->out_name, 1);
         uint64_t word;
         char c;
 
         if (w->close_fd >= 0)
                 close(w->close_fd);
-        if (!v.base || shm_slot_claim(out_slot(&v, w->slot), (uint32_t)getpid(), &word) < 0)
+        if (!v.base || shm_slot_claim(shmtest_out_slot(&v, w->slot), (uint32_t)getpid(), &word) < 0)
                 return 1;
-        shm_slot_store_word(out_slot(&v, w->slot), 0, 0x3131313131313131ull);
+        shm_slot_store_word(shmtest_out_slot(&v, w->slot), 0, 0x3131313131313131ull);
         if (w->ready_fd >= 0 && write(w->ready_fd, "r", 1) != 1)
                 return 1;
         if (w->hold_fd >= 0)
@@ -895,8 +814,8 @@ static int half_writer_main(void *arg)
 
 static void test_out_repair_dead_writer(void **state)
 {
-        struct fixture *f = *state;
-        struct view out = view_open(f->out_name, 0);
+        struct shmtest_table *f = *state;
+        struct shmtest_view out = shmtest_view_open(f->out_name, 0);
         struct half_writer w = { f->out_name, OUT_STEER, -1, -1, -1 };
         struct shm_slot_copy c;
         struct seen s;
@@ -906,13 +825,13 @@ static void test_out_repair_dead_writer(void **state)
         assert_int_equal(scan(f->t, &s), 1);
         pid = shmtest_fork(half_writer_main, &w);
         assert_int_equal(shmtest_wait(pid), 0);                         /* gone, reaped */
-        assert_true(shm_seqlock_odd(shm_slot_word(out_slot(&out, OUT_STEER))));
+        assert_true(shm_seqlock_odd(shm_slot_word(shmtest_out_slot(&out, OUT_STEER))));
         assert_int_equal(scan(f->t, &s), 1);
         assert_int_equal(s.c[0].status, SHM_OUT_REPAIRED);
         assert_int_equal(s.c[0].id, STEER);
         assert_int_equal(s.c[0].writer_pid, pid);
         /* Even again, marked not valid; nothing half-written was handed on. */
-        assert_int_equal(shm_slot_read(out_slot(&out, OUT_STEER), &c), 0);
+        assert_int_equal(shm_slot_read(shmtest_out_slot(&out, OUT_STEER), &c), 0);
         assert_int_equal(c.flags, SHM_SLOT_REPAIRED);
         assert_int_equal(c.length, 0);
         assert_int_equal(scan(f->t, &s), 0);                            /* reported once */
@@ -922,15 +841,15 @@ static void test_out_repair_dead_writer(void **state)
         assert_int_equal(scan(f->t, &s), 1);
         assert_int_equal(s.c[0].status, SHM_OUT_CHANGED);
         assert_string_equal(s.c[0].value, "6");
-        view_close(&out);
+        shmtest_view_close(&out);
 }
 
 static void test_out_live_writer_skipped(void **state)
 {
-        struct fixture *f = *state;
-        struct view out = view_open(f->out_name, 0);
+        struct shmtest_table *f = *state;
+        struct shmtest_view out = shmtest_view_open(f->out_name, 0);
         struct half_writer w = { f->out_name, OUT_THROTTLE, -1, -1, -1 };
-        struct view mirror = view_open(f->in_name, 0);
+        struct shmtest_view mirror = shmtest_view_open(f->in_name, 0);
         int hold[2], ready[2];
         struct seen s;
         char c;
@@ -950,7 +869,7 @@ static void test_out_live_writer_skipped(void **state)
         assert_int_equal(scan(f->t, &s), 0);
         assert_int_equal(scan(f->t, &s), 0);
         assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_BUSY), 2);
-        assert_true(shm_seqlock_odd(shm_slot_word(out_slot(&out, OUT_THROTTLE))));
+        assert_true(shm_seqlock_odd(shm_slot_word(shmtest_out_slot(&out, OUT_THROTTLE))));
         assert_int_equal(out_write(f->out_name, OUT_STEER, "1"), 0);    /* others unaffected */
         assert_int_equal(scan(f->t, &s), 1);
         assert_int_equal(s.c[0].id, STEER);
@@ -960,25 +879,25 @@ static void test_out_live_writer_skipped(void **state)
         assert_int_equal(scan(f->t, &s), 1);
         assert_int_equal(s.c[0].status, SHM_OUT_REPAIRED);
         expect_slot(&mirror, THROTTLE, "", 0);                          /* never published */
-        view_close(&mirror);
-        view_close(&out);
+        shmtest_view_close(&mirror);
+        shmtest_view_close(&out);
 }
 
 static void test_out_forged_pids(void **state)
 {
-        struct fixture *f = *state;
-        struct view out = view_open(f->out_name, 1);
+        struct shmtest_table *f = *state;
+        struct shmtest_view out = shmtest_view_open(f->out_name, 1);
         const uint64_t pids[] = { 0, (uint64_t)getpid(), 0xffffffffu, 1u << 23 };
         struct seen s;
 
         /* Odd words naming no process that could hold them: repaired at once. */
         for (size_t i = 0; i < sizeof(pids) / sizeof(pids[0]); i++) {
-                atomic_store(&out_slot(&out, OUT_NOTE)->seq, (pids[i] << 32) | (2 * i + 101));
+                atomic_store(&shmtest_out_slot(&out, OUT_NOTE)->seq, (pids[i] << 32) | (2 * i + 101));
                 assert_int_equal(scan(f->t, &s), 1);
                 assert_int_equal(s.c[0].status, SHM_OUT_REPAIRED);
-                assert_false(shm_seqlock_odd(shm_slot_word(out_slot(&out, OUT_NOTE))));
+                assert_false(shm_seqlock_odd(shm_slot_word(shmtest_out_slot(&out, OUT_NOTE))));
         }
-        view_close(&out);
+        shmtest_view_close(&out);
 }
 
 /* ---- outbound: rogue clients ----------------------------------------------------------------- */
@@ -993,14 +912,14 @@ struct rogue {
 static int rogue_main(void *arg)
 {
         struct rogue *r = arg;
-        struct view v;
+        struct shmtest_view v;
         int fd;
 
         if (r->truncate_to >= 0) {
                 fd = shm_open(r->out_name, O_RDWR, 0);
                 return fd < 0 || ftruncate(fd, r->truncate_to) < 0;
         }
-        v = view_open(r->out_name, 1);
+        v = shmtest_view_open(r->out_name, 1);
         if (!v.base)
                 return 1;
         srand(r->seed);
@@ -1015,26 +934,26 @@ static void run_rogue(struct rogue *r)
 }
 
 /* After a recreate: clients that reopen .out write and are heard again. */
-static void expect_recovered(struct fixture *f, uint32_t generation)
+static void expect_recovered(struct shmtest_table *f, uint32_t generation)
 {
-        struct view v = view_open(f->in_name, 0);
-        struct view out = view_open(f->out_name, 0);
+        struct shmtest_view v = shmtest_view_open(f->in_name, 0);
+        struct shmtest_view out = shmtest_view_open(f->out_name, 0);
         struct seen s;
 
-        assert_int_equal(atomic_load(&in_header(&v)->out_generation), generation);
+        assert_int_equal(atomic_load(&shmtest_in_header(&v)->out_generation), generation);
         assert_int_equal(shm_layout_check_out(out.base, out.size), 0);
         assert_int_equal(((struct shm_out_header *)out.base)->generation, generation);
         assert_int_equal(out_write(f->out_name, OUT_THROTTLE, "9.5"), 0);
         assert_int_equal(scan(f->t, &s), 1);
         assert_int_equal(s.c[0].status, SHM_OUT_CHANGED);
         assert_string_equal(s.c[0].value, "9.5");
-        view_close(&out);
-        view_close(&v);
+        shmtest_view_close(&out);
+        shmtest_view_close(&v);
 }
 
 static void test_rogue_scribble_all(void **state)
 {
-        struct fixture *f = *state;
+        struct shmtest_table *f = *state;
         struct rogue r = { f->out_name, -1, 0, 1 };
         struct seen s;
 
@@ -1054,9 +973,9 @@ static void test_rogue_scribble_all(void **state)
 
 static void test_rogue_scribble_slots(void **state)
 {
-        struct fixture *f = *state;
+        struct shmtest_table *f = *state;
         struct rogue r = { f->out_name, -1, sizeof(struct shm_out_header), 1 };
-        struct view out = view_open(f->out_name, 0);
+        struct shmtest_view out = shmtest_view_open(f->out_name, 0);
         struct seen s;
         int n;
 
@@ -1074,17 +993,17 @@ static void test_rogue_scribble_slots(void **state)
         }
         /* Garbage words naming live processes may stay held (skipped); the rest recover. */
         for (unsigned i = 0; i < NOUT; i++) {
-                uint64_t word = shm_slot_word(out_slot(&out, i));
+                uint64_t word = shm_slot_word(shmtest_out_slot(&out, i));
 
                 if (shm_seqlock_odd(word))
                         assert_int_equal(kill((pid_t)shm_seqlock_pid(word), 0), 0);
         }
-        view_close(&out);
+        shmtest_view_close(&out);
 }
 
 static void test_rogue_truncate(void **state)
 {
-        struct fixture *f = *state;
+        struct shmtest_table *f = *state;
         const off_t sizes[] = { 0, 64, (off_t)sizeof(struct shm_out_header) + 100,
                                 (off_t)shm_layout_out_size(NOUT) - 1 };
         struct rogue r = { f->out_name, 0, 0, 0 };
@@ -1127,7 +1046,7 @@ static int readable(int fd)
 
 static void test_wake_fd(void **state)
 {
-        struct fixture *f = *state;
+        struct shmtest_table *f = *state;
         struct writer_child w = { f->out_name, OUT_NOTE, "ping" };
         struct rogue r = { f->out_name, 0, 0, 0 };
         struct seen s;
@@ -1156,15 +1075,15 @@ static void test_wake_fd(void **state)
 
 static void test_destroy_wakes_clients(void **state)
 {
-        struct fixture *f = *state;
-        struct view v = view_open(f->in_name, 0);
-        struct change_waiter w = { &in_header(&v)->change, change_of(&v) };
+        struct shmtest_table *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->in_name, 0);
+        struct change_waiter w = { &shmtest_in_header(&v)->change, change_of(&v) };
         pid_t pid = shmtest_fork(change_waiter_main, &w);
 
         f->t = shm_table_destroy(f->t);
         assert_int_equal(shmtest_wait(pid), 0);
-        assert_int_equal(atomic_load(&in_header(&v)->state), SHM_STATE_CLOSED);
-        view_close(&v);
+        assert_int_equal(atomic_load(&shmtest_in_header(&v)->state), SHM_STATE_CLOSED);
+        shmtest_view_close(&v);
 }
 
 int main(void)

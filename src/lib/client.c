@@ -97,6 +97,7 @@ static int map_open(const char *name, struct client_map **ret_map)
         m->capacity = h->capacity;
         m->event_capacity = h->event_capacity;
         m->epoch = h->epoch;
+        m->waiter_flag = (h->layout_version & 0xffffu) >= SHM_LAYOUT_MINOR_WAITER;
         m->dev = st.st_dev;
         m->ino = st.st_ino;
         *ret_map = m;
@@ -321,11 +322,6 @@ static int map_install(struct sl_client *c, struct client_map *m)
         return 0;
 }
 
-int client_closed(const struct sl_client *c)
-{
-        return atomic_load_explicit(&c->map->in->state, memory_order_acquire) != SHM_STATE_LIVE;
-}
-
 /* Write lock held: follow a daemon restart, new names, a recreated .out. */
 static void refresh(struct sl_client *c)
 {
@@ -406,21 +402,6 @@ void client_rdlock_slow(struct sl_client *c)
                 refresh(c);
                 client_wrunlock(c);
         }
-}
-
-int client_alive(const struct sl_client *c, uint64_t now_mono, uint64_t *ret_age)
-{
-        const struct shm_in_header *h = c->map->in;
-        uint64_t beat = atomic_load_explicit(&h->heartbeat_ns, memory_order_relaxed);
-        uint64_t age = now_mono > beat ? now_mono - beat : 0;
-
-        if (ret_age)
-                *ret_age = age;
-        if (client_closed(c))
-                return 0;
-        if (h->heartbeat_interval_ms == 0)
-                return 1;
-        return age <= (uint64_t)CLIENT_HEARTBEAT_MISSES * h->heartbeat_interval_ms * NS_PER_MS;
 }
 
 /* ---- open / close -------------------------------------------------------------------------- */

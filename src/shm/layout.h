@@ -30,6 +30,10 @@
  * Layout version history (major << 16 | minor; a client refuses another major):
  *   1.0  first layout: links with 64 counters, event ring of 256-byte records, 128-byte slots,
  *        96-byte directory entries, outbound slots locked by a (pid << 32 | seq) word.
+ *   1.1  the .out change word carries a waiter flag (SHM_OUT_WAITING): the daemon's wake thread
+ *        sets it before it sleeps on the word, and clients add SHM_OUT_CHANGE_STEP and issue a
+ *        FUTEX_WAKE only when they found the flag set and cleared it, so a write to an awake
+ *        daemon costs no system call. Clients of a 1.0 daemon (no flag ever set) wake always.
  */
 #ifndef SHM_LAYOUT_H
 #define SHM_LAYOUT_H
@@ -40,7 +44,8 @@
 #include <stdint.h>
 
 #define SHM_LAYOUT_MAJOR        1u
-#define SHM_LAYOUT_MINOR        0u
+#define SHM_LAYOUT_MINOR        1u
+#define SHM_LAYOUT_MINOR_WAITER 1u      /* first minor with SHM_OUT_WAITING */
 #define SHM_LAYOUT_VERSION      ((SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR)
 
 /* "SLNK.IN\0" and "SLNK.OUT" as little-endian words: recognisable in a hex dump. */
@@ -95,6 +100,10 @@
 #define SHM_SLOT_STALE          0x2u    /* link down or peer silent */
 #define SHM_SLOT_OUTBOUND       0x4u    /* a value written by a client (mirror or .out slot) */
 #define SHM_SLOT_REPAIRED       0x8u    /* .out: the writer died mid-write, value discarded */
+
+/* shm_out_header.change (layout 1.1, see the history above) */
+#define SHM_OUT_WAITING         0x1u    /* the daemon's wake thread sleeps (or is about to) */
+#define SHM_OUT_CHANGE_STEP     0x2u    /* what a client adds after each write */
 
 /* shm_event.flags */
 #define SHM_EVENT_TRUNCATED     0x1u    /* the text did not fit and was cut */

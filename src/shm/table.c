@@ -348,8 +348,10 @@ static int out_create(struct shm_table *t, uint32_t generation)
         h->capacity = t->out_capacity;
         h->slots_offset = sizeof(*h);
         h->generation = generation;
-        /* A fresh word per object, so a client cursor from the old one rarely matches. */
-        atomic_store_explicit(&h->change, (uint32_t)t->epoch + generation, memory_order_relaxed);
+        /* A fresh word per object, so a client cursor from the old one rarely matches; without
+         * the waiter flag: nobody sleeps on it yet. */
+        atomic_store_explicit(&h->change, ((uint32_t)t->epoch + generation) & ~SHM_OUT_WAITING,
+                              memory_order_relaxed);
         r = set_mode(t, fd, TABLE_MODE_OUT);
         if (r < 0) {
                 munmap(map, size);
@@ -1033,7 +1035,7 @@ int shm_table_out_recreate(struct shm_table *t)
                 shm_wake_watch(t->wake, NULL);
         r = out_create(t, t->out_generation + 1u);
         if (t->wake)
-                shm_wake_watch(t->wake, &t->out->change);
+                shm_wake_watch_flagged(t->wake, &t->out->change, SHM_OUT_WAITING);
         if (r < 0)
                 return r;
         t->out_generation++;
@@ -1138,9 +1140,14 @@ int shm_table_out_wake_fd(struct shm_table *t)
                 r = shm_wake_start(&t->wake);
                 if (r < 0)
                         return r;
-                shm_wake_watch(t->wake, &t->out->change);
+                shm_wake_watch_flagged(t->wake, &t->out->change, SHM_OUT_WAITING);
         }
         return shm_wake_fd(t->wake);
+}
+
+uint64_t shm_table_out_wake_stamp(const struct shm_table *t)
+{
+        return t->wake ? shm_wake_signal_ns(t->wake) : 0;
 }
 
 int shm_table_out_wake_ack(struct shm_table *t)

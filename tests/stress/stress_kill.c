@@ -203,13 +203,23 @@ static void on_change(void *userdata, const struct shm_out_change *ch)
 }
 
 /* Waits (on the futex, not a clock) until writers bumped the .out change word `steps` times. */
-static int wait_progress(const struct shm_out_header *h, unsigned steps)
+/*
+ * Waits for `steps` more writes. Writers wake a sleeper only when it set SHM_OUT_WAITING (layout
+ * 1.1), so this waiter sets it before each sleep as the daemon's wake thread does.
+ */
+static int wait_progress(struct shm_out_header *h, unsigned steps)
 {
-        uint32_t start = atomic_load(&h->change), seen;
+        uint32_t start = atomic_load(&h->change) & ~SHM_OUT_WAITING, seen;
 
-        while ((seen = atomic_load(&h->change)) - start < steps)
-                if (shm_futex_wait(&h->change, seen, WAIT_LIMIT_MS) == -ETIMEDOUT)
+        while (((seen = atomic_load(&h->change)) & ~SHM_OUT_WAITING) - start <
+               steps * SHM_OUT_CHANGE_STEP) {
+                if (!(seen & SHM_OUT_WAITING) &&
+                    !atomic_compare_exchange_strong(&h->change, &seen, seen | SHM_OUT_WAITING))
+                        continue;       /* a write came in between: count it */
+                if (shm_futex_wait(&h->change, seen | SHM_OUT_WAITING, WAIT_LIMIT_MS) ==
+                    -ETIMEDOUT)
                         return -1;
+        }
         return 0;
 }
 
@@ -267,8 +277,8 @@ int main(void)
                 return 2;
         memset(sh, 0, sizeof(*sh));
         shm_layout_object_name(instance, "out", name, sizeof(name));
-        fd = shm_open(name, O_RDONLY, 0);
-        h = mmap(NULL, shm_layout_out_size(NVARS), PROT_READ, MAP_SHARED, fd, 0);
+        fd = shm_open(name, O_RDWR, 0);        /* read-write: wait_progress sets the flag */
+        h = mmap(NULL, shm_layout_out_size(NVARS), PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
         close(fd);
         if (h == MAP_FAILED)
                 return 2;

@@ -25,7 +25,9 @@
 #define CLIENT_IDS_MAX          (4u * SHM_CAPACITY_MAX)  /* ids a handle hands out in its life */
 #define CLIENT_HEARTBEAT_MISSES 3u      /* heartbeat older than this many intervals: not alive */
 #define CLIENT_RUNTIME_DIR_SIZE 108
-#define CLIENT_NS_PER_MS        1000000ull     /* sizeof(sun_path): the socket path must fit it anyway */
+#define CLIENT_NS_PER_MS        1000000ull
+#define CLIENT_READER_SLOTS     64u     /* threads that read without a locked instruction */
+#define CLIENT_READER_SHIFT     (64u - 6u)      /* log2(CLIENT_READER_SLOTS) bits of a hash */     /* sizeof(sun_path): the socket path must fit it anyway */
 
 /* One mapping of .in, shared by the handle and any sl_wait sleeping on it. */
 struct client_map {
@@ -44,11 +46,22 @@ struct client_map {
         ino_t ino;
 };
 
+/*
+ * A reader slot of the handle's lock (client.c): one per thread that claimed it, its own cache
+ * line. Only the owning thread writes `active`; a writer of the handle reads it.
+ */
+struct client_reader {
+        _Atomic uintptr_t owner;        /* the owning thread (client_thread_id), 0: free */
+        _Atomic uint32_t active;        /* 1 while that thread is inside a read section */
+        uint8_t pad[64 - sizeof(uintptr_t) - sizeof(uint32_t)];
+} __attribute__((aligned(64)));
+
 struct sl_client {
         /* the handle's lock (client.c): readers inside, a writer wanting in, writers in turn */
         _Atomic uint32_t readers;
         _Atomic uint32_t writer;
         pthread_mutex_t writers;
+        struct client_reader *slots;    /* CLIENT_READER_SLOTS, or NULL: readers count only */
         char in_name[SHM_OBJECT_NAME_SIZE];
         char out_name[SHM_OBJECT_NAME_SIZE];
         struct client_map *map;
@@ -109,17 +122,74 @@ static inline int client_needs_refresh(const struct sl_client *c)
                out_generation != c->out_generation || (!c->out && c->out_error == -EAGAIN);
 }
 
-/* Releases a read lock. */
-static inline void client_unlock(struct sl_client *c)
+/* Claims a reader slot for the calling thread if its slot is free (client.c). */
+void client_reader_claim(struct sl_client *c, uintptr_t self);
+
+/* The calling thread: its thread pointer, unique among live threads and cheap to read. */
+static inline uintptr_t client_thread_id(void)
 {
+#if defined(__GNUC__) && !defined(__clang__) && __GNUC__ >= 11 && \
+        (defined(__x86_64__) || defined(__aarch64__))
+        return (uintptr_t)__builtin_thread_pointer();
+#else
+        return (uintptr_t)pthread_self();
+#endif
+}
+
+/* The reader slot a thread hashes to (slots != NULL). */
+static inline struct client_reader *client_reader_of(const struct sl_client *c, uintptr_t self)
+{
+        uint64_t h = ((uint64_t)self >> 6) * UINT64_C(0x9e3779b97f4a7c15);
+
+        return &c->slots[h >> CLIENT_READER_SHIFT];
+}
+
+/* Releases a read lock (through the thread's slot when it entered through it). */
+static inline __attribute__((always_inline)) void client_unlock(struct sl_client *c)
+{
+        if (c->slots) {
+                uintptr_t self = client_thread_id();
+                struct client_reader *r = client_reader_of(c, self);
+
+                if (atomic_load_explicit(&r->owner, memory_order_relaxed) == self &&
+                    atomic_load_explicit(&r->active, memory_order_relaxed)) {
+                        /* Release: the section's loads are done before a writer sees 0. */
+                        atomic_store_explicit(&r->active, 0u, memory_order_release);
+                        return;
+                }
+        }
         if (atomic_fetch_sub_explicit(&c->readers, 1u, memory_order_release) == 1u &&
             atomic_load_explicit(&c->writer, memory_order_seq_cst) != 0)
                 client_unlock_wake(c);
 }
 
-/* Takes the lock for reading, first refreshing the view if the tables changed underneath. */
-static inline void client_rdlock(struct sl_client *c)
+/*
+ * Takes the lock for reading, first refreshing the view if the tables changed underneath. A
+ * thread with a slot announces itself with a plain store: the writer's membarrier supplies the
+ * StoreLoad order that the locked increment of the shared count gives the others (client.c).
+ */
+static inline __attribute__((always_inline)) void client_rdlock(struct sl_client *c)
 {
+        if (c->slots) {
+                uintptr_t self = client_thread_id();
+                struct client_reader *r = client_reader_of(c, self);
+                uintptr_t owner = atomic_load_explicit(&r->owner, memory_order_relaxed);
+
+                if (owner == self) {
+                        atomic_store_explicit(&r->active, 1u, memory_order_relaxed);
+                        /* The compiler must not sink the store below the load (the CPU may:
+                         * that is what the writer's membarrier is for). */
+                        atomic_signal_fence(memory_order_seq_cst);
+                        if (atomic_load_explicit(&c->writer, memory_order_acquire) == 0 &&
+                            !client_needs_refresh(c))
+                                return;
+                        atomic_store_explicit(&r->active, 0u, memory_order_release);
+                        client_rdlock_slow(c);
+                        return;
+                }
+                if (owner == 0)
+                        client_reader_claim(c, self);   /* for the next call */
+        }
         atomic_fetch_add_explicit(&c->readers, 1u, memory_order_seq_cst);
         if (atomic_load_explicit(&c->writer, memory_order_seq_cst) == 0 &&
             !client_needs_refresh(c))

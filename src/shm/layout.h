@@ -374,6 +374,9 @@ int shm_layout_value_char(int c);
 /* 0 if v[0..len) is a valid value (length <= SHM_VALUE_MAX, wire charset), else -EINVAL. */
 int shm_layout_value_check(const char *v, size_t len);
 
+/* shm_layout_value_check of v[0..len) where v is a whole value field (SHM_VALUE_SIZE bytes). */
+int shm_layout_value_check_field(const char *v, size_t len);
+
 /* 0 if name is a valid variable name (1..47 bytes, wire charset without space), else -EINVAL. */
 int shm_layout_name_check(const char *name);
 

@@ -118,7 +118,7 @@ static int slot_check(uint32_t flags, uint32_t length, const char *value)
                 return -EINVAL;
         if (length > SHM_VALUE_MAX || value[length] != '\0')
                 return -EINVAL;
-        return shm_layout_value_check(value, length);
+        return shm_layout_value_check_field(value, length);
 }
 
 int shm_slot_head_check(const struct shm_slot_head *head, const char *value)

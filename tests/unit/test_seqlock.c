@@ -172,12 +172,15 @@ static void test_value_charset_positions(void **state)
                                 v[pos] = (char)b;
                                 assert_int_equal(shm_layout_value_check(v, len),
                                                  want ? 0 : -EINVAL);
+                                assert_int_equal(shm_layout_value_check_field(v, len),
+                                                 want ? 0 : -EINVAL);
                         }
                 }
                 memset(v, ' ', sizeof(v));
                 v[len] = '\0';
                 v[len + 1] = (char)0x80;
                 assert_int_equal(shm_layout_value_check(v, len), 0);
+                assert_int_equal(shm_layout_value_check_field(v, len), 0);
         }
 }
 
@@ -190,6 +193,8 @@ static void test_value_length(void **state)
         assert_int_equal(shm_layout_value_check(v, 0), 0);
         assert_int_equal(shm_layout_value_check(v, SHM_VALUE_MAX), 0);
         assert_int_equal(shm_layout_value_check(v, SHM_VALUE_MAX + 1), -EINVAL);
+        assert_int_equal(shm_layout_value_check_field(v, SHM_VALUE_MAX), 0);
+        assert_int_equal(shm_layout_value_check_field(v, SHM_VALUE_MAX + 1), -EINVAL);
         assert_int_equal(shm_layout_value_check("a b-1.5e3 ,;:", 13), 0);
 }
 

@@ -156,6 +156,30 @@ static int read_out_slot(const struct sl_client *c, const struct shm_dir_entry *
 }
 
 /*
+ * An outbound variable: the daemon's mirror in .in when it was copied from the .out slot as it
+ * still is (same lock word: layout.h, 1.1), which needs no check; else the .out slot itself,
+ * checked. Returns as read_out_slot (read lock held).
+ */
+static VARS_HOT int read_outbound(const struct sl_client *c, const struct shm_dir_entry *e,
+                                  int index, struct shm_slot_head *head, char *value,
+                                  uint64_t *ret_sequence)
+{
+        uint64_t word;
+
+        if (!c->out || e->out_slot >= c->out_capacity)
+                return 0;
+        word = atomic_load_explicit(&c->out_slots[e->out_slot].seq, memory_order_acquire);
+        if (!shm_seqlock_odd(word) && word != 0 &&
+            shm_slot_read_to(&c->map->slots[index], head, value) == 0 && head->source == word &&
+            (head->flags & SHM_SLOT_VALID) && head->length <= SHM_VALUE_MAX) {
+                head->flags |= SHM_SLOT_OUTBOUND;
+                *ret_sequence = shm_seqlock_sequence(word) / 2u;
+                return 1;
+        }
+        return read_out_slot(c, e, head, value, ret_sequence);
+}
+
+/*
  * One consistent, validated copy of variable id's value into value[0..SHM_VALUE_SIZE),
  * NUL-terminated (scratch space, unspecified on failure), the rest in *head; with ret_now, also
  * the flags that apply on top and the time the age counts to. The hot path of every read: one
@@ -177,7 +201,7 @@ static VARS_HOT int read_value(struct sl_client *c, int id, struct shm_slot_head
         }
         e = &c->map->dir[index];
         if (e->direction == SHM_DIR_OUT)
-                r = read_out_slot(c, e, head, value, &sequence);
+                r = read_outbound(c, e, index, head, value, &sequence);
         if (r == 0) {
                 /* .in: the daemon's own value, or its mirror of the last accepted outbound one */
                 r = shm_slot_read_to(&c->map->slots[index], head, value);

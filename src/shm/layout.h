@@ -34,6 +34,11 @@
  *        sets it before it sleeps on the word, and clients add SHM_OUT_CHANGE_STEP and issue a
  *        FUTEX_WAKE only when they found the flag set and cleared it, so a write to an awake
  *        daemon costs no system call. Clients of a 1.0 daemon (no flag ever set) wake always.
+ *        The .in mirror of an outbound variable carries the writer's time stamps and, in
+ *        shm_slot.source (reserved bytes before), the .out lock word it was copied under: a
+ *        client whose .out word still equals it reads the daemon's validated mirror instead of
+ *        validating the client-writable slot again. A 1.0 daemon leaves source 0: never equal
+ *        to a written word.
  */
 #ifndef SHM_LAYOUT_H
 #define SHM_LAYOUT_H
@@ -275,7 +280,10 @@ struct shm_slot {
         _Atomic uint32_t flags;                 /* SHM_SLOT_* */
         _Atomic uint32_t length;                /* value bytes, without NUL */
         _Atomic uint64_t value[SHM_VALUE_WORDS];        /* NUL-terminated, NUL-padded */
-        uint8_t reserved[32];
+        /* .in mirror of an outbound variable (1.1): the .out lock word whose value it holds, 0
+         * for none; in .out and for inbound variables 0 */
+        _Atomic uint64_t source;
+        uint8_t reserved[24];
 } __attribute__((aligned(64)));
 
 /* Header of the .out object: written once by the daemon, but clients can scribble over it. */
@@ -327,6 +335,7 @@ static_assert(sizeof(struct shm_slot) == 128, "slot size");
 static_assert(offsetof(struct shm_slot, flags) == 24, "slot flags offset");
 static_assert(offsetof(struct shm_slot, length) == 28, "slot length offset");
 static_assert(offsetof(struct shm_slot, value) == 32, "slot value offset");
+static_assert(offsetof(struct shm_slot, source) == 96, "slot source offset");
 static_assert(sizeof(struct shm_out_header) == 128, "out header size");
 static_assert(offsetof(struct shm_out_header, generation) == 48, "out generation offset");
 static_assert(offsetof(struct shm_out_header, change) == 64, "out change word offset");

@@ -21,6 +21,7 @@ int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *copy)
         copy->real_ns = head.real_ns;
         copy->flags = head.flags;
         copy->length = head.length;
+        copy->source = head.source;
         return 0;
 }
 
@@ -56,13 +57,20 @@ void shm_slot_store_word(struct shm_slot *slot, unsigned i, uint64_t w)
                 atomic_store_explicit(&slot->value[i], w, SHM_SEQLOCK_PAYLOAD_STORE);
 }
 
-void shm_slot_write(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
-                    uint64_t mono_ns, uint64_t real_ns)
+void shm_slot_write_mirror(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
+                           uint64_t mono_ns, uint64_t real_ns, uint64_t source)
 {
         uint64_t odd = shm_seqlock_write_begin(&slot->seq);
 
         shm_slot_store(slot, value, len, flags, mono_ns, real_ns);
+        atomic_store_explicit(&slot->source, source, SHM_SEQLOCK_PAYLOAD_STORE);
         shm_seqlock_write_end(&slot->seq, odd);
+}
+
+void shm_slot_write(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
+                    uint64_t mono_ns, uint64_t real_ns)
+{
+        shm_slot_write_mirror(slot, value, len, flags, mono_ns, real_ns, 0);
 }
 
 void shm_slot_write_flags(struct shm_slot *slot, uint32_t flags)

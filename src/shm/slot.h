@@ -24,6 +24,7 @@ struct shm_slot_copy {
         uint32_t flags;
         uint32_t length;
         char value[SHM_VALUE_SIZE];     /* raw bytes as found: validate before trusting */
+        uint64_t source;                /* shm_slot.source */
 };
 
 /*
@@ -43,6 +44,7 @@ struct shm_slot_head {
         uint64_t real_ns;
         uint32_t flags;
         uint32_t length;
+        uint64_t source;                /* shm_slot.source (a .in mirror), else 0 */
 };
 
 /*
@@ -67,6 +69,7 @@ static inline int shm_slot_read_to(const struct shm_slot *slot, struct shm_slot_
                 head->real_ns = atomic_load_explicit(&slot->real_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
                 head->flags = atomic_load_explicit(&slot->flags, SHM_SEQLOCK_PAYLOAD_LOAD);
                 head->length = atomic_load_explicit(&slot->length, SHM_SEQLOCK_PAYLOAD_LOAD);
+                head->source = atomic_load_explicit(&slot->source, SHM_SEQLOCK_PAYLOAD_LOAD);
                 /* Unrolled: the loop's own counting was a fifth of an sl_read. */
 #pragma GCC unroll 8
                 for (unsigned i = 0; i < SHM_VALUE_WORDS; i++) {
@@ -92,6 +95,13 @@ uint64_t shm_slot_word(const struct shm_slot *slot);
  */
 void shm_slot_write(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
                     uint64_t mono_ns, uint64_t real_ns);
+
+/*
+ * Single writer: shm_slot_write of the .in mirror of an outbound variable, recording the .out
+ * lock word (`source`, even) the value was copied under.
+ */
+void shm_slot_write_mirror(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
+                           uint64_t mono_ns, uint64_t real_ns, uint64_t source);
 
 /* Single writer: rewrites only the flags of an .in slot (value and time stamps kept). */
 void shm_slot_write_flags(struct shm_slot *slot, uint32_t flags);

@@ -724,7 +724,10 @@ int shm_table_commit(struct shm_table *t)
         return 1;
 }
 
-int shm_table_set(struct shm_table *t, uint32_t id, const char *value, size_t len)
+/* shm_table_set with the time stamps and .out word of an accepted client write (mono 0: the
+ * batch's, source 0: none). */
+static int table_set(struct shm_table *t, uint32_t id, const char *value, size_t len,
+                     uint64_t mono_ns, uint64_t real_ns, uint64_t source)
 {
         struct table_var *v;
         int implicit = !t->in_batch;
@@ -737,11 +740,18 @@ int shm_table_set(struct shm_table *t, uint32_t id, const char *value, size_t le
                 shm_table_begin(t);
         v = &t->vars[id];
         v->flags = SHM_SLOT_VALID | (v->direction == SHM_DIR_OUT ? SHM_SLOT_OUTBOUND : 0u);
-        shm_slot_write(&t->slots[id], value, (uint32_t)len, v->flags, t->batch_mono, t->batch_real);
+        shm_slot_write_mirror(&t->slots[id], value, (uint32_t)len, v->flags,
+                              mono_ns ? mono_ns : t->batch_mono,
+                              mono_ns ? real_ns : t->batch_real, source);
         t->dirty = 1;
         if (implicit)
                 shm_table_commit(t);
         return 0;
+}
+
+int shm_table_set(struct shm_table *t, uint32_t id, const char *value, size_t len)
+{
+        return table_set(t, id, value, len, 0, 0, 0);
 }
 
 int shm_table_get(const struct shm_table *t, uint32_t id, char *buf, size_t size,
@@ -1081,7 +1091,10 @@ static int scan_report(struct shm_table *t, uint32_t i, shm_table_out_fn fn, voi
                 memcpy(ch.value, c->value, c->length);
                 ch.value[c->length] = '\0';
                 shm_table_counter_add(t, SHM_LINK_NONE, SHM_COUNTER_OUT_ACCEPTED, 1);
-                shm_table_set(t, ch.id, ch.value, ch.length);
+                /* The mirror: the writer's stamps and word, so that a client whose .out word
+                 * still equals it can read this checked copy instead (layout.h, 1.1). A writer
+                 * whose stamp is 0 gets the scan's. */
+                table_set(t, ch.id, ch.value, ch.length, c->mono_ns, c->real_ns, s->word);
                 break;
         case SCAN_REPAIRED:
                 shm_table_counter_add(t, SHM_LINK_NONE, SHM_COUNTER_OUT_REPAIRED, 1);

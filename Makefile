@@ -325,6 +325,18 @@ $(PCFILE): Makefile
 	    'Version: $(VERSION)' 'Libs: -L$${libdir} -lsharedlink' 'Libs.private: -lpthread' \
 	    'Cflags: -I$${includedir}' > $@
 
+# pkg-config's convention for building against a tree that is not installed: with the build
+# directory on PKG_CONFIG_PATH, `pkg-config sharedlink` picks sharedlink-uninstalled.pc. It names
+# the build tree by absolute path, with an rpath so programs run without LD_LIBRARY_PATH.
+PCFILE_UNINST := $(O)/sharedlink-uninstalled.pc
+all: $(if $(LIB_SRC),$(PCFILE_UNINST))
+$(PCFILE_UNINST): Makefile
+	@mkdir -p $(@D)
+	$(call quiet,GEN)printf '%s\n' 'libdir=$(abspath $(O))' 'includedir=$(abspath include)' '' \
+	    'Name: sharedlink' 'Description: client library for sharedlinkd shared variables (build tree)' \
+	    'Version: $(VERSION)' 'Libs: -L$${libdir} -Wl,-rpath,$${libdir} -lsharedlink' \
+	    'Libs.private: -lpthread' 'Cflags: -I$${includedir}' > $@
+
 $(SLCTL): $(call obj,$(CLI_SRC)) $(LIBSL_A)
 	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $^ -lpthread
 
@@ -511,9 +523,17 @@ $(PYBENCH_C): tests/bench/read_loop.c $(LIBSL_SO)
 	$(call quiet,LD)$(CC) -std=c11 -D_DEFAULT_SOURCE $(OPT) $(WARN) -Iinclude -o $@ $< $(LIBSL_SO) \
 	    -Wl,-rpath,$(CURDIR)/$(O)
 
+# Every benchmark, the Python read next to the C one, then sl_read from a program built against
+# a temporary `make install` (tests/bench/bench_install.sh), then one table of every figure next
+# to its goal.
+BENCH_LOG := $(O)/bench/bench.log
 bench-run: all $(BENCH_BIN) $(if $(PYBENCH),$(PYBENCH_C))
-	@set -e; for b in $(BENCH_BIN); do echo "== $$b"; SHAREDLINK_BUILD=$(O) $$b; done
-	@$(if $(PYBENCH),echo "== $(PYBENCH)"; SHAREDLINK_BUILD=$(O) \
-	    SHAREDLINK_LIB=$(CURDIR)/$(LIBSL_SO) $(PYTHON) $(PYBENCH))
+	@set -eo pipefail; : > $(BENCH_LOG); \
+	    for b in $(BENCH_BIN); do echo "== $$b"; SHAREDLINK_BUILD=$(O) $$b | tee -a $(BENCH_LOG); done; \
+	    $(if $(PYBENCH),echo "== $(PYBENCH)"; SHAREDLINK_BUILD=$(O) \
+	    SHAREDLINK_LIB=$(CURDIR)/$(LIBSL_SO) $(PYTHON) $(PYBENCH) | tee -a $(BENCH_LOG);) \
+	    echo "== tests/bench/bench_install.sh"; \
+	    MAKE="$(MAKE)" CC="$(CC)" tests/bench/bench_install.sh $(O) | tee -a $(BENCH_LOG); \
+	    tests/bench/summary.sh $(BENCH_LOG)
 
 -include $(shell find build -name '*.d' 2>/dev/null)

@@ -79,7 +79,8 @@ extern "C" {
 
 /* sl_meta.flags */
 #define SL_FLAG_VALID           0x1u    /* a complete value was written (else never set, or lost) */
-#define SL_FLAG_STALE           0x2u    /* link down, peer silent, or the daemon is not running */
+#define SL_FLAG_STALE           0x2u    /* link down, peer silent, or the daemon is not running
+                                         * (its heartbeat is 3 intervals old: 3 s by default) */
 #define SL_FLAG_OUTBOUND        0x4u    /* an outbound variable: the value a client wrote */
 #define SL_FLAG_REPAIRED        0x8u    /* outbound: its last writer died mid-write */
 
@@ -94,7 +95,10 @@ struct sl_meta {
         size_t size;                    /* set by the caller: sizeof(struct sl_meta) */
         uint64_t mono_ns;               /* time of the last update, CLOCK_MONOTONIC */
         uint64_t real_ns;               /* time of the last update, CLOCK_REALTIME */
-        uint64_t age_ns;                /* now - mono_ns (0 if never updated) */
+        uint64_t age_ns;                /* now - mono_ns (0 if never updated), "now" being the
+                                         * kernel's coarse clock: resolution one tick (1-4 ms),
+                                         * and it reads 1-2 ticks low; for a finer age, compare
+                                         * mono_ns with your own CLOCK_MONOTONIC */
         uint64_t sequence;              /* number of updates so far */
         uint32_t flags;                 /* SL_FLAG_* */
 };
@@ -206,6 +210,28 @@ int sl_write_long(struct sl_client *c, int id, long v);
  * changed (values, names, links, events, a daemon restart), 0 on timeout, or -errno.
  */
 int sl_wait(struct sl_client *c, uint32_t *cursor, int timeout_ms);
+
+/* sl_wait_opts.flags */
+#define SL_WAIT_SPIN            0x1u    /* poll the table for up to spin_us before sleeping */
+#define SL_WAIT_SPIN_MAX_US     10000   /* the largest spin budget */
+
+/* Options of sl_wait_with. */
+struct sl_wait_opts {
+        size_t size;                    /* set by the caller: sizeof(struct sl_wait_opts) */
+        uint32_t flags;                 /* SL_WAIT_* */
+        uint32_t spin_us;               /* SL_WAIT_SPIN: the spin budget, 0..SL_WAIT_SPIN_MAX_US */
+};
+
+/*
+ * sl_wait with options (opts NULL: exactly sl_wait). With SL_WAIT_SPIN it first polls the table
+ * on this CPU for up to spin_us (never past timeout_ms), and sleeps as sl_wait does only if nothing
+ * changed by then: a change that comes within the budget is seen without the futex wake-up of the
+ * daemon's thread and the scheduler's latency (microseconds on a virtual machine), at the price of
+ * a CPU kept busy for the whole spin. For a loop that waits for data due within microseconds; -EINVAL
+ * for unknown flags or a budget above SL_WAIT_SPIN_MAX_US. Returns as sl_wait.
+ */
+int sl_wait_with(struct sl_client *c, uint32_t *cursor, int timeout_ms,
+                 const struct sl_wait_opts *opts);
 
 /*
  * Reads up to ret_size events after *cursor (start with 0: the oldest retained; or with

@@ -40,6 +40,8 @@ SL_FLAG_REPAIRED = 0x8
 
 SL_EVENT_TRUNCATED = 0x1
 SL_EVENT_RESTARTED = 0x2
+SL_WAIT_SPIN = 0x1             # sl_wait_with (not bound yet: Client.wait blocks)
+SL_WAIT_SPIN_MAX_US = 10000
 
 SL_RUNTIME_DIR_DEFAULT = "/run/sharedlink"
 SL_REQUEST_LINE_MAX = 1023

@@ -11,6 +11,7 @@
 #include "lib/export.h"
 #include "shm/events.h"
 #include "shm/futex.h"
+#include "shm/seqlock.h"
 
 static_assert(SL_EVENT_TEXT_SIZE == SHM_EVENT_TEXT_SIZE,
               "sl_event.text copies the shm event text whole");
@@ -30,22 +31,67 @@ static uint32_t change_word(const struct client_map *m)
         return atomic_load_explicit(&m->in->change, memory_order_acquire);
 }
 
-SL_EXPORT int sl_wait(struct sl_client *c, uint32_t *cursor, int timeout_ms)
+/* Extensible struct: the caller's size must cover at least the first version. */
+#define SL_WAIT_OPTS_SIZE_V1    sizeof(struct sl_wait_opts)
+#define NS_PER_US               1000ull
+/* Spinning reads the clock once per this many polls of the change word (a pause each): often
+ * enough for a budget of microseconds, rare enough that the clock is not what it spins on. */
+#define NOTIFY_SPIN_CHECK       32u
+
+/*
+ * The spin of SL_WAIT_SPIN: polls the change word until it differs from cursor (1) or until
+ * spin_end (0). Reads only the word's cache line, which stays local until the daemon writes it.
+ */
+static int wait_spin(const struct client_map *m, uint32_t cursor, uint64_t spin_end)
 {
-        uint64_t deadline = 0, now;
+        for (unsigned i = 1;; i++) {
+                if (change_word(m) != cursor)
+                        return 1;
+                shm_seqlock_relax();
+                if (i % NOTIFY_SPIN_CHECK == 0 && client_now(CLOCK_MONOTONIC) >= spin_end)
+                        return 0;
+        }
+}
+
+/* Spin budget in ns of opts (NULL: none); -EINVAL for a struct or a budget we do not take. */
+static int64_t wait_spin_ns(const struct sl_wait_opts *opts)
+{
+        if (!opts)
+                return 0;
+        if (opts->size < SL_WAIT_OPTS_SIZE_V1 || (opts->flags & ~SL_WAIT_SPIN) ||
+            opts->spin_us > SL_WAIT_SPIN_MAX_US)
+                return -EINVAL;
+        return (opts->flags & SL_WAIT_SPIN) ? (int64_t)opts->spin_us * (int64_t)NS_PER_US : 0;
+}
+
+SL_EXPORT int sl_wait_with(struct sl_client *c, uint32_t *cursor, int timeout_ms,
+                           const struct sl_wait_opts *opts)
+{
+        uint64_t deadline = 0, now = 0;
         struct client_map *m;
+        int64_t spin_ns = wait_spin_ns(opts);
         uint32_t seen;
         int r, changed = 0;
 
-        if (!c || !cursor)
+        if (!c || !cursor || spin_ns < 0)
                 return -EINVAL;
-        if (timeout_ms > 0)
-                deadline = client_now(CLOCK_MONOTONIC) + (uint64_t)timeout_ms * NS_PER_MS;
+        if (timeout_ms > 0 || spin_ns > 0) {
+                now = client_now(CLOCK_MONOTONIC);
+                deadline = now + (uint64_t)(timeout_ms > 0 ? timeout_ms : 0) * NS_PER_MS;
+        }
         client_rdlock(c);
         m = client_map_get(c);
         client_unlock(c);
 
-        for (;;) {
+        /* Spin first, never past the deadline; timeout 0 only checks, as without a spin. */
+        if (spin_ns > 0 && timeout_ms != 0) {
+                uint64_t spin_end = now + (uint64_t)spin_ns;
+
+                if (timeout_ms > 0 && spin_end > deadline)
+                        spin_end = deadline;
+                changed = wait_spin(m, *cursor, spin_end);
+        }
+        while (!changed) {
                 int slice = NOTIFY_SLICE_MS;
 
                 /* A daemon that shuts down or replaces this table bumps the word too. A closed
@@ -83,6 +129,11 @@ SL_EXPORT int sl_wait(struct sl_client *c, uint32_t *cursor, int timeout_ms)
         *cursor = change_word(c->map);
         client_unlock(c);
         return 1;
+}
+
+SL_EXPORT int sl_wait(struct sl_client *c, uint32_t *cursor, int timeout_ms)
+{
+        return sl_wait_with(c, cursor, timeout_ms, NULL);
 }
 
 static uint64_t cursor_tag(const struct client_map *m)

@@ -18,6 +18,8 @@
 
 #define VARS_DOUBLE_DIGITS_MAX  17      /* enough to read a double back exactly */
 #define VARS_NUMBER_BUF         (SHM_VALUE_SIZE + 64)
+/* The read path is a handful of small steps: inline them into sl_read whatever the heuristics. */
+#define VARS_HOT                inline __attribute__((always_inline))
 
 /* The library's flag bits are the table's: a value read is handed out without translation. */
 _Static_assert(SL_FLAG_VALID == SHM_SLOT_VALID && SL_FLAG_STALE == SHM_SLOT_STALE &&
@@ -91,52 +93,101 @@ SL_EXPORT int sl_info(struct sl_client *c, int id, struct sl_var_info *ret)
         return 0;
 }
 
-/* Fills *meta from a slot copy (meta->size already checked). */
-static void meta_fill(struct sl_meta *meta, const struct shm_slot_copy *copy, uint64_t sequence,
-                      uint32_t extra_flags, uint64_t now)
+/* The metadata of one read, as meta_fill stores it. */
+static VARS_HOT void meta_store(struct sl_meta *out, const struct shm_slot_head *head,
+                                uint64_t sequence, uint32_t extra_flags, uint64_t now)
 {
-        struct sl_meta m;
+        out->mono_ns = head->mono_ns;
+        out->real_ns = head->real_ns;
+        out->age_ns = head->mono_ns && now > head->mono_ns ? now - head->mono_ns : 0;
+        out->sequence = sequence;
+        out->flags = (head->flags & (SL_FLAG_VALID | SL_FLAG_STALE | SL_FLAG_OUTBOUND |
+                                     SL_FLAG_REPAIRED)) | extra_flags;
+}
 
-        memset(&m, 0, sizeof(m));
-        m.mono_ns = copy->mono_ns;
-        m.real_ns = copy->real_ns;
-        m.age_ns = copy->mono_ns && now > copy->mono_ns ? now - copy->mono_ns : 0;
-        m.sequence = sequence;
-        m.flags = (copy->flags & (SL_FLAG_VALID | SL_FLAG_STALE | SL_FLAG_OUTBOUND |
-                                  SL_FLAG_REPAIRED)) | extra_flags;
+/* meta_fill for a caller's struct older than ours: built whole, then copied out as far as it goes. */
+static void __attribute__((noinline)) meta_fill_small(struct sl_meta *meta,
+                                                      const struct shm_slot_head *head,
+                                                      uint64_t sequence, uint32_t extra_flags,
+                                                      uint64_t now)
+{
+        struct sl_meta m = { .size = sizeof(m) };
+
+        meta_store(&m, head, sequence, extra_flags, now);
         client_struct_out(meta, &m, sizeof(m));
 }
 
 /*
- * Reads the .out slot of an outbound variable into *copy (read lock held). Returns 1 with a valid
- * copy, 0 when it holds no valid value (never written, repaired, recreated, scribbled), or -EAGAIN.
- * The slot is client-writable: the copy is validated like the daemon does before it is used.
+ * Fills *meta from what a read handed out (meta->size already checked). A caller's struct of the
+ * size we know (or a newer, larger one) gets its fields stored directly: building the whole struct
+ * and copying it out cost a memset and a memcpy call on every read with metadata (and a local
+ * whose address escapes costs the hot path a stack canary).
+ */
+static VARS_HOT void meta_fill(struct sl_meta *meta, const struct shm_slot_head *head,
+                               uint64_t sequence, uint32_t extra_flags, uint64_t now)
+{
+        if (meta->size >= sizeof(*meta))
+                meta_store(meta, head, sequence, extra_flags, now);
+        else
+                meta_fill_small(meta, head, sequence, extra_flags, now);
+}
+
+/*
+ * Reads the .out slot of an outbound variable, its value to value[0..SHM_VALUE_SIZE) (read lock
+ * held). Returns 1 with a valid copy, 0 when it holds no valid value (never written, repaired,
+ * recreated, scribbled), or -EAGAIN. The slot is client-writable: the copy is validated like the
+ * daemon does before it is used.
  */
 static int read_out_slot(const struct sl_client *c, const struct shm_dir_entry *e,
-                         struct shm_slot_copy *copy, uint64_t *ret_sequence)
+                         struct shm_slot_head *head, char *value, uint64_t *ret_sequence)
 {
         int r;
 
         if (!c->out || e->out_slot >= c->out_capacity)
                 return 0;
-        r = shm_slot_read(&c->out_slots[e->out_slot], copy);
+        r = shm_slot_read_to(&c->out_slots[e->out_slot], head, value);
         if (r < 0)
                 return r;
-        if (shm_slot_copy_check(copy) < 0)
+        if (shm_slot_head_check(head, value) < 0)
                 return 0;
-        copy->flags |= SHM_SLOT_OUTBOUND;
-        *ret_sequence = shm_seqlock_sequence(copy->word) / 2u;
+        head->flags |= SHM_SLOT_OUTBOUND;
+        *ret_sequence = shm_seqlock_sequence(head->word) / 2u;
         return 1;
 }
 
 /*
- * One consistent, validated copy of variable id's value, plus the flags that apply to it: the
- * value NUL-terminated in value[0..SHM_VALUE_SIZE) (the caller's buffer, or copy->value; either is
- * scratch space, unspecified on failure), the rest in *copy. Reading straight into the caller's
- * buffer spares the hot path a second copy of the value (see shm_slot_read_to).
+ * An outbound variable: the daemon's mirror in .in when it was copied from the .out slot as it
+ * still is (same lock word: layout.h, 1.1), which needs no check; else the .out slot itself,
+ * checked. Returns as read_out_slot (read lock held).
  */
-static int read_copy(struct sl_client *c, int id, struct shm_slot_copy *copy, char *value,
-                     uint64_t *ret_sequence, uint32_t *ret_extra, uint64_t now)
+static VARS_HOT int read_outbound(const struct sl_client *c, const struct shm_dir_entry *e,
+                                  int index, struct shm_slot_head *head, char *value,
+                                  uint64_t *ret_sequence)
+{
+        uint64_t word;
+
+        if (!c->out || e->out_slot >= c->out_capacity)
+                return 0;
+        word = atomic_load_explicit(&c->out_slots[e->out_slot].seq, memory_order_acquire);
+        if (!shm_seqlock_odd(word) && word != 0 &&
+            shm_slot_read_to(&c->map->slots[index], head, value) == 0 && head->source == word &&
+            (head->flags & SHM_SLOT_VALID) && head->length <= SHM_VALUE_MAX) {
+                head->flags |= SHM_SLOT_OUTBOUND;
+                *ret_sequence = shm_seqlock_sequence(word) / 2u;
+                return 1;
+        }
+        return read_out_slot(c, e, head, value, ret_sequence);
+}
+
+/*
+ * One consistent, validated copy of variable id's value into value[0..SHM_VALUE_SIZE),
+ * NUL-terminated (scratch space, unspecified on failure), the rest in *head; with ret_now, also
+ * the flags that apply on top and the time the age counts to. The hot path of every read: one
+ * read lock, one inline seqlock copy straight into the caller's buffer.
+ */
+static VARS_HOT int read_value(struct sl_client *c, int id, struct shm_slot_head *head,
+                               char *value, uint64_t *ret_sequence, uint32_t *ret_extra,
+                               uint64_t *ret_now)
 {
         const struct shm_dir_entry *e;
         uint64_t sequence = 0;
@@ -149,54 +200,70 @@ static int read_copy(struct sl_client *c, int id, struct shm_slot_copy *copy, ch
                 return index;
         }
         e = &c->map->dir[index];
-        if (e->direction == SHM_DIR_OUT) {
-                r = read_out_slot(c, e, copy, &sequence);
-                if (r == 1 && value != copy->value)
-                        memcpy(value, copy->value, SHM_VALUE_SIZE);
-        }
+        if (e->direction == SHM_DIR_OUT)
+                r = read_outbound(c, e, index, head, value, &sequence);
         if (r == 0) {
                 /* .in: the daemon's own value, or its mirror of the last accepted outbound one */
-                r = shm_slot_read_to(&c->map->slots[index], copy, value);
+                r = shm_slot_read_to(&c->map->slots[index], head, value);
                 if (r == 0) {
-                        sequence = copy->word / 2u;
-                        if (copy->length > SHM_VALUE_MAX || !(copy->flags & SHM_SLOT_VALID))
-                                copy->length = 0;
+                        sequence = head->word / 2u;
+                        if (head->length > SHM_VALUE_MAX || !(head->flags & SHM_SLOT_VALID))
+                                head->length = 0;
                 }
         }
-        *ret_extra = !now || client_alive(c, now, NULL) ? 0 : SL_FLAG_STALE;
+        if (ret_now) {
+                /* Age and liveness from the coarse clock: see client_now_coarse. */
+                *ret_now = client_now_coarse();
+                *ret_extra = client_alive(c, *ret_now, NULL) ? 0 : SL_FLAG_STALE;
+        }
         client_unlock(c);
         if (r < 0)
                 return r;
-        value[copy->length] = '\0';
+        value[head->length] = '\0';
         *ret_sequence = sequence;
         return 0;
 }
 
+/* sl_read into a buffer that cannot hold every value: through a private copy. */
+static int __attribute__((noinline)) read_small(struct sl_client *c, int id, char *buf, size_t size,
+                                                struct sl_meta *meta)
+{
+        char value[SHM_VALUE_SIZE];
+        struct shm_slot_head head;
+        uint64_t sequence, now = 0;
+        uint32_t extra = 0;
+        int r;
+
+        r = read_value(c, id, &head, value, &sequence, &extra, meta ? &now : NULL);
+        if (r < 0)
+                return r;
+        if (size < (size_t)head.length + 1u)
+                return -ENOBUFS;
+        memcpy(buf, value, head.length + 1u);
+        if (meta)
+                meta_fill(meta, &head, sequence, extra, now);
+        return (int)head.length;
+}
+
 SL_EXPORT int sl_read(struct sl_client *c, int id, char *buf, size_t size, struct sl_meta *meta)
 {
-        struct shm_slot_copy copy;
-        uint64_t sequence, now;
-        uint32_t extra;
-        char *value;
+        struct shm_slot_head head;
+        uint64_t sequence, now = 0;
+        uint32_t extra = 0;
         int r;
 
         if (!c || !buf || (meta && meta->size < SL_META_SIZE_V1))
                 return -EINVAL;
-        /* The clock (~20-30 ns) only matters for the metadata: age, and stale by heartbeat. */
-        now = meta ? client_now(CLOCK_MONOTONIC) : 0;
         /* A buffer that holds any value is read into directly; a smaller one gets a copy. */
-        value = size >= SHM_VALUE_SIZE ? buf : copy.value;
-        r = read_copy(c, id, &copy, value, &sequence, &extra, now);
+        if (size < SHM_VALUE_SIZE)
+                return read_small(c, id, buf, size, meta);
+        /* The clock only matters for the metadata: age, and stale by heartbeat. */
+        r = read_value(c, id, &head, buf, &sequence, &extra, meta ? &now : NULL);
         if (r < 0)
                 return r;
-        if (value != buf) {
-                if (size < (size_t)copy.length + 1u)
-                        return -ENOBUFS;
-                memcpy(buf, copy.value, copy.length + 1u);
-        }
         if (meta)
-                meta_fill(meta, &copy, sequence, extra, now);
-        return (int)copy.length;
+                meta_fill(meta, &head, sequence, extra, now);
+        return (int)head.length;
 }
 
 /* Reads a value into text; -ENODATA when it is not valid or empty. */
@@ -268,6 +335,32 @@ SL_EXPORT int sl_read_long(struct sl_client *c, int id, long *ret, struct sl_met
         return read_number(c, id, 0, NULL, ret, meta);
 }
 
+/*
+ * Tells the daemon about a write (read lock held): bumps the .out change word after the publish
+ * (release orders it after the value) and wakes the daemon's wake thread, the only waiter on the
+ * word, when it sleeps. A daemon of layout 1.1 or later says so with SHM_OUT_WAITING, set before
+ * it sleeps: the add returns the word as it was, so only a writer that finds the flag set (and
+ * is the one to clear it) makes the system call. All of this is one word's modification order:
+ * an add after the flag was set sees it; one before makes the daemon's CAS fail, and it looks
+ * again instead of sleeping.
+ */
+static void out_notify(struct sl_client *c)
+{
+        _Atomic uint32_t *change = &c->out->change;
+        uint32_t old;
+
+        if (!c->map->waiter_flag) {
+                atomic_fetch_add_explicit(change, 1u, memory_order_release);
+                shm_futex_wake(change, 1);
+                return;
+        }
+        old = atomic_fetch_add_explicit(change, SHM_OUT_CHANGE_STEP, memory_order_release);
+        if ((old & SHM_OUT_WAITING) &&
+            (atomic_fetch_and_explicit(change, ~SHM_OUT_WAITING, memory_order_relaxed) &
+             SHM_OUT_WAITING))
+                shm_futex_wake(change, 1);
+}
+
 /* Writes a checked value into the .out slot of id (read lock held). */
 static int write_locked(struct sl_client *c, int id, const char *value, size_t len)
 {
@@ -297,10 +390,7 @@ static int write_locked(struct sl_client *c, int id, const char *value, size_t l
         r = shm_slot_publish(slot, word);
         if (r < 0)
                 return r;
-        /* Tell the daemon: bump after the publish (release orders it after the value), and wake
-         * its wake thread, the only waiter on this word. */
-        atomic_fetch_add_explicit(&c->out->change, 1u, memory_order_release);
-        shm_futex_wake(&c->out->change, 1);
+        out_notify(c);
         return 0;
 }
 

@@ -30,6 +30,15 @@
  * Layout version history (major << 16 | minor; a client refuses another major):
  *   1.0  first layout: links with 64 counters, event ring of 256-byte records, 128-byte slots,
  *        96-byte directory entries, outbound slots locked by a (pid << 32 | seq) word.
+ *   1.1  the .out change word carries a waiter flag (SHM_OUT_WAITING): the daemon's wake thread
+ *        sets it before it sleeps on the word, and clients add SHM_OUT_CHANGE_STEP and issue a
+ *        FUTEX_WAKE only when they found the flag set and cleared it, so a write to an awake
+ *        daemon costs no system call. Clients of a 1.0 daemon (no flag ever set) wake always.
+ *        The .in mirror of an outbound variable carries the writer's time stamps and, in
+ *        shm_slot.source (reserved bytes before), the .out lock word it was copied under: a
+ *        client whose .out word still equals it reads the daemon's validated mirror instead of
+ *        validating the client-writable slot again. A 1.0 daemon leaves source 0: never equal
+ *        to a written word.
  */
 #ifndef SHM_LAYOUT_H
 #define SHM_LAYOUT_H
@@ -40,7 +49,8 @@
 #include <stdint.h>
 
 #define SHM_LAYOUT_MAJOR        1u
-#define SHM_LAYOUT_MINOR        0u
+#define SHM_LAYOUT_MINOR        1u
+#define SHM_LAYOUT_MINOR_WAITER 1u      /* first minor with SHM_OUT_WAITING */
 #define SHM_LAYOUT_VERSION      ((SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR)
 
 /* "SLNK.IN\0" and "SLNK.OUT" as little-endian words: recognisable in a hex dump. */
@@ -95,6 +105,10 @@
 #define SHM_SLOT_STALE          0x2u    /* link down or peer silent */
 #define SHM_SLOT_OUTBOUND       0x4u    /* a value written by a client (mirror or .out slot) */
 #define SHM_SLOT_REPAIRED       0x8u    /* .out: the writer died mid-write, value discarded */
+
+/* shm_out_header.change (layout 1.1, see the history above) */
+#define SHM_OUT_WAITING         0x1u    /* the daemon's wake thread sleeps (or is about to) */
+#define SHM_OUT_CHANGE_STEP     0x2u    /* what a client adds after each write */
 
 /* shm_event.flags */
 #define SHM_EVENT_TRUNCATED     0x1u    /* the text did not fit and was cut */
@@ -266,7 +280,10 @@ struct shm_slot {
         _Atomic uint32_t flags;                 /* SHM_SLOT_* */
         _Atomic uint32_t length;                /* value bytes, without NUL */
         _Atomic uint64_t value[SHM_VALUE_WORDS];        /* NUL-terminated, NUL-padded */
-        uint8_t reserved[32];
+        /* .in mirror of an outbound variable (1.1): the .out lock word whose value it holds, 0
+         * for none; in .out and for inbound variables 0 */
+        _Atomic uint64_t source;
+        uint8_t reserved[24];
 } __attribute__((aligned(64)));
 
 /* Header of the .out object: written once by the daemon, but clients can scribble over it. */
@@ -318,6 +335,7 @@ static_assert(sizeof(struct shm_slot) == 128, "slot size");
 static_assert(offsetof(struct shm_slot, flags) == 24, "slot flags offset");
 static_assert(offsetof(struct shm_slot, length) == 28, "slot length offset");
 static_assert(offsetof(struct shm_slot, value) == 32, "slot value offset");
+static_assert(offsetof(struct shm_slot, source) == 96, "slot source offset");
 static_assert(sizeof(struct shm_out_header) == 128, "out header size");
 static_assert(offsetof(struct shm_out_header, generation) == 48, "out generation offset");
 static_assert(offsetof(struct shm_out_header, change) == 64, "out change word offset");
@@ -364,6 +382,9 @@ int shm_layout_value_char(int c);
 
 /* 0 if v[0..len) is a valid value (length <= SHM_VALUE_MAX, wire charset), else -EINVAL. */
 int shm_layout_value_check(const char *v, size_t len);
+
+/* shm_layout_value_check of v[0..len) where v is a whole value field (SHM_VALUE_SIZE bytes). */
+int shm_layout_value_check_field(const char *v, size_t len);
 
 /* 0 if name is a valid variable name (1..47 bytes, wire charset without space), else -EINVAL. */
 int shm_layout_name_check(const char *name);

@@ -9,50 +9,20 @@
 
 #include "shm/seqlock.h"
 
-/*
- * Relaxed word-wise copy of the payload, the value to value[0..SHM_VALUE_SIZE); the caller
- * brackets it with read_begin/read_retry.
- */
-static void slot_copy_payload(const struct shm_slot *slot, struct shm_slot_copy *c, char *value)
-{
-        c->mono_ns = atomic_load_explicit(&slot->mono_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
-        c->real_ns = atomic_load_explicit(&slot->real_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
-        c->flags = atomic_load_explicit(&slot->flags, SHM_SEQLOCK_PAYLOAD_LOAD);
-        c->length = atomic_load_explicit(&slot->length, SHM_SEQLOCK_PAYLOAD_LOAD);
-        for (unsigned i = 0; i < SHM_VALUE_WORDS; i++) {
-                uint64_t w = atomic_load_explicit(&slot->value[i], SHM_SEQLOCK_PAYLOAD_LOAD);
-
-                memcpy(value + 8u * i, &w, sizeof(w));          /* one 8-byte store */
-        }
-}
-
-/* The bounded reader behind shm_slot_read and shm_slot_read_to. */
-static int slot_read(const struct shm_slot *slot, struct shm_slot_copy *copy, char *value)
-{
-        for (unsigned attempt = 0; attempt < SHM_SEQLOCK_TRIES; attempt++) {
-                uint64_t start = shm_seqlock_read_begin(&slot->seq);
-
-                if (shm_seqlock_odd(start)) {
-                        shm_seqlock_relax();
-                        continue;
-                }
-                slot_copy_payload(slot, copy, value);
-                if (shm_seqlock_read_retry(&slot->seq, start))
-                        continue;
-                copy->word = start;
-                return 0;
-        }
-        return -EAGAIN;
-}
-
 int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *copy)
 {
-        return slot_read(slot, copy, copy->value);
-}
+        struct shm_slot_head head;
+        int r = shm_slot_read_to(slot, &head, copy->value);
 
-int shm_slot_read_to(const struct shm_slot *slot, struct shm_slot_copy *copy, char *value)
-{
-        return slot_read(slot, copy, value);
+        if (r < 0)
+                return r;       /* *copy is scratch space after -EAGAIN anyway */
+        copy->word = head.word;
+        copy->mono_ns = head.mono_ns;
+        copy->real_ns = head.real_ns;
+        copy->flags = head.flags;
+        copy->length = head.length;
+        copy->source = head.source;
+        return 0;
 }
 
 uint64_t shm_slot_word(const struct shm_slot *slot)
@@ -87,13 +57,20 @@ void shm_slot_store_word(struct shm_slot *slot, unsigned i, uint64_t w)
                 atomic_store_explicit(&slot->value[i], w, SHM_SEQLOCK_PAYLOAD_STORE);
 }
 
-void shm_slot_write(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
-                    uint64_t mono_ns, uint64_t real_ns)
+void shm_slot_write_mirror(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
+                           uint64_t mono_ns, uint64_t real_ns, uint64_t source)
 {
         uint64_t odd = shm_seqlock_write_begin(&slot->seq);
 
         shm_slot_store(slot, value, len, flags, mono_ns, real_ns);
+        atomic_store_explicit(&slot->source, source, SHM_SEQLOCK_PAYLOAD_STORE);
         shm_seqlock_write_end(&slot->seq, odd);
+}
+
+void shm_slot_write(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,
+                    uint64_t mono_ns, uint64_t real_ns)
+{
+        shm_slot_write_mirror(slot, value, len, flags, mono_ns, real_ns, 0);
 }
 
 void shm_slot_write_flags(struct shm_slot *slot, uint32_t flags)
@@ -143,11 +120,21 @@ int shm_slot_repair(struct shm_slot *slot, uint64_t odd_word, uint32_t self_pid,
         return shm_seqlock_release(&slot->seq, ours) == 0 ? 0 : -EAGAIN;
 }
 
+static int slot_check(uint32_t flags, uint32_t length, const char *value)
+{
+        if (!(flags & SHM_SLOT_VALID))
+                return -EINVAL;
+        if (length > SHM_VALUE_MAX || value[length] != '\0')
+                return -EINVAL;
+        return shm_layout_value_check_field(value, length);
+}
+
+int shm_slot_head_check(const struct shm_slot_head *head, const char *value)
+{
+        return slot_check(head->flags, head->length, value);
+}
+
 int shm_slot_copy_check(const struct shm_slot_copy *copy)
 {
-        if (!(copy->flags & SHM_SLOT_VALID))
-                return -EINVAL;
-        if (copy->length > SHM_VALUE_MAX || copy->value[copy->length] != '\0')
-                return -EINVAL;
-        return shm_layout_value_check(copy->value, copy->length);
+        return slot_check(copy->flags, copy->length, copy->value);
 }

@@ -349,8 +349,10 @@ static int out_create(struct shm_table *t, uint32_t generation)
         h->capacity = t->out_capacity;
         h->slots_offset = sizeof(*h);
         h->generation = generation;
-        /* A fresh word per object, so a client cursor from the old one rarely matches. */
-        atomic_store_explicit(&h->change, (uint32_t)t->epoch + generation, memory_order_relaxed);
+        /* A fresh word per object, so a client cursor from the old one rarely matches; without
+         * the waiter flag: nobody sleeps on it yet. */
+        atomic_store_explicit(&h->change, ((uint32_t)t->epoch + generation) & ~SHM_OUT_WAITING,
+                              memory_order_relaxed);
         r = set_mode(t, fd, TABLE_MODE_OUT);
         if (r < 0) {
                 munmap(map, size);
@@ -727,7 +729,10 @@ int shm_table_commit(struct shm_table *t)
         return 1;
 }
 
-int shm_table_set(struct shm_table *t, uint32_t id, const char *value, size_t len)
+/* shm_table_set with the time stamps and .out word of an accepted client write (mono 0: the
+ * batch's, source 0: none). */
+static int table_set(struct shm_table *t, uint32_t id, const char *value, size_t len,
+                     uint64_t mono_ns, uint64_t real_ns, uint64_t source)
 {
         struct table_var *v;
         int implicit = !t->in_batch;
@@ -740,11 +745,18 @@ int shm_table_set(struct shm_table *t, uint32_t id, const char *value, size_t le
                 shm_table_begin(t);
         v = &t->vars[id];
         v->flags = SHM_SLOT_VALID | (v->direction == SHM_DIR_OUT ? SHM_SLOT_OUTBOUND : 0u);
-        shm_slot_write(&t->slots[id], value, (uint32_t)len, v->flags, t->batch_mono, t->batch_real);
+        shm_slot_write_mirror(&t->slots[id], value, (uint32_t)len, v->flags,
+                              mono_ns ? mono_ns : t->batch_mono,
+                              mono_ns ? real_ns : t->batch_real, source);
         t->dirty = 1;
         if (implicit)
                 shm_table_commit(t);
         return 0;
+}
+
+int shm_table_set(struct shm_table *t, uint32_t id, const char *value, size_t len)
+{
+        return table_set(t, id, value, len, 0, 0, 0);
 }
 
 int shm_table_get(const struct shm_table *t, uint32_t id, char *buf, size_t size,
@@ -1048,7 +1060,7 @@ int shm_table_out_recreate(struct shm_table *t)
                 shm_wake_watch(t->wake, NULL);
         r = out_create(t, t->out_generation + 1u);
         if (t->wake)
-                shm_wake_watch(t->wake, &t->out->change);
+                shm_wake_watch_flagged(t->wake, &t->out->change, SHM_OUT_WAITING);
         if (r < 0)
                 return r;
         t->out_generation++;
@@ -1103,7 +1115,10 @@ static int scan_report(struct shm_table *t, uint32_t i, shm_table_out_fn fn, voi
                 memcpy(ch.value, c->value, c->length);
                 ch.value[c->length] = '\0';
                 shm_table_counter_add(t, SHM_LINK_NONE, SHM_COUNTER_OUT_ACCEPTED, 1);
-                shm_table_set(t, ch.id, ch.value, ch.length);
+                /* The mirror: the writer's stamps and word, so that a client whose .out word
+                 * still equals it can read this checked copy instead (layout.h, 1.1). A writer
+                 * whose stamp is 0 gets the scan's. */
+                table_set(t, ch.id, ch.value, ch.length, c->mono_ns, c->real_ns, s->word);
                 break;
         case SCAN_REPAIRED:
                 shm_table_counter_add(t, SHM_LINK_NONE, SHM_COUNTER_OUT_REPAIRED, 1);
@@ -1162,9 +1177,14 @@ int shm_table_out_wake_fd(struct shm_table *t)
                 r = shm_wake_start(&t->wake);
                 if (r < 0)
                         return r;
-                shm_wake_watch(t->wake, &t->out->change);
+                shm_wake_watch_flagged(t->wake, &t->out->change, SHM_OUT_WAITING);
         }
         return shm_wake_fd(t->wake);
+}
+
+uint64_t shm_table_out_wake_stamp(const struct shm_table *t)
+{
+        return t->wake ? shm_wake_signal_ns(t->wake) : 0;
 }
 
 int shm_table_out_wake_ack(struct shm_table *t)

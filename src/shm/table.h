@@ -194,4 +194,7 @@ int shm_table_out_wake_fd(struct shm_table *t);
 /* Drains the wake eventfd; 1 if it had been signalled. */
 int shm_table_out_wake_ack(struct shm_table *t);
 
+/* CLOCK_MONOTONIC (ns) when the wake thread last signalled its eventfd (0: never, or no thread). */
+uint64_t shm_table_out_wake_stamp(const struct shm_table *t);
+
 #endif

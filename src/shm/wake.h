@@ -8,6 +8,8 @@
  * which the daemon could not FUTEX_WAKE the shared word any more to stop the thread. The shared
  * word is client-controlled, so the thread only ever reads it under the SIGBUS guard, never waits
  * on it without the control word, and only signals the eventfd (it never touches the table).
+ * With a waiter flag (shm_wake_watch_flagged) writers skip the FUTEX_WAKE while the thread is
+ * awake; the flag is set, like the word is read, under the SIGBUS guard.
  * On kernels without futex_waitv (before 5.16) it waits on the shared word alone with a timeout of
  * SHM_WAKE_FALLBACK_MS and rechecks the control word in between.
  */
@@ -27,6 +29,9 @@ int shm_wake_start(struct shm_wake **ret_wake);
 /* The eventfd (non-blocking, close-on-exec): readable when the watched word changed. */
 int shm_wake_fd(const struct shm_wake *w);
 
+/* CLOCK_MONOTONIC (ns) when the thread last signalled the eventfd, 0 before the first time. */
+uint64_t shm_wake_signal_ns(const struct shm_wake *w);
+
 /* Drains the eventfd; returns 1 if it was signalled, 0 if not. */
 int shm_wake_ack(struct shm_wake *w);
 
@@ -36,6 +41,14 @@ int shm_wake_ack(struct shm_wake *w);
  * only later changes signal the eventfd.
  */
 void shm_wake_watch(struct shm_wake *w, _Atomic uint32_t *word);
+
+/*
+ * shm_wake_watch for a word whose writers honour a waiter flag (flag: one bit, e.g.
+ * SHM_OUT_WAITING): before it sleeps the thread sets the flag with a CAS and sleeps only while
+ * the word still holds that value; writers must add without touching the flag and FUTEX_WAKE
+ * only when they cleared it. Writers that ignore the flag (add 1, always wake) still work.
+ */
+void shm_wake_watch_flagged(struct shm_wake *w, _Atomic uint32_t *word, uint32_t flag);
 
 /* Stops and joins the thread, closes the eventfd, frees w. NULL-safe; returns NULL. */
 struct shm_wake *shm_wake_stop(struct shm_wake *w);

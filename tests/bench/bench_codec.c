@@ -630,5 +630,20 @@ int main(int argc, char **argv)
                         return 1;
         }
         print_line_rate(dec_mbs);
+        /* For tests/bench/summary.sh: the slowest decode of each codec. */
+        for (size_t i = 0; i < CASES_COUNT; i++) {
+                double slowest = 0;
+                bool seen = false;
+
+                for (size_t j = 0; j < i && !seen; j++)
+                        seen = strcmp(cases[j].codec, cases[i].codec) == 0;
+                for (size_t j = i; j < CASES_COUNT && !seen; j++)
+                        if (strcmp(cases[j].codec, cases[i].codec) == 0 && dec_mbs[j] > 0 &&
+                            (slowest == 0 || dec_mbs[j] < slowest))
+                                slowest = dec_mbs[j];
+                if (!seen && slowest > 0)
+                        printf("FIGURE|codec_%s|%s decode, slowest case|%.0f|MB/s|-\n",
+                               cases[i].codec, cases[i].codec, slowest);
+        }
         return 0;
 }

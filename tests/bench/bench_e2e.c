@@ -31,6 +31,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <pthread.h>
+#include <sched.h>
 #include <semaphore.h>
 #include <signal.h>
 #include <stdatomic.h>
@@ -47,6 +48,7 @@
 
 #include "common/harness.h"
 #include "common/wire.h"
+#include "shm/table.h"
 
 #define SAMPLES         3000
 #define WARMUP          200
@@ -100,6 +102,8 @@ struct waiter {
         char expect[64];                /* what the event must carry */
         int fd;                         /* floor: pty slave; outbound: the link's master */
         struct sl_client *client;       /* inbound */
+        const struct sl_wait_opts *opts;        /* inbound: NULL, or the spin */
+        uint64_t cpu_ns;                /* inbound: this thread's CPU time while waiting */
         int id;
         int failed;
         int started;
@@ -158,7 +162,17 @@ static int cause_hop(void *arg, unsigned i)
         return sem_post(&hop_sem) < 0 ? -errno : 0;
 }
 
-/* Inbound: a client blocked in sl_wait until the value is the expected one. */
+/* CPU time of the calling thread, ns. */
+static uint64_t thread_cpu_ns(void)
+{
+        struct timespec ts;
+
+        clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+        return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+/* Inbound: a client blocked in sl_wait (or spinning first, with opts) until the value is the
+ * expected one. */
 static void *inbound_thread(void *arg)
 {
         struct waiter *w = arg;
@@ -168,6 +182,7 @@ static void *inbound_thread(void *arg)
         sl_wait(w->client, &cursor, 0);
         while (sem_wait(&w->go) == 0 && !atomic_load(&w->stop)) {
                 uint64_t deadline = now_ns() + (uint64_t)WAIT_MS * 1000000u;
+                uint64_t cpu0 = thread_cpu_ns();
 
                 for (;;) {
                         struct sl_meta meta = { .size = sizeof(meta) };
@@ -183,9 +198,10 @@ static void *inbound_thread(void *arg)
                                 w->failed = 1;
                                 break;
                         }
-                        sl_wait(w->client, &cursor, WAIT_MS);
+                        sl_wait_with(w->client, &cursor, WAIT_MS, w->opts);
                 }
                 atomic_store(&w->stamp, now_ns());
+                w->cpu_ns += thread_cpu_ns() - cpu0;
                 sem_post(&w->done);
         }
         return NULL;
@@ -380,6 +396,24 @@ static long long cpu_ticks(pid_t pid)
         return (long long)(ut + st);
 }
 
+/* VmRSS of a process in KiB, or -1. */
+static long long rss_kib(pid_t pid)
+{
+        char path[64], line[256];
+        long long kib = -1;
+        FILE *f;
+
+        snprintf(path, sizeof(path), "/proc/%d/status", (int)pid);
+        f = fopen(path, "re");
+        if (!f)
+                return -1;
+        while (fgets(line, sizeof(line), f))
+                if (sscanf(line, "VmRSS: %lld kB", &kib) == 1)
+                        break;
+        fclose(f);
+        return kib;
+}
+
 /* Context switches (voluntary + involuntary) of every thread of a process. */
 static long long ctx_switches(pid_t pid)
 {
@@ -466,15 +500,22 @@ static long long stat_field(const char *text, const char *key)
 /* ---------------------------------------------------------------------------------------------
  * Runs */
 
+/* Spin budget of the opt-in inbound probe: the largest, so that the frame comes within it even
+ * when the GAP_US sleep before it oversleeps on a loaded machine; the client's CPU time per
+ * sample says what the spin cost. */
+#define SPIN_US         SL_WAIT_SPIN_MAX_US
+
 static int run_latency(void)
 {
-        static struct sample_set floor_s, hop_s, in_s, mid_s, out_s;
+        static struct sample_set floor_s, hop_s, in_s, mid_s, spin_s, out_s;
+        const struct sl_wait_opts spin = { .size = sizeof(spin), .flags = SL_WAIT_SPIN,
+                                           .spin_us = SPIN_US };
         struct harness h;
-        struct waiter wf, wh, wi, wo;
+        struct waiter wf, wh, wi, ws, wo;
         struct frame_cause fc, ffc;
         struct write_cause wc;
         struct sl_client *c = NULL;
-        double fmed, fp99, hmed, hp99, imed, ip99, mmed, mp99, omed, op99;
+        double fmed, fp99, hmed, hp99, imed, ip99, mmed, mp99, smed, sp99, omed, op99;
         int master, slave, fm, fs, r;
         char pts[HARNESS_PATH_MAX];
 
@@ -490,7 +531,7 @@ static int run_latency(void)
         usleep(100000);
         drain(master);
 
-        /* The four probes run interleaved, one sample of each in turn, so that whatever else
+        /* The five probes run interleaved, one sample of each in turn, so that whatever else
          * the machine does weighs on all of them alike. */
         r = harness_openpty(&fm, &fs, pts);
         if (r < 0)
@@ -502,8 +543,9 @@ static int run_latency(void)
         ffc = (struct frame_cause){ .fd = fm, .dst = 'B', .src = 'A' };
         /* One futex wake-up between two threads: what the table adds to the pty, at least. */
         wh = (struct waiter){ 0 };
-        /* Inbound through the daemon. */
+        /* Inbound through the daemon: blocking sl_wait, and the opt-in spin first. */
         wi = (struct waiter){ .client = c, .id = sl_find(c, "In0") };
+        ws = (struct waiter){ .client = c, .id = wi.id, .opts = &spin };
         fc = (struct frame_cause){ .fd = master, .dst = 'B', .src = 'A' };
         /* Outbound, on_change with no rate limit. */
         wo = (struct waiter){ .fd = master };
@@ -516,16 +558,21 @@ static int run_latency(void)
         if (r == 0)
                 r = waiter_start(&wi, inbound_thread);
         if (r == 0)
+                r = waiter_start(&ws, inbound_thread);
+        if (r == 0)
                 r = waiter_start(&wo, outbound_thread);
         for (unsigned i = 0; r == 0 && i < WARMUP + SAMPLES; i++) {
-                int64_t d[4];
+                int64_t d[5];
                 uint64_t mid = 0;
 
+                if (i == WARMUP)
+                        wi.cpu_ns = ws.cpu_ns = 0;
                 d[0] = sample_one(&wf, cause_frame, &ffc, i, NULL);
                 d[1] = sample_one(&wh, cause_hop, NULL, i, NULL);
-                d[2] = sample_one(&wi, cause_frame, &fc, i, &mid);
-                d[3] = sample_one(&wo, cause_write, &wc, i, NULL);
-                for (int k = 0; k < 4; k++)
+                d[2] = sample_one(&wi, cause_frame, &fc, 2 * i, &mid);
+                d[3] = sample_one(&ws, cause_frame, &fc, 2 * i + 1, NULL);
+                d[4] = sample_one(&wo, cause_write, &wc, i, NULL);
+                for (int k = 0; k < 5; k++)
                         if (d[k] < 0)
                                 r = (int)d[k];
                 if (r < 0 || i < WARMUP)
@@ -534,11 +581,13 @@ static int run_latency(void)
                 hop_s.v[hop_s.n++] = (uint64_t)d[1];
                 in_s.v[in_s.n++] = (uint64_t)d[2];
                 mid_s.v[mid_s.n++] = mid;
-                out_s.v[out_s.n++] = (uint64_t)d[3];
+                spin_s.v[spin_s.n++] = (uint64_t)d[3];
+                out_s.v[out_s.n++] = (uint64_t)d[4];
         }
         waiter_stop(&wf);
         waiter_stop(&wh);
         waiter_stop(&wi);
+        waiter_stop(&ws);
         waiter_stop(&wo);
         sem_destroy(&hop_sem);
         close(fm);
@@ -550,6 +599,7 @@ static int run_latency(void)
         percentiles(&hop_s, &hmed, &hp99);
         percentiles(&in_s, &imed, &ip99);
         percentiles(&mid_s, &mmed, &mp99);
+        percentiles(&spin_s, &smed, &sp99);
         percentiles(&out_s, &omed, &op99);
         printf("latency, %d samples each (us)          median      p99\n", SAMPLES);
         printf("  floor: pty master -> slave reader  %8.1f %8.1f\n", fmed, fp99);
@@ -558,8 +608,23 @@ static int run_latency(void)
         printf("  inbound: pty -> sl_wait client     %8.1f %8.1f   median %.2fx floor "
                "(target <= 1.5x)\n", imed, ip99, imed / fmed);
         printf("    of which pty -> daemon applies   %8.1f %8.1f\n", mmed, mp99);
+        printf("  inbound, SL_WAIT_SPIN %5d us     %8.1f %8.1f   median %.2fx floor "
+               "(target <= 1.5x)\n", SPIN_US, smed, sp99, smed / fmed);
+        /* The client starts waiting GAP_US before the frame is written: that much spinning. */
+        printf("    CPU of the waiting client per sample: spin %.1f us, blocking %.1f us "
+               "(it waits ~%d us for each frame)\n", (double)ws.cpu_ns / SAMPLES / NS_PER_US,
+               (double)wi.cpu_ns / SAMPLES / NS_PER_US, GAP_US);
         printf("  outbound: sl_write -> pty master   %8.1f %8.1f   p99 %s 1 ms target\n", omed,
                op99, op99 < 1000.0 ? "under" : "OVER");
+        printf("FIGURE|pty_floor|pty floor (median)|%.1f|us|-\n", fmed);
+        printf("FIGURE|inbound|inbound, blocking sl_wait (median)|%.1f|us|-\n", imed);
+        printf("FIGURE|inbound_ratio|inbound blocking / floor|%.2f|x|<=1.5\n", imed / fmed);
+        printf("FIGURE|inbound_spin|inbound, SL_WAIT_SPIN (median)|%.1f|us|-\n", smed);
+        printf("FIGURE|inbound_spin_ratio|inbound spin / floor|%.2f|x|<=1.5\n", smed / fmed);
+        printf("FIGURE|inbound_spin_cpu|CPU per spin wake-up (client)|%.1f|us|-\n",
+               (double)ws.cpu_ns / SAMPLES / NS_PER_US);
+        printf("FIGURE|outbound_p50|outbound sl_write -> pty (median)|%.1f|us|-\n", omed);
+        printf("FIGURE|outbound_p99|outbound sl_write -> pty (p99)|%.1f|us|<1000\n", op99);
 out:
         if (r < 0)
                 fprintf(stderr, "bench_e2e: latency run failed: %s\n", strerror(-r));
@@ -567,6 +632,151 @@ out:
         close(master);
         close(slave);
         harness_cleanup(&h);
+        return r;
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Outbound stage by stage: the daemon's own pieces in this process (the table, its wake thread,
+ * a poll loop, a pty), each stage time-stamped: sl_write -> the wake thread signals its eventfd
+ * -> the poll loop returns -> scan + write() of the frame done -> the reader has the last byte. */
+
+#define STAGES          4
+#define STAGE_SAMPLES   2000
+
+struct stage_loop {
+        pthread_t thread;
+        struct shm_table *t;
+        int wake_fd;
+        int tx_fd;                      /* the loop writes frames here (a pty master) */
+        _Atomic int stop;
+        _Atomic uint32_t done;          /* frames written */
+        _Atomic uint64_t woke_ns, polled_ns, written_ns;
+        int failed;
+};
+
+static void stage_on_change(void *userdata, const struct shm_out_change *change)
+{
+        struct stage_loop *l = userdata;
+        char frame[FRAME_MAX], body[SL_VALUE_SIZE + 8];
+        size_t n;
+
+        if (change->status != SHM_OUT_CHANGED)
+                return;
+        snprintf(body, sizeof(body), "N0|D%s", change->value);
+        n = make_frame(frame, sizeof(frame), 'A', 'B', body);
+        if (write_all(l->tx_fd, frame, n) < 0)
+                l->failed = 1;
+}
+
+static void *stage_loop_main(void *arg)
+{
+        struct stage_loop *l = arg;
+
+        while (!atomic_load(&l->stop)) {
+                struct pollfd p = { .fd = l->wake_fd, .events = POLLIN };
+                uint64_t polled;
+
+                if (poll(&p, 1, 100) <= 0)
+                        continue;
+                polled = now_ns();
+                shm_table_out_wake_ack(l->t);
+                atomic_store(&l->woke_ns, shm_table_out_wake_stamp(l->t));
+                atomic_store(&l->polled_ns, polled);
+                if (shm_table_out_scan(l->t, stage_on_change, l) > 0) {
+                        atomic_store(&l->written_ns, now_ns());
+                        atomic_fetch_add(&l->done, 1u);
+                }
+        }
+        return NULL;
+}
+
+static int run_stages(void)
+{
+        static const struct shm_var var = { "Out0", SHM_DIR_OUT, SHM_TYPE_STRING, SHM_LINK_NONE,
+                                            NULL, SHM_POSITION_NONE };
+        static const char *const names[STAGES] = {
+                "sl_write -> wake thread signals", "eventfd -> poll loop runs",
+                "scan + frame write()", "pty -> reader has last byte",
+        };
+        static struct sample_set st[STAGES];
+        struct shm_table_config cfg = { .vars = &var, .nvars = 1 };
+        struct stage_loop l = { 0 };
+        struct sl_client *c = NULL;
+        struct waiter wr;
+        char instance[64], pts[HARNESS_PATH_MAX];
+        int fm = -1, fs = -1, r;
+
+        snprintf(instance, sizeof(instance), "bench-stages-%d", (int)getpid());
+        cfg.instance = instance;
+        r = shm_table_create(&cfg, &l.t);
+        if (r < 0)
+                return r;
+        r = sl_open(instance, &c);
+        if (r == 0)
+                r = harness_openpty(&fm, &fs, pts);
+        if (r == 0) {
+                fcntl(fs, F_SETFL, fcntl(fs, F_GETFL) | O_NONBLOCK);
+                l.tx_fd = fm;
+                l.wake_fd = shm_table_out_wake_fd(l.t);
+                r = l.wake_fd < 0 ? l.wake_fd : -pthread_create(&l.thread, NULL,
+                                                                 stage_loop_main, &l);
+        }
+        wr = (struct waiter){ .fd = fs };
+        if (r == 0)
+                r = waiter_start(&wr, floor_thread);
+        for (unsigned i = 0; r == 0 && i < WARMUP + STAGE_SAMPLES; i++) {
+                uint32_t done = atomic_load(&l.done);
+                uint64_t t[STAGES + 1];
+                char v[16];
+
+                sem_post(&wr.go);
+                usleep(GAP_US);         /* the reader, the loop and the wake thread sleep again */
+                snprintf(v, sizeof(v), "v%u", i);
+                t[0] = now_ns();
+                r = sl_write(c, 0, v);
+                if (r < 0)
+                        break;
+                sem_wait(&wr.done);
+                while (atomic_load(&l.done) == done && !wr.failed)
+                        sched_yield();  /* its stamps are stored before the frame is read */
+                if (wr.failed || l.failed) {
+                        r = -ETIMEDOUT;
+                        break;
+                }
+                t[1] = atomic_load(&l.woke_ns);
+                t[2] = atomic_load(&l.polled_ns);
+                t[3] = atomic_load(&l.written_ns);
+                t[4] = atomic_load(&wr.stamp);
+                if (i < WARMUP)
+                        continue;
+                for (int k = 0; k < STAGES; k++)
+                        st[k].v[st[k].n++] = t[k + 1] > t[k] ? t[k + 1] - t[k] : 0;
+        }
+        waiter_stop(&wr);
+        if (l.wake_fd > 0) {
+                atomic_store(&l.stop, 1);
+                pthread_join(l.thread, NULL);
+        }
+        if (r == 0) {
+                printf("outbound stage by stage, in process (the daemon's table, wake thread, a "
+                       "poll loop, a pty), %d samples (us)\n", STAGE_SAMPLES);
+                for (int k = 0; k < STAGES; k++) {
+                        double med, p99;
+
+                        percentiles(&st[k], &med, &p99);
+                        printf("  %-34s %8.1f %8.1f\n", names[k], med, p99);
+                        printf("FIGURE|stage%d|outbound stage: %s (p99)|%.1f|us|-\n", k + 1,
+                               names[k], p99);
+                }
+        } else {
+                fprintf(stderr, "bench_e2e: stage run failed: %s\n", strerror(-r));
+        }
+        if (fm >= 0)
+                close(fm);
+        if (fs >= 0)
+                close(fs);
+        sl_close(c);
+        shm_table_destroy(l.t);
         return r;
 }
 
@@ -605,12 +815,20 @@ static int run_idle(void)
         printf("  cpu: %.3f s (%.3f%% of one core)\n", (double)(cpu1 - cpu0) / (double)hz,
                100.0 * (double)(cpu1 - cpu0) / (double)hz / IDLE_S);
         printf("  context switches, all threads: %.1f /s\n", (double)(cs1 - cs0) / IDLE_S);
+        printf("  resident memory: %lld KiB\n", rss_kib(h.pid));
+        printf("FIGURE|idle_switches|idle daemon: context switches, all threads|%.1f|/s|-\n",
+               (double)(cs1 - cs0) / IDLE_S);
+        printf("FIGURE|daemon_rss|idle daemon resident memory (4 links)|%lld|KiB|-\n",
+               rss_kib(h.pid));
         if (w0 >= 0 && w1 >= 0)
                 /* The two stats requests themselves wake the loop (accept, read, reply). */
                 printf("  loop wakeups: %.1f /s, timer fires %.1f /s, idle wakeups %lld; "
                        "beyond timers: %lld (the stats request's own)\n",
                        (double)(w1 - w0) / IDLE_S, (double)(t1 - t0) / IDLE_S, i1 - i0,
                        (w1 - w0) - (t1 - t0));
+        if (w0 >= 0 && w1 >= 0)
+                printf("FIGURE|idle_wakeups|idle daemon: loop wake-ups|%.1f|/s|-\n",
+                       (double)(w1 - w0) / IDLE_S);
         else
                 printf("  loop wakeups: (the daemon does not answer `stats`)\n");
         for (unsigned i = 0; i < IDLE_LINKS; i++) {
@@ -627,6 +845,8 @@ int main(void)
 
         signal(SIGPIPE, SIG_IGN);
         r = run_latency();
+        if (run_stages() < 0)
+                r = -1;
         if (run_idle() < 0)
                 r = -1;
         return r < 0 ? 1 : 0;

@@ -201,13 +201,23 @@ static void on_change(void *userdata, const struct shm_out_change *ch)
 }
 
 /* Waits (on the futex, not a clock) until writers bumped the .out change word `steps` times. */
-static int wait_progress(const struct shm_out_header *h, unsigned steps)
+/*
+ * Waits for `steps` more writes. Writers wake a sleeper only when it set SHM_OUT_WAITING (layout
+ * 1.1), so this waiter sets it before each sleep as the daemon's wake thread does.
+ */
+static int wait_progress(struct shm_out_header *h, unsigned steps)
 {
-        uint32_t start = atomic_load(&h->change), seen;
+        uint32_t start = atomic_load(&h->change) & ~SHM_OUT_WAITING, seen;
 
-        while ((seen = atomic_load(&h->change)) - start < steps)
-                if (shm_futex_wait(&h->change, seen, WAIT_LIMIT_MS) == -ETIMEDOUT)
+        while (((seen = atomic_load(&h->change)) & ~SHM_OUT_WAITING) - start <
+               steps * SHM_OUT_CHANGE_STEP) {
+                if (!(seen & SHM_OUT_WAITING) &&
+                    !atomic_compare_exchange_strong(&h->change, &seen, seen | SHM_OUT_WAITING))
+                        continue;       /* a write came in between: count it */
+                if (shm_futex_wait(&h->change, seen | SHM_OUT_WAITING, WAIT_LIMIT_MS) ==
+                    -ETIMEDOUT)
                         return -1;
+        }
         return 0;
 }
 
@@ -250,7 +260,7 @@ int main(void)
                 return 2;
         memset(sh, 0, sizeof(*sh));
         shm_layout_object_name(instance, "out", name, sizeof(name));
-        view = shmtest_view_open(name, false);
+        view = shmtest_view_open(name, true);   /* read-write: wait_progress sets the flag */
         if (!view.base)
                 return 2;
         h = view.base;

@@ -7,7 +7,9 @@
 #include <fcntl.h>
 #include <locale.h>
 #include <math.h>
+#include <poll.h>
 #include <pthread.h>
+#include <sched.h>
 #include <setjmp.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -17,6 +19,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -24,6 +27,7 @@
 #include <sharedlink.h>
 
 #include "common/shmtest.h"
+#include "shm/futex.h"
 #include "shm/layout.h"
 #include "shm/slot.h"
 #include "shm/table.h"
@@ -432,6 +436,83 @@ static void test_wait_thread(void **state)
         assert_int_equal(sl_wait(f->c, NULL, 0), -EINVAL);
 }
 
+struct spin_waiter {
+        struct sl_client *c;
+        uint32_t cursor;
+        int timeout_ms;
+        struct sl_wait_opts opts;
+        _Atomic int started;
+        int result;
+};
+
+static void *spin_waiter_main(void *arg)
+{
+        struct spin_waiter *w = arg;
+
+        atomic_store(&w->started, 1);
+        w->result = sl_wait_with(w->c, &w->cursor, w->timeout_ms, &w->opts);
+        return NULL;
+}
+
+/* Publishes one change once the waiter runs; returns the cursor the waiter should end with. */
+static uint32_t spin_change(struct fixture *f, struct spin_waiter *w, pthread_t *th)
+{
+        uint32_t before = w->cursor;
+
+        assert_int_equal(pthread_create(th, NULL, spin_waiter_main, w), 0);
+        while (!atomic_load(&w->started))
+                sched_yield();
+        shm_table_set_str(f->tb.t, LAT, "spun");
+        return before + 1;
+}
+
+/*
+ * SL_WAIT_SPIN: a change during the spin returns 1 with the new cursor; so does one after a short
+ * spin, through the futex as before; a spin that meets the timeout returns 0; bad options -EINVAL.
+ */
+static void test_wait_spin(void **state)
+{
+        struct fixture *f = *state;
+        struct spin_waiter w = { .c = f->c, .timeout_ms = WAIT_LIMIT_MS };
+        uint32_t want;
+        pthread_t th;
+
+        w.opts = (struct sl_wait_opts){ .size = sizeof(w.opts), .flags = SL_WAIT_SPIN,
+                                        .spin_us = SL_WAIT_SPIN_MAX_US };
+        sl_wait(f->c, &w.cursor, 0);                    /* catch up with the table */
+        assert_int_equal(sl_wait_with(f->c, &w.cursor, 0, &w.opts), 0);  /* 0: just check */
+        /* Within the budget, or after it through the futex: either way woken by the change. */
+        want = spin_change(f, &w, &th);
+        pthread_join(th, NULL);
+        assert_int_equal(w.result, 1);
+        assert_int_equal(w.cursor, want);
+        /* A spin of 1 us, then the sleep; the change comes later (or during, both are fine). */
+        w.opts.spin_us = 1;
+        atomic_store(&w.started, 0);
+        want = spin_change(f, &w, &th);
+        pthread_join(th, NULL);
+        assert_int_equal(w.result, 1);
+        assert_int_equal(w.cursor, want);
+        /* Nothing changes: the spin is cut at the timeout, then 0. */
+        w.opts.spin_us = SL_WAIT_SPIN_MAX_US;
+        assert_int_equal(sl_wait_with(f->c, &w.cursor, 2, &w.opts), 0);
+        assert_int_equal(sl_wait_with(f->c, &w.cursor, 0, &w.opts), 0);
+        /* Without the flag it is sl_wait; NULL options too. */
+        w.opts.flags = 0;
+        assert_int_equal(sl_wait_with(f->c, &w.cursor, 1, &w.opts), 0);
+        assert_int_equal(sl_wait_with(f->c, &w.cursor, 1, NULL), 0);
+        /* Refused: unknown flags, a budget above the limit, a struct too small. */
+        w.opts.flags = 0x80;
+        assert_int_equal(sl_wait_with(f->c, &w.cursor, 1, &w.opts), -EINVAL);
+        w.opts.flags = SL_WAIT_SPIN;
+        w.opts.spin_us = SL_WAIT_SPIN_MAX_US + 1;
+        assert_int_equal(sl_wait_with(f->c, &w.cursor, 1, &w.opts), -EINVAL);
+        w.opts.spin_us = 1;
+        w.opts.size = sizeof(size_t);
+        assert_int_equal(sl_wait_with(f->c, &w.cursor, 1, &w.opts), -EINVAL);
+        assert_int_equal(sl_wait_with(f->c, NULL, 1, NULL), -EINVAL);
+}
+
 struct wait_child {
         const char *instance;
         int ready[2];
@@ -689,12 +770,30 @@ static void test_restart_clean(void **state)
 struct crash_daemon {
         const struct shm_table_config *cfg;
         int ready[2];
+        unsigned beat_ms;               /* 0: no heartbeat; else refresh it this often */
 };
 
-/* A daemon in a child: publishes a value, says so, and is then killed. */
+/* Starts crash_daemon_main in a child and returns once its table is up; returns the pid. */
+static int crash_daemon_main(void *arg);
+
+static pid_t crash_daemon_start(struct crash_daemon *d)
+{
+        pid_t pid;
+        char ch;
+
+        assert_int_equal(pipe(d->ready), 0);
+        pid = shmtest_fork(crash_daemon_main, d);
+        close(d->ready[1]);
+        assert_int_equal(read(d->ready[0], &ch, 1), 1);
+        close(d->ready[0]);
+        return pid;
+}
+
+/* A daemon in a child: publishes a value, says so, (keeps its heartbeat,) and is then killed. */
 static int crash_daemon_main(void *arg)
 {
         struct crash_daemon *d = arg;
+        struct timespec gap = { 0, (long)d->beat_ms * 1000000L };
         struct shm_table *t;
 
         close(d->ready[0]);
@@ -703,25 +802,26 @@ static int crash_daemon_main(void *arg)
         shm_table_set_str(t, LAT, "from-child");
         if (write(d->ready[1], "r", 1) != 1)
                 return 2;
-        for (;;)
-                pause();
+        for (;;) {
+                if (!d->beat_ms) {
+                        pause();
+                        continue;
+                }
+                shm_table_heartbeat(t);
+                nanosleep(&gap, NULL);
+        }
 }
 
 static void test_restart_after_crash(void **state)
 {
         struct fixture *f = *state;
-        struct crash_daemon d = { &f->tb.cfg, { -1, -1 } };
+        struct crash_daemon d = { &f->tb.cfg, { -1, -1 }, 0 };
         struct sl_client *c;
         char buf[SL_VALUE_SIZE];
         uint32_t cursor = 0;
-        char ch;
         pid_t pid;
 
-        assert_int_equal(pipe(d.ready), 0);
-        pid = shmtest_fork(crash_daemon_main, &d);
-        close(d.ready[1]);
-        assert_int_equal(read(d.ready[0], &ch, 1), 1);
-        close(d.ready[0]);
+        pid = crash_daemon_start(&d);
         assert_int_equal(sl_open(f->tb.instance, &c), 0);
         assert_int_equal(sl_read(c, LAT, buf, sizeof(buf), NULL), 10);
         assert_string_equal(buf, "from-child");
@@ -738,6 +838,245 @@ static void test_restart_after_crash(void **state)
         assert_int_equal(sl_read(c, LAT, buf, sizeof(buf), NULL), 11);
         assert_string_equal(buf, "from-parent");
         assert_int_equal(sl_write(c, THROTTLE, "3"), 0);
+        sl_close(c);
+}
+
+#define HEARTBEAT_MS    20u     /* of the daemon whose death test_read_stale_after_kill sees */
+
+static uint64_t mono_ns(clockid_t id)
+{
+        struct timespec ts;
+
+        clock_gettime(id, &ts);
+        return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+/* The .out change word, mapped read-write as a second view (the test plays other parties). */
+static _Atomic uint32_t *out_change_map(struct fixture *f, void **ret_base, size_t *ret_size)
+{
+        char name[SHM_OBJECT_NAME_SIZE];
+        long size;
+        void *base;
+        int fd;
+
+        assert_int_equal(shm_layout_object_name(f->tb.instance, "out", name, sizeof(name)), 0);
+        size = shmtest_object_size(name);
+        assert_true(size >= (long)sizeof(struct shm_out_header));
+        fd = shm_open(name, O_RDWR, 0);
+        assert_true(fd >= 0);
+        base = mmap(NULL, (size_t)size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+        close(fd);
+        assert_true(base != MAP_FAILED);
+        *ret_base = base;
+        *ret_size = (size_t)size;
+        return &((struct shm_out_header *)base)->change;
+}
+
+/*
+ * Layout 1.1: once the daemon mirrored an outbound value, reads take the mirror while the .out
+ * word is still the one it was copied under, with the same metadata as from .out; a newer write
+ * is read from .out at once. Scribbling over the .out value without touching its word shows
+ * which copy a read takes.
+ */
+static void test_read_outbound_mirror(void **state)
+{
+        struct fixture *f = *state;
+        struct sl_meta before = { .size = sizeof(before) }, after = { .size = sizeof(after) };
+        char buf[SL_VALUE_SIZE];
+        struct shm_slot *slot;
+        struct seen s;
+        uint64_t word;
+        size_t size;
+        void *base;
+
+        out_change_map(f, &base, &size);
+        slot = (struct shm_slot *)((char *)base + ((struct shm_out_header *)base)->slots_offset);
+        word = shm_slot_word(slot);
+        assert_int_equal(sl_write(f->c, THROTTLE, "0.5"), 0);
+        assert_int_not_equal(shm_slot_word(slot), word);        /* THROTTLE's is .out slot 0 */
+        assert_int_equal(sl_read(f->c, THROTTLE, buf, sizeof(buf), &before), 3);
+        assert_int_equal(scan(f, &s), 1);                       /* the daemon mirrors it */
+        assert_int_equal(sl_read(f->c, THROTTLE, buf, sizeof(buf), &after), 3);
+        assert_string_equal(buf, "0.5");
+        assert_int_equal(after.sequence, before.sequence);
+        assert_int_equal(after.mono_ns, before.mono_ns);
+        assert_int_equal(after.real_ns, before.real_ns);
+        assert_int_equal(after.flags, SL_FLAG_VALID | SL_FLAG_OUTBOUND);
+        /* Bytes changed behind the lock word (a valid value, so only the path tells): the
+         * mirror (checked by the daemon) is read, not the slot. */
+        shm_slot_store_word(slot, 0, 0x392e30ull);              /* "0.9", little-endian */
+        assert_int_equal(sl_read(f->c, THROTTLE, buf, sizeof(buf), NULL), 3);
+        assert_string_equal(buf, "0.5");
+        /* A new write: read from .out before any scan. */
+        assert_int_equal(sl_write(f->c, THROTTLE, "0.75"), 0);
+        assert_int_equal(sl_read(f->c, THROTTLE, buf, sizeof(buf), &after), 4);
+        assert_string_equal(buf, "0.75");
+        assert_int_equal(after.sequence, before.sequence + 1u);
+        munmap(base, size);
+}
+
+struct flag_waiter {
+        _Atomic uint32_t *change;
+        _Atomic int armed;
+        int result;
+};
+
+/* Plays the daemon's wake thread: sets the waiter flag, then sleeps on the word. */
+static void *flag_waiter_main(void *arg)
+{
+        struct flag_waiter *w = arg;
+        uint32_t v = atomic_load(w->change);
+
+        while (!atomic_compare_exchange_weak(w->change, &v, v | SHM_OUT_WAITING))
+                ;
+        atomic_store(&w->armed, 1);
+        w->result = shm_futex_wait(w->change, v | SHM_OUT_WAITING, WAIT_LIMIT_MS);
+        return NULL;
+}
+
+/*
+ * Layout 1.1: a write adds SHM_OUT_CHANGE_STEP and leaves the flag alone when nobody sleeps (no
+ * system call: nothing to wake), and clears the flag and wakes the sleeper when it is set.
+ */
+static void test_write_waiter_flag(void **state)
+{
+        struct fixture *f = *state;
+        struct flag_waiter w = { 0 };
+        _Atomic uint32_t *change;
+        pthread_t th;
+        uint32_t before;
+        size_t size;
+        void *base;
+
+        change = out_change_map(f, &base, &size);
+        w.change = change;
+        before = atomic_load(change);
+        assert_int_equal(before & SHM_OUT_WAITING, 0);
+        assert_int_equal(sl_write(f->c, THROTTLE, "1"), 0);
+        assert_int_equal(atomic_load(change), before + SHM_OUT_CHANGE_STEP);
+        /* A sleeper: the write must wake it (it returns 0, or -EAGAIN when the write came
+         * between its CAS and its sleep), never time out. */
+        assert_int_equal(pthread_create(&th, NULL, flag_waiter_main, &w), 0);
+        while (!atomic_load(&w.armed))
+                sched_yield();
+        before = atomic_load(change);
+        assert_int_equal(before & SHM_OUT_WAITING, SHM_OUT_WAITING);
+        assert_int_equal(sl_write(f->c, THROTTLE, "2"), 0);
+        pthread_join(th, NULL);
+        assert_true(w.result == 0 || w.result == -EAGAIN);
+        assert_int_equal(atomic_load(change), (before & ~SHM_OUT_WAITING) + SHM_OUT_CHANGE_STEP);
+        munmap(base, size);
+}
+
+/*
+ * The real wake thread, asleep (its flag set): a write wakes it and its eventfd becomes readable;
+ * and so for every write in a row, whether the thread was asleep or still awake from the last.
+ */
+static void test_write_wakes_wake_thread(void **state)
+{
+        struct fixture *f = *state;
+        int fd = shm_table_out_wake_fd(f->tb.t);
+        _Atomic uint32_t *change;
+        struct seen s;
+        size_t size;
+        void *base;
+
+        assert_true(fd >= 0);
+        change = out_change_map(f, &base, &size);
+        for (int i = 0; i < 50; i++) {
+                struct pollfd p = { .fd = fd, .events = POLLIN };
+                char value[16];
+
+                if (i % 2 == 0) {       /* every other time, write only once it sleeps */
+                        uint64_t deadline = mono_ns(CLOCK_MONOTONIC) +
+                                            (uint64_t)WAIT_LIMIT_MS * 1000000ull;
+
+                        while (!(atomic_load(change) & SHM_OUT_WAITING) &&
+                               mono_ns(CLOCK_MONOTONIC) < deadline)
+                                sched_yield();
+                        assert_int_equal(atomic_load(change) & SHM_OUT_WAITING, SHM_OUT_WAITING);
+                }
+                snprintf(value, sizeof(value), "%d", i);
+                assert_int_equal(sl_write(f->c, THROTTLE, value), 0);
+                assert_int_equal(poll(&p, 1, WAIT_LIMIT_MS), 1);
+                assert_int_equal(shm_table_out_wake_ack(f->tb.t), 1);
+                assert_int_equal(scan(f, &s), 1);
+                assert_string_equal(s.last.value, value);
+        }
+        munmap(base, size);
+}
+
+
+/*
+ * age_ns counts to the coarse monotonic clock: never more than the fine clock says after the read,
+ * and behind it by at most a few ticks (AGE_LAG_MAX_NS is a wide margin for a loaded machine: the
+ * bound checks that the age is the age, not how fast the clock is).
+ */
+#define AGE_LAG_MAX_NS  1000000000ull
+static void test_read_age_coarse(void **state)
+{
+        struct fixture *f = *state;
+        struct sl_meta meta = { .size = sizeof(meta) };
+        char buf[SL_VALUE_SIZE];
+        uint64_t stamp, before, after;
+
+        stamp = mono_ns(CLOCK_MONOTONIC) - 2u * AGE_LAG_MAX_NS;  /* updated a while ago */
+        shm_table_begin_at(f->tb.t, stamp, 1);
+        shm_table_set_str(f->tb.t, LAT, "1.5");
+        shm_table_commit(f->tb.t);
+        before = mono_ns(CLOCK_MONOTONIC);
+        assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 3);
+        after = mono_ns(CLOCK_MONOTONIC);
+        assert_int_equal(meta.mono_ns, stamp);
+        assert_true(meta.age_ns <= after - stamp);
+        assert_true(meta.age_ns + AGE_LAG_MAX_NS >= before - stamp);
+        /* Updated "in the future" of the coarse clock (within its last tick): age 0, not huge. */
+        shm_table_begin_at(f->tb.t, after + 1000000000ull, 1);
+        shm_table_set_str(f->tb.t, LAT, "2");
+        shm_table_commit(f->tb.t);
+        assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 1);
+        assert_int_equal(meta.age_ns, 0);
+}
+
+/*
+ * A daemon killed with SIGKILL updates nothing any more, yet reads must say stale once its
+ * heartbeat is CLIENT_HEARTBEAT_MISSES intervals old, without asking the kernel about its pid.
+ */
+static void test_read_stale_after_kill(void **state)
+{
+        struct fixture *f = *state;
+        struct crash_daemon d = { &f->tb.cfg, { -1, -1 }, HEARTBEAT_MS };
+        struct sl_meta meta = { .size = sizeof(meta) };
+        struct sl_client *c;
+        char buf[SL_VALUE_SIZE];
+        uint64_t deadline;
+        pid_t pid;
+        int stale = 0;
+
+        f->tb.cfg.heartbeat_interval_ms = HEARTBEAT_MS;
+        pid = crash_daemon_start(&d);
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        /* Alive and beating: fresh, however long we look (the child keeps beating). */
+        for (int i = 0; i < 20; i++) {
+                assert_int_equal(sl_read(c, LAT, buf, sizeof(buf), &meta), 10);
+                assert_int_equal(meta.flags, SL_FLAG_VALID);
+        }
+        kill(pid, SIGKILL);
+        assert_int_equal(shmtest_wait(pid), 128 + SIGKILL);
+        deadline = mono_ns(CLOCK_MONOTONIC) + (uint64_t)WAIT_LIMIT_MS * 1000000ull;
+        while (!stale && mono_ns(CLOCK_MONOTONIC) < deadline) {
+                struct timespec gap = { 0, (long)HEARTBEAT_MS * 1000000L };
+
+                assert_int_equal(sl_read(c, LAT, buf, sizeof(buf), &meta), 10);
+                assert_string_equal(buf, "from-child"); /* the last value is still served */
+                stale = (meta.flags & SL_FLAG_STALE) != 0;
+                if (!stale)
+                        nanosleep(&gap, NULL);
+        }
+        assert_true(stale);
+        assert_int_equal(meta.flags, SL_FLAG_VALID | SL_FLAG_STALE);
+        /* Without metadata nothing is said about it, and nothing fails either. */
+        assert_int_equal(sl_read(c, LAT, buf, sizeof(buf), NULL), 10);
         sl_close(c);
 }
 
@@ -867,12 +1206,18 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_write_read_after_repair, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wait_thread, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wait_process, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_wait_spin, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_events, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_links, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_adhoc_visible, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_restart_clean, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_restart_after_crash, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_out_recreated, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_read_age_coarse, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_waiter_flag, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_read_outbound_mirror, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_wakes_wake_thread, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_read_stale_after_kill, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_permissions_no_group, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_permissions_group, setup_bare, teardown),
                 cmocka_unit_test(test_strerror),

@@ -153,6 +153,37 @@ static void test_value_charset(void **state)
         }
 }
 
+/*
+ * The check works a word at a time: every byte value at every position of every length, among
+ * valid neighbours, and bad bytes just past the length (which must not count).
+ */
+static void test_value_charset_positions(void **state)
+{
+        char v[SHM_VALUE_SIZE + 8];
+
+        (void)state;
+        for (size_t len = 1; len <= SHM_VALUE_MAX; len++) {
+                for (size_t pos = 0; pos < len; pos++) {
+                        for (int b = 0; b < 256; b++) {
+                                int want = shm_layout_value_char(b);
+
+                                memset(v, '~', sizeof(v));
+                                memset(v + len, '|', sizeof(v) - len);  /* beyond: ignored */
+                                v[pos] = (char)b;
+                                assert_int_equal(shm_layout_value_check(v, len),
+                                                 want ? 0 : -EINVAL);
+                                assert_int_equal(shm_layout_value_check_field(v, len),
+                                                 want ? 0 : -EINVAL);
+                        }
+                }
+                memset(v, ' ', sizeof(v));
+                v[len] = '\0';
+                v[len + 1] = (char)0x80;
+                assert_int_equal(shm_layout_value_check(v, len), 0);
+                assert_int_equal(shm_layout_value_check_field(v, len), 0);
+        }
+}
+
 static void test_value_length(void **state)
 {
         char v[SHM_VALUE_SIZE + 1];
@@ -162,6 +193,8 @@ static void test_value_length(void **state)
         assert_int_equal(shm_layout_value_check(v, 0), 0);
         assert_int_equal(shm_layout_value_check(v, SHM_VALUE_MAX), 0);
         assert_int_equal(shm_layout_value_check(v, SHM_VALUE_MAX + 1), -EINVAL);
+        assert_int_equal(shm_layout_value_check_field(v, SHM_VALUE_MAX), 0);
+        assert_int_equal(shm_layout_value_check_field(v, SHM_VALUE_MAX + 1), -EINVAL);
         assert_int_equal(shm_layout_value_check("a b-1.5e3 ,;:", 13), 0);
 }
 
@@ -291,11 +324,11 @@ static void test_slot_write_read(void **state)
         free(slot);
 }
 
-/* shm_slot_read_to: the value goes to the caller's buffer, the rest to the copy. */
+/* shm_slot_read_to: the value goes to the caller's buffer, the rest to the head. */
 static void test_slot_read_to(void **state)
 {
         struct shm_slot *slot = aligned_alloc(64, sizeof(*slot));
-        struct shm_slot_copy c;
+        struct shm_slot_head c;
         char value[SHM_VALUE_SIZE];
         uint64_t word;
 
@@ -314,8 +347,9 @@ static void test_slot_read_to(void **state)
         assert_memory_equal(value, "40.5", 5);
         for (unsigned i = 4; i < SHM_VALUE_SIZE; i++)
                 assert_int_equal(value[i], 0);
-        for (unsigned i = 0; i < SHM_VALUE_SIZE; i++)
-                assert_int_equal(c.value[i], 'x');      /* left alone */
+        assert_int_equal(shm_slot_head_check(&c, value), 0);
+        value[1] = '|';                 /* not a wire byte */
+        assert_int_equal(shm_slot_head_check(&c, value), -EINVAL);
         /* Odd for every attempt: -EAGAIN, as shm_slot_read. */
         assert_int_equal(shm_slot_claim(slot, 7, &word), 0);
         assert_int_equal(shm_slot_read_to(slot, &c, value), -EAGAIN);
@@ -671,6 +705,7 @@ int main(void)
                 cmocka_unit_test(test_check_in),
                 cmocka_unit_test(test_check_out),
                 cmocka_unit_test(test_value_charset),
+                cmocka_unit_test(test_value_charset_positions),
                 cmocka_unit_test(test_value_length),
                 cmocka_unit_test(test_names),
                 cmocka_unit_test(test_name_tables),

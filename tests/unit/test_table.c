@@ -104,6 +104,7 @@ static int out_write_raw(const char *out_name, unsigned slot, const char *value,
         if (r == 0) {
                 shm_slot_store(shmtest_out_slot(&v, slot), value, len, flags, 1, 2);
                 r = shm_slot_publish(shmtest_out_slot(&v, slot), word);
+                /* As a layout 1.0 client does: add 1, always wake (the daemon copes). */
                 atomic_fetch_add(&h->change, 1);
                 shm_futex_wake(&h->change, 1);
         }

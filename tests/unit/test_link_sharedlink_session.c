@@ -85,9 +85,12 @@ static int h_find(void *arg, const char *name)
         return -ENOENT;
 }
 
-static int h_add(void *arg, const char *name, unsigned type, char peer)
+static int h_add(void *arg, const char *name, unsigned type, char peer, bool outbound,
+                 int32_t position)
 {
         (void)arg;
+        (void)position;
+        assert_false(outbound);
         assert_int_equal(type, SHM_TYPE_STRING);
         if (rec.add_room == 0 || rec.n_vars == VARS_MAX)
                 return -ENOSPC;

@@ -277,14 +277,15 @@ static uint32_t declared_id(struct link_sharedlink_session *s, struct sls_peer *
         return id < 0 ? SLS_UNMAPPED : (uint32_t)id;
 }
 
-/* Whether a bad entry between fields [from, to) named a position (a T/Q or Q with a bad type or
- * name): it keeps its place, unmapped, so the positions after it stay right. */
-static bool entry_had_name(const struct slp_frame *f, size_t from, size_t to)
+/* The Q field of a bad entry between fields [from, to) (a T/Q or Q with a bad type or name), or
+ * NULL: such an entry keeps its place, unmapped, so the positions after it stay right. */
+static const struct slp_field *entry_name_field(const struct slp_frame *f, size_t from,
+                                                size_t to)
 {
         for (size_t i = from; i < to && i < f->nfields; i++)
                 if (f->fields[i].letter == 'Q')
-                        return true;
-        return false;
+                        return &f->fields[i];
+        return NULL;
 }
 
 /* Whether the declaration in the scratch (n positions) differs from what it is compared to: a
@@ -386,16 +387,19 @@ static size_t declaration_read(struct link_sharedlink_session *s, struct sls_pee
         for (;;) {
                 size_t before = at;
                 int r = slp_entry_next(f, &at, &e);
+                const struct slp_field *bad = NULL;
                 bool named;
 
                 if (r == 0)
                         break;
                 named = r > 0 && e.letter == 'Q';
-                if (r < 0)
+                if (r < 0) {
                         sls_count(s, SHM_COUNTER_BAD_TYPE, 1);
-                else if (!named)
+                        bad = entry_name_field(f, before, at);
+                } else if (!named) {
                         sls_count(s, SHM_COUNTER_BAD_FIELD, 1);         /* an R in it */
-                if (!named && !(r < 0 && entry_had_name(f, before, at)))
+                }
+                if (!named && !bad)
                         continue;
                 if (n >= l->cap) {
                         sls_count(s, SHM_COUNTER_LEARN_FULL, 1);
@@ -404,6 +408,9 @@ static size_t declaration_read(struct link_sharedlink_session *s, struct sls_pee
                 sc->ids[n] = SLS_UNMAPPED;
                 sc->types[n] = SLP_TYPE_DOUBLE;
                 sc->names[n][0] = '\0';
+                /* A bad type keeps its (valid) name, so answers and acknowledgements list it. */
+                if (bad && slp_name_check(bad->value, bad->len) == 0)
+                        name_copy(sc->names[n], bad->value, bad->len);
                 if (named) {
                         name_copy(sc->names[n], e.name, e.name_len);
                         sc->types[n] = e.type;

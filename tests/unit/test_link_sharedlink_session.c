@@ -1039,6 +1039,9 @@ static void test_p4_bad_input(void **state)
         assert_int_equal(rec.counters[SHM_COUNTER_BAD_COMMAND], 2);
         assert_int_equal(rec.counters[SHM_COUNTER_COMMANDS_IN], 0);
         assert_int_equal(rec.n_events, 0);
+        /* A quote or backslash in a command's text is escaped in the event. */
+        feed(s, T0, ":BA|ESay|Da\"b\\c");
+        assert_string_equal(rec.events[0], "command module=Say text=\"a\\\"b\\\\c\"");
         /* The table full while learning. */
         rec.add_room = 0;
         feed(s, T0, ":BA|L0|T0|Qo1");

@@ -57,6 +57,19 @@ static const struct {
         { "out_bad_object", DAEMON },
         { "out_recreated", DAEMON },
         { "events", DAEMON },
+        { "declarations_in", SL },
+        { "declarations_out", SL },
+        { "acks_in", SL },
+        { "learn_full", SL },
+        { "learn_conflict", SL },
+        { "bad_type", SL },
+        { "type_mismatch", SL },
+        { "undeclared_data", SL },
+        { "redeclared", SL },
+        { "commands_in", SL },
+        { "commands_out", SL },
+        { "bad_command", SL },
+        { "udp_refused", LINKS },
 };
 
 #define NKNOWN (sizeof(known) / sizeof(known[0]))

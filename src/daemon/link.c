@@ -108,6 +108,7 @@ void link_publish_channel_stats(const struct link_env *env, const struct channel
         shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_REOPENS, st.reopens);
         shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_IO_ERRORS, st.io_errors);
         shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_TX_DROPPED, st.tx_dropped);
+        shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_UDP_REFUSED, st.refused);
 }
 
 int link_parse_ms(const char *s, unsigned min, unsigned max, unsigned *ret)

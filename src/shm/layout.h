@@ -157,7 +157,20 @@
         X(OUT_REPAIRED,         "out_repaired") \
         X(OUT_BAD_OBJECT,       "out_bad_object") \
         X(OUT_RECREATED,        "out_recreated") \
-        X(EVENTS,               "events")
+        X(EVENTS,               "events") \
+        X(DECLARATIONS_IN,      "declarations_in") \
+        X(DECLARATIONS_OUT,     "declarations_out") \
+        X(ACKS_IN,              "acks_in") \
+        X(LEARN_FULL,           "learn_full") \
+        X(LEARN_CONFLICT,       "learn_conflict") \
+        X(BAD_TYPE,             "bad_type") \
+        X(TYPE_MISMATCH,        "type_mismatch") \
+        X(UNDECLARED_DATA,      "undeclared_data") \
+        X(REDECLARED,           "redeclared") \
+        X(COMMANDS_IN,          "commands_in") \
+        X(COMMANDS_OUT,         "commands_out") \
+        X(BAD_COMMAND,          "bad_command") \
+        X(UDP_REFUSED,          "udp_refused")
 
 #define SHM_COUNTER_ENUM(id, name) SHM_COUNTER_##id,
 enum shm_counter {
@@ -179,7 +192,8 @@ enum shm_counter {
         X(KEYS,                 "keys") \
         X(CLOCK_SYNC,           "clock-sync") \
         X(DAEMON,               "daemon") \
-        X(OUTBOUND,             "outbound")
+        X(OUTBOUND,             "outbound") \
+        X(COMMAND,              "command")
 
 #define SHM_EVENT_ENUM(id, name) SHM_EVENT_##id,
 enum shm_event_type {

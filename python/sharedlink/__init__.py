@@ -563,6 +563,16 @@ class Client:
             _raise(r, "query %s %s %s: %s" % (link, peer, name, _text(reply.value)))
         return _text(reply.raw[:r])
 
+    def command(self, link, module, text=""):
+        """Pronto4 module command: sends E<module>|D<text> to the pronto4 peer(s) of link, e.g.
+        command("vehicle", "ServoPod", "0,TELEOP START"). module: 1..63 letters, digits, _ . -;
+        text: at most 63 bytes of printable ASCII without | [ ], words separated by single
+        spaces. Returns once the frame is queued; NotConnected when the link is down."""
+        r = _lib_.sl_command(self._handle(), _word(link, "link"), _word(module, "module"),
+                             _word(text, "text"))
+        if r < 0:
+            _raise(r, "command %s %s %r" % (link, module, text))
+
     def circe_alert(self, link, addr):
         """CIRCE Alert: device addr signals itself."""
         self._command(_lib_.sl_circe_alert, _word(link, "link"), _word(addr, "address"))

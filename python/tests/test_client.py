@@ -288,6 +288,19 @@ class TestErrors(DaemonCase):
         self.assertError(sharedlink.Timeout, errno.ETIMEDOUT, c.request,
                          "circe agility sync-clocks", timeout=0.001)
 
+    def test_module_command(self):
+        c = self.c
+        # Refused by the library before anything is sent.
+        for module, text in (("Servo Pod", "x"), ("", "x"), ("Servo|Pod", ""),
+                             ("ServoPod", "0,TELEOP  START"), ("ServoPod", " 0"),
+                             ("ServoPod", "0 "), ("ServoPod", "0|1"), ("ServoPod", "x" * 64),
+                             ("ServoPod", "caf\u00e9")):
+            self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.command, "node_a", module,
+                             text)
+        self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.command, "node_a",
+                         "ServoPod", "0\0x")
+        self.assertRaises(TypeError, c.command, "node_a", "ServoPod", 5)
+
     def test_no_instance(self):
         self.assertError(sharedlink.NotFound, errno.ENOENT, sharedlink.Client, "nosuchinstance")
         self.assertError(sharedlink.InvalidValue, errno.EINVAL, sharedlink.Client, "bad/name")

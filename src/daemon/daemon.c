@@ -377,6 +377,28 @@ int daemon_check_config(const struct config *config, char *err, size_t errsz)
 /* ---------------------------------------------------------------------------------------------
  * Tables */
 
+/*
+ * Room for what links learn at run time: each learned Pronto4 list may add learn_max names (in
+ * ad hoc room), and a learned outbound one as many spare .out slots clients can write.
+ */
+static void tables_learned_room(const struct config *cfg, uint32_t *adhoc, uint32_t *out_spare)
+{
+        for (unsigned i = 0; i < cfg->n_links; i++) {
+                const struct config_link *l = &cfg->links[i];
+
+                if (l->protocol != CONFIG_PROTOCOL_SHAREDLINK)
+                        continue;
+                for (unsigned k = 0; k < l->sl.n_peers; k++) {
+                        const struct config_peer *p = &l->sl.peers[k];
+
+                        if (p->dialect != CONFIG_DIALECT_PRONTO4)
+                                continue;
+                        *adhoc += (p->outbound_learn + p->inbound_learn) * p->learn_max;
+                        *out_spare += p->outbound_learn * p->learn_max;
+                }
+        }
+}
+
 static int tables_create(struct daemon *d, const struct config *cfg,
                          const struct daemon_plan *plan)
 {
@@ -394,6 +416,7 @@ static int tables_create(struct daemon *d, const struct config *cfg,
         };
         int r;
 
+        tables_learned_room(cfg, &tc.adhoc_capacity, &tc.out_spare);
         for (unsigned i = 0; i < cfg->n_links; i++) {
                 links[i].name = cfg->links[i].name;
                 links[i].protocol = config_protocol_name(cfg->links[i].protocol);
@@ -735,7 +758,7 @@ static void request_stats(struct daemon *d, struct control_request *req)
         control_reply_ok(req, NULL);
 }
 
-/* "<command_word> LINK ... [wait=MS]": the wait is parsed here, once, for every engine. */
+/* "<command word> LINK ... [wait=MS]": the wait is parsed here, once, for every engine. */
 static void request_link(struct daemon *d, struct control_request *req, int argc, char **argv,
                          enum config_protocol protocol)
 {

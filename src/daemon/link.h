@@ -65,12 +65,12 @@ struct link_ops {
          * variables. Called once per changed slot, after the core's outbound scan. */
         void (*outbound)(void *engine, const struct shm_out_change *change);
 
-        /* The control request word that addresses this engine's links ("query", "circe"): the
-         * core routes "<command_word> LINK ..." to the engine of LINK. */
-        const char *command_word;
+        /* The control request words that address this engine's links ("query", "command";
+         * "circe"), NULL-terminated: the core routes "<word> LINK ..." to the engine of LINK. */
+        const char *const *command_words;
 
         /*
-         * A control command addressed to this link (argv[0] is command_word, argv[1] the link
+         * A control command addressed to this link (argv[0] is one of command_words, argv[1] the link
          * name). The core has already taken a trailing "wait=MS" off argv (link_command_wait()):
          * wait_ms > 0 asks the engine to hold the request up to that long while the link is not
          * ready (link_waitq_*), 0 to refuse it at once. The engine must eventually answer req
@@ -94,8 +94,11 @@ struct link_ops {
 /* The engine of a protocol: &link_sharedlink_ops or &link_circe_ops. NULL for an unknown one. */
 const struct link_ops *link_ops_for(enum config_protocol protocol);
 
-/* The protocol whose engine's command_word is word: 0 and *ret_protocol, or -ENOENT. */
+/* The protocol whose engine has word among its command_words: 0 and *ret_protocol, or -ENOENT. */
 int link_protocol_for_command(const char *word, enum config_protocol *ret_protocol);
+
+/* Whether word is one of ops' command_words. */
+bool link_ops_has_word(const struct link_ops *ops, const char *word);
 
 /* A number of milliseconds: decimal digits only, min..max; 0 or -EINVAL. */
 int link_parse_ms(const char *s, unsigned min, unsigned max, unsigned *ret);

@@ -876,8 +876,10 @@ static const char *op_status(void *engine)
         return e->status_line;
 }
 
+static const char *const circe_words[] = { "circe", NULL };
+
 const struct link_ops link_circe_ops = {
-        .command_word = "circe",
+        .command_words = circe_words,
         .declare = op_declare,
         .create = op_create,
         .destroy = op_destroy,

@@ -24,6 +24,14 @@ const struct link_ops *link_ops_for(enum config_protocol protocol)
         }
 }
 
+bool link_ops_has_word(const struct link_ops *ops, const char *word)
+{
+        for (const char *const *w = ops->command_words; w && *w; w++)
+                if (strcmp(*w, word) == 0)
+                        return true;
+        return false;
+}
+
 int link_protocol_for_command(const char *word, enum config_protocol *ret_protocol)
 {
         static const enum config_protocol protocols[] = {
@@ -34,7 +42,7 @@ int link_protocol_for_command(const char *word, enum config_protocol *ret_protoc
         for (size_t i = 0; i < sizeof(protocols) / sizeof(protocols[0]); i++) {
                 const struct link_ops *ops = link_ops_for(protocols[i]);
 
-                if (ops && ops->command_word && strcmp(ops->command_word, word) == 0) {
+                if (ops && link_ops_has_word(ops, word)) {
                         *ret_protocol = protocols[i];
                         return 0;
                 }

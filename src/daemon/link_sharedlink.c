@@ -12,8 +12,11 @@
  */
 #include "daemon/link_sharedlink.h"
 
+#include <arpa/inet.h>
 #include <assert.h>
 #include <errno.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <stddef.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -30,17 +33,21 @@
 
 #define QUERY_ARGC_MIN          4       /* query LINK PEER NAME */
 #define QUERY_ARGC_MAX          5       /* ... TIMEOUT_MS */
+#define COMMAND_ARGC_MIN        3       /* command LINK MODULE [TEXT...] */
 
 /* Node address letters as strings, for the directory's peer field (must outlive the config). */
 static const char *const addr_names[SLP_ADDR_COUNT] = {
         "A", "B", "C", "D", "E", "F", "G", "H", "I", "J", "K", "L", "M", "N", "O", "P",
 };
 
-/* A query waiting for the link to come up. */
+/* A query or a command waiting for the link to come up. */
 struct lsl_wait {
+        bool command;
         int peer;
         unsigned timeout_ms;
-        char name[SHM_NAME_SIZE];
+        char name[SHM_NAME_SIZE];               /* query: the variable */
+        char module[SLP_VALUE_MAX + 1];         /* command */
+        char text[SLP_VALUE_MAX + 1];
 };
 
 struct lsl {
@@ -134,16 +141,17 @@ static int hook_find(void *arg, const char *name)
         return shm_table_find(l->env.table, name);
 }
 
-static int hook_add(void *arg, const char *name, unsigned type, char peer)
+static int hook_add(void *arg, const char *name, unsigned type, char peer, bool outbound,
+                    int32_t position)
 {
         struct lsl *l = arg;
         struct shm_var v = {
                 .name = name,
-                .direction = SHM_DIR_IN,
+                .direction = outbound ? SHM_DIR_OUT : SHM_DIR_IN,
                 .type = type,
                 .link = l->env.shm_link,
                 .peer = addr_names[peer - 'A'],
-                .position = SHM_POSITION_NONE,
+                .position = position,
         };
 
         return shm_table_add(l->env.table, &v);
@@ -204,6 +212,49 @@ static void hook_diag(void *arg, enum log_prio prio, const char *text)
         log_ratelimited(&l->rl, prio, "link %s: %s", l->cfg->name, text);
 }
 
+/* "<ip>:<port>" the peer reaches us at: the socket's own address, which for a socket connected
+ * toward remote: is the source the kernel picked even when local: is a wildcard. */
+static int hook_local_address(void *arg, char *buf, size_t size, unsigned *ret_remote_port)
+{
+        struct lsl *l = arg;
+        struct transport *t = channel_transport(l->ch);
+        struct sockaddr_storage ss;
+        socklen_t len = sizeof(ss);
+        char ip[INET6_ADDRSTRLEN];
+        const void *a;
+        unsigned port;
+        int n;
+
+        if (l->cfg->transport != CONFIG_TRANSPORT_UDP || !l->cfg->has_remote || !t)
+                return -ENOTSUP;
+        if (getsockname(transport_fd(t), (struct sockaddr *)&ss, &len) < 0)
+                return -errno;
+        if (ss.ss_family == AF_INET) {
+                const struct sockaddr_in *in = (const struct sockaddr_in *)&ss;
+
+                if (in->sin_addr.s_addr == htonl(INADDR_ANY))
+                        return -EADDRNOTAVAIL;
+                a = &in->sin_addr;
+                port = ntohs(in->sin_port);
+        } else if (ss.ss_family == AF_INET6) {
+                const struct sockaddr_in6 *in6 = (const struct sockaddr_in6 *)&ss;
+
+                if (IN6_IS_ADDR_UNSPECIFIED(&in6->sin6_addr))
+                        return -EADDRNOTAVAIL;
+                a = &in6->sin6_addr;
+                port = ntohs(in6->sin6_port);
+        } else {
+                return -EAFNOSUPPORT;
+        }
+        if (!inet_ntop(ss.ss_family, a, ip, sizeof(ip)))
+                return -errno;
+        *ret_remote_port = ntohs(l->cfg->remote.addr.ss_family == AF_INET6
+                ? ((const struct sockaddr_in6 *)&l->cfg->remote.addr)->sin6_port
+                : ((const struct sockaddr_in *)&l->cfg->remote.addr)->sin_port);
+        n = snprintf(buf, size, ss.ss_family == AF_INET6 ? "[%s]:%u" : "%s:%u", ip, port);
+        return n > 0 && (size_t)n < size ? n : -ENAMETOOLONG;
+}
+
 static const struct link_sharedlink_hooks session_hooks = {
         .send = hook_send,
         .find = hook_find,
@@ -217,16 +268,43 @@ static const struct link_sharedlink_hooks session_hooks = {
         .answer = hook_answer,
         .alive = hook_alive,
         .diag = hook_diag,
+        .local_address = hook_local_address,
 };
 
 /* ---------------------------------------------------------------------------------------------
  * Queries from the control socket */
 
+/* Sends a command: OK once the frame is queued, or why not. */
+static void command_start(struct lsl *l, struct control_request *req, const struct lsl_wait *w)
+{
+        int r = link_sharedlink_session_command(l->session, now_ms(), -1, w->module, w->text);
+
+        if (r == 0)
+                control_reply_ok(req, NULL);
+        else if (r == -EOPNOTSUPP)
+                control_reply_error(req, EOPNOTSUPP, "link %s has no pronto4 peer",
+                                    l->cfg->name);
+        else if (r == -ENOTCONN)
+                control_reply_error(req, ENOTCONN, "link %s is %s", l->cfg->name, l->status);
+        else if (r == -EINVAL)
+                control_reply_error(req, EINVAL, "bad command: module a name of at most %u "
+                                    "bytes (letters, digits, _ . -), text at most %u bytes of "
+                                    "0x20-0x7E without | [ ]", SLP_VALUE_MAX, SLP_VALUE_MAX);
+        else
+                control_reply_error(req, -r, "cannot send the command: %s", strerror(-r));
+}
+
 /* Starts a query on the session, or answers req with why it cannot start. */
 static void query_start(struct lsl *l, struct control_request *req, const struct lsl_wait *w)
 {
-        int r = link_sharedlink_session_query(l->session, now_ms(), req, w->peer, w->name,
-                                              w->timeout_ms);
+        int r;
+
+        if (w->command) {
+                command_start(l, req, w);
+                return;
+        }
+        r = link_sharedlink_session_query(l->session, now_ms(), req, w->peer, w->name,
+                                          w->timeout_ms);
 
         if (r == -EBUSY)
                 control_reply_error(req, EBUSY, "%u queries pending on link %s",
@@ -292,14 +370,66 @@ static void on_timer(struct evloop *loop, struct evloop_timer *timer, void *arg)
         settle(l);
 }
 
+/* Runs w now, or holds it while the link is down and the request said wait=MS. */
+static void request_run(struct lsl *l, struct control_request *req, const struct lsl_wait *w,
+                        unsigned wait_ms)
+{
+        if (link_sharedlink_session_is_up(l->session) || wait_ms == 0) {
+                query_start(l, req, w);
+        } else if (link_waitq_add(&l->waitq, req, now_ms(), wait_ms, w, sizeof(*w)) < 0) {
+                control_reply_error(req, EBUSY, "%u requests wait for link %s",
+                                    LINK_WAITQ_MAX, l->cfg->name);
+                return;
+        }
+        settle(l);
+}
+
+/* "command LINK MODULE [TEXT...]": the text words joined with single spaces. */
+static void lsl_command_e(struct lsl *l, struct control_request *req, int argc, char **argv,
+                          unsigned wait_ms)
+{
+        struct lsl_wait w = { .command = true };
+        size_t used = 0;
+
+        if (argc < COMMAND_ARGC_MIN) {
+                control_reply_error(req, EINVAL, "usage: command LINK MODULE [TEXT...] "
+                                    "[wait=MS]");
+                return;
+        }
+        if (strlen(argv[2]) >= sizeof(w.module)) {
+                control_reply_error(req, EINVAL, "module longer than %u bytes", SLP_VALUE_MAX);
+                return;
+        }
+        copy_cut(w.module, sizeof(w.module), argv[2]);
+        for (int i = COMMAND_ARGC_MIN; i < argc; i++) {
+                size_t n = strlen(argv[i]) + (i > COMMAND_ARGC_MIN);
+
+                if (used + n >= sizeof(w.text)) {
+                        control_reply_error(req, EINVAL, "text longer than %u bytes",
+                                            SLP_VALUE_MAX);
+                        return;
+                }
+                if (i > COMMAND_ARGC_MIN)
+                        w.text[used++] = ' ';
+                memcpy(w.text + used, argv[i], n - (i > COMMAND_ARGC_MIN));
+                used += n - (i > COMMAND_ARGC_MIN);
+                w.text[used] = '\0';
+        }
+        request_run(l, req, &w, wait_ms);
+}
+
 static void lsl_command(void *engine, struct control_request *req, int argc, char **argv,
                         unsigned wait_ms)
 {
         struct lsl *l = engine;
         struct lsl_wait w = { .timeout_ms = LINK_SHAREDLINK_QUERY_TIMEOUT_MS };
 
+        if (argc >= 1 && strcmp(argv[0], "command") == 0) {
+                lsl_command_e(l, req, argc, argv, wait_ms);
+                return;
+        }
         if (argc < 1 || strcmp(argv[0], "query") != 0) {
-                control_reply_error(req, EINVAL, "link %s speaks sharedlink: only query",
+                control_reply_error(req, EINVAL, "link %s speaks sharedlink: query or command",
                                     l->cfg->name);
                 return;
         }
@@ -325,14 +455,7 @@ static void lsl_command(void *engine, struct control_request *req, int argc, cha
                 return;
         }
         copy_cut(w.name, sizeof(w.name), argv[3]);
-        if (link_sharedlink_session_is_up(l->session) || wait_ms == 0) {
-                query_start(l, req, &w);
-        } else if (link_waitq_add(&l->waitq, req, now_ms(), wait_ms, &w, sizeof(w)) < 0) {
-                control_reply_error(req, EBUSY, "%u queries wait for link %s",
-                                    LINK_WAITQ_MAX, l->cfg->name);
-                return;
-        }
-        settle(l);
+        request_run(l, req, &w, wait_ms);
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -534,8 +657,10 @@ static const char *lsl_status(void *engine)
         return l->status;
 }
 
+static const char *const sharedlink_words[] = { "query", "command", NULL };
+
 const struct link_ops link_sharedlink_ops = {
-        .command_word = "query",
+        .command_words = sharedlink_words,
         .declare = lsl_declare,
         .create = lsl_create,
         .destroy = lsl_destroy,

@@ -19,103 +19,18 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "daemon/link_sharedlink_pronto4.h"
 #include "proto/sharedlink.h"
 
-#define CRLF_LEN                2
-/* "[:AB" + "|C" + two hex digits + "]": a frame without fields. */
-#define FRAME_OVERHEAD          9
-#define REPLY_FIELDS_MAX        (SLP_FRAME_MAX / 2)
 #define ADHOC_NAME_SIZE         (SLP_VALUE_MAX + SHM_LINK_NAME_SIZE + 8)
 #define EVENT_TEXT_MAX          SHM_EVENT_TEXT_SIZE
 /* A value the codec emits must fit a slot, and a slot's value must be sendable. */
 static_assert(SLP_VALUE_MAX == SHM_VALUE_MAX, "codec and shm agree on the longest value");
 
-/* One peer of the link: its outbound list (what we send) and inbound list (what it sends). */
-struct sls_peer {
-        const struct config_peer *cfg;
-        unsigned index;
-
-        size_t n_out;
-        uint32_t *out_ids;
-        char (*out_values)[SHM_VALUE_SIZE];     /* last value a client wrote, "" before */
-        const char **out_ptrs;                  /* out_values[k], for struct slp_list */
-        bool *out_dirty;                        /* written (or never sent) since last sent */
-
-        size_t n_in;
-        uint32_t *in_ids;
-
-        unsigned refresh_every;                 /* periods between full lists (>= 1) */
-        unsigned since_full;                    /* periods since the last full list */
-        bool change_sent;                       /* an on-change frame went out already */
-        uint64_t last_change_ms;
-
-        uint64_t period_at;                     /* next periodic list */
-        uint64_t change_at;                     /* on-change frame held by the rate limit */
-        uint64_t stale_at;                      /* silence long enough to mark stale */
-};
-
-/* Where an outbound variable id lives, for outbound(); sorted by id. */
-struct sls_outref {
-        uint32_t id;
-        uint16_t peer;
-        uint16_t pos;
-};
-
-/* An ad hoc inbound variable this link created. */
-struct sls_adhoc {
-        uint32_t id;
-        unsigned peer;
-};
-
-/* A query sent, waiting for its answer. */
-struct sls_query {
-        void *token;                            /* NULL: free slot */
-        unsigned peer;
-        char name[SHM_NAME_SIZE];
-        unsigned timeout_ms;
-        uint64_t deadline;
-};
-
-/* Answers and pongs to one received frame, packed into frames of the peer's max_frame. */
-struct sls_reply {
-        struct sls_peer *peer;
-        struct slp_field fields[REPLY_FIELDS_MAX];
-        size_t nfields;
-        char text[SLP_FRAME_MAX];               /* copies of the field values */
-        size_t text_used;
-        size_t frame_len;                       /* encoded length of fields[0..nfields) */
-};
-
-struct link_sharedlink_session {
-        const struct link_sharedlink_hooks *h;
-        void *arg;
-        const struct config_link *cfg;
-        char addr;
-        bool crlf;                              /* byte stream: end frames with CR LF */
-        bool datagram;
-        bool up;
-
-        struct sls_peer peers[CONFIG_PEERS_MAX];
-        unsigned n_peers;
-        int peer_of_addr[SLP_ADDR_COUNT];       /* peer index, -1 when not a peer */
-
-        struct sls_outref *outrefs;
-        size_t n_outrefs;
-
-        struct sls_adhoc *adhoc;
-        size_t n_adhoc, cap_adhoc;
-
-        struct sls_query queries[LINK_SHAREDLINK_QUERIES_MAX];
-
-        struct sls_reply reply;
-        char txbuf[SLP_FRAME_MAX];
-        struct slp_decoder dec;                 /* about 40 KiB: the session lives on the heap */
-};
-
 /* ---------------------------------------------------------------------------------------------
  * Hooks */
 
-static void count(struct link_sharedlink_session *s, enum shm_counter c, uint64_t n)
+void sls_count(struct link_sharedlink_session *s, enum shm_counter c, uint64_t n)
 {
         if (s->h->count && n)
                 s->h->count(s->arg, c, n);
@@ -133,11 +48,7 @@ static void stale(struct link_sharedlink_session *s, uint32_t id)
                 s->h->stale(s->arg, id);
 }
 
-static void eventf(struct link_sharedlink_session *s, enum shm_event_type type,
-                   const char *fmt, ...) __attribute__((format(printf, 3, 4)));
-
-static void eventf(struct link_sharedlink_session *s, enum shm_event_type type,
-                   const char *fmt, ...)
+void sls_eventf(struct link_sharedlink_session *s, enum shm_event_type type, const char *fmt, ...)
 {
         char text[EVENT_TEXT_MAX];
         va_list ap;
@@ -150,10 +61,7 @@ static void eventf(struct link_sharedlink_session *s, enum shm_event_type type,
         s->h->event(s->arg, type, text);
 }
 
-static void diagf(struct link_sharedlink_session *s, enum log_prio prio, const char *fmt, ...)
-        __attribute__((format(printf, 3, 4)));
-
-static void diagf(struct link_sharedlink_session *s, enum log_prio prio, const char *fmt, ...)
+void sls_diagf(struct link_sharedlink_session *s, enum log_prio prio, const char *fmt, ...)
 {
         char text[LINK_SHAREDLINK_DIAG_MAX];
         va_list ap;
@@ -166,16 +74,16 @@ static void diagf(struct link_sharedlink_session *s, enum log_prio prio, const c
         s->h->diag(s->arg, prio, text);
 }
 
-static int send_frame(struct link_sharedlink_session *s, const char *buf, size_t len)
+int sls_send_frame(struct link_sharedlink_session *s, const char *buf, size_t len)
 {
         int r = s->h->send(s->arg, buf, len);
 
         if (r == 0)
-                count(s, SHM_COUNTER_FRAMES_OUT, 1);
+                sls_count(s, SHM_COUNTER_FRAMES_OUT, 1);
         return r;
 }
 
-static uint32_t encode_flags(const struct link_sharedlink_session *s)
+unsigned sls_encode_flags(const struct link_sharedlink_session *s)
 {
         return s->crlf ? SLP_ENCODE_CRLF : 0;
 }
@@ -219,6 +127,9 @@ static int peer_send_range(struct link_sharedlink_session *s, struct sls_peer *p
         size_t cursor = first;
         int err = 0;
 
+        /* Pronto4: every data frame is the whole list, starting N0 (docs/pronto4.md §7). */
+        if (p->p4)
+                return sls_p4_send_list(s, p, full);
         while (cursor < end) {
                 size_t start = cursor;
                 int n = slp_encode_list(&list, &cursor, s->txbuf, sizeof(s->txbuf));
@@ -228,15 +139,15 @@ static int peer_send_range(struct link_sharedlink_session *s, struct sls_peer *p
                 if (n < 0) {
                         /* Only a value too long for max_frame can fail (the table validated the
                          * rest): it can never go to this peer. Counted, then skipped. */
-                        count(s, SHM_COUNTER_BAD_VALUE, 1);
-                        diagf(s, LOG_PRIO_WARNING, "peer %c: position %zu does not fit "
+                        sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
+                        sls_diagf(s, LOG_PRIO_WARNING, "peer %c: position %zu does not fit "
                               "max_frame %u", p->cfg->address, start, p->cfg->max_frame);
                         p->out_dirty[start] = false;
                         cursor = start + 1;
                         err = n;
                         continue;
                 }
-                int r = send_frame(s, s->txbuf, (size_t)n);
+                int r = sls_send_frame(s, s->txbuf, (size_t)n);
                 if (r < 0)
                         return r;
                 for (size_t k = start; k < cursor; k++)
@@ -245,23 +156,35 @@ static int peer_send_range(struct link_sharedlink_session *s, struct sls_peer *p
         return err;
 }
 
+int sls_send_full(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now)
+{
+        int r = peer_send_range(s, p, 0, p->out.n, true);
+
+        if (r == 0)
+                p->since_full = 0;
+        p->change_sent = false;
+        if (p->cfg->period_ms > 0 && p->period_at == LINK_SHAREDLINK_NEVER)
+                p->period_at = now + p->cfg->period_ms;
+        return r;
+}
+
 /* The on-change frame: the written positions, first to last. */
 static void peer_send_changes(struct link_sharedlink_session *s, struct sls_peer *p,
                               uint64_t now)
 {
-        size_t first = p->n_out, last = 0;
+        size_t first = p->out.n, last = 0;
         int r;
 
         p->change_at = LINK_SHAREDLINK_NEVER;
         if (!s->up)
                 return;
-        for (size_t k = 0; k < p->n_out; k++)
+        for (size_t k = 0; k < p->out.n; k++)
                 if (p->out_dirty[k]) {
-                        if (first == p->n_out)
+                        if (first == p->out.n)
                                 first = k;
                         last = k;
                 }
-        if (first == p->n_out)
+        if (first == p->out.n)
                 return;         /* a periodic frame took them already */
         r = peer_send_range(s, p, first, last + 1, false);
         p->change_sent = true;
@@ -301,29 +224,43 @@ static void peer_period(struct link_sharedlink_session *s, struct sls_peer *p, u
                 p->period_at = now + period;
         p->since_full++;
         full = !p->cfg->compression || p->since_full >= p->refresh_every;
-        if (peer_send_range(s, p, 0, p->n_out, full) == 0 && full)
+        if (peer_send_range(s, p, 0, p->out.n, full) == 0 && full)
                 p->since_full = 0;
 }
 
 /* ---------------------------------------------------------------------------------------------
  * Staleness */
 
-static void peer_mark_stale(struct link_sharedlink_session *s, struct sls_peer *p)
+static void peer_mark_stale(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now)
 {
         p->stale_at = LINK_SHAREDLINK_NEVER;
         batch(s, true);
-        for (size_t k = 0; k < p->n_in; k++)
-                stale(s, p->in_ids[k]);
+        for (size_t k = 0; k < p->in.n; k++)
+                if (p->in.ids[k] != SLS_UNMAPPED)
+                        stale(s, p->in.ids[k]);
         for (size_t i = 0; i < s->n_adhoc; i++)
-                if (s->adhoc[i].peer == p->index)
+                if (s->adhoc[i].peer == p->index && s->adhoc[i].made != SLS_MADE_LEARNED_OUT)
                         stale(s, s->adhoc[i].id);
         batch(s, false);
+        if (p->p4 && p->cfg->declare) {
+                /* A vehicle that went silent may have restarted and forgotten our lists: the
+                 * connect sequence goes again when it is heard, and every stale_ms till then. */
+                p->went_stale = true;
+                p->connect_at = now + p->cfg->stale_ms;
+        }
 }
 
-static void peer_heard(struct sls_peer *p, uint64_t now)
+static void peer_heard(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now)
 {
         if (p->cfg->stale_ms > 0)
                 p->stale_at = now + p->cfg->stale_ms;
+        if (!p->p4 || !p->cfg->declare)
+                return;
+        p->connect_at = LINK_SHAREDLINK_NEVER;
+        if (p->went_stale) {
+                p->went_stale = false;
+                sls_p4_connect(s, p, now);
+        }
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -334,7 +271,7 @@ static void reply_begin(struct link_sharedlink_session *s, struct sls_peer *p)
         s->reply.peer = p;
         s->reply.nfields = 0;
         s->reply.text_used = 0;
-        s->reply.frame_len = FRAME_OVERHEAD + (s->crlf ? CRLF_LEN : 0);
+        s->reply.frame_len = SLS_FRAME_OVERHEAD + (s->crlf ? SLS_CRLF_LEN : 0);
 }
 
 static void reply_flush(struct link_sharedlink_session *s)
@@ -345,20 +282,20 @@ static void reply_flush(struct link_sharedlink_session *s)
         if (rp->nfields == 0)
                 return;
         n = slp_frame_encode(s->txbuf, sizeof(s->txbuf), rp->peer->cfg->address, s->addr,
-                             rp->fields, rp->nfields, encode_flags(s));
+                             rp->fields, rp->nfields, sls_encode_flags(s));
         if (n > 0)
-                send_frame(s, s->txbuf, (size_t)n);
+                sls_send_frame(s, s->txbuf, (size_t)n);
         else
-                count(s, SHM_COUNTER_BAD_VALUE, 1);
+                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
         reply_begin(s, rp->peer);
 }
 
 /* Adds fields that must travel in one frame (R and its D); false if they can never fit. */
-static bool reply_add(struct link_sharedlink_session *s, const struct slp_field *fields, size_t n)
+bool sls_reply_add(struct link_sharedlink_session *s, const struct slp_field *fields, size_t n)
 {
         struct sls_reply *rp = &s->reply;
         size_t max = rp->peer->cfg->max_frame;
-        size_t base = FRAME_OVERHEAD + (s->crlf ? CRLF_LEN : 0);
+        size_t base = SLS_FRAME_OVERHEAD + (s->crlf ? SLS_CRLF_LEN : 0);
         size_t need = 0;
 
         /* The decoder passes values over SLP_VALUE_MAX (a ping's) that the encoder refuses:
@@ -370,7 +307,7 @@ static bool reply_add(struct link_sharedlink_session *s, const struct slp_field 
         }
         if (base + need > max)
                 return false;
-        if (rp->frame_len + need > max || rp->nfields + n > REPLY_FIELDS_MAX)
+        if (rp->frame_len + need > max || rp->nfields + n > SLS_REPLY_FIELDS_MAX)
                 reply_flush(s);
         for (size_t i = 0; i < n; i++) {
                 struct slp_field *f = &rp->fields[rp->nfields++];
@@ -403,7 +340,7 @@ static void query_timeout(struct link_sharedlink_session *s, struct sls_query *q
 {
         char why[LINK_SHAREDLINK_WHY_MAX];
 
-        count(s, SHM_COUNTER_TIMEOUTS, 1);
+        sls_count(s, SHM_COUNTER_TIMEOUTS, 1);
         snprintf(why, sizeof(why), "no answer from peer %c within %u ms",
                  s->peers[q->peer].cfg->address, q->timeout_ms);
         query_end(s, q, ETIMEDOUT, why);
@@ -418,7 +355,7 @@ static void queries_answer(struct link_sharedlink_session *s, struct sls_peer *p
 
                 if (!q->token || q->peer != p->index || strcmp(q->name, name) != 0)
                         continue;
-                eventf(s, SHM_EVENT_QUERY_ANSWER, "peer=%c name=%s value=%s", p->cfg->address,
+                sls_eventf(s, SHM_EVENT_QUERY_ANSWER, "peer=%c name=%s value=%s", p->cfg->address,
                        name, value);
                 query_end(s, q, 0, value);
         }
@@ -463,11 +400,11 @@ int link_sharedlink_session_query(struct link_sharedlink_session *s, uint64_t no
         if (!q)
                 return -EBUSY;
         n = slp_encode_query(s->txbuf, sizeof(s->txbuf), s->peers[peer].cfg->address, s->addr,
-                             name, encode_flags(s));
-        r = n < 0 ? n : send_frame(s, s->txbuf, (size_t)n);
+                             name, sls_encode_flags(s));
+        r = n < 0 ? n : sls_send_frame(s, s->txbuf, (size_t)n);
         if (r < 0)
                 return r;
-        count(s, SHM_COUNTER_QUERIES_OUT, 1);
+        sls_count(s, SHM_COUNTER_QUERIES_OUT, 1);
         q->token = token;
         q->peer = (unsigned)peer;
         q->timeout_ms = timeout_ms;
@@ -488,8 +425,8 @@ int link_sharedlink_session_peer(const struct link_sharedlink_session *s, const 
 
 static bool peer_has_inbound(const struct sls_peer *p, uint32_t id)
 {
-        for (size_t k = 0; k < p->n_in; k++)
-                if (p->in_ids[k] == id)
+        for (size_t k = 0; k < p->in.n; k++)
+                if (p->in.ids[k] == id)
                         return true;
         return false;
 }
@@ -510,45 +447,76 @@ static bool adhoc_reserve(struct link_sharedlink_session *s)
         return true;
 }
 
-/* The ad hoc variable "<link>.<peer>.<name>" of p: its id (created if needed), or -1. */
-static int adhoc_id(struct link_sharedlink_session *s, struct sls_peer *p, const char *name)
+static const char *made_word(enum sls_made made)
+{
+        switch (made) {
+        case SLS_MADE_LEARNED_IN:
+                return " learned=inbound";
+        case SLS_MADE_LEARNED_OUT:
+                return " learned=outbound";
+        case SLS_MADE_ADHOC:
+        default:
+                return "";
+        }
+}
+
+/* Whether a variable made as `had` serves as `want`: an ad hoc name may become a learned inbound
+ * position and back (both are values the peer sends); an outbound one never changes side. */
+static bool made_compatible(enum sls_made had, enum sls_made want)
+{
+        return (had == SLS_MADE_LEARNED_OUT) == (want == SLS_MADE_LEARNED_OUT);
+}
+
+int sls_made_id(struct link_sharedlink_session *s, struct sls_peer *p, const char *name,
+                size_t len, enum sls_made made, unsigned type, int32_t pos,
+                enum shm_counter full_counter, enum shm_counter conflict_counter)
 {
         char full[ADHOC_NAME_SIZE];
         int id;
 
-        snprintf(full, sizeof(full), "%s.%c.%s", s->cfg->name, p->cfg->address, name);
-        if (shm_layout_name_check(full) < 0) {
-                count(s, SHM_COUNTER_BAD_VALUE, 1);
+        snprintf(full, sizeof(full), "%s.%c.%.*s", s->cfg->name, p->cfg->address, (int)len,
+                 name);
+        if (len > SLP_VALUE_MAX || shm_layout_name_check(full) < 0) {
+                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
                 return -1;
         }
         id = s->h->find(s->arg, full);
         if (id >= 0) {
                 for (size_t i = 0; i < s->n_adhoc; i++)
-                        if (s->adhoc[i].id == (uint32_t)id && s->adhoc[i].peer == p->index)
+                        if (s->adhoc[i].id == (uint32_t)id && s->adhoc[i].peer == p->index &&
+                            made_compatible(s->adhoc[i].made, made))
                                 return id;
                 /* Taken by a configured variable (or another link's): never overwrite it. */
-                count(s, SHM_COUNTER_ADHOC_FULL, 1);
+                sls_count(s, conflict_counter, 1);
                 return -1;
         }
         if (!s->h->add || s->n_adhoc >= LINK_SHAREDLINK_ADHOC_MAX || !adhoc_reserve(s)) {
-                count(s, SHM_COUNTER_ADHOC_FULL, 1);
+                sls_count(s, full_counter, 1);
                 return -1;
         }
-        id = s->h->add(s->arg, full, SHM_TYPE_STRING, p->cfg->address);
+        id = s->h->add(s->arg, full, type, p->cfg->address, made == SLS_MADE_LEARNED_OUT, pos);
         if (id < 0) {
-                count(s, id == -ENOSPC ? SHM_COUNTER_ADHOC_FULL : SHM_COUNTER_BAD_VALUE, 1);
+                sls_count(s, id == -ENOSPC ? full_counter : SHM_COUNTER_BAD_VALUE, 1);
                 return -1;
         }
-        s->adhoc[s->n_adhoc++] = (struct sls_adhoc){ .id = (uint32_t)id, .peer = p->index };
-        eventf(s, SHM_EVENT_ADHOC_VARIABLE, "name=%s peer=%c", full, p->cfg->address);
+        s->adhoc[s->n_adhoc++] = (struct sls_adhoc){ .id = (uint32_t)id, .peer = p->index,
+                                                     .made = made };
+        sls_eventf(s, SHM_EVENT_ADHOC_VARIABLE, "name=%s peer=%c%s", full, p->cfg->address,
+                   made_word(made));
         return id;
 }
 
-static void publish(struct link_sharedlink_session *s, uint32_t id, const char *value,
-                    size_t len)
+/* The ad hoc variable "<link>.<peer>.<name>" of p: its id (created if needed), or -1. */
+static int adhoc_id(struct link_sharedlink_session *s, struct sls_peer *p, const char *name)
+{
+        return sls_made_id(s, p, name, strlen(name), SLS_MADE_ADHOC, SHM_TYPE_STRING,
+                           SHM_POSITION_NONE, SHM_COUNTER_ADHOC_FULL, SHM_COUNTER_ADHOC_FULL);
+}
+
+void sls_publish(struct link_sharedlink_session *s, uint32_t id, const char *value, size_t len)
 {
         if (s->h->publish(s->arg, id, value, len) < 0)
-                count(s, SHM_COUNTER_BAD_VALUE, 1);
+                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
 }
 
 /* R<name>|D<value> from p. */
@@ -558,9 +526,9 @@ static void answer_in(struct link_sharedlink_session *s, struct sls_peer *p,
         char name[SLP_VALUE_MAX + 1], value[SLP_VALUE_MAX + 1];
         int id;
 
-        count(s, SHM_COUNTER_ANSWERS_IN, 1);
+        sls_count(s, SHM_COUNTER_ANSWERS_IN, 1);
         if (r->len > SLP_VALUE_MAX || d->len > SLP_VALUE_MAX) {
-                count(s, SHM_COUNTER_BAD_VALUE, 1);
+                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
                 return;
         }
         memcpy(name, r->value, r->len);
@@ -575,7 +543,7 @@ static void answer_in(struct link_sharedlink_session *s, struct sls_peer *p,
         if (id < 0 || !peer_has_inbound(p, (uint32_t)id))
                 id = adhoc_id(s, p, name);
         if (id >= 0)
-                publish(s, (uint32_t)id, value, d->len);
+                sls_publish(s, (uint32_t)id, value, d->len);
 }
 
 /* Q<name> from p: answer R<name>|D<value>. */
@@ -585,9 +553,9 @@ static void query_in(struct link_sharedlink_session *s, const struct slp_field *
         struct slp_field pair[2];
         int id, n = -ENOENT;
 
-        count(s, SHM_COUNTER_QUERIES_IN, 1);
+        sls_count(s, SHM_COUNTER_QUERIES_IN, 1);
         if (q->len > SLP_VALUE_MAX) {
-                count(s, SHM_COUNTER_BAD_VALUE, 1);
+                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
                 return;
         }
         memcpy(name, q->value, q->len);
@@ -600,24 +568,26 @@ static void query_in(struct link_sharedlink_session *s, const struct slp_field *
         value[n] = '\0';
         pair[0] = (struct slp_field){ .letter = 'R', .value = q->value, .len = q->len };
         pair[1] = (struct slp_field){ .letter = 'D', .value = value, .len = (uint16_t)n };
-        if (reply_add(s, pair, 2))
-                count(s, SHM_COUNTER_ANSWERS_OUT, 1);
+        if (sls_reply_add(s, pair, 2))
+                sls_count(s, SHM_COUNTER_ANSWERS_OUT, 1);
         else
-                count(s, SHM_COUNTER_BAD_VALUE, 1);
+                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
 }
 
 /* A positional D for position pos of p's list. */
 static void data_in(struct link_sharedlink_session *s, struct sls_peer *p, uint32_t pos,
                     const struct slp_field *d)
 {
-        if (pos >= p->n_in) {
+        if (pos >= p->in.n || (p->in.ids[pos] == SLS_UNMAPPED && d->len > 0)) {
                 /* Decision: dropped and counted; the rest of the frame still applies. */
-                count(s, SHM_COUNTER_LIST_MISMATCH, 1);
+                sls_count(s, SHM_COUNTER_LIST_MISMATCH, 1);
                 return;
         }
         if (d->len == 0)
                 return;         /* compression: unchanged since the last transmission */
-        publish(s, p->in_ids[pos], d->value, d->len);
+        if (p->p4 && !sls_p4_value_ok(s, p, pos, d->value, d->len))
+                return;
+        sls_publish(s, p->in.ids[pos], d->value, d->len);
 }
 
 /* What the next D field belongs to. */
@@ -649,7 +619,7 @@ static void fields_apply(struct link_sharedlink_session *s, struct sls_peer *p,
                                         if (pos < SLP_INDEX_MAX)
                                                 pos++;
                                 } else {
-                                        count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
+                                        sls_count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
                                 }
                         }
                         next = NEXT_POSITION;
@@ -657,7 +627,7 @@ static void fields_apply(struct link_sharedlink_session *s, struct sls_peer *p,
                         continue;
                 }
                 if (next == NEXT_ANSWER)
-                        count(s, SHM_COUNTER_BAD_FIELD, 1);     /* an R without its D */
+                        sls_count(s, SHM_COUNTER_BAD_FIELD, 1);     /* an R without its D */
                 next = NEXT_POSITION;
                 decl = false;
                 switch (fl->type) {
@@ -667,12 +637,12 @@ static void fields_apply(struct link_sharedlink_session *s, struct sls_peer *p,
                         if (pos_valid)
                                 pos = fl->index;
                         else
-                                count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);         /* "N?" */
+                                sls_count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);         /* "N?" */
                         break;
                 case SLP_FIELD_Q:
                         if (after_type) {
                                 /* Pronto4 declaration "T<n>|Q<name>[|D<v>]": not a query. */
-                                count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
+                                sls_count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
                                 next = NEXT_SKIP;
                         } else {
                                 query_in(s, fl);
@@ -684,32 +654,32 @@ static void fields_apply(struct link_sharedlink_session *s, struct sls_peer *p,
                         break;
                 case SLP_FIELD_P:
                         /* Ping: pong with the same value ("P0" -> "G0"). */
-                        if (!reply_add(s, &(struct slp_field){ .letter = 'G', .value = fl->value,
+                        if (!sls_reply_add(s, &(struct slp_field){ .letter = 'G', .value = fl->value,
                                                               .len = fl->len }, 1))
-                                count(s, SHM_COUNTER_BAD_VALUE, 1);
+                                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
                         break;
                 case SLP_FIELD_G:
                         break;          /* a pong: the frame itself shows the peer is alive */
                 case SLP_FIELD_T:
-                        count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
+                        sls_count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
                         decl = true;
                         break;
                 case SLP_FIELD_L:
-                        count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
+                        sls_count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
                         pos_valid = false;
                         break;
                 case SLP_FIELD_E:
-                        count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
+                        sls_count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
                         next = NEXT_SKIP;
                         break;
                 default:
                         /* Decision: unknown field types are skipped and counted. */
-                        count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
+                        sls_count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
                         break;
                 }
         }
         if (next == NEXT_ANSWER)
-                count(s, SHM_COUNTER_BAD_FIELD, 1);
+                sls_count(s, SHM_COUNTER_BAD_FIELD, 1);
 }
 
 static void frame_apply(struct link_sharedlink_session *s, uint64_t now,
@@ -718,27 +688,28 @@ static void frame_apply(struct link_sharedlink_session *s, uint64_t now,
         struct sls_peer *p;
         int pi;
 
-        count(s, SHM_COUNTER_FRAMES_IN, 1);
+        sls_count(s, SHM_COUNTER_FRAMES_IN, 1);
         if (f->dst != s->addr) {
-                count(s, SHM_COUNTER_NOT_FOR_US, 1);
+                sls_count(s, SHM_COUNTER_NOT_FOR_US, 1);
                 return;
         }
         pi = s->peer_of_addr[f->src_index];
         if (pi < 0) {
-                count(s, SHM_COUNTER_UNKNOWN_PEER, 1);
+                sls_count(s, SHM_COUNTER_UNKNOWN_PEER, 1);
                 return;
         }
         p = &s->peers[pi];
         if (f->raw_len > p->cfg->max_frame) {
-                count(s, SHM_COUNTER_OVERLONG, 1);
+                sls_count(s, SHM_COUNTER_OVERLONG, 1);
                 return;
         }
-        count(s, SHM_COUNTER_EMPTY_FIELD, f->empty_fields);
-        peer_heard(p, now);
+        sls_count(s, SHM_COUNTER_EMPTY_FIELD, f->empty_fields);
+        peer_heard(s, p, now);
         reply_begin(s, p);
         /* One batch per frame: clients see the whole frame at once, one change-word bump. */
         batch(s, true);
-        fields_apply(s, p, f);
+        if (!p->p4 || !sls_p4_frame(s, p, now, f))
+                fields_apply(s, p, f);
         batch(s, false);
         reply_flush(s);
 }
@@ -771,9 +742,9 @@ static enum shm_counter reason_counter(enum slp_decode_reason reason)
 static void result_count(struct link_sharedlink_session *s, const struct slp_decode_result *r)
 {
         /* Noise counts bytes; every other rejection counts once. */
-        count(s, reason_counter(r->reason), r->reason == SLP_REASON_NOISE ? r->bytes : 1);
+        sls_count(s, reason_counter(r->reason), r->reason == SLP_REASON_NOISE ? r->bytes : 1);
         if (r->reason != SLP_REASON_NOISE)
-                diagf(s, LOG_PRIO_DEBUG, "dropped %zu bytes: %s", r->bytes,
+                sls_diagf(s, LOG_PRIO_DEBUG, "dropped %zu bytes: %s", r->bytes,
                       slp_decode_reason_str(r->reason));
 }
 
@@ -816,14 +787,13 @@ void link_sharedlink_session_up(struct link_sharedlink_session *s, uint64_t now_
         for (unsigned i = 0; i < s->n_peers; i++) {
                 struct sls_peer *p = &s->peers[i];
 
-                if (p->n_out == 0)
+                if (p->p4 && p->cfg->declare)
+                        sls_p4_connect(s, p, now_ms);
+                if (p->out.n == 0)
                         continue;
                 /* The peer may have restarted: it gets everything at once. */
-                if (peer_send_range(s, p, 0, p->n_out, true) == 0)
-                        p->since_full = 0;
-                p->change_sent = false;
-                if (p->cfg->period_ms > 0)
-                        p->period_at = now_ms + p->cfg->period_ms;
+                p->period_at = LINK_SHAREDLINK_NEVER;
+                sls_send_full(s, p, now_ms);
         }
 }
 
@@ -835,6 +805,7 @@ void link_sharedlink_session_down(struct link_sharedlink_session *s, uint64_t no
                 s->peers[i].period_at = LINK_SHAREDLINK_NEVER;
                 s->peers[i].change_at = LINK_SHAREDLINK_NEVER;
                 s->peers[i].stale_at = LINK_SHAREDLINK_NEVER;
+                s->peers[i].connect_at = LINK_SHAREDLINK_NEVER;
         }
         queries_end_all(s, ENOTCONN, "link went down");
 }
@@ -850,11 +821,13 @@ void link_sharedlink_session_tick(struct link_sharedlink_session *s, uint64_t no
                 struct sls_peer *p = &s->peers[i];
 
                 if (now_ms >= p->stale_at)
-                        peer_mark_stale(s, p);
+                        peer_mark_stale(s, p, now_ms);
                 if (now_ms >= p->change_at)
                         peer_send_changes(s, p, now_ms);
                 if (now_ms >= p->period_at)
                         peer_period(s, p, now_ms);
+                if (now_ms >= p->connect_at)
+                        sls_p4_connect(s, p, now_ms);
         }
         for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++) {
                 struct sls_query *q = &s->queries[i];
@@ -873,6 +846,7 @@ uint64_t link_sharedlink_session_deadline(const struct link_sharedlink_session *
 
                 d = min_deadline(d, min_deadline(p->stale_at,
                                                  min_deadline(p->change_at, p->period_at)));
+                d = min_deadline(d, p->connect_at);
         }
         for (unsigned i = 0; i < LINK_SHAREDLINK_QUERIES_MAX; i++)
                 if (s->queries[i].token)
@@ -901,7 +875,16 @@ void link_sharedlink_session_outbound(struct link_sharedlink_session *s, uint64_
         if (!ref)
                 return;
         p = &s->peers[ref->peer];
-        copy_cut(p->out_values[ref->pos], SHM_VALUE_SIZE, value);
+        if (p->p4) {
+                char checked[SHM_VALUE_SIZE];
+
+                /* A value the peer would refuse is never sent: the last good one stays. */
+                if (!sls_p4_outbound_value(s, p, ref->pos, value, checked))
+                        return;
+                copy_cut(p->out_values[ref->pos], SHM_VALUE_SIZE, checked);
+        } else {
+                copy_cut(p->out_values[ref->pos], SHM_VALUE_SIZE, value);
+        }
         p->out_dirty[ref->pos] = true;
         peer_change_request(s, p, now_ms);
 }
@@ -914,8 +897,8 @@ static int find_ids(struct link_sharedlink_session *s, const struct config_var *
                 int id = s->h->find(s->arg, vars[k].name);
 
                 if (id < 0) {
-                        diagf(s, LOG_PRIO_WARNING, "variable %s is not in the table",
-                              vars[k].name);
+                        sls_diagf(s, LOG_PRIO_WARNING, "variable %s is not in the table",
+                                  vars[k].name);
                         return -ENOENT;
                 }
                 ids[k] = (uint32_t)id;
@@ -923,33 +906,77 @@ static int find_ids(struct link_sharedlink_session *s, const struct config_var *
         return 0;
 }
 
+/*
+ * One list of a peer: the configured one (positions in config order until a pronto4 peer
+ * declares another order) or, learned, empty until the peer declares it. A pronto4 list has room
+ * for a declaration of any length it may bind (learn_max, or every configured length).
+ */
+static int list_init(struct link_sharedlink_session *s, const struct config_peer *c,
+                     struct sls_list *l, const struct config_var *vars, size_t n, bool learn)
+{
+        bool p4 = c->dialect == CONFIG_DIALECT_PRONTO4;
+
+        l->learn = learn;
+        l->n = l->n_cfg = learn ? 0 : n;
+        l->cap = !p4 ? n : learn ? c->learn_max : SLS_LIST_MAX;
+        if (l->cap < n)
+                l->cap = n;
+        l->ids = calloc(l->cap + 1, sizeof(*l->ids));
+        l->cfg_ids = calloc(l->n_cfg + 1, sizeof(*l->cfg_ids));
+        l->types = calloc(l->cap + 1, sizeof(*l->types));
+        l->names = calloc(p4 ? l->cap + 1 : 1, sizeof(*l->names));
+        l->name_ptrs = calloc(l->cap + 1, sizeof(*l->name_ptrs));
+        if (!l->ids || !l->cfg_ids || !l->types || !l->names || !l->name_ptrs)
+                return -ENOMEM;
+        for (size_t k = 0; k < l->n_cfg; k++) {
+                l->types[k] = sls_p4_type_of(vars[k].type);
+                if (p4)
+                        copy_cut(l->names[k], SLS_NAME_SIZE, vars[k].name);
+        }
+        for (size_t k = 0; p4 && k < l->cap; k++)
+                l->name_ptrs[k] = l->names[k];
+        if (find_ids(s, vars, l->n_cfg, l->cfg_ids) < 0)
+                return -ENOENT;
+        memcpy(l->ids, l->cfg_ids, l->n_cfg * sizeof(*l->ids));
+        return 0;
+}
+
+static void list_release(struct sls_list *l)
+{
+        free(l->ids);
+        free(l->cfg_ids);
+        free(l->types);
+        free(l->names);
+        free(l->name_ptrs);
+}
+
 static int peer_init(struct link_sharedlink_session *s, unsigned index)
 {
         struct sls_peer *p = &s->peers[index];
         const struct config_peer *c = &s->cfg->sl.peers[index];
+        size_t cap;
         int r;
 
         p->cfg = c;
         p->index = index;
-        p->n_out = c->n_outbound;
-        p->n_in = c->n_inbound;
-        p->period_at = p->change_at = p->stale_at = LINK_SHAREDLINK_NEVER;
-        p->out_ids = calloc(p->n_out + 1, sizeof(*p->out_ids));
-        p->out_values = calloc(p->n_out + 1, sizeof(*p->out_values));
-        p->out_ptrs = calloc(p->n_out + 1, sizeof(*p->out_ptrs));
-        p->out_dirty = calloc(p->n_out + 1, sizeof(*p->out_dirty));
-        p->in_ids = calloc(p->n_in + 1, sizeof(*p->in_ids));
-        if (!p->out_ids || !p->out_values || !p->out_ptrs || !p->out_dirty || !p->in_ids)
+        p->p4 = c->dialect == CONFIG_DIALECT_PRONTO4;
+        p->period_at = p->change_at = p->stale_at = p->connect_at = LINK_SHAREDLINK_NEVER;
+        r = list_init(s, c, &p->out, c->outbound, c->n_outbound, c->outbound_learn);
+        if (r == 0)
+                r = list_init(s, c, &p->in, c->inbound, c->n_inbound, c->inbound_learn);
+        if (r < 0)
+                return r;
+        cap = p->out.cap;
+        p->out_values = calloc(cap + 1, sizeof(*p->out_values));
+        p->out_ptrs = calloc(cap + 1, sizeof(*p->out_ptrs));
+        p->out_dirty = calloc(cap + 1, sizeof(*p->out_dirty));
+        if (!p->out_values || !p->out_ptrs || !p->out_dirty)
                 return -ENOMEM;
-        for (size_t k = 0; k < p->n_out; k++) {
+        for (size_t k = 0; k < cap; k++) {
                 p->out_ptrs[k] = p->out_values[k];
                 p->out_dirty[k] = true;         /* never sent */
         }
-        r = find_ids(s, c->outbound, p->n_out, p->out_ids);
-        if (r == 0)
-                r = find_ids(s, c->inbound, p->n_in, p->in_ids);
-        if (r < 0)
-                return r;
+        s->cap_outrefs += cap;
         /* At least every refresh_ms: the largest whole number of periods that fits. */
         p->refresh_every = c->period_ms > 0 ? c->refresh_ms / c->period_ms : 1;
         if (p->refresh_every == 0)
@@ -958,23 +985,27 @@ static int peer_init(struct link_sharedlink_session *s, unsigned index)
         return 0;
 }
 
+void sls_outrefs_build(struct link_sharedlink_session *s)
+{
+        s->n_outrefs = 0;
+        for (unsigned i = 0; i < s->n_peers; i++)
+                for (size_t k = 0; k < s->peers[i].out.n; k++)
+                        if (s->peers[i].out.ids[k] != SLS_UNMAPPED &&
+                            s->n_outrefs < s->cap_outrefs)
+                                s->outrefs[s->n_outrefs++] = (struct sls_outref){
+                                        .id = s->peers[i].out.ids[k],
+                                        .peer = (uint16_t)i,
+                                        .pos = (uint16_t)k,
+                                };
+        qsort(s->outrefs, s->n_outrefs, sizeof(*s->outrefs), outref_cmp);
+}
+
 static int outrefs_init(struct link_sharedlink_session *s)
 {
-        size_t n = 0;
-
-        for (unsigned i = 0; i < s->n_peers; i++)
-                n += s->peers[i].n_out;
-        s->outrefs = calloc(n + 1, sizeof(*s->outrefs));
+        s->outrefs = calloc(s->cap_outrefs + 1, sizeof(*s->outrefs));
         if (!s->outrefs)
                 return -ENOMEM;
-        for (unsigned i = 0; i < s->n_peers; i++)
-                for (size_t k = 0; k < s->peers[i].n_out; k++)
-                        s->outrefs[s->n_outrefs++] = (struct sls_outref){
-                                .id = s->peers[i].out_ids[k],
-                                .peer = (uint16_t)i,
-                                .pos = (uint16_t)k,
-                        };
-        qsort(s->outrefs, s->n_outrefs, sizeof(*s->outrefs), outref_cmp);
+        sls_outrefs_build(s);
         return 0;
 }
 
@@ -983,11 +1014,11 @@ static void session_release(struct link_sharedlink_session *s)
         for (unsigned i = 0; i < CONFIG_PEERS_MAX; i++) {
                 struct sls_peer *p = &s->peers[i];
 
-                free(p->out_ids);
+                list_release(&p->out);
+                list_release(&p->in);
                 free(p->out_values);
                 free(p->out_ptrs);
                 free(p->out_dirty);
-                free(p->in_ids);
         }
         free(s->outrefs);
         free(s->adhoc);
@@ -1025,7 +1056,9 @@ int link_sharedlink_session_new(const struct config_link *cfg, bool datagram,
         s->cfg = cfg;
         s->addr = cfg->sl.address;
         s->datagram = datagram;
-        s->crlf = !datagram;
+        /* A byte stream always ends frames with CR LF; a datagram when the link says so (the
+         * default with a pronto4 peer, whose C++ client aborts without it). */
+        s->crlf = !datagram || cfg->sl.crlf;
         s->n_peers = cfg->sl.n_peers;
         for (unsigned i = 0; i < SLP_ADDR_COUNT; i++)
                 s->peer_of_addr[i] = -1;

@@ -12,8 +12,10 @@
  * The session owns: the peers' outbound and inbound lists and their positional mapping, every
  * per-peer schedule as a deadline (period, full refresh under compression, the on-change rate
  * limit and its retry, stale after silence), the pending queries with their timeouts, inbound
- * apply (N, D, R, Q, P, G and the skipped Pronto4 fields), ad hoc variables, reply packing and
- * every counter, by reason.
+ * apply (N, D, R, Q, P, G), ad hoc variables, reply packing and every counter, by reason; and,
+ * for a peer with dialect pronto4 (docs/pronto4.md, in link_sharedlink_pronto4.c): declarations
+ * (sent, or learned into variables), acknowledgements, list queries, self-describing frames, E
+ * and MU commands as events, type checks, whole-list data and the host's connect sequence.
  *
  * Time is CLOCK_MONOTONIC in milliseconds; LINK_SHAREDLINK_NEVER means "no deadline".
  */
@@ -50,9 +52,12 @@ struct link_sharedlink_hooks {
         int (*send)(void *arg, const char *buf, size_t len);
         /* The id of the variable called name, or -ENOENT. */
         int (*find)(void *arg, const char *name);
-        /* Creates an inbound variable of shm type `type` with no list position, for peer
-         * address `peer`; its id or -errno (-ENOSPC: no room). NULL: ad hoc names are full. */
-        int (*add)(void *arg, const char *name, unsigned type, char peer);
+        /* Creates a variable of shm type `type` for peer address `peer`: inbound (an ad hoc name,
+         * a learned inbound position) or outbound (a learned outbound position, which clients may
+         * then write), at list position `position` or SHM_POSITION_NONE; its id or -errno
+         * (-ENOSPC: no room). NULL: ad hoc names are full, nothing is learned. */
+        int (*add)(void *arg, const char *name, unsigned type, char peer, bool outbound,
+                   int32_t position);
         /* The value of variable id as published (NUL-terminated in buf[size]): its length, or
          * -errno when it holds no valid value. NULL: every Q is answered empty. */
         int (*get)(void *arg, uint32_t id, char *buf, size_t size);
@@ -73,6 +78,10 @@ struct link_sharedlink_hooks {
         bool (*alive)(void *arg, void *token);
         /* A one-line diagnostic worth a rate-limited log line. */
         void (*diag)(void *arg, enum log_prio prio, const char *text);
+        /* Where the peer reaches us, "<ip>:<port>" (NUL-terminated in buf[size]), and the remote
+         * port we send to: the text's length, or -errno when the link has no such address (not
+         * UDP). For a pronto4 host's "SetIP" command. NULL: no address. */
+        int (*local_address)(void *arg, char *buf, size_t size, unsigned *ret_remote_port);
 };
 
 /*
@@ -114,6 +123,15 @@ int link_sharedlink_session_peer(const struct link_sharedlink_session *s, const 
  */
 int link_sharedlink_session_query(struct link_sharedlink_session *s, uint64_t now_ms,
                                   void *token, int peer, const char *name, unsigned timeout_ms);
+
+/*
+ * Sends the command E<module>|D<text> to peer (an index from link_sharedlink_session_peer()),
+ * or to every pronto4 peer when peer is -1. Returns 0, -EOPNOTSUPP (no such pronto4 peer),
+ * -EINVAL (a bad peer index, module or text: slp_encode_command()), -ENOTCONN (down) or the
+ * send error.
+ */
+int link_sharedlink_session_command(struct link_sharedlink_session *s, uint64_t now_ms, int peer,
+                                    const char *module, const char *text);
 
 /* Handles every deadline that has passed. */
 void link_sharedlink_session_tick(struct link_sharedlink_session *s, uint64_t now_ms);

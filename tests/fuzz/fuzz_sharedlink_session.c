@@ -128,11 +128,14 @@ static int hook_find(void *arg, const char *name)
         return -ENOENT;
 }
 
-static int hook_add(void *arg, const char *name, unsigned type, char peer)
+static int hook_add(void *arg, const char *name, unsigned type, char peer, bool outbound,
+                    int32_t position)
 {
         struct var *v;
 
         (void)arg;
+        (void)position;
+        CHECK(!outbound);
         CHECK(shm_layout_name_check(name) == 0);
         CHECK(hook_find(NULL, name) < 0);
         CHECK(type < SHM_TYPE_COUNT);

@@ -112,10 +112,15 @@ static void test_command_words(void **state)
         (void)state;
         assert_int_equal(link_protocol_for_command("query", &p), 0);
         assert_int_equal(p, CONFIG_PROTOCOL_SHAREDLINK);
-        assert_string_equal(link_ops_for(p)->command_word, "query");
+        assert_true(link_ops_has_word(link_ops_for(p), "query"));
+        assert_int_equal(link_protocol_for_command("command", &p), 0);
+        assert_int_equal(p, CONFIG_PROTOCOL_SHAREDLINK);
+        assert_true(link_ops_has_word(link_ops_for(p), "command"));
+        assert_false(link_ops_has_word(link_ops_for(p), "circe"));
         assert_int_equal(link_protocol_for_command("circe", &p), 0);
         assert_int_equal(p, CONFIG_PROTOCOL_CIRCE);
-        assert_string_equal(link_ops_for(p)->command_word, "circe");
+        assert_true(link_ops_has_word(link_ops_for(p), "circe"));
+        assert_false(link_ops_has_word(link_ops_for(p), "query"));
         assert_int_equal(link_protocol_for_command("ping", &p), -ENOENT);
         assert_int_equal(link_protocol_for_command("", &p), -ENOENT);
         assert_int_equal(p, CONFIG_PROTOCOL_CIRCE);

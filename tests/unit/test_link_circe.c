@@ -151,7 +151,7 @@ static void on_request(struct control_request *req, int argc, char **argv, void 
         unsigned wait_ms;
         char err[128];
 
-        if (argc < 2 || strcmp(argv[0], link_circe_ops.command_word) != 0) {
+        if (argc < 2 || !link_ops_has_word(&link_circe_ops, argv[0])) {
                 control_reply_error(req, EINVAL, "test: only circe requests");
                 return;
         }

@@ -1648,7 +1648,7 @@ static void on_request(struct control_request *req, int argc, char **argv, void 
                 control_reply_error(req, EINVAL, "%s", err);
                 return;
         }
-        if (argc >= 2 && strcmp(argv[0], ops->command_word) == 0)
+        if (argc >= 2 && link_ops_has_word(ops, argv[0]))
                 for (unsigned i = 0; i < fx->nlinks; i++)
                         if (fx->engines[i] && strcmp(fx->cfg->links[i].name, argv[1]) == 0) {
                                 ops->command(fx->engines[i], req, argc, argv, wait_ms);

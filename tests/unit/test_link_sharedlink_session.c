@@ -33,6 +33,9 @@ struct fvar {
         char value[SHM_VALUE_SIZE];
         bool valid, stale;
         char peer;                      /* ad hoc: its peer */
+        unsigned type;                  /* added at run time: its shm type, direction, place */
+        bool outbound;
+        int32_t position;
 };
 
 struct answer {
@@ -44,6 +47,8 @@ struct answer {
 
 struct record {
         char sent[SENT_MAX][TEXT_MAX];  /* "[:AB|N0|D1" (no checksum, no ']') */
+        char raw[SENT_MAX][TEXT_MAX];   /* the same, every byte ("[:AB|N0|D1|C0B]\r\n") */
+        int local_result;               /* local_address(): 0 gives LOCAL_ADDR, else this */
         unsigned n_sent;
         int send_result;                /* 0, or an error to inject */
         struct fvar vars[VARS_MAX];
@@ -69,6 +74,8 @@ static int h_send(void *arg, const char *buf, size_t len)
         assert_true(len < TEXT_MAX);
         memcpy(rec.sent[rec.n_sent], buf, len);
         rec.sent[rec.n_sent][len] = '\0';
+        memcpy(rec.raw[rec.n_sent], buf, len);
+        rec.raw[rec.n_sent][len] = '\0';
         c = strstr(rec.sent[rec.n_sent], "|C");
         assert_non_null(c);
         rec.sent[rec.n_sent][c - rec.sent[rec.n_sent]] = '\0';
@@ -85,15 +92,18 @@ static int h_find(void *arg, const char *name)
         return -ENOENT;
 }
 
-static int h_add(void *arg, const char *name, unsigned type, char peer)
+static int h_add(void *arg, const char *name, unsigned type, char peer, bool outbound,
+                 int32_t position)
 {
         (void)arg;
-        assert_int_equal(type, SHM_TYPE_STRING);
         if (rec.add_room == 0 || rec.n_vars == VARS_MAX)
                 return -ENOSPC;
         rec.add_room--;
         snprintf(rec.vars[rec.n_vars].name, SHM_NAME_SIZE, "%s", name);
         rec.vars[rec.n_vars].peer = peer;
+        rec.vars[rec.n_vars].type = type;
+        rec.vars[rec.n_vars].outbound = outbound;
+        rec.vars[rec.n_vars].position = position;
         return (int)rec.n_vars++;
 }
 
@@ -171,10 +181,22 @@ static bool h_alive(void *arg, void *token)
         return a->alive;
 }
 
+#define LOCAL_ADDR      "127.0.0.1:47002"       /* docs/pronto4.md §10 */
+#define REMOTE_PORT     4000u
+
+static int h_local_address(void *arg, char *buf, size_t size, unsigned *ret_remote_port)
+{
+        (void)arg;
+        if (rec.local_result < 0)
+                return rec.local_result;
+        *ret_remote_port = REMOTE_PORT;
+        return snprintf(buf, size, "%s", LOCAL_ADDR);
+}
+
 static const struct link_sharedlink_hooks hooks = {
         .send = h_send, .find = h_find, .add = h_add, .get = h_get, .publish = h_publish,
         .stale = h_stale, .batch = h_batch, .event = h_event, .count = h_count,
-        .answer = h_answer, .alive = h_alive,
+        .answer = h_answer, .alive = h_alive, .local_address = h_local_address,
 };
 
 /* ---- fixture: link "veh", we are B, peer A (2 out, 2 in), peer C (1 in) -------------------- */
@@ -461,6 +483,9 @@ static void test_adhoc(void **state)
         assert_string_equal(rec.vars[6].name, "veh.A.Fuel");   /* Fuel is peer C's */
         assert_false(rec.vars[4].valid);
         assert_string_equal(rec.vars[7].name, "veh.A.veh.A.Foo");
+        assert_int_equal(rec.vars[5].type, SHM_TYPE_STRING);
+        assert_false(rec.vars[5].outbound);
+        assert_int_equal(rec.vars[5].position, SHM_POSITION_NONE);
         assert_int_equal(rec.n_events, 3);
         assert_string_equal(rec.events[0], "adhoc-variable name=veh.A.Foo peer=A");
         /* A name taken by a configured variable: dropped and counted. */
@@ -607,6 +632,472 @@ static void test_unknown_variable(void **state)
         assert_null(link_sharedlink_session_free(NULL));
 }
 
+/* ---- Pronto4 (docs/pronto4.md) --------------------------------------------------------------- */
+
+static struct config_var p4_out[10], p4_in[4];
+
+/* Feeds one literal frame, every byte as a Pronto4 sends it (checksum, line end included). */
+static void feed_raw(struct link_sharedlink_session *s, uint64_t now, const char *bytes)
+{
+        link_sharedlink_session_input(s, now, (const uint8_t *)bytes, strlen(bytes));
+}
+
+static void expect_raw(unsigned from, const char *const *frames, unsigned n)
+{
+        assert_int_equal(rec.n_sent - from, n);
+        for (unsigned i = 0; i < n; i++)
+                assert_string_equal(rec.raw[from + i], frames[i]);
+}
+
+#define EXPECT_RAW(from, ...)                                                                  \
+        do {                                                                                   \
+                static const char *const want_[] = { __VA_ARGS__ };                            \
+                expect_raw(from, want_, sizeof(want_) / sizeof(want_[0]));                     \
+        } while (0)
+
+static void typed_add(struct config_var *v, const char *name, enum config_var_type type)
+{
+        var_add(v, name);
+        v->type = type;
+}
+
+/* The vehicle side of docs/pronto4.md §10: link "veh", we are B, peer A learns both lists. */
+static int setup_vehicle(void **state)
+{
+        struct config_peer *a = &cfg.sl.peers[0];
+
+        setup(state);
+        rec.n_vars = 0;
+        cfg.sl.n_peers = 1;
+        cfg.sl.crlf = true;
+        *a = (struct config_peer){
+                .address = 'A', .max_frame = SLP_FRAME_DEFAULT, .period_ms = 100,
+                .dialect = CONFIG_DIALECT_PRONTO4, .outbound_learn = true, .inbound_learn = true,
+                .learn_max = 8,
+        };
+        return 0;
+}
+
+/* The host side of §10: we are A, peer B (the vehicle) gets our declarations. */
+static int setup_host(void **state)
+{
+        struct config_peer *b = &cfg.sl.peers[0];
+
+        setup(state);
+        rec.n_vars = 0;
+        cfg.sl.address = 'A';
+        cfg.sl.n_peers = 1;
+        cfg.sl.crlf = true;
+        *b = (struct config_peer){
+                .address = 'B', .max_frame = SLP_FRAME_DEFAULT, .period_ms = 100,
+                .stale_ms = 300, .dialect = CONFIG_DIALECT_PRONTO4, .declare = true,
+                .outbound = p4_out, .n_outbound = 2, .inbound = p4_in, .n_inbound = 2,
+        };
+        typed_add(&p4_out[0], "veh_start", CONFIG_VAR_LONG);            /* id 0 */
+        typed_add(&p4_out[1], "joy_steer", CONFIG_VAR_DOUBLE);          /* id 1 */
+        typed_add(&p4_in[0], "AutoGpsLat", CONFIG_VAR_DOUBLE);          /* id 2 */
+        typed_add(&p4_in[1], "VehicleName", CONFIG_VAR_STRING);         /* id 3 */
+        return 0;
+}
+
+/* The vehicle: data before any declaration is counted, not applied; the host's declarations
+ * are learned into typed variables; N0 acknowledged, L0 starts the whole list every period;
+ * L?, N?, P0, data, E and MU answered or raised exactly as the public clients expect. */
+static void test_p4_vehicle(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        s = start(T0);
+        assert_int_equal(rec.n_sent, 0);
+        assert_int_equal(link_sharedlink_session_deadline(s), LINK_SHAREDLINK_NEVER);
+        feed_raw(s, T0, "[:BA|N0|D1|D0|C57]\r\n");
+        assert_int_equal(rec.counters[SHM_COUNTER_UNDECLARED_DATA], 1);
+        assert_int_equal(rec.n_vars, 0);
+        feed_raw(s, T0, "[:BA|ELink|D0, SetIP, 127.0.0.1:47002, 4000|C14]\r\n");
+        feed_raw(s, T0, "[:BA|ELink|D0, outbound, on|CA0]\r\n");
+        feed_raw(s, T0, "[:BA|ELink|D0, inbound, on|C1F]\r\n");
+        assert_int_equal(rec.counters[SHM_COUNTER_COMMANDS_IN], 3);
+        assert_string_equal(rec.events[0],
+                            "command module=Link text=\"0, SetIP, 127.0.0.1:47002, 4000\"");
+
+        /* N0: what the host sends, learned (long, double), acknowledged with empty values. */
+        feed_raw(s, T0, "[:BA|N0|T0|Qveh_start|T2|Qjoy_steer|CB6]\r\n");
+        assert_int_equal(rec.counters[SHM_COUNTER_DECLARATIONS_IN], 1);
+        assert_int_equal(rec.n_vars, 2);
+        assert_string_equal(rec.vars[0].name, "veh.A.veh_start");
+        assert_int_equal(rec.vars[0].type, SHM_TYPE_LONG);
+        assert_false(rec.vars[0].outbound);
+        assert_int_equal(rec.vars[0].position, 0);
+        assert_string_equal(rec.vars[1].name, "veh.A.joy_steer");
+        assert_int_equal(rec.vars[1].type, SHM_TYPE_DOUBLE);
+        assert_int_equal(rec.vars[1].position, 1);
+        EXPECT_RAW(0, "[:AB|N0|Rveh_start|D|Rjoy_steer|D|C36]\r\n");
+
+        /* L0: what the host wants, learned as outbound variables; the whole list at once. */
+        feed_raw(s, T0, "[:BA|L0|T2|QAutoGpsLat|T4|QVehicleName|C39]\r\n");
+        assert_int_equal(rec.counters[SHM_COUNTER_DECLARATIONS_IN], 2);
+        assert_int_equal(rec.n_vars, 4);
+        assert_string_equal(rec.vars[2].name, "veh.A.AutoGpsLat");
+        assert_true(rec.vars[2].outbound);
+        assert_int_equal(rec.vars[2].type, SHM_TYPE_DOUBLE);
+        assert_string_equal(rec.vars[3].name, "veh.A.VehicleName");
+        assert_int_equal(rec.vars[3].type, SHM_TYPE_STRING);
+        EXPECT_RAW(1, "[:AB|N0|D|D|CF6]\r\n");
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 100);
+        link_sharedlink_session_outbound(s, T0 + 10, 2, "40.5");
+        link_sharedlink_session_outbound(s, T0 + 10, 3, "0");
+        link_sharedlink_session_tick(s, T0 + 100);
+        EXPECT_RAW(2, "[:AB|N0|D40.5|D0|CED]\r\n");
+
+        /* The list queries, each answered by its own typed frame; the ping. */
+        feed_raw(s, T0 + 110, "[:BA|L?|C83]\r\n");
+        EXPECT_RAW(3, "[:AB|N0|T2|QAutoGpsLat|T4|QVehicleName|C3B]\r\n");
+        feed_raw(s, T0 + 110, "[:BA|N?|C85]\r\n");
+        EXPECT_RAW(4, "[:AB|L0|T0|Qveh_start|T2|Qjoy_steer|CB4]\r\n");
+        feed_raw(s, T0 + 110, "[:BA|P0|C78]\r\n");
+        EXPECT_RAW(5, "[:AB|G0|C6F]\r\n");
+        assert_int_equal(rec.counters[SHM_COUNTER_DECLARATIONS_OUT], 2);
+
+        /* Data against the declaration: veh_start = 1. */
+        feed_raw(s, T0 + 120, "[:BA|N0|D1|D0|C57]\r\n");
+        assert_string_equal(rec.vars[0].value, "1");
+        assert_string_equal(rec.vars[1].value, "0");
+        assert_int_equal(rec.counters[SHM_COUNTER_UNDECLARED_DATA], 1);
+
+        /* Commands, with the one-digit checksum of some senders; MU. */
+        feed_raw(s, T0 + 130, "[:BA|EServoPod|D0,TELEOP START|C02]\r\n");
+        feed_raw(s, T0 + 130, "[:BA|EServoPod|D0,TELEOP START|C2]");
+        feed_raw(s, T0 + 130, "[:BA|MUI|CE3]\r\n");
+        assert_int_equal(rec.counters[SHM_COUNTER_COMMANDS_IN], 6);
+        assert_int_equal(rec.n_events, 10);     /* 3 E, 4 learned, 3 more */
+        assert_string_equal(rec.events[7], "command module=ServoPod text=\"0,TELEOP START\"");
+        assert_string_equal(rec.events[8], rec.events[7]);
+        assert_string_equal(rec.events[9], "command module=MUI");
+        assert_string_equal(rec.events[3], "adhoc-variable name=veh.A.veh_start peer=A "
+                                           "learned=inbound");
+        assert_string_equal(rec.events[5], "adhoc-variable name=veh.A.AutoGpsLat peer=A "
+                                           "learned=outbound");
+        assert_int_equal(rec.counters[SHM_COUNTER_UNKNOWN_FIELD], 0);
+        assert_int_equal(rec.counters[SHM_COUNTER_BAD_FIELD], 0);
+        assert_int_equal(rec.n_sent, 6);
+        link_sharedlink_session_free(s);
+}
+
+/* The host: at up, SetIP, outbound on, inbound on, the typed N0 and L0 declarations, each its
+ * own datagram, then the whole list; the vehicle's acknowledgement counted, never stored. */
+static void test_p4_host_connect(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        s = start(T0);
+        EXPECT_RAW(0, "[:BA|ELink|D0, SetIP, 127.0.0.1:47002, 4000|C14]\r\n",
+                   "[:BA|ELink|D0, outbound, on|CA0]\r\n", "[:BA|ELink|D0, inbound, on|C1F]\r\n",
+                   "[:BA|N0|T0|Qveh_start|T2|Qjoy_steer|CB6]\r\n",
+                   "[:BA|L0|T2|QAutoGpsLat|T4|QVehicleName|C39]\r\n", "[:BA|N0|D|D|CF6]\r\n");
+        assert_int_equal(rec.counters[SHM_COUNTER_COMMANDS_OUT], 3);
+        assert_int_equal(rec.counters[SHM_COUNTER_DECLARATIONS_OUT], 2);
+        feed_raw(s, T0 + 5, "[:AB|N0|Rveh_start|D0|Rjoy_steer|D0|C96]\r\n");
+        assert_int_equal(rec.counters[SHM_COUNTER_ACKS_IN], 1);
+        assert_int_equal(rec.counters[SHM_COUNTER_REDECLARED], 0);
+        assert_int_equal(rec.n_vars, 4);
+        assert_false(rec.vars[0].valid);
+        assert_int_equal(rec.n_events, 0);
+        /* An acknowledgement of other names: counted. */
+        feed(s, T0 + 5, ":AB|N0|Rveh_start|D0|Rother|D0");
+        assert_int_equal(rec.counters[SHM_COUNTER_REDECLARED], 1);
+        assert_int_equal(rec.counters[SHM_COUNTER_ACKS_IN], 2);
+
+        /* Data from the vehicle, a value of the wrong type refused, the rest applied. */
+        feed_raw(s, T0 + 10, "[:AB|N0|D40.5|DVEH_1|C30]\r\n");
+        assert_string_equal(rec.vars[2].value, "40.5");
+        assert_string_equal(rec.vars[3].value, "VEH_1");
+        feed_raw(s, T0 + 20, "[:AB|N0|Dabc|DVEH_2|C90]\r\n");
+        assert_int_equal(rec.counters[SHM_COUNTER_TYPE_MISMATCH], 1);
+        assert_string_equal(rec.vars[2].value, "40.5");
+        assert_string_equal(rec.vars[3].value, "VEH_2");
+
+        /* veh_start = 1: the whole list, every period. */
+        link_sharedlink_session_outbound(s, T0 + 30, 0, "1");
+        link_sharedlink_session_outbound(s, T0 + 30, 1, "0");
+        link_sharedlink_session_tick(s, T0 + 100);
+        EXPECT_RAW(6, "[:BA|N0|D1|D0|C57]\r\n");
+
+        /* Silent for stale_ms: stale, the connect sequence every stale_ms until heard, and
+         * again when the vehicle is heard after it went stale. */
+        link_sharedlink_session_tick(s, T0 + 320);
+        assert_true(rec.vars[2].stale);
+        /* The late tick sent one list and restarted the period's grid at 320. */
+        assert_int_equal(link_sharedlink_session_deadline(s), T0 + 420);
+        link_sharedlink_session_tick(s, T0 + 400);
+        link_sharedlink_session_tick(s, T0 + 500);
+        link_sharedlink_session_tick(s, T0 + 600);
+        assert_int_equal(rec.n_sent, 10);       /* lists at 320, 500, 600; no sequence yet */
+        link_sharedlink_session_tick(s, T0 + 620);
+        assert_int_equal(rec.n_sent, 16);       /* list at 600 + 5 frames of the sequence */
+        assert_string_equal(rec.raw[11], "[:BA|ELink|D0, SetIP, 127.0.0.1:47002, 4000|C14]\r\n");
+        feed_raw(s, T0 + 650, "[:AB|G0|C6F]\r\n");
+        assert_int_equal(rec.n_sent, 21);
+        assert_string_equal(rec.raw[16], "[:BA|ELink|D0, SetIP, 127.0.0.1:47002, 4000|C14]\r\n");
+        assert_string_equal(rec.raw[20], "[:BA|L0|T2|QAutoGpsLat|T4|QVehicleName|C39]\r\n");
+        assert_int_equal(rec.counters[SHM_COUNTER_DECLARATIONS_OUT], 6);
+        /* Heard again: no more sequences; down: no deadline at all. */
+        feed_raw(s, T0 + 660, "[:AB|G0|C6F]\r\n");
+        assert_int_equal(rec.n_sent, 21);
+        link_sharedlink_session_down(s, T0 + 670);
+        assert_int_equal(link_sharedlink_session_deadline(s), LINK_SHAREDLINK_NEVER);
+
+        /* Without a local address (not UDP), no SetIP. */
+        rec.local_result = -ENOTSUP;
+        link_sharedlink_session_up(s, T0 + 700);
+        assert_int_equal(rec.n_sent, 26);
+        assert_string_equal(rec.raw[21], "[:BA|ELink|D0, outbound, on|CA0]\r\n");
+        link_sharedlink_session_free(s);
+}
+
+/* The C92 frame of issue 8, against the 10-entry host list of the public clients. */
+static void test_p4_acknowledgement(void **state)
+{
+        static const char *const names[10] = {
+                "video_mux1", "veh_start", "veh_enable", "veh_motion", "joy_steer", "veh_steer",
+                "veh_brake", "veh_throttle", "veh_shift", "veh_clutch",
+        };
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        rec.n_vars = 0;
+        for (unsigned k = 0; k < 10; k++)
+                typed_add(&p4_out[k], names[k], k == 4 ? CONFIG_VAR_DOUBLE : CONFIG_VAR_LONG);
+        cfg.sl.peers[0].n_outbound = 10;
+        cfg.sl.peers[0].n_inbound = 0;
+        s = start(T0);
+        assert_string_equal(rec.raw[3], "[:BA|N0|T0|Qvideo_mux1|T0|Qveh_start|T0|Qveh_enable|"
+                            "T0|Qveh_motion|T2|Qjoy_steer|T0|Qveh_steer|T0|Qveh_brake|"
+                            "T0|Qveh_throttle|T0|Qveh_shift|T0|Qveh_clutch|CC9]\r\n");
+        assert_int_equal(rec.n_sent, 5);        /* no L0: an empty list is not declared */
+        feed_raw(s, T0, "[:AB|N0|Rvideo_mux1|D0|Rveh_start|D0|Rveh_enable|D0|Rveh_motion|D0|"
+                 "Rjoy_steer|D0|Rveh_steer|D0|Rveh_brake|D100|Rveh_throttle|D0|Rveh_shift|D0|"
+                 "Rveh_clutch|D0|C92]");
+        assert_int_equal(rec.counters[SHM_COUNTER_ACKS_IN], 1);
+        assert_int_equal(rec.counters[SHM_COUNTER_REDECLARED], 0);
+        assert_int_equal(rec.counters[SHM_COUNTER_ANSWERS_IN], 0);
+        assert_int_equal(rec.n_vars, 10);       /* no ad hoc variable */
+        for (unsigned k = 0; k < 10; k++)
+                assert_false(rec.vars[k].valid);
+        /* N? from the vehicle: our (empty) inbound list, no answer; L?: our N list. */
+        feed_raw(s, T0, "[:AB|N?|C85]");
+        assert_int_equal(rec.n_sent, 5);
+        feed_raw(s, T0, "[:AB|L?|C83]");
+        assert_int_equal(rec.n_sent, 6);
+        assert_string_equal(rec.raw[5], rec.raw[3]);
+        link_sharedlink_session_free(s);
+}
+
+/* Self-describing frames (the beacon): by name, typed; a name we lack becomes ad hoc with the
+ * declared type; a Q without its D, a bad T, a value of the wrong type: counted, the rest set. */
+static void test_p4_self_describing(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        s = start(T0);
+        feed_raw(s, T0, "[:AB|N0|T4|QVehicleName|DVEH_1|T2|QAutoGpsLat|D0|C5E]");
+        assert_string_equal(rec.vars[3].value, "VEH_1");
+        assert_string_equal(rec.vars[2].value, "0");
+        assert_int_equal(rec.n_vars, 4);
+        feed(s, T0, ":AB|N0|T0|QHealth_total|D7|T0|Qrpm|Dfast|T9|Qx|D1|T2|QAutoGpsLat|D1.5|"
+             "T4|QVehicleName|D|T2|QAutoGpsLat");
+        assert_string_equal(rec.vars[4].name, "veh.B.Health_total");
+        assert_int_equal(rec.vars[4].type, SHM_TYPE_LONG);
+        assert_string_equal(rec.vars[4].value, "7");
+        assert_int_equal(rec.n_vars, 5);        /* rpm refused before it was made */
+        assert_int_equal(rec.counters[SHM_COUNTER_TYPE_MISMATCH], 1);
+        assert_int_equal(rec.counters[SHM_COUNTER_BAD_TYPE], 1);
+        assert_int_equal(rec.counters[SHM_COUNTER_BAD_FIELD], 1);
+        assert_string_equal(rec.vars[2].value, "1.5");
+        assert_string_equal(rec.vars[3].value, "VEH_1");        /* empty D: unchanged */
+        /* A Q inside a self-describing frame is never a query. */
+        assert_int_equal(rec.counters[SHM_COUNTER_QUERIES_IN], 0);
+        link_sharedlink_session_free(s);
+}
+
+/* Client writes toward a pronto4 peer: a value that is not of its type is never sent (the last
+ * good one stays), a long double text goes in its shortest round-trip form. */
+static void test_p4_outbound_types(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        cfg.sl.peers[0].on_change = true;
+        s = start(T0);
+        assert_int_equal(rec.n_sent, 6);
+        link_sharedlink_session_outbound(s, T0 + 1, 0, "1");
+        EXPECT_SENT(6, "[:BA|N0|D1|D");
+        link_sharedlink_session_outbound(s, T0 + 50, 0, "1.5");
+        link_sharedlink_session_outbound(s, T0 + 50, 0, "");
+        link_sharedlink_session_outbound(s, T0 + 50, 1, "nan");
+        assert_int_equal(rec.counters[SHM_COUNTER_TYPE_MISMATCH], 3);
+        assert_int_equal(rec.n_sent, 7);
+        link_sharedlink_session_outbound(s, T0 + 60, 1, "0.1000000000000000055511151231257827");
+        EXPECT_RAW(7, "[:BA|N0|D1|D0.1|CB6]\r\n");
+        link_sharedlink_session_outbound(s, T0 + 70, 1, "-1.79769313486231570000000000000e+308");
+        EXPECT_SENT(8, "[:BA|N0|D1|D-1.7976931348623157e+308");
+        link_sharedlink_session_tick(s, T0 + 100);
+        EXPECT_SENT(9, "[:BA|N0|D1|D-1.7976931348623157e+308");
+        link_sharedlink_session_free(s);
+}
+
+/* Sending E commands: to the pronto4 peer, checked before the link state. */
+static void test_p4_command(void **state)
+{
+        struct link_sharedlink_session *s;
+        char text[SLP_VALUE_MAX + 2];
+
+        (void)state;
+        assert_int_equal(link_sharedlink_session_new(&cfg, true, &hooks, NULL, &s), 0);
+        assert_int_equal(link_sharedlink_session_command(s, T0, -1, "ServoPod", "x"), -ENOTCONN);
+        assert_int_equal(link_sharedlink_session_command(s, T0, -1, "Servo Pod", "x"), -EINVAL);
+        memset(text, 'x', sizeof(text) - 1);
+        text[sizeof(text) - 1] = '\0';
+        assert_int_equal(link_sharedlink_session_command(s, T0, -1, "Link", text), -EINVAL);
+        assert_int_equal(link_sharedlink_session_command(s, T0, -1, "Link", "a|b"), -EINVAL);
+        assert_int_equal(link_sharedlink_session_command(s, T0, 1, "Link", "x"), -EINVAL);
+        link_sharedlink_session_up(s, T0);
+        assert_int_equal(rec.n_sent, 6);
+        assert_int_equal(link_sharedlink_session_command(s, T0, -1, "ServoPod", "0,TELEOP START"),
+                         0);
+        assert_int_equal(link_sharedlink_session_command(s, T0, 0, "Physics", "0,Stop"), 0);
+        assert_int_equal(link_sharedlink_session_command(s, T0, 0, "MUI", ""), 0);
+        EXPECT_RAW(6, "[:BA|EServoPod|D0,TELEOP START|C02]\r\n", "[:BA|EPhysics|D0,Stop|CE2]\r\n",
+                   "[:BA|EMUI|D|CE8]\r\n");
+        assert_int_equal(rec.counters[SHM_COUNTER_COMMANDS_OUT], 6);
+        rec.send_result = -ENOBUFS;
+        assert_int_equal(link_sharedlink_session_command(s, T0, -1, "Link", "x"), -ENOBUFS);
+        link_sharedlink_session_free(s);
+
+        /* A link without a pronto4 peer. */
+        cfg.sl.peers[0].dialect = CONFIG_DIALECT_BULLETIN;
+        cfg.sl.peers[0].declare = false;
+        rec.send_result = 0;
+        s = start(T0);
+        assert_int_equal(link_sharedlink_session_command(s, T0, -1, "Link", "x"), -EOPNOTSUPP);
+        link_sharedlink_session_free(s);
+}
+
+/* Issue 8's bad input, each counted by reason, the rest of the frame applied. */
+static void test_p4_bad_input(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        cfg.sl.peers[0].learn_max = 3;
+        var_add(&(struct config_var){ 0 }, "veh.A.taken");             /* id 0: not ours */
+        s = start(T0);
+        /* A data frame before any declaration. */
+        feed(s, T0, ":BA|N0|D1|D2");
+        assert_int_equal(rec.counters[SHM_COUNTER_UNDECLARED_DATA], 1);
+        /* A declaration longer than the table (learn_max 3), with a type letter other than
+         * 0/2/4 (its position kept, unmapped) and a name held by another variable. */
+        feed(s, T0, ":BA|N0|T7|Qbad|T0|Qa|T0|Qtaken|T0|Qb|T0|Qc");
+        assert_int_equal(rec.counters[SHM_COUNTER_BAD_TYPE], 1);
+        assert_int_equal(rec.counters[SHM_COUNTER_LEARN_CONFLICT], 1);
+        assert_int_equal(rec.counters[SHM_COUNTER_LEARN_FULL], 2);
+        assert_int_equal(rec.n_vars, 2);
+        assert_string_equal(rec.vars[1].name, "veh.A.a");
+        EXPECT_RAW(0, "[:AB|N0|Rbad|D|Ra|D|Rtaken|D|CBB]\r\n");
+        /* Positions: 0 unmapped (dropped), 1 = a, 2 unmapped, 3 beyond the list. */
+        feed(s, T0, ":BA|N0|D9|D5|D6|D7");
+        assert_string_equal(rec.vars[1].value, "5");
+        assert_false(rec.vars[0].valid);
+        assert_int_equal(rec.counters[SHM_COUNTER_LIST_MISMATCH], 3);
+        /* A value of the wrong type (a is a long): refused, the rest applied. */
+        feed(s, T0, ":BA|N1|D5.5|D|D1");
+        assert_string_equal(rec.vars[1].value, "5");
+        assert_int_equal(rec.counters[SHM_COUNTER_TYPE_MISMATCH], 1);
+        assert_int_equal(rec.counters[SHM_COUNTER_LIST_MISMATCH], 4);
+        /* A re-declaration with other names replaces the list whole. */
+        feed(s, T0, ":BA|N0|T4|Qx|T0|Qa");
+        assert_int_equal(rec.counters[SHM_COUNTER_REDECLARED], 1);
+        feed(s, T0, ":BA|N0|Dnew|D8");
+        assert_string_equal(rec.vars[2].name, "veh.A.x");
+        assert_string_equal(rec.vars[2].value, "new");
+        assert_string_equal(rec.vars[1].value, "8");
+        /* The same declaration again: not counted. */
+        feed(s, T0, ":BA|N0|T4|Qx|T0|Qa");
+        assert_int_equal(rec.counters[SHM_COUNTER_REDECLARED], 1);
+        /* The same names with another type: counted, the new type wins. */
+        feed(s, T0, ":BA|N0|T4|Qx|T4|Qa");
+        assert_int_equal(rec.counters[SHM_COUNTER_REDECLARED], 2);
+        feed(s, T0, ":BA|N0|D|Dtext");
+        assert_string_equal(rec.vars[1].value, "text");
+        /* An E command longer than a value, or with a bad module: counted, no event. */
+        rec.n_events = 0;
+        feed_raw(s, T0, "[:BA|ELink|D0123456789012345678901234567890123456789012345678901234567890123"
+                 "|C9F]");
+        feed(s, T0, ":BA|EServo!Pod|D0");
+        assert_int_equal(rec.counters[SHM_COUNTER_BAD_COMMAND], 2);
+        assert_int_equal(rec.counters[SHM_COUNTER_COMMANDS_IN], 0);
+        assert_int_equal(rec.n_events, 0);
+        /* The table full while learning. */
+        rec.add_room = 0;
+        feed(s, T0, ":BA|L0|T0|Qo1");
+        assert_int_equal(rec.counters[SHM_COUNTER_LEARN_FULL], 3);
+        assert_int_equal(h_find(NULL, "veh.A.o1"), -ENOENT);
+        link_sharedlink_session_free(s);
+}
+
+/* Configured lists and a peer's declarations: bound by name, in the declared order; a name we
+ * do not have is an unmapped position (counted once as a declaration that differs). */
+static void test_p4_configured_by_name(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        cfg.sl.peers[0].declare = false;        /* a vehicle with configured lists */
+        s = start(T0);
+        EXPECT_RAW(0, "[:BA|N0|D|D|CF6]\r\n");
+        link_sharedlink_session_outbound(s, T0, 0, "1");
+        link_sharedlink_session_outbound(s, T0, 1, "2.5");
+        /* L0 in another order, with a name we do not send: the whole list in that order. */
+        feed(s, T0, ":AB|L0|T2|Qjoy_steer|T0|Qmissing|T0|Qveh_start");
+        assert_int_equal(rec.counters[SHM_COUNTER_REDECLARED], 1);
+        EXPECT_SENT(1, "[:BA|N0|D2.5|D|D1");
+        link_sharedlink_session_outbound(s, T0 + 10, 0, "3");
+        link_sharedlink_session_tick(s, T0 + 100);
+        EXPECT_SENT(2, "[:BA|N0|D2.5|D|D3");
+        /* N0 from the peer: our inbound list by name; acknowledged, as a vehicle does. */
+        feed(s, T0 + 110, ":AB|N0|T4|QVehicleName|T2|QAutoGpsLat|T0|QOther");
+        assert_int_equal(rec.counters[SHM_COUNTER_REDECLARED], 2);
+        EXPECT_SENT(3, "[:BA|N0|RVehicleName|D|RAutoGpsLat|D|ROther|D");
+        feed(s, T0 + 120, ":AB|N0|DV|D1.5|D7");
+        assert_string_equal(rec.vars[3].value, "V");
+        assert_string_equal(rec.vars[2].value, "1.5");
+        assert_int_equal(rec.counters[SHM_COUNTER_LIST_MISMATCH], 1);
+        /* The acknowledgement carries current values. */
+        feed(s, T0 + 130, ":AB|N0|T4|QVehicleName|T2|QAutoGpsLat");
+        EXPECT_SENT(4, "[:BA|N0|RVehicleName|DV|RAutoGpsLat|D1.5");
+        assert_int_equal(rec.counters[SHM_COUNTER_REDECLARED], 3);
+        assert_int_equal(rec.n_vars, 4);        /* nothing made for a configured list */
+        link_sharedlink_session_free(s);
+}
+
+/* CR LF: always on a byte stream; on a datagram as the link says (sl.crlf). */
+static void test_p4_crlf(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        cfg.sl.crlf = false;
+        s = start(T0);
+        assert_string_equal(rec.raw[1], "[:BA|ELink|D0, outbound, on|CA0]");
+        link_sharedlink_session_free(s);
+        assert_int_equal(link_sharedlink_session_new(&cfg, false, &hooks, NULL, &s), 0);
+        link_sharedlink_session_up(s, T0);
+        assert_string_equal(rec.raw[7], "[:BA|ELink|D0, outbound, on|CA0]\r\n");
+        link_sharedlink_session_free(s);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -620,6 +1111,15 @@ int main(void)
                 cmocka_unit_test_setup(test_queries, setup),
                 cmocka_unit_test_setup(test_rejects, setup),
                 cmocka_unit_test_setup(test_unknown_variable, setup),
+                cmocka_unit_test_setup(test_p4_vehicle, setup_vehicle),
+                cmocka_unit_test_setup(test_p4_host_connect, setup_host),
+                cmocka_unit_test_setup(test_p4_acknowledgement, setup_host),
+                cmocka_unit_test_setup(test_p4_self_describing, setup_host),
+                cmocka_unit_test_setup(test_p4_outbound_types, setup_host),
+                cmocka_unit_test_setup(test_p4_command, setup_host),
+                cmocka_unit_test_setup(test_p4_bad_input, setup_vehicle),
+                cmocka_unit_test_setup(test_p4_configured_by_name, setup_host),
+                cmocka_unit_test_setup(test_p4_crlf, setup_host),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

@@ -1,0 +1,623 @@
+/*
+ * The Pronto4 dialect of a SharedLink session (link_sharedlink_pronto4.h says where the seam
+ * is; docs/pronto4.md is the contract, its Decisions are quoted where they apply).
+ *
+ *     frame from a pronto4 peer -> sls_p4_frame() -> by slp_p4_kind_of():
+ *         declaration  -> the list replaced whole (learned: variables made), acknowledgement
+ *         acknowledgement -> counted, names compared, nothing stored
+ *         self-describing -> each T/Q/D by name (type-checked)
+ *         N? / L?      -> our list, one typed frame
+ *         E, MU*       -> a command event
+ *         data         -> undeclared: counted; else the session's positional walk
+ *     up / silence -> sls_p4_connect(): E SetIP, outbound on, inbound on, N0 and L0
+ *     every data frame -> sls_p4_send_list(): the whole list, one N0 frame
+ */
+#include "daemon/link_sharedlink_pronto4.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* "0, SetIP, <ip>:<port>, <port>": a command's text is a value. */
+#define P4_ADDRESS_MAX          64
+#define P4_SETIP_TEXT_MAX       (P4_ADDRESS_MAX + 32)   /* the encoder refuses over 63 */
+/* Round-trip precision of a double: %.17g always gives back the same double. */
+#define P4_DOUBLE_DIGITS_MAX    17
+
+/* ---------------------------------------------------------------------------------------------
+ * Types */
+
+enum slp_type sls_p4_type_of(enum config_var_type type)
+{
+        switch (type) {
+        case CONFIG_VAR_LONG:
+                return SLP_TYPE_LONG;
+        case CONFIG_VAR_DOUBLE:
+                return SLP_TYPE_DOUBLE;
+        case CONFIG_VAR_STRING:
+        default:
+                return SLP_TYPE_STRING;
+        }
+}
+
+static unsigned shm_type_of(enum slp_type type)
+{
+        switch (type) {
+        case SLP_TYPE_LONG:
+                return SHM_TYPE_LONG;
+        case SLP_TYPE_DOUBLE:
+                return SHM_TYPE_DOUBLE;
+        case SLP_TYPE_STRING:
+        default:
+                return SHM_TYPE_STRING;
+        }
+}
+
+bool sls_p4_value_ok(struct link_sharedlink_session *s, const struct sls_peer *p, size_t pos,
+                     const char *value, size_t len)
+{
+        /* Decision (docs/pronto4.md §3): refused, counted, never stored; the frame goes on. */
+        if (slp_value_check(p->in.types[pos], value, len) == 0)
+                return true;
+        sls_count(s, SHM_COUNTER_TYPE_MISMATCH, 1);
+        return false;
+}
+
+/* The shortest text that reads back as the same double (C locale: the daemon sets none). */
+static void double_shortest(const char *value, char out[SHM_VALUE_SIZE])
+{
+        double d = strtod(value, NULL);
+
+        for (int digits = 1; digits <= P4_DOUBLE_DIGITS_MAX; digits++) {
+                snprintf(out, SHM_VALUE_SIZE, "%.*g", digits, d);
+                if (strtod(out, NULL) == d)
+                        return;
+        }
+}
+
+bool sls_p4_outbound_value(struct link_sharedlink_session *s, const struct sls_peer *p,
+                           size_t pos, const char *value, char *out)
+{
+        enum slp_type type = p->out.types[pos];
+        size_t len = strlen(value);
+
+        if (slp_value_check(type, value, len) < 0) {
+                sls_count(s, SHM_COUNTER_TYPE_MISMATCH, 1);
+                sls_diagf(s, LOG_PRIO_INFO, "peer %c: \"%.*s\" is no T%c value for %s: not sent",
+                          p->cfg->address, (int)len, value, slp_type_digit(type),
+                          p->out.names[pos]);
+                return false;
+        }
+        /* The -n bound of a whole list counts SLP_DOUBLE_TEXT_MAX bytes for a double. */
+        if (type == SLP_TYPE_DOUBLE && len > SLP_DOUBLE_TEXT_MAX)
+                double_shortest(value, out);
+        else
+                snprintf(out, SHM_VALUE_SIZE, "%s", value);
+        return true;
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Sending */
+
+int sls_p4_send_list(struct link_sharedlink_session *s, struct sls_peer *p, bool full)
+{
+        struct slp_list list = {
+                .dst = p->cfg->address,
+                .src = s->addr,
+                .values = p->out_ptrs,
+                .changed = p->out_dirty,
+                .count = p->out.n,
+                .max_frame = p->cfg->max_frame,
+                .compress = p->cfg->compression,
+                .full = full,
+                .crlf = s->crlf,
+        };
+        int n, r;
+
+        if (p->out.n == 0)
+                return 0;
+        n = slp_encode_list_whole(&list, s->txbuf, sizeof(s->txbuf));
+        if (n < 0) {
+                /* Only a learned list can be too long (-n checks a configured one). */
+                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
+                sls_diagf(s, LOG_PRIO_WARNING, "peer %c: the list of %zu values does not fit "
+                          "max_frame %u", p->cfg->address, p->out.n, p->cfg->max_frame);
+                memset(p->out_dirty, 0, p->out.n * sizeof(*p->out_dirty));
+                return n;
+        }
+        r = sls_send_frame(s, s->txbuf, (size_t)n);
+        if (r == 0)
+                memset(p->out_dirty, 0, p->out.n * sizeof(*p->out_dirty));
+        return r;
+}
+
+/* Our declaration of list l to p, "N0|T|Q..." (head 'N', what we send) or "L0|T|Q..." (what we
+ * receive), in one frame; nothing for an empty list. 0 or -errno. */
+static int send_declaration(struct link_sharedlink_session *s, struct sls_peer *p, char head,
+                            const struct sls_list *l)
+{
+        struct slp_named_list nl = {
+                .dst = p->cfg->address,
+                .src = s->addr,
+                .head = head,
+                .names = l->name_ptrs,
+                .types = l->types,
+                .count = l->n,
+                .max_frame = p->cfg->max_frame,
+                .crlf = s->crlf,
+                .one_frame = true,
+        };
+        size_t cursor = 0;
+        int n, r;
+
+        if (l->n == 0)
+                return 0;
+        n = slp_encode_declaration(&nl, &cursor, s->txbuf, sizeof(s->txbuf));
+        if (n < 0) {
+                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
+                sls_diagf(s, LOG_PRIO_WARNING, "peer %c: cannot declare the %c list: %s",
+                          p->cfg->address, head, strerror(-n));
+                return n;
+        }
+        r = sls_send_frame(s, s->txbuf, (size_t)n);
+        if (r == 0)
+                sls_count(s, SHM_COUNTER_DECLARATIONS_OUT, 1);
+        return r;
+}
+
+static int send_command(struct link_sharedlink_session *s, const struct sls_peer *p,
+                        const char *module, const char *text)
+{
+        int n = slp_encode_command(s->txbuf, sizeof(s->txbuf), p->cfg->address, s->addr, module,
+                                   text, sls_encode_flags(s));
+        int r;
+
+        if (n < 0)
+                return -EINVAL;
+        r = sls_send_frame(s, s->txbuf, (size_t)n);
+        if (r == 0)
+                sls_count(s, SHM_COUNTER_COMMANDS_OUT, 1);
+        return r;
+}
+
+void sls_p4_connect(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now)
+{
+        char addr[P4_ADDRESS_MAX], text[P4_SETIP_TEXT_MAX];
+        unsigned remote_port = 0;
+
+        /* Until the vehicle is heard, the sequence goes again every stale_ms (it may not have
+         * been listening yet). */
+        p->connect_at = LINK_SHAREDLINK_NEVER;
+        if (!s->up)
+                return;
+        if (p->cfg->stale_ms > 0)
+                p->connect_at = now + p->cfg->stale_ms;
+        if (s->h->local_address &&
+            s->h->local_address(s->arg, addr, sizeof(addr), &remote_port) > 0) {
+                snprintf(text, sizeof(text), "0, SetIP, %s, %u", addr, remote_port);
+                if (send_command(s, p, "Link", text) == -EINVAL)
+                        sls_diagf(s, LOG_PRIO_WARNING, "peer %c: SetIP %s does not fit a value",
+                                  p->cfg->address, addr);
+        }
+        send_command(s, p, "Link", "0, outbound, on");
+        send_command(s, p, "Link", "0, inbound, on");
+        send_declaration(s, p, 'N', &p->out);
+        send_declaration(s, p, 'L', &p->in);
+}
+
+int link_sharedlink_session_command(struct link_sharedlink_session *s, uint64_t now_ms, int peer,
+                                    const char *module, const char *text)
+{
+        const struct sls_peer *first = NULL;
+        int n, r;
+
+        (void)now_ms;
+        if (peer < -1 || peer >= (int)s->n_peers)
+                return -EINVAL;
+        for (unsigned i = 0; i < s->n_peers && !first; i++)
+                if ((peer < 0 || (unsigned)peer == i) && s->peers[i].p4)
+                        first = &s->peers[i];
+        if (!first)
+                return -EOPNOTSUPP;
+        /* Checked before the link state, so a bad command never waits for the link. */
+        n = slp_encode_command(s->txbuf, sizeof(s->txbuf), first->cfg->address, s->addr, module,
+                               text, sls_encode_flags(s));
+        if (n < 0)
+                return -EINVAL;
+        if (!s->up)
+                return -ENOTCONN;
+        for (unsigned i = 0; i < s->n_peers; i++) {
+                if ((peer >= 0 && (unsigned)peer != i) || !s->peers[i].p4)
+                        continue;
+                r = send_command(s, &s->peers[i], module, text);
+                if (r < 0)
+                        return r;
+        }
+        return 0;
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Declarations received */
+
+static void name_copy(char dst[SLS_NAME_SIZE], const char *src, size_t len)
+{
+        if (len >= SLS_NAME_SIZE)
+                len = SLS_NAME_SIZE - 1;
+        memcpy(dst, src, len);
+        dst[len] = '\0';
+}
+
+static const struct config_var *cfg_vars(const struct sls_peer *p, const struct sls_list *l)
+{
+        return l == &p->out ? p->cfg->outbound : p->cfg->inbound;
+}
+
+/* The variable of declared position pos: a configured one by name, or learned (found or made);
+ * SLS_UNMAPPED when we have none for it. A configured list also gives the type. */
+static uint32_t declared_id(struct link_sharedlink_session *s, struct sls_peer *p,
+                            const struct sls_list *l, const char *name, enum slp_type *type,
+                            size_t pos)
+{
+        const struct config_var *vars = cfg_vars(p, l);
+        int id;
+
+        if (!l->learn) {
+                for (size_t j = 0; j < l->n_cfg; j++)
+                        if (strcmp(vars[j].name, name) == 0) {
+                                *type = sls_p4_type_of(vars[j].type);
+                                return l->cfg_ids[j];
+                        }
+                return SLS_UNMAPPED;
+        }
+        id = sls_made_id(s, p, name, strlen(name),
+                         l == &p->out ? SLS_MADE_LEARNED_OUT : SLS_MADE_LEARNED_IN,
+                         shm_type_of(*type), (int32_t)pos, SHM_COUNTER_LEARN_FULL,
+                         SHM_COUNTER_LEARN_CONFLICT);
+        return id < 0 ? SLS_UNMAPPED : (uint32_t)id;
+}
+
+/* The Q field of a bad entry between fields [from, to) (a T/Q or Q with a bad type or name), or
+ * NULL: such an entry keeps its place, unmapped, so the positions after it stay right. */
+static const struct slp_field *entry_name_field(const struct slp_frame *f, size_t from,
+                                                size_t to)
+{
+        for (size_t i = from; i < to && i < f->nfields; i++)
+                if (f->fields[i].letter == 'Q')
+                        return &f->fields[i];
+        return NULL;
+}
+
+/* Whether the declaration in the scratch (n positions) differs from what it is compared to: a
+ * configured list from its configured order, a learned one from its previous declaration. */
+static bool declaration_differs(const struct sls_peer *p, const struct sls_list *l,
+                                const struct sls_scratch *sc, size_t n)
+{
+        const struct config_var *vars = cfg_vars(p, l);
+
+        if (l->learn) {
+                if (!l->declared)
+                        return false;
+                if (n != l->n)
+                        return true;
+                for (size_t k = 0; k < n; k++)
+                        if (strcmp(sc->names[k], l->names[k]) != 0 || sc->types[k] != l->types[k])
+                                return true;
+                return false;
+        }
+        if (n != l->n_cfg)
+                return true;
+        for (size_t k = 0; k < n; k++)
+                if (strcmp(sc->names[k], vars[k].name) != 0)
+                        return true;
+        return false;
+}
+
+/* The new list replaces the old whole; an outbound position keeps the value its variable had. */
+static void list_commit(struct sls_peer *p, struct sls_list *l, struct sls_scratch *sc, size_t n)
+{
+        bool out = l == &p->out;
+
+        for (size_t k = 0; out && k < n; k++) {
+                sc->values[k][0] = '\0';
+                for (size_t j = 0; sc->ids[k] != SLS_UNMAPPED && j < l->n; j++)
+                        if (l->ids[j] == sc->ids[k]) {
+                                memcpy(sc->values[k], p->out_values[j], SHM_VALUE_SIZE);
+                                break;
+                        }
+        }
+        memcpy(l->ids, sc->ids, n * sizeof(*l->ids));
+        memcpy(l->types, sc->types, n * sizeof(*l->types));
+        memcpy(l->names, sc->names, n * sizeof(*l->names));
+        l->n = n;
+        l->declared = true;
+        for (size_t k = 0; out && k < n; k++) {
+                memcpy(p->out_values[k], sc->values[k], SHM_VALUE_SIZE);
+                p->out_dirty[k] = true;
+        }
+}
+
+/* Our acknowledgement of p's N declaration: each declared name with its current value (empty
+ * before we have one), split into frames if needed. */
+static void send_acknowledgement(struct link_sharedlink_session *s, struct sls_peer *p)
+{
+        struct sls_scratch *sc = &s->scratch;
+        struct slp_named_list nl = {
+                .dst = p->cfg->address,
+                .src = s->addr,
+                .head = 'N',
+                .names = p->in.name_ptrs,
+                .values = sc->ptrs,
+                .count = p->in.n,
+                .max_frame = p->cfg->max_frame,
+                .crlf = s->crlf,
+        };
+        size_t cursor = 0;
+
+        for (size_t k = 0; k < p->in.n; k++) {
+                uint32_t id = p->in.ids[k];
+
+                sc->values[k][0] = '\0';
+                if (id != SLS_UNMAPPED && s->h->get &&
+                    s->h->get(s->arg, id, sc->values[k], SHM_VALUE_SIZE) < 0)
+                        sc->values[k][0] = '\0';
+                sc->ptrs[k] = sc->values[k];
+        }
+        while (cursor < p->in.n) {
+                int n = slp_encode_acknowledgement(&nl, &cursor, s->txbuf, sizeof(s->txbuf));
+
+                if (n <= 0) {
+                        if (n < 0)
+                                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
+                        return;
+                }
+                if (sls_send_frame(s, s->txbuf, (size_t)n) < 0)
+                        return;
+        }
+}
+
+/* Reads the entries of a declaration into the scratch from position `n`; returns the count. */
+static size_t declaration_read(struct link_sharedlink_session *s, struct sls_peer *p,
+                               const struct sls_list *l, const struct slp_frame *f, size_t n)
+{
+        struct sls_scratch *sc = &s->scratch;
+        struct slp_entry e;
+        size_t at = 1;
+
+        for (;;) {
+                size_t before = at;
+                int r = slp_entry_next(f, &at, &e);
+                const struct slp_field *bad = NULL;
+                bool named;
+
+                if (r == 0)
+                        break;
+                named = r > 0 && e.letter == 'Q';
+                if (r < 0) {
+                        sls_count(s, SHM_COUNTER_BAD_TYPE, 1);
+                        bad = entry_name_field(f, before, at);
+                } else if (!named) {
+                        sls_count(s, SHM_COUNTER_BAD_FIELD, 1);         /* an R in it */
+                }
+                if (!named && !bad)
+                        continue;
+                if (n >= l->cap) {
+                        sls_count(s, SHM_COUNTER_LEARN_FULL, 1);
+                        continue;
+                }
+                sc->ids[n] = SLS_UNMAPPED;
+                sc->types[n] = SLP_TYPE_DOUBLE;
+                sc->names[n][0] = '\0';
+                /* A bad type keeps its (valid) name, so answers and acknowledgements list it. */
+                if (bad && slp_name_check(bad->value, bad->len) == 0)
+                        name_copy(sc->names[n], bad->value, bad->len);
+                if (named) {
+                        name_copy(sc->names[n], e.name, e.name_len);
+                        sc->types[n] = e.type;
+                        sc->ids[n] = declared_id(s, p, l, sc->names[n], &sc->types[n], n);
+                }
+                n++;
+        }
+        return n;
+}
+
+/* N0|T|Q... (what p sends: our inbound list) or L0|T|Q... (what it wants: our outbound list). */
+static void declaration_in(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now,
+                           const struct slp_frame *f)
+{
+        const struct slp_field *head = &f->fields[0];
+        struct sls_list *l = head->letter == 'L' ? &p->out : &p->in;
+        struct sls_scratch *sc = &s->scratch;
+        size_t n = 0;
+
+        sls_count(s, SHM_COUNTER_DECLARATIONS_IN, 1);
+        if (head->index > 0) {
+                /* N<k>: the declaration goes on at position k (we never send one); what is
+                 * before k stays, a gap is unmapped. */
+                size_t keep = head->index < l->n ? head->index : l->n;
+
+                n = head->index < l->cap ? head->index : l->cap;
+                memcpy(sc->ids, l->ids, keep * sizeof(*sc->ids));
+                memcpy(sc->types, l->types, keep * sizeof(*sc->types));
+                memcpy(sc->names, l->names, keep * sizeof(*sc->names));
+                for (size_t k = keep; k < n; k++) {
+                        sc->ids[k] = SLS_UNMAPPED;
+                        sc->types[k] = SLP_TYPE_DOUBLE;
+                        sc->names[k][0] = '\0';
+                }
+        }
+        n = declaration_read(s, p, l, f, n);
+        /* Decision (§4): a re-declaration replaces the list whole, counted when it differs. */
+        if (declaration_differs(p, l, sc, n)) {
+                sls_count(s, SHM_COUNTER_REDECLARED, 1);
+                sls_diagf(s, LOG_PRIO_INFO, "peer %c declared another %c list (%zu entries)",
+                          p->cfg->address, head->letter, n);
+        }
+        list_commit(p, l, sc, n);
+        if (l == &p->out) {
+                sls_outrefs_build(s);
+                if (s->up && n > 0)
+                        sls_send_full(s, p, now);
+        } else if (!p->cfg->declare) {
+                send_acknowledgement(s, p);
+        }
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Other frames received */
+
+/* N0|R|D...: the answer to our N declaration. Decision (§5): counted, names compared, nothing
+ * stored (we own those values). */
+static void acknowledgement_in(struct link_sharedlink_session *s, struct sls_peer *p,
+                               const struct slp_frame *f)
+{
+        struct slp_entry e;
+        size_t at = 1, k = 0;
+        bool same = true;
+        int r;
+
+        sls_count(s, SHM_COUNTER_ACKS_IN, 1);
+        while ((r = slp_entry_next(f, &at, &e)) != 0) {
+                if (r < 0 || k >= p->out.n || e.name_len != strlen(p->out.names[k]) ||
+                    memcmp(e.name, p->out.names[k], e.name_len) != 0)
+                        same = false;
+                k++;
+        }
+        if (same && k == p->out.n)
+                return;
+        sls_count(s, SHM_COUNTER_REDECLARED, 1);
+        sls_diagf(s, LOG_PRIO_INFO, "peer %c acknowledged %zu names, not the %zu we declared",
+                  p->cfg->address, k, p->out.n);
+}
+
+/* An inbound variable of p called name (its current list, then its configured one), or
+ * SLS_UNMAPPED. */
+static uint32_t inbound_by_name(const struct sls_peer *p, const char *name, size_t len)
+{
+        for (size_t k = 0; k < p->in.n; k++)
+                if (p->in.ids[k] != SLS_UNMAPPED && strlen(p->in.names[k]) == len &&
+                    memcmp(p->in.names[k], name, len) == 0)
+                        return p->in.ids[k];
+        for (size_t j = 0; j < p->in.n_cfg; j++)
+                if (strlen(p->cfg->inbound[j].name) == len &&
+                    memcmp(p->cfg->inbound[j].name, name, len) == 0)
+                        return p->in.cfg_ids[j];
+        return SLS_UNMAPPED;
+}
+
+/* N0|T|Q|D...: each triple sets that variable by name (§7); a name we lack is ad hoc. */
+static void described_in(struct link_sharedlink_session *s, struct sls_peer *p,
+                         const struct slp_frame *f)
+{
+        struct slp_entry e;
+        size_t at = 1;
+        int r;
+
+        while ((r = slp_entry_next(f, &at, &e)) != 0) {
+                uint32_t id;
+                int made;
+
+                if (r < 0) {
+                        sls_count(s, SHM_COUNTER_BAD_TYPE, 1);
+                        continue;
+                }
+                if (!e.has_value) {
+                        sls_count(s, SHM_COUNTER_BAD_FIELD, 1);
+                        continue;
+                }
+                if (e.value_len == 0)
+                        continue;               /* unchanged */
+                if (slp_value_check(e.type, e.value, e.value_len) < 0) {
+                        sls_count(s, SHM_COUNTER_TYPE_MISMATCH, 1);
+                        continue;
+                }
+                id = inbound_by_name(p, e.name, e.name_len);
+                if (id == SLS_UNMAPPED) {
+                        made = sls_made_id(s, p, e.name, e.name_len, SLS_MADE_ADHOC,
+                                           shm_type_of(e.type), SHM_POSITION_NONE,
+                                           SHM_COUNTER_ADHOC_FULL, SHM_COUNTER_ADHOC_FULL);
+                        if (made < 0)
+                                continue;
+                        id = (uint32_t)made;
+                }
+                sls_publish(s, id, e.value, e.value_len);
+        }
+}
+
+/* L? asks for what we send (answered N0|T|Q...), N? for what we receive (L0|T|Q...), §6. */
+static void list_query_in(struct link_sharedlink_session *s, struct sls_peer *p,
+                          const struct slp_frame *f)
+{
+        if (f->fields[0].letter == 'L')
+                send_declaration(s, p, 'N', &p->out);
+        else
+                send_declaration(s, p, 'L', &p->in);
+}
+
+/* Text for an event's text="..." value: " and \ escaped. */
+static void quote(char *dst, size_t size, const char *src, size_t len)
+{
+        size_t o = 0;
+
+        for (size_t i = 0; i < len && o + 2 < size; i++) {
+                if (src[i] == '"' || src[i] == '\\')
+                        dst[o++] = '\\';
+                dst[o++] = src[i];
+        }
+        dst[o] = '\0';
+}
+
+/* E<module>|D<text> (§9): an event "module=ServoPod text="0,TELEOP START"". */
+static void command_in(struct link_sharedlink_session *s, const struct slp_frame *f)
+{
+        const struct slp_field *m = &f->fields[0];
+        const struct slp_field *t = f->nfields > 1 && f->fields[1].letter == 'D' ? &f->fields[1]
+                                                                                 : NULL;
+        char text[2 * SLP_VALUE_MAX + 1];
+
+        if (slp_name_check(m->value, m->len) < 0 || (t && t->len > SLP_VALUE_MAX)) {
+                sls_count(s, SHM_COUNTER_BAD_COMMAND, 1);
+                return;
+        }
+        sls_count(s, SHM_COUNTER_COMMANDS_IN, 1);
+        sls_count(s, SHM_COUNTER_UNKNOWN_FIELD, f->nfields - (t ? 2 : 1));
+        quote(text, sizeof(text), t ? t->value : "", t ? t->len : 0);
+        sls_eventf(s, SHM_EVENT_COMMAND, "module=%.*s text=\"%s\"", (int)m->len, m->value, text);
+}
+
+bool sls_p4_frame(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now,
+                  const struct slp_frame *f)
+{
+        switch (slp_p4_kind_of(f)) {
+        case SLP_P4_DECLARATION:
+                declaration_in(s, p, now, f);
+                return true;
+        case SLP_P4_ACKNOWLEDGEMENT:
+                acknowledgement_in(s, p, f);
+                return true;
+        case SLP_P4_SELF_DESCRIBING:
+                described_in(s, p, f);
+                return true;
+        case SLP_P4_LIST_QUERY:
+                list_query_in(s, p, f);
+                return true;
+        case SLP_P4_COMMAND:
+                command_in(s, f);
+                return true;
+        case SLP_P4_MU:
+                /* MUI, MUO, ML, MW: the same event, no text (§9). */
+                sls_count(s, SHM_COUNTER_COMMANDS_IN, 1);
+                sls_eventf(s, SHM_EVENT_COMMAND, "module=%c%.*s", f->fields[0].letter,
+                           (int)f->fields[0].len, f->fields[0].value);
+                return true;
+        case SLP_P4_DATA:
+                if (p->in.learn && !p->in.declared) {
+                        /* Decision (§7): no list to read it against. */
+                        sls_count(s, SHM_COUNTER_UNDECLARED_DATA, 1);
+                        return true;
+                }
+                return false;
+        default:
+                return false;           /* ping, pong, bulletin traffic */
+        }
+}

@@ -580,6 +580,17 @@ static int links_start_all(struct daemon *d, struct daemon_config *dc,
 /* ---------------------------------------------------------------------------------------------
  * Outbound: client writes -> the engine of the variable's link */
 
+/* Whether a link learns an outbound list at run time (a Pronto4 peer's outbound: learn). */
+static bool link_learns_outbound(const struct config_link *cfg)
+{
+        if (cfg->protocol != CONFIG_PROTOCOL_SHAREDLINK)
+                return false;
+        for (unsigned i = 0; i < cfg->sl.n_peers; i++)
+                if (cfg->sl.peers[i].outbound_learn)
+                        return true;
+        return false;
+}
+
 static void daemon_on_out_change(void *userdata, const struct shm_out_change *change)
 {
         struct daemon *d = userdata;
@@ -587,9 +598,17 @@ static void daemon_on_out_change(void *userdata, const struct shm_out_change *ch
         struct daemon_link *dl;
         uint32_t link;
 
-        /* Outbound variables are all declared ones (ad hoc names are inbound only). */
-        if (change->id >= decl->nvars)
+        /* An outbound name added at run time was learned by a SharedLink link: each link that
+         * learns outbound lists gets it and ignores an id that is not one of its own. */
+        if (change->id >= decl->nvars) {
+                for (unsigned i = 0; i < d->n_links; i++) {
+                        dl = d->links[i];
+                        if (dl && dl->engine && dl->ops->outbound &&
+                            link_learns_outbound(dl->env.cfg))
+                                dl->ops->outbound(dl->engine, change);
+                }
                 return;
+        }
         link = decl->vars[change->id].link;
         if (link >= d->n_links)
                 return;

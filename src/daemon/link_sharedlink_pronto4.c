@@ -166,19 +166,39 @@ static int send_declaration(struct link_sharedlink_session *s, struct sls_peer *
         return r;
 }
 
-static int send_command(struct link_sharedlink_session *s, const struct sls_peer *p,
-                        const char *module, const char *text)
+/* E<module>|D<text> toward p in txbuf: its length, or -EINVAL (a bad module or text, or a
+ * frame longer than p's max_frame, which p would drop). */
+static int encode_command(struct link_sharedlink_session *s, const struct sls_peer *p,
+                          const char *module, const char *text)
 {
         int n = slp_encode_command(s->txbuf, sizeof(s->txbuf), p->cfg->address, s->addr, module,
                                    text, sls_encode_flags(s));
+
+        return n < 0 || (size_t)n > p->cfg->max_frame ? -EINVAL : n;
+}
+
+static int send_command(struct link_sharedlink_session *s, const struct sls_peer *p,
+                        const char *module, const char *text)
+{
+        int n = encode_command(s, p, module, text);
         int r;
 
         if (n < 0)
-                return -EINVAL;
+                return n;
         r = sls_send_frame(s, s->txbuf, (size_t)n);
         if (r == 0)
                 sls_count(s, SHM_COUNTER_COMMANDS_OUT, 1);
         return r;
+}
+
+static void connect_command(struct link_sharedlink_session *s, const struct sls_peer *p,
+                            const char *text)
+{
+        if (send_command(s, p, "Link", text) == -EINVAL) {
+                sls_count(s, SHM_COUNTER_BAD_COMMAND, 1);
+                sls_diagf(s, LOG_PRIO_WARNING, "peer %c: \"%s\" does not fit a value or "
+                          "max_frame %u", p->cfg->address, text, p->cfg->max_frame);
+        }
 }
 
 void sls_p4_connect(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now)
@@ -196,12 +216,10 @@ void sls_p4_connect(struct link_sharedlink_session *s, struct sls_peer *p, uint6
         if (s->h->local_address &&
             s->h->local_address(s->arg, addr, sizeof(addr), &remote_port) > 0) {
                 snprintf(text, sizeof(text), "0, SetIP, %s, %u", addr, remote_port);
-                if (send_command(s, p, "Link", text) == -EINVAL)
-                        sls_diagf(s, LOG_PRIO_WARNING, "peer %c: SetIP %s does not fit a value",
-                                  p->cfg->address, addr);
+                connect_command(s, p, text);
         }
-        send_command(s, p, "Link", "0, outbound, on");
-        send_command(s, p, "Link", "0, inbound, on");
+        connect_command(s, p, "0, outbound, on");
+        connect_command(s, p, "0, inbound, on");
         send_declaration(s, p, 'N', &p->out);
         send_declaration(s, p, 'L', &p->in);
 }
@@ -210,7 +228,7 @@ int link_sharedlink_session_command(struct link_sharedlink_session *s, uint64_t 
                                     const char *module, const char *text)
 {
         const struct sls_peer *first = NULL;
-        int n, r;
+        int r;
 
         (void)now_ms;
         if (peer < -1 || peer >= (int)s->n_peers)
@@ -221,9 +239,7 @@ int link_sharedlink_session_command(struct link_sharedlink_session *s, uint64_t 
         if (!first)
                 return -EOPNOTSUPP;
         /* Checked before the link state, so a bad command never waits for the link. */
-        n = slp_encode_command(s->txbuf, sizeof(s->txbuf), first->cfg->address, s->addr, module,
-                               text, sls_encode_flags(s));
-        if (n < 0)
+        if (encode_command(s, first, module, text) < 0)
                 return -EINVAL;
         if (!s->up)
                 return -ENOTCONN;

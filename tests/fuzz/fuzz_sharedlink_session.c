@@ -11,6 +11,10 @@
  *   op 4    the channel goes up or down
  *   op 5    a control query (any peer index, any name, any timeout; its client may leave)
  *   op 6    the channel's queue fills or drains (send refused with -ENOBUFS)
+ *   op 7    a Pronto4 frame built to be nearly right: a declaration (N0/L0, T digits 0-9,
+ *           names from a small set, some untyped), an acknowledgement, a self-describing
+ *           frame, typed data, E, MU, N?/L? (pronto4 peers: host or vehicle, learned lists)
+ *   op 8    a command sent (link_sharedlink_session_command(), any peer, module, text)
  *
  * Invariants (a broken one is a __builtin_trap()):
  *   - every hook id names a variable of the fake table; publish and stale only ever touch
@@ -22,7 +26,14 @@
  *   - every accepted query is answered exactly once, nothing else is, and nothing stays
  *     pending after free();
  *   - after a tick, no deadline is left in the past (no busy loop); ad hoc variables stay under
- *     LINK_SHAREDLINK_ADHOC_MAX.
+ *     LINK_SHAREDLINK_ADHOC_MAX;
+ *   - Pronto4: a variable is learned only for a peer that learns that list, at a position below
+ *     its learn_max, outbound only when it learns its outbound list (and never published);
+ *     every frame toward a pronto4 peer is one whole list starting N0 (only D fields after it,
+ *     as many as the list before, unless a frame came in since) or a declaration (N0/L0, then
+ *     typed T/Q pairs), an acknowledgement (N0, then R/D pairs), a command (E, D), a reply
+ *     (G, R/D pairs) or a query; it ends with CR LF exactly when the link says so; a command
+ *     succeeds only while up and only toward a pronto4 peer.
  */
 #include <errno.h>
 #include <stdbool.h>
@@ -38,7 +49,7 @@
 
 #define PEERS_MAX       3
 #define LIST_MAX        6               /* positions per list */
-#define VARS_MAX        (PEERS_MAX * 2 * LIST_MAX + 24)        /* room for a few ad hoc ones */
+#define VARS_MAX        (PEERS_MAX * 2 * LIST_MAX + 64)        /* room for ad hoc, learned */
 #define RAW_MAX         200             /* raw bytes per op */
 #define FIELDS_MAX      12              /* fields in a built frame */
 #define STEPS_MAX       2048            /* ops per input */
@@ -54,6 +65,9 @@ struct var {
         bool inbound, adhoc, valid;
         char value[SHM_VALUE_SIZE];
 };
+
+/* What the harness knows of a pronto4 peer's whole list: its length, once one went out. */
+#define LIST_LEN_UNKNOWN        SIZE_MAX
 
 struct token {
         bool pending;
@@ -75,6 +89,10 @@ struct bench {
         unsigned n_tokens;
         unsigned sends_this_op;
         uint64_t sent, frames_out;
+        bool no_local_address;
+        size_t list_len[SLP_ADDR_COUNT];        /* by peer address */
+        unsigned learned_out[VARS_MAX];         /* ids of learned outbound variables */
+        unsigned n_learned_out;
         struct slp_decoder check;
 };
 
@@ -88,6 +106,60 @@ static const struct config_peer *peer_of(char address)
                 if (b.cfg.sl.peers[i].address == address)
                         return &b.cfg.sl.peers[i];
         return NULL;
+}
+
+static bool fields_are(const struct slp_frame *f, size_t from, const char *pattern)
+{
+        size_t k = strlen(pattern);
+
+        if ((f->nfields - from) % k != 0)
+                return false;
+        for (size_t i = from; i < f->nfields; i++)
+                if (f->fields[i].letter != pattern[(i - from) % k])
+                        return false;
+        return true;
+}
+
+/* A reply to one frame: pongs and R|D answers, packed. */
+static bool is_reply(const struct slp_frame *f)
+{
+        for (size_t i = 0; i < f->nfields; i++) {
+                if (f->fields[i].letter == 'G')
+                        continue;
+                if (f->fields[i].letter != 'R' || i + 1 >= f->nfields ||
+                    f->fields[i + 1].letter != 'D')
+                        return false;
+                i++;
+        }
+        return true;
+}
+
+static void check_p4_frame(const struct slp_frame *f)
+{
+        const struct slp_field *h = &f->fields[0];
+        size_t *known = &b.list_len[f->dst_index];
+        bool head0 = (h->letter == 'N' || h->letter == 'L') && h->index == 0;
+
+        if (head0 && fields_are(f, 1, "TQ")) {
+                for (size_t i = 1; i < f->nfields; i += 2)
+                        CHECK(f->fields[i].len == 1 && strchr("024", f->fields[i].value[0]));
+                return;                                         /* a declaration */
+        }
+        /* An acknowledgement, split at N<k> when it does not fit one frame. */
+        if (h->letter == 'N' && h->index != SLP_INDEX_QUERY && f->nfields > 1 &&
+            fields_are(f, 1, "RD"))
+                return;
+        if (head0 && h->letter == 'N' && fields_are(f, 1, "D")) {
+                /* One whole list: the same length till a frame came in (an L0 may rebind). */
+                CHECK(*known == LIST_LEN_UNKNOWN || *known == f->nfields - 1);
+                *known = f->nfields - 1;
+                return;
+        }
+        if (h->letter == 'E') {
+                CHECK(f->nfields == 2 && f->fields[1].letter == 'D');
+                return;
+        }
+        CHECK(is_reply(f) || (f->nfields == 1 && h->letter == 'Q'));
 }
 
 static int hook_send(void *arg, const char *buf, size_t len)
@@ -109,9 +181,13 @@ static int hook_send(void *arg, const char *buf, size_t len)
         /* A query goes whole whatever max_frame says (one Q of a configured-length name). */
         CHECK(len <= p->max_frame || (r.frame->nfields == 1 &&
                                       r.frame->fields[0].type == SLP_FIELD_Q));
-        /* Only the CR LF of a byte stream may follow the frame. */
-        CHECK(used == len || (b.cfg.transport != CONFIG_TRANSPORT_UDP && len - used == 2 &&
-                              buf[used] == '\r' && buf[used + 1] == '\n'));
+        /* Only the CR LF of a byte stream (or of a link with crlf) may follow the frame. */
+        if (b.cfg.transport != CONFIG_TRANSPORT_UDP || b.cfg.sl.crlf)
+                CHECK(len - used == 2 && buf[used] == '\r' && buf[used + 1] == '\n');
+        else
+                CHECK(used == len);
+        if (p->dialect == CONFIG_DIALECT_PRONTO4)
+                check_p4_frame(r.frame);
         if (b.queue_full)
                 return -ENOBUFS;
         b.sent++;
@@ -133,19 +209,27 @@ static int hook_add(void *arg, const char *name, unsigned type, char peer, bool 
 {
         struct var *v;
 
+        const struct config_peer *p = peer_of(peer);
+
         (void)arg;
-        (void)position;
-        CHECK(!outbound);
         CHECK(shm_layout_name_check(name) == 0);
         CHECK(hook_find(NULL, name) < 0);
         CHECK(type < SHM_TYPE_COUNT);
-        CHECK(peer_of(peer) != NULL);
+        CHECK(p != NULL);
+        /* Learned: only by a peer that learns that list, within learn_max. */
+        CHECK(!outbound || (p->outbound_learn && position != SHM_POSITION_NONE));
+        if (position != SHM_POSITION_NONE)
+                CHECK((outbound ? p->outbound_learn : p->inbound_learn) && position >= 0 &&
+                      (uint32_t)position < p->learn_max);
         if (b.n_vars >= VARS_MAX)
                 return -ENOSPC;
         v = &b.vars[b.n_vars];
         memset(v, 0, sizeof(*v));
         memcpy(v->name, name, strlen(name) + 1);
-        v->inbound = v->adhoc = true;
+        v->inbound = !outbound;
+        v->adhoc = true;
+        if (outbound)
+                b.learned_out[b.n_learned_out++] = b.n_vars;
         b.n_adhoc++;
         CHECK(b.n_adhoc <= LINK_SHAREDLINK_ADHOC_MAX);
         return (int)b.n_vars++;
@@ -199,7 +283,8 @@ static void hook_batch(void *arg, bool begin)
 static void hook_event(void *arg, enum shm_event_type type, const char *text)
 {
         (void)arg;
-        CHECK(type == SHM_EVENT_QUERY_ANSWER || type == SHM_EVENT_ADHOC_VARIABLE);
+        CHECK(type == SHM_EVENT_QUERY_ANSWER || type == SHM_EVENT_ADHOC_VARIABLE ||
+              type == SHM_EVENT_COMMAND);
         CHECK(text && text[0] && strlen(text) < SHM_EVENT_TEXT_SIZE);
 }
 
@@ -241,6 +326,15 @@ static void hook_diag(void *arg, enum log_prio prio, const char *text)
         CHECK(text && strlen(text) < LINK_SHAREDLINK_DIAG_MAX);
 }
 
+static int hook_local_address(void *arg, char *buf, size_t size, unsigned *ret_remote_port)
+{
+        (void)arg;
+        if (b.no_local_address)
+                return -ENOTSUP;
+        *ret_remote_port = 4000;
+        return snprintf(buf, size, "127.0.0.1:4220");
+}
+
 static const struct link_sharedlink_hooks hooks = {
         .send = hook_send,
         .find = hook_find,
@@ -254,6 +348,7 @@ static const struct link_sharedlink_hooks hooks = {
         .answer = hook_answer,
         .alive = hook_alive,
         .diag = hook_diag,
+        .local_address = hook_local_address,
 };
 
 /* ---- configuration from the input ------------------------------------------------------------ */
@@ -272,6 +367,27 @@ static void declare(struct config_var *v, unsigned peer, bool inbound, unsigned 
 
 static const uint32_t periods[] = { 0, 0, 10, 50, 100, 1000 };
 static const uint32_t max_frames[] = { SLP_FRAME_MIN, 40, 64, 128, 1024, SLP_FRAME_MAX };
+
+/* Pronto4 from one byte, as config.c allows it: a list learned is not configured, a host
+ * (declare) has a configured list and learns nothing. */
+static void configure_p4(struct config_peer *p, uint8_t e)
+{
+        if (!(e & 1))
+                return;
+        p->dialect = CONFIG_DIALECT_PRONTO4;
+        p->outbound_learn = e & 4;
+        p->inbound_learn = e & 8;
+        if (p->outbound_learn)
+                p->n_outbound = 0;
+        if (p->inbound_learn)
+                p->n_inbound = 0;
+        p->declare = (e & 2) && !p->outbound_learn && !p->inbound_learn &&
+                     p->n_outbound + p->n_inbound > 0;
+        if (p->outbound_learn || p->inbound_learn)
+                p->learn_max = 1 + (uint32_t)(e >> 4) % LIST_MAX;
+        b.cfg.sl.crlf |= (e & 0x80) != 0;
+        b.no_local_address = e & 0x40;
+}
 
 static void configure(struct input *in)
 {
@@ -307,6 +423,7 @@ static void configure(struct input *in)
                 }
                 for (unsigned k = 0; k < p->n_inbound; k++)
                         declare(&p->inbound[k], i, true, k);
+                configure_p4(p, take(in));
         }
 }
 
@@ -322,6 +439,14 @@ static void take_text(struct input *in, char *buf, size_t max, size_t *ret_len)
                 buf[k] = alphabet[take(in) % (sizeof(alphabet) - 1)];
         buf[n] = '\0';
         *ret_len = n;
+}
+
+/* Input that may hold a declaration: the whole lists may change length. */
+static void input_frame(struct link_sharedlink_session *s, const uint8_t *data, size_t len)
+{
+        for (unsigned i = 0; i < SLP_ADDR_COUNT; i++)
+                b.list_len[i] = LIST_LEN_UNKNOWN;
+        link_sharedlink_session_input(s, b.now, data, len);
 }
 
 static void op_frame(struct link_sharedlink_session *s, struct input *in)
@@ -355,7 +480,7 @@ static void op_frame(struct link_sharedlink_session *s, struct input *in)
         n = slp_frame_encode(frame, sizeof(frame), dst, src, fields, nf,
                              b.cfg.transport == CONFIG_TRANSPORT_UDP ? 0 : SLP_ENCODE_CRLF);
         if (n > 0)
-                link_sharedlink_session_input(s, b.now, (const uint8_t *)frame, (size_t)n);
+                input_frame(s, (const uint8_t *)frame, (size_t)n);
 }
 
 static void op_clock(struct link_sharedlink_session *s, struct input *in)
@@ -376,6 +501,11 @@ static void op_write(struct link_sharedlink_session *s, struct input *in)
         size_t len;
 
         take_text(in, value, SHM_VALUE_MAX, &len);
+        if (b.n_learned_out > 0 && (take(in) & 1)) {
+                id = b.learned_out[take(in) % b.n_learned_out];
+                link_sharedlink_session_outbound(s, b.now, id, value);
+                return;
+        }
         if (p->n_outbound == 0) {
                 /* Not one of the link's ids: ignored. */
                 link_sharedlink_session_outbound(s, b.now, VARS_MAX + take(in), value);
@@ -426,6 +556,90 @@ static void op_query(struct link_sharedlink_session *s, struct input *in)
         CHECK(r != 0 || b.up);
 }
 
+/* Names declarations, acknowledgements and self-describing frames use: few, so they repeat,
+ * collide with the configured "o01"/"i10" ones and with each other across lists. */
+static const char *const p4_names[] = { "v0", "v1", "v2", "i00", "o00", "i10", "x.y", "bad name" };
+static const char *const p4_values[] = { "", "0", "-12", "1.5", "1e308", "2e308", "abc", "9" };
+
+static void p4_field(struct slp_field *f, char letter, const char *value)
+{
+        *f = (struct slp_field){ .letter = letter, .value = value,
+                                 .len = (uint16_t)strlen(value) };
+}
+
+static void op_p4(struct link_sharedlink_session *s, struct input *in)
+{
+        static const char *const digits[] = { "0", "2", "4", "4", "0", "7", "", "22" };
+        static const char *const heads[] = { "0", "0", "0", "1", "5" };
+        static const char *const mu[] = { "UI", "UO", "L", "W", "X" };
+        struct slp_field fields[FIELDS_MAX + 2];
+        char frame[SLP_FRAME_MAX + 2];
+        uint8_t k = take(in), hdr = take(in);
+        char src = b.cfg.sl.peers[hdr % b.cfg.sl.n_peers].address;
+        unsigned nf = 0, entries = take(in) % (LIST_MAX + 3);
+        int n;
+
+        switch (k % 8) {
+        case 0:         /* declaration */
+        case 1:         /* self-describing */
+        case 2:         /* acknowledgement */
+                p4_field(&fields[nf++], (k % 8 == 0 && (k & 8)) ? 'L' : 'N', heads[(k >> 4) % 5]);
+                for (unsigned e = 0; e < entries && nf + 3 <= FIELDS_MAX; e++) {
+                        uint8_t x = take(in);
+
+                        if (k % 8 != 2 && !(x & 1))
+                                p4_field(&fields[nf++], 'T', digits[(x >> 1) % 8]);
+                        p4_field(&fields[nf++], k % 8 == 2 ? 'R' : 'Q', p4_names[(x >> 4) % 8]);
+                        if (k % 8 != 0 && !(x & 8))
+                                p4_field(&fields[nf++], 'D', p4_values[take(in) % 8]);
+                }
+                break;
+        case 3:         /* data */
+                p4_field(&fields[nf++], 'N', heads[(k >> 4) % 5]);
+                for (unsigned e = 0; e < entries; e++)
+                        p4_field(&fields[nf++], 'D', p4_values[take(in) % 8]);
+                break;
+        case 4:
+                p4_field(&fields[nf++], 'E', p4_names[(k >> 4) % 8]);
+                if (k & 8)
+                        p4_field(&fields[nf++], 'D', p4_values[take(in) % 8]);
+                break;
+        case 5:
+                p4_field(&fields[nf++], 'M', mu[(k >> 4) % 5]);
+                break;
+        case 6:
+                p4_field(&fields[nf++], k & 8 ? 'L' : 'N', "?");
+                break;
+        default:
+                p4_field(&fields[nf++], 'P', "0");
+                break;
+        }
+        n = slp_frame_encode(frame, sizeof(frame), b.cfg.sl.address, src, fields, nf,
+                             hdr & 0x80 ? SLP_ENCODE_CRLF : 0);
+        if (n > 0)
+                input_frame(s, (const uint8_t *)frame, (size_t)n);
+}
+
+static void op_command(struct link_sharedlink_session *s, struct input *in)
+{
+        uint8_t a = take(in);
+        int peer = (int)(a % (b.cfg.sl.n_peers + 2)) - 1;
+        char text[SLP_VALUE_MAX + 4];
+        bool p4 = false;
+        size_t len;
+        int r;
+
+        take_text(in, text, a & 0x80 ? SLP_VALUE_MAX + 2 : 8, &len);
+        for (unsigned i = 0; i < b.cfg.sl.n_peers; i++)
+                if ((peer < 0 || (unsigned)peer == i) &&
+                    b.cfg.sl.peers[i].dialect == CONFIG_DIALECT_PRONTO4)
+                        p4 = true;
+        r = link_sharedlink_session_command(s, b.now, peer, p4_names[(a >> 4) % 8], text);
+        CHECK(r == 0 || r == -EINVAL || r == -ENOTCONN || r == -EOPNOTSUPP || r == -ENOBUFS);
+        CHECK(r != 0 || (b.up && p4));
+        CHECK(r != -EOPNOTSUPP || !p4);
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
         struct input in = { data, size };
@@ -434,6 +648,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 
         memset(&b, 0, sizeof(b));
         b.now = START_MS;
+        for (unsigned i = 0; i < SLP_ADDR_COUNT; i++)
+                b.list_len[i] = LIST_LEN_UNKNOWN;
         configure(&in);
         if (slp_decoder_init(&b.check, SLP_FRAME_MAX) < 0)
                 __builtin_trap();
@@ -443,13 +659,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                 uint8_t op = take(&in);
 
                 b.sends_this_op = 0;
-                switch (op % 7) {
+                switch (op % 9) {
                 case 0: {
                         size_t n = take(&in) % RAW_MAX;
 
                         for (size_t k = 0; k < n; k++)
                                 raw[k] = take(&in);
-                        link_sharedlink_session_input(s, b.now, raw, n);
+                        input_frame(s, raw, n);
                         break;
                 }
                 case 1:
@@ -466,6 +682,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
                         break;
                 case 5:
                         op_query(s, &in);
+                        break;
+                case 7:
+                        op_p4(s, &in);
+                        break;
+                case 8:
+                        op_command(s, &in);
                         break;
                 default:
                         b.queue_full = !b.queue_full;

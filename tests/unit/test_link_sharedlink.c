@@ -94,6 +94,7 @@ struct fx {
         uint32_t var_link[VARS_MAX];
         uint32_t nvars;
         uint32_t adhoc_capacity;
+        uint32_t out_spare;             /* .out slots for learned outbound lists */
         int wake_fd;
         struct evloop_timer guard;
         bool guard_fired;
@@ -407,7 +408,13 @@ static void on_out_change(void *arg, const struct shm_out_change *ch)
         struct fx *fx = arg;
         uint32_t link;
 
-        assert_true(ch->id < fx->nvars);
+        if (ch->id >= fx->nvars) {
+                /* Learned at run time: as the core does, every engine may own it. */
+                for (unsigned i = 0; i < fx->nlinks; i++)
+                        ops->outbound(fx->engines[i], ch);
+                fx->dispatched++;
+                return;
+        }
         link = fx->var_link[ch->id];
         assert_true(link < fx->nlinks);
         fx->frames_out_at_dispatch = shm_table_counter_get(fx->table, 0, SHM_COUNTER_FRAMES_OUT);
@@ -485,6 +492,7 @@ static void fx_start(struct fx *fx, const char *yaml)
                 .links = links,
                 .nlinks = fx->nlinks,
                 .adhoc_capacity = fx->adhoc_capacity,
+                .out_spare = fx->out_spare,
         };
         assert_int_equal(shm_table_create(&tc, &fx->table), 0);
         for (unsigned i = 0; i < fx->nlinks; i++) {
@@ -1891,6 +1899,156 @@ static void test_query_link_down(void **state)
         expect_error(client_reply(fx, &c[2]), ECANCELED);
 }
 
+/* ---------------------------------------------------------------------------------------------
+ * Pronto4 over UDP (docs/pronto4.md) */
+
+/* A host link (A) toward a Pronto4 (B), and a bulletin link beside it. */
+static const char yaml_p4_host[] =
+        "links:\n"
+        "  - name: p4h\n"
+        "    protocol: sharedlink\n"
+        "    transport: udp\n"
+        "    local: \"127.0.0.1:0\"\n"
+        "    remote: \"127.0.0.1:@P0@\"\n"
+        "    address: A\n"
+        "    peers:\n"
+        "      - address: B\n"
+        "        dialect: pronto4\n"
+        "        period_ms: 0\n"
+        "        stale_ms: 0\n"
+        "        outbound: [{name: veh_start, type: long}, {name: joy_steer, type: double}]\n"
+        "        inbound: [{name: AutoGpsLat, type: double}, {name: VehicleName, type: string}]\n"
+        "  - name: bul\n"
+        "    protocol: sharedlink\n"
+        "    transport: udp\n"
+        "    local: \"127.0.0.1:0\"\n"
+        "    remote: \"127.0.0.1:@P1@\"\n"
+        "    address: B\n"
+        "    peers:\n"
+        "      - address: A\n"
+        "        period_ms: 0\n"
+        "        outbound: [Cmd]\n";
+
+/* The host: the connect sequence at up, each frame its own datagram ending CR LF, SetIP naming
+ * the address the engine's socket really has; data typed; commands from the control socket. */
+static void test_p4_udp_host(void **state)
+{
+        struct fx *fx = *state;
+        struct peer_end *pe = &fx->peers[0];
+        struct client c;
+        char text[128];
+        size_t n;
+
+        fx_udp(fx, 0);
+        fx_udp(fx, 1);
+        fx_start(fx, yaml_p4_host);
+        fx_control(fx);
+        wait_frames(fx, 0, 6);
+        snprintf(text, sizeof(text), ":BA|ELink|D0, SetIP, 127.0.0.1:%u, %u",
+                 ntohs(pe->engine.sin_port), pe->port);
+        expect_frame(pe->rx[0].text, text);
+        expect_frame(pe->rx[1].text, ":BA|ELink|D0, outbound, on");
+        expect_frame(pe->rx[2].text, ":BA|ELink|D0, inbound, on");
+        assert_string_equal(pe->rx[3].text, "[:BA|N0|T0|Qveh_start|T2|Qjoy_steer|CB6]");
+        assert_string_equal(pe->rx[4].text, "[:BA|L0|T2|QAutoGpsLat|T4|QVehicleName|C39]");
+        expect_frame(pe->rx[5].text, ":BA|N0|D|D");
+        assert_int_equal(pe->datagrams, 6);
+        assert_int_equal(pe->rx_bytes, pe->rx_frame_bytes + 2 * pe->datagrams);  /* CR LF */
+        assert_int_equal(ctr(fx, 0, SHM_COUNTER_COMMANDS_OUT), 3);
+        assert_int_equal(ctr(fx, 0, SHM_COUNTER_DECLARATIONS_OUT), 2);
+
+        /* The acknowledgement stores nothing; data is type-checked, the rest applied. */
+        peer_send_str(pe, "[:AB|N0|Rveh_start|D0|Rjoy_steer|D0|C96]\r\n");
+        peer_send_str(pe, "[:AB|N0|D40.5|DVEH_1|C30]\r\n");
+        wait_value(fx, "VehicleName", "VEH_1");
+        check_value(fx, "AutoGpsLat", "40.5", false);
+        peer_frame(pe, ":AB|N0|Dnorth|DVEH_2");
+        wait_value(fx, "VehicleName", "VEH_2");
+        check_value(fx, "AutoGpsLat", "40.5", false);
+        assert_int_equal(ctr(fx, 0, SHM_COUNTER_TYPE_MISMATCH), 1);
+        assert_int_equal(ctr(fx, 0, SHM_COUNTER_ACKS_IN), 1);
+        assert_int_equal(ctr(fx, 0, SHM_COUNTER_ANSWERS_IN), 0);
+
+        /* A client write goes as the whole list, in its declared types. */
+        client_write(fx, "veh_start", "1");
+        client_write(fx, "joy_steer", "0");
+        sync_peer(fx, 0, 'B', 'A');
+        client_request(fx, &c, "command p4h ServoPod 0,TELEOP START\n");
+        assert_string_equal(client_reply(fx, &c), "OK");
+        n = sync_peer(fx, 0, 'B', 'A');
+        assert_string_equal(pe->rx[n - 1].text, "[:BA|EServoPod|D0,TELEOP START|C02]");
+        assert_int_equal(ctr(fx, 0, SHM_COUNTER_COMMANDS_OUT), 4);
+
+        /* Bad commands, and a link with no pronto4 peer: nothing on the wire. */
+        expect_error(request(fx, &c, "command p4h\n"), EINVAL);
+        expect_error(request(fx, &c, "command p4h Servo!Pod x\n"), EINVAL);
+        expect_error(request(fx, &c, "command p4h Link 0123456789 0123456789 0123456789 "
+                             "0123456789 0123456789 0123456789\n"), EINVAL);
+        expect_error(request(fx, &c, "command bul Link x\n"), EOPNOTSUPP);
+        assert_int_equal(sync_peer(fx, 0, 'B', 'A'), n + 1);
+}
+
+/* The vehicle side: learns the host's lists into the table; a client writes a learned outbound
+ * variable through the table and it goes out as the whole list. */
+static const char yaml_p4_vehicle[] =
+        "links:\n"
+        "  - name: p4v\n"
+        "    protocol: sharedlink\n"
+        "    transport: udp\n"
+        "    local: \"127.0.0.1:0\"\n"
+        "    remote: \"127.0.0.1:@P0@\"\n"
+        "    address: B\n"
+        "    peers:\n"
+        "      - address: A\n"
+        "        dialect: pronto4\n"
+        "        period_ms: 0\n"
+        "        stale_ms: 0\n"
+        "        on_change: true\n"
+        "        compression: false\n"
+        "        outbound: learn\n"
+        "        inbound: learn\n"
+        "        learn_max: 4\n";
+
+static void test_p4_udp_vehicle(void **state)
+{
+        struct fx *fx = *state;
+        struct peer_end *pe = &fx->peers[0];
+        struct client c;
+        size_t n;
+
+        fx->out_spare = 4;
+        fx_udp(fx, 0);
+        fx_start(fx, yaml_p4_vehicle);
+        fx_control(fx);
+        /* A learning vehicle says nothing first: a query tells us where it is. */
+        client_request(fx, &c, "query p4v A Hello 100\n");
+        expect_frame(wait_frames(fx, 0, 1), ":AB|QHello");
+        expect_error(client_reply(fx, &c), ETIMEDOUT);
+
+        peer_frame(pe, ":BA|N0|D1|D0");
+        peer_send_str(pe, "[:BA|N0|T0|Qveh_start|T2|Qjoy_steer|CB6]\r\n");
+        assert_string_equal(wait_frames(fx, 0, 2), "[:AB|N0|Rveh_start|D|Rjoy_steer|D|C36]");
+        assert_int_equal(ctr(fx, 0, SHM_COUNTER_UNDECLARED_DATA), 1);
+        peer_send_str(pe, "[:BA|L0|T2|QAutoGpsLat|T4|QVehicleName|C39]\r\n");
+        assert_string_equal(wait_frames(fx, 0, 3), "[:AB|N0|D|D|CF6]");
+        assert_int_equal(pe->rx_bytes, pe->rx_frame_bytes + 2 * pe->datagrams);  /* CR LF */
+
+        /* Learned inbound: the host's data lands in the table. */
+        peer_send_str(pe, "[:BA|N0|D1|D0|C57]\r\n");
+        wait_value(fx, "p4v.A.veh_start", "1");
+        check_value(fx, "p4v.A.joy_steer", "0", false);
+
+        /* Learned outbound: written through the table, sent whole. */
+        client_write(fx, "p4v.A.AutoGpsLat", "40.5");
+        assert_string_equal(wait_frames(fx, 0, 4), "[:AB|N0|D40.5|D|CBD]");
+        client_write(fx, "p4v.A.VehicleName", "VEH_1");
+        assert_string_equal(wait_frames(fx, 0, 5), "[:AB|N0|D40.5|DVEH_1|C30]");
+        n = sync_peer(fx, 0, 'A', 'B');
+        assert_int_equal(n, 5);
+        assert_int_equal(ctr(fx, 0, SHM_COUNTER_DECLARATIONS_IN), 2);
+        assert_int_equal(ctr(fx, 0, SHM_COUNTER_LEARN_FULL), 0);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -1906,6 +2064,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_stale, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_unplug_recovery, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_udp, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_p4_udp_host, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_p4_udp_vehicle, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_query_command, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_query_bounds, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_query_link_down, setup, teardown),

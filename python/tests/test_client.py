@@ -300,6 +300,15 @@ class TestErrors(DaemonCase):
         self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.command, "node_a",
                          "ServoPod", "0\0x")
         self.assertRaises(TypeError, c.command, "node_a", "ServoPod", 5)
+        # Through the daemon: no such link; a SharedLink link without a pronto4 peer; a link of
+        # another protocol (EINVAL, as for circe_alert on a SharedLink link above). The round
+        # trip to a pronto4 peer: tests/integration/test_pronto4.c.
+        self.assertError(sharedlink.NotFound, errno.ENOENT, c.command, "nolink", "ServoPod",
+                         "0,TELEOP START")
+        self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.command, "node_a",
+                         "ServoPod", "0,TELEOP START")
+        self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.command, "agility",
+                         "ServoPod", "0,TELEOP START")
 
     def test_no_instance(self):
         self.assertError(sharedlink.NotFound, errno.ENOENT, sharedlink.Client, "nosuchinstance")

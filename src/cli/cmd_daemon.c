@@ -1,7 +1,7 @@
 /*
- * slctl query, command and circe: commands through the daemon's control socket. The library checks every
- * argument against the protocol's ranges before anything is sent and says which one it refused;
- * here the command line is mapped onto its calls.
+ * slctl query, command and circe: commands through the daemon's control socket. The library
+ * checks every argument against the protocol's ranges before anything is sent and says which one
+ * it refused; here the command line is mapped onto its calls.
  */
 #include "cli/cmd_daemon.h"
 

@@ -70,7 +70,7 @@ struct link_ops {
         const char *const *command_words;
 
         /*
-         * A control command addressed to this link (argv[0] is one of command_words, argv[1] the link
+         * A control command addressed to this link (argv[0] one of command_words, argv[1] the link
          * name). The core has already taken a trailing "wait=MS" off argv (link_command_wait()):
          * wait_ms > 0 asks the engine to hold the request up to that long while the link is not
          * ready (link_waitq_*), 0 to refuse it at once. The engine must eventually answer req

@@ -652,12 +652,15 @@ static void fields_apply(struct link_sharedlink_session *s, struct sls_peer *p,
                         next = NEXT_ANSWER;
                         answer = fl;
                         break;
-                case SLP_FIELD_P:
+                case SLP_FIELD_P: {
                         /* Ping: pong with the same value ("P0" -> "G0"). */
-                        if (!sls_reply_add(s, &(struct slp_field){ .letter = 'G', .value = fl->value,
-                                                              .len = fl->len }, 1))
+                        struct slp_field pong = { .letter = 'G', .value = fl->value,
+                                                  .len = fl->len };
+
+                        if (!sls_reply_add(s, &pong, 1))
                                 sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
                         break;
+                }
                 case SLP_FIELD_G:
                         break;          /* a pong: the frame itself shows the peer is alive */
                 case SLP_FIELD_T:

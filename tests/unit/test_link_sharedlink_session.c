@@ -1033,12 +1033,15 @@ static void test_p4_bad_input(void **state)
         assert_string_equal(rec.vars[1].value, "text");
         /* An E command longer than a value, or with a bad module: counted, no event. */
         rec.n_events = 0;
-        feed_raw(s, T0, "[:BA|ELink|D0123456789012345678901234567890123456789012345678901234567890123"
-                 "|C9F]");
+        feed_raw(s, T0, "[:BA|ELink|D01234567890123456789012345678901234567890123456789012345678"
+                 "90123|C9F]");
         feed(s, T0, ":BA|EServo!Pod|D0");
         assert_int_equal(rec.counters[SHM_COUNTER_BAD_COMMAND], 2);
         assert_int_equal(rec.counters[SHM_COUNTER_COMMANDS_IN], 0);
         assert_int_equal(rec.n_events, 0);
+        /* A quote or backslash in a command's text is escaped in the event. */
+        feed(s, T0, ":BA|ESay|Da\"b\\c");
+        assert_string_equal(rec.events[0], "command module=Say text=\"a\\\"b\\\\c\"");
         /* The table full while learning. */
         rec.add_room = 0;
         feed(s, T0, ":BA|L0|T0|Qo1");

@@ -134,6 +134,8 @@ int cmd_daemon_command(struct slctl *s, int argc, char **argv)
                                    SL_COMMAND_WORDS_MAX);
         if (r == -EOPNOTSUPP)
                 return slctl_error(s, "link %s has no pronto4 peer", a.pos[0]);
+        if (r == -ENOTCONN)
+                return slctl_error(s, "link %s is down (--wait MS waits for it)", a.pos[0]);
         return command_result(r, "");
 }
 

@@ -294,6 +294,19 @@ static void wire_send(struct it *t, const char *frame)
                                 sizeof(t->daemon_addr)), n);
 }
 
+/* Sends bytes as they are (one datagram on UDP). */
+static void wire_send_raw(struct it *t, const char *bytes)
+{
+        size_t n = strlen(bytes);
+
+        if (t->kind == WIRE_PTY) {
+                assert_int_equal(harness_write_all(t->master, bytes, n, WAIT_MS), 0);
+                return;
+        }
+        assert_int_equal(sendto(t->udp, bytes, n, 0, (struct sockaddr *)&t->daemon_addr,
+                                sizeof(t->daemon_addr)), (ssize_t)n);
+}
+
 /* Builds (checksum computed) and sends ":<text>". */
 static void wire_sendf(struct it *t, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 
@@ -671,7 +684,17 @@ static const char vehicle_peer_yaml[] =
         "        period_ms: 0\n"
         "        on_change: true\n"
         "        min_interval_ms: 0\n"
-        "        stale_ms: 0\n";
+        "        stale_ms: 0\n"
+        /* Another link holds a name the vehicle link would learn as veh.A.taken. */
+        "  - name: other\n"
+        "    protocol: sharedlink\n"
+        "    transport: udp\n"
+        "    local: \"127.0.0.1:0\"\n"
+        "    remote: \"127.0.0.1:9\"\n"
+        "    address: A\n"
+        "    peers:\n"
+        "      - address: C\n"
+        "        inbound: [veh.A.taken]\n";
 
 static void start_vehicle(struct it *t, unsigned learn_max)
 {
@@ -792,10 +815,19 @@ static void vehicle_replay(struct it *t)
         wire_send(t, mw);
         wait_event(t, "command", "module=MW");
         wait_counter(t, 0, "commands_in", 6);
+        /* Field practice: some firmware ends its lines LF CR; a frame without any line end
+         * (the ROS 2 bridge) is taken on UDP, and on a pty when the next frame follows. */
+        wire_send_raw(t, "[:BA|MUO|CE9]\n\r");
+        wait_event(t, "command", "module=MUO");
+        wire_send_raw(t, "[:BA|ML|C91]");
+        wire_send(t, mui);
+        wait_event(t, "command", "module=ML");
 
         /* And the vehicle side sends a command to the host with sl_command. */
         assert_int_equal(sl_command(t->c, "veh", "Link", "0, inbound, on"), 0);
         expectf(t, ":AB|ELink|D0, inbound, on");
+        /* A SharedLink link without a pronto4 peer has nobody to command. */
+        assert_int_equal(sl_command(t->c, "other", "Link", "0, inbound, on"), -EOPNOTSUPP);
         assert_true(counter(t, 0, "commands_out") >= 1);
         (void)inbound_on;
 
@@ -966,6 +998,23 @@ static void host_replay(struct it *t)
         wait_value(t, "AutoGpsLat", "0");
         assert_value(t, "VehicleName", "VEH_1");
         assert_int_equal(sl_count(t->c), nvars);
+        /* A beacon entry without its value: counted, the rest applied; a name we do not
+         * have: an ad hoc variable of the declared type. */
+        wire_sendf(t, ":AB|N0|T2|QAutoGpsLat|T4|QVehicleName|DVEH_9");
+        wait_value(t, "VehicleName", "VEH_9");
+        assert_value(t, "AutoGpsLat", "0");
+        wait_counter(t, 0, "bad_field", 1);
+        wire_sendf(t, ":AB|N0|T0|QHealth_total|D97");
+        wait_value(t, "host.B.Health_total", "97");
+        wait_var(t, "host.B.Health_total", SL_DIR_IN, SL_VAR_LONG, -1);
+        nvars++;
+        {
+                struct sl_var_info vi = { .size = sizeof(vi) };
+
+                assert_int_equal(sl_info(t->c, sl_find(t->c, "host.B.Health_total"), &vi), 0);
+                assert_true(vi.flags & SL_VAR_ADHOC);
+        }
+        assert_int_equal(sl_count(t->c), nvars);
 
         /* A real vehicle ping, answered with G0. */
         wire_send(t, vehicle_ping);
@@ -1063,20 +1112,24 @@ static void bad_input(struct it *t)
         wait_counter(t, 0, "bad_type", 1);
 
         /* A re-declaration with other names replaces the mapping whole: the new positions go
-         * to the new names, never to the old ones. */
-        wire_sendf(t, ":BA|N0|T0|Qalpha|T4|Qbeta");
+         * to the new names, never to the old ones. Its third name belongs to another link:
+         * counted, and that position is left unmapped (its data dropped and counted). */
+        wire_sendf(t, ":BA|N0|T0|Qalpha|T4|Qbeta|T0|Qtaken");
         wait_var(t, "veh.A.beta", SL_DIR_IN, SL_VAR_STRING, 1);
         wait_counter(t, 0, "redeclared", 1);
-        wire_sendf(t, ":BA|N0|D77|Dhello");
+        wait_counter(t, 0, "learn_conflict", 1);
+        wire_sendf(t, ":BA|N0|D77|Dhello|D5");
         wait_value(t, "veh.A.beta", "hello");
         assert_value(t, "veh.A.alpha", "77");
         assert_value(t, "veh.A.video_mux1", "1");
         assert_value(t, "veh.A.veh_start", "12");
-        /* The third position of the old list is beyond the new one. */
-        wire_sendf(t, ":BA|N0|D78|Dworld|D3");
-        wait_value(t, "veh.A.beta", "world");
+        assert_value(t, "veh.A.taken", "");
         wait_counter(t, 0, "list_mismatch", 3);
-        assert_value(t, "veh.A.joy_steer", "5.5");
+        /* The fourth position of the old list is beyond the new one. */
+        wire_sendf(t, ":BA|N0|D78|Dworld|D|D3");
+        wait_value(t, "veh.A.beta", "world");
+        wait_counter(t, 0, "list_mismatch", 4);
+        assert_value(t, "veh.A.veh_motion", "4");
 
         /* A command text longer than a value, a module that is not a name: counted, no event;
          * the daemon goes on (the next command is an event). */
@@ -1516,6 +1569,18 @@ static void test_back_to_back(void **state)
         wait_event(t, "command", "module=ServoPod text=\"0,TELEOP START\"");
         assert_int_equal(sl_command(t->c, "veh", "Link", "0, outbound, off"), 0);
         wait_event(t, "command", "module=Link text=\"0, outbound, off\"");
+        {
+                /* The same through slctl, TEXT in words; and refused where it cannot go. */
+                char out[256];
+                const char *const cmd[] = { harness_slctl_path(), "command", "host", "Physics",
+                                            "0,Stop", NULL };
+                const char *const bad_module[] = { harness_slctl_path(), "command", "veh",
+                                                   "Servo Pod", NULL };
+
+                assert_int_equal(harness_run(&t->h, out, sizeof(out), WAIT_MS, cmd), 0);
+                wait_event(t, "command", "module=Physics text=\"0,Stop\"");
+                assert_int_equal(harness_run(&t->h, out, sizeof(out), WAIT_MS, bad_module), 1);
+        }
         /* The declarations went one way and were learned on the other. */
         assert_true(counter(t, 0, "declarations_out") >= 2);
         assert_true(counter(t, 1, "declarations_in") >= 2);
@@ -1526,6 +1591,31 @@ static void test_back_to_back(void **state)
         client_write(t, "veh.A.VehicleName", "VEH_1");
         wait_value(t, "AutoGpsLat", "40.12345678");
         wait_value(t, "VehicleName", "VEH_1");
+}
+
+/* sl_command and slctl command on a host link that is down: -ENOTCONN at once; with a command
+ * wait, the command goes once the link comes up (after the connect sequence). */
+static void test_command_link_down(void **state)
+{
+        struct it *t = on_wire(state, WIRE_PTY);
+        char links[YAML_MAX], out[256], err[512];
+        const char *const cmd[] = { harness_slctl_path(), "command", "host", "ServoPod",
+                                    "0,TELEOP START", NULL };
+
+        snprintf(t->dev, sizeof(t->dev), "%s/tty0", t->h.dir);
+        snprintf(links, sizeof(links),
+                 "  - name: host\n    protocol: sharedlink\n    transport: serial\n"
+                 "    device: %s\n%s", t->dev, host_peer_yaml);
+        start(t, links);
+        assert_int_equal(sl_command(t->c, "host", "ServoPod", "0,TELEOP START"), -ENOTCONN);
+        assert_int_equal(harness_run_capture(&t->h, out, sizeof(out), err, sizeof(err), WAIT_MS,
+                                             cmd), 1);
+        assert_non_null(strstr(err, "down"));
+        plug(t);
+        assert_int_equal(sl_set_command_wait(t->c, WAIT_MS), 0);
+        assert_int_equal(sl_command(t->c, "host", "ServoPod", "0,TELEOP START"), 0);
+        expect_connect_sequence(t);
+        expect(t, teleop_start);
 }
 
 int main(void)
@@ -1541,6 +1631,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_peer_vehicle, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_peer_host, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_back_to_back, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_command_link_down, setup, teardown),
         };
 
         signal(SIGPIPE, SIG_IGN);

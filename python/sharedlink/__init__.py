@@ -148,6 +148,38 @@ class DaemonInfo(NamedTuple):
     counters: dict
 
 
+def _event_fields(text):
+    """"key=value key="quoted value" ..." -> {key: value}: a quoted value (a Pronto4 command's
+    text) may hold spaces, with \\" and \\\\ inside it for a quote and a backslash; words
+    without "=" are skipped."""
+    fields, i, n = {}, 0, len(text)
+    while i < n:
+        if text[i] == " ":
+            i += 1
+            continue
+        j = i
+        while j < n and text[j] not in " =":
+            j += 1
+        if j >= n or text[j] != "=":
+            i = j
+            continue
+        key, i = text[i:j], j + 1
+        if i < n and text[i] == '"':
+            value, i = [], i + 1
+            while i < n and text[i] != '"':
+                if text[i] == "\\" and i + 1 < n:
+                    i += 1
+                value.append(text[i])
+                i += 1
+            fields[key] = "".join(value)
+            i += 1
+        else:
+            j = text.find(" ", i)
+            j = n if j < 0 else j
+            fields[key], i = text[i:j], j
+    return fields
+
+
 class Event(NamedTuple):
     """One event (struct sl_event); fields is text parsed as key=value words."""
     seq: int
@@ -161,7 +193,7 @@ class Event(NamedTuple):
 
     @property
     def fields(self):
-        return dict(w.split("=", 1) for w in self.text.split() if "=" in w)
+        return _event_fields(self.text)
 
     @property
     def truncated(self):

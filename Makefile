@@ -4,7 +4,7 @@
 #   src/proto/*.c, src/shm/*.c     pure codecs / table layout, archived per directory
 #   src/daemon/*.c                 sharedlinkd (main.c holds main(), the rest is archived for tests)
 #   src/lib/*.c + src/shm/*.c      libsharedlink.so.1 / .a (exports: src/lib/libsharedlink.sym),
-#     + LIB_PROTO_SRC              with the codecs the client speaks (control protocol, CIRCE)
+#     + LIB_PROTO_SRC              with the codecs the client speaks (control, CIRCE, SharedLink)
 #   src/cli/*.c                    slctl, linked against libsharedlink.a (all but slctl.c also
 #                                  archived for unit tests)
 #   src/mqtt/*.c                   sharedlink-mqtt (main.c holds main(), the rest is archived for
@@ -151,8 +151,10 @@ PROTO_SRC  := $(wildcard src/proto/*.c)
 SHM_SRC    := $(wildcard src/shm/*.c)
 LIB_SRC    := $(wildcard src/lib/*.c)
 # The library builds requests and parses replies with the control protocol and checks CIRCE
-# arguments with the codec's own rules; hidden symbols, so they are not exported.
-LIB_PROTO_SRC := $(filter src/proto/control.c src/proto/circe.c,$(PROTO_SRC))
+# and SharedLink module-command arguments with the codecs' own rules; hidden symbols, so they are
+# not exported.
+LIB_PROTO_SRC := $(filter src/proto/control.c src/proto/circe.c src/proto/sharedlink.c,\
+                           $(PROTO_SRC))
 DAEMON_MAIN:= $(wildcard src/daemon/main.c)
 DAEMON_SRC := $(filter-out src/daemon/main.c,$(wildcard src/daemon/*.c))
 CLI_SRC    := $(wildcard src/cli/*.c)

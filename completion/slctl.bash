@@ -8,7 +8,7 @@
 # `slctl stats`), with the -i INSTANCE already on the line. Nothing is printed on errors: with no
 # daemon running, only the fixed words complete.
 
-_slctl_commands="list get set watch events stats query circe help"
+_slctl_commands="list get set watch events stats query command circe help"
 _slctl_circe_ops="alert network-setup device-setup sync-clocks visualize emulate"
 
 # _slctl_run PROG ARGS...: runs slctl quietly, stdout only.
@@ -113,6 +113,7 @@ _slctl()
         events) opts="--follow --new --count --timeout" ;;
         stats)  opts="--json --all" ;;
         query)  opts="--timeout --wait" ;;
+        command) opts="--wait" ;;
         esac
         if [[ $cur == -* ]]; then
                 case $command in
@@ -142,6 +143,8 @@ _slctl()
                 0)      _slctl_reply "$(_slctl_links sharedlink)" ;;
                 1)      _slctl_reply "$(_slctl_devices "${pos[0]}")" ;;     # its peers
                 esac ;;
+        command)
+                [ ${#pos[@]} -eq 0 ] && _slctl_reply "$(_slctl_links sharedlink)" ;;
         circe)
                 case ${#pos[@]} in
                 0)      _slctl_reply "$(_slctl_links circe)" ;;

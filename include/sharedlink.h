@@ -295,6 +295,8 @@ const char *sl_strerror(int err);
 #define SL_QUERY_TIMEOUT_MAX_MS 60000   /* sl_query */
 #define SL_CIRCE_ADDRESS_SIZE   7       /* "E1E1E1" + NUL: six uppercase hex digits, not FFFFFF */
 #define SL_CIRCE_DESTS_MAX      92      /* destinations of one Visualize */
+#define SL_COMMAND_TEXT_MAX     63      /* bytes of a module command's text (sl_command) */
+#define SL_COMMAND_WORDS_MAX    28      /* space-separated words of that text */
 
 /* Receives the text of one "DATA" line; returns 0 to go on, or a negative errno to stop. */
 typedef int (*sl_data_fn)(const char *text, void *arg);
@@ -349,6 +351,18 @@ int sl_request(struct sl_client *c, const char *line, int timeout_ms, sl_data_fn
  */
 int sl_query(struct sl_client *c, const char *link, const char *peer, const char *name,
              int timeout_ms, char *reply, size_t reply_size);
+
+/*
+ * SharedLink module command (Pronto4 dialect, docs/pronto4.md §9): sends "E<module>|D<text>" to
+ * the pronto4 peer(s) of link, e.g. module "ServoPod", text "0,TELEOP START". module: 1..63
+ * letters, digits, '_', '.', '-'; text (NULL = ""): at most SL_COMMAND_TEXT_MAX bytes of
+ * 0x20-0x7E without '|', '[' or ']', words separated by single spaces (no leading, trailing or
+ * double space: the request line splits on spaces), at most SL_COMMAND_WORDS_MAX words. Returns
+ * 0 once the frame is queued, -EINVAL for a bad argument (nothing sent), -ENOTCONN (the link is
+ * down; see sl_set_command_wait), -EOPNOTSUPP (the link has no pronto4 peer), or another negative
+ * errno (above). Since SHAREDLINK_1.1.
+ */
+int sl_command(struct sl_client *c, const char *link, const char *module, const char *text);
 
 /* CIRCE Alert: makes device addr signal itself. 0 or a negative errno. */
 int sl_circe_alert(struct sl_client *c, const char *link, const char *addr, char *reply,

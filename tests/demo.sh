@@ -9,6 +9,9 @@
 #               section below.
 #   MQTT:       when mosquitto and its clients are installed, sharedlink-mqtt bridges the instance
 #               to a private broker on 127.0.0.1 (marked section below); skipped otherwise.
+#   Pronto4:    pronto_host (a SharedLink host, node A) <-> pronto (the vehicle side, node B,
+#               learning the host's lists) over UDP on loopback, through a relay that prints
+#               every datagram; see the marked section below.
 # then stops the daemon with SIGTERM and checks that it cleaned up after itself.
 #
 # Runs as any user: runtime_dir in demo.yaml is under /tmp. Environment: SHAREDLINK_BUILD (the
@@ -38,6 +41,7 @@ cleanup() {
                 kill -TERM "$p" 2>/dev/null || true
                 wait "$p" 2>/dev/null || true
         done
+        pronto4_cleanup
         if [ -n "$pid" ] && kill -0 "$pid" 2>/dev/null; then
                 kill -TERM "$pid" 2>/dev/null || true
                 wait "$pid" 2>/dev/null || true
@@ -59,6 +63,88 @@ until_ok() {
 # `slctl get NAME` prints VALUE.
 value_is() { [ "$("$slctl" get "$1" 2>/dev/null)" = "$2" ]; }
 
+# --- Pronto4: host link (pronto_host) <-> vehicle link (pronto), over UDP, through a relay ------
+# tests/peers/udp_tee.py sits between the two links (each link's remote: is the relay, which
+# forwards to the other link's local:) and logs every datagram byte for byte; on SIGUSR1 it
+# sends a real vehicle ping to the host and a host ping to the vehicle. The relay starts before
+# the daemon, so the host's first connect sequence finds it.
+have_pronto4=0
+grep -q 'dialect: pronto4' "$conf" && have_pronto4=1
+p4_tee=
+p4_log=$rundir/pronto4-frames.log
+
+# The value of key (local, remote) of link $1 in $conf, quotes removed.
+p4_link_addr() {
+        awk -v link="$1" -v key="$2:" '$0 ~ "- name: " link "$" { f = 1; next }
+                /- name:/ { f = 0 } f && $1 == key { gsub(/"/, "", $2); print $2; exit }' "$conf"
+}
+
+pronto4_cleanup() {
+        if [ -n "$p4_tee" ] && kill -0 "$p4_tee" 2>/dev/null; then
+                kill -TERM "$p4_tee" 2>/dev/null || true
+                wait "$p4_tee" 2>/dev/null || true
+        fi
+        p4_tee=
+}
+
+pronto4_relay_start() {
+        local host_local host_remote veh_local veh_remote
+        [ "$have_pronto4" = 1 ] || return 0
+        command -v python3 >/dev/null || fail "the Pronto4 step needs python3 (its frame relay)"
+        host_local=$(p4_link_addr pronto_host local)
+        host_remote=$(p4_link_addr pronto_host remote)
+        veh_local=$(p4_link_addr pronto local)
+        veh_remote=$(p4_link_addr pronto remote)
+        [ -n "$host_local" ] && [ -n "$veh_remote" ] || fail "$conf: no pronto_host/pronto links"
+        python3 tests/peers/udp_tee.py "$host_remote" "$host_local" "$veh_remote" "$veh_local" \
+                "$p4_log" >"$rundir/pronto4-relay.out" &
+        p4_tee=$!
+        until_ok grep -q ready "$rundir/pronto4-relay.out" || fail "the Pronto4 relay did not start"
+}
+
+p4_event_seen() { "$slctl" events 2>/dev/null | grep -F -- "$1" >/dev/null; }
+p4_logged() { grep -F -- "$1" "$p4_log" >/dev/null; }
+
+pronto4_step() {
+        [ "$have_pronto4" = 1 ] || return 0
+        say "Pronto4: the vehicle link (pronto) learns the host link's (pronto_host) typed lists"
+        until_ok "$slctl" get pronto.A.joy_steer pronto.A.VehicleName ||
+                fail "the vehicle link never learned the host's declarations"
+        printf '$ %s list | grep -E "^(NAME|veh_start|joy_steer|AutoGpsLat|VehicleName|pronto\\.)"\n' \
+                "$slctl"
+        "$slctl" list | grep -E '^(NAME|veh_start|joy_steer|AutoGpsLat|VehicleName|pronto\.)'
+
+        say "Pronto4: a ping each way (the relay pings both links; each answers G0)"
+        kill -USR1 "$p4_tee"
+        until_ok p4_logged "A -> B  [:BA|G0|C6F]" || fail "the host never answered the ping"
+        until_ok p4_logged "B -> A  [:AB|G0|C6F]" || fail "the vehicle never answered the ping"
+        grep -F 'P0|C78' "$p4_log"
+        grep -F 'G0|C6F' "$p4_log"
+
+        say "Pronto4: the host sends a module command; the vehicle link reports it as an event"
+        run "$slctl" command pronto_host ServoPod "0,TELEOP START"
+        until_ok p4_event_seen ' pronto command module=ServoPod text="0,TELEOP START"' ||
+                fail "the command never arrived as an event"
+        "$slctl" events | grep ' pronto command '
+
+        say "Pronto4: the host writes; the vehicle reads"
+        run "$slctl" set veh_start 1
+        run "$slctl" set joy_steer 0.25
+        until_ok value_is pronto.A.joy_steer 0.25 || fail "pronto.A.joy_steer never became 0.25"
+        run "$slctl" get pronto.A.veh_start pronto.A.joy_steer
+
+        say "Pronto4: the vehicle writes; the host reads"
+        run "$slctl" set pronto.A.AutoGpsLat 40.12345678
+        run "$slctl" set pronto.A.VehicleName VEH_1
+        until_ok value_is VehicleName VEH_1 || fail "VehicleName never became VEH_1"
+        run "$slctl" get AutoGpsLat VehicleName
+
+        say "Pronto4: the datagrams exchanged, byte for byte (A = pronto_host, B = pronto)"
+        pronto4_cleanup
+        cat "$p4_log"
+}
+# --- end of the Pronto4 part ---------------------------------------------------------------------
+
 [ -x "$daemon" ] || fail "$daemon is not built (run make)"
 [ -x "$slctl" ] || fail "$slctl is not built yet (src/cli/ comes with the slctl branch)"
 [ -n "$instance" ] && [ -n "$rundir" ] || fail "$conf must set instance and runtime_dir"
@@ -71,6 +157,7 @@ echo "$check"
 have_circe=0
 grep -q 'protocol: circe' "$conf" && have_circe=1
 
+pronto4_relay_start
 say "start sharedlinkd (log: $rundir/sharedlinkd.log)"
 "$daemon" -c "$conf" 2>"$rundir/sharedlinkd.log" &
 pid=$!
@@ -221,6 +308,7 @@ EOC
         echo "sharedlink-mqtt and the broker stopped"
 fi
 # --- end of the MQTT part -----------------------------------------------------------------------
+pronto4_step
 
 say "link statistics"
 run "$slctl" stats

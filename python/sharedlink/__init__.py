@@ -148,6 +148,38 @@ class DaemonInfo(NamedTuple):
     counters: dict
 
 
+def _event_fields(text):
+    """"key=value key="quoted value" ..." -> {key: value}: a quoted value (a Pronto4 command's
+    text) may hold spaces, with \\" and \\\\ inside it for a quote and a backslash; words
+    without "=" are skipped."""
+    fields, i, n = {}, 0, len(text)
+    while i < n:
+        if text[i] == " ":
+            i += 1
+            continue
+        j = i
+        while j < n and text[j] not in " =":
+            j += 1
+        if j >= n or text[j] != "=":
+            i = j
+            continue
+        key, i = text[i:j], j + 1
+        if i < n and text[i] == '"':
+            value, i = [], i + 1
+            while i < n and text[i] != '"':
+                if text[i] == "\\" and i + 1 < n:
+                    i += 1
+                value.append(text[i])
+                i += 1
+            fields[key] = "".join(value)
+            i += 1
+        else:
+            j = text.find(" ", i)
+            j = n if j < 0 else j
+            fields[key], i = text[i:j], j
+    return fields
+
+
 class Event(NamedTuple):
     """One event (struct sl_event); fields is text parsed as key=value words."""
     seq: int
@@ -161,7 +193,7 @@ class Event(NamedTuple):
 
     @property
     def fields(self):
-        return dict(w.split("=", 1) for w in self.text.split() if "=" in w)
+        return _event_fields(self.text)
 
     @property
     def truncated(self):
@@ -562,6 +594,16 @@ class Client:
         if r < 0:
             _raise(r, "query %s %s %s: %s" % (link, peer, name, _text(reply.value)))
         return _text(reply.raw[:r])
+
+    def command(self, link, module, text=""):
+        """Pronto4 module command: sends E<module>|D<text> to the pronto4 peer(s) of link, e.g.
+        command("vehicle", "ServoPod", "0,TELEOP START"). module: 1..63 letters, digits, _ . -;
+        text: at most 63 bytes of printable ASCII without | [ ], words separated by single
+        spaces. Returns once the frame is queued; NotConnected when the link is down."""
+        r = _lib_.sl_command(self._handle(), _word(link, "link"), _word(module, "module"),
+                             _word(text, "text"))
+        if r < 0:
+            _raise(r, "command %s %s %r" % (link, module, text))
 
     def circe_alert(self, link, addr):
         """CIRCE Alert: device addr signals itself."""

@@ -52,6 +52,8 @@ SL_WAIT_MAX_MS = 60000
 SL_QUERY_TIMEOUT_MAX_MS = 60000
 SL_CIRCE_ADDRESS_SIZE = 7
 SL_CIRCE_DESTS_MAX = 92
+SL_COMMAND_TEXT_MAX = 63
+SL_COMMAND_WORDS_MAX = 28
 
 # ---- structs ---------------------------------------------------------------------------------
 
@@ -199,6 +201,7 @@ PROTOTYPES = {
     "sl_set_command_wait": (c_int, (_client_p, c_int)),
     "sl_request": (c_int, (_client_p, c_char_p, c_int, sl_data_fn, ctypes.c_void_p) + _REPLY),
     "sl_query": (c_int, (_client_p, c_char_p, c_char_p, c_char_p, c_int) + _REPLY),
+    "sl_command": (c_int, (_client_p, c_char_p, c_char_p, c_char_p)),
     "sl_circe_alert": (c_int, (_client_p, c_char_p, c_char_p) + _REPLY),
     "sl_circe_network_setup": (c_int, (_client_p, c_char_p, c_char_p, c_int, c_int) + _REPLY),
     "sl_circe_device_setup": (c_int, (_client_p, c_char_p, c_char_p, c_int, c_char_p, c_int,

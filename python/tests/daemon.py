@@ -3,7 +3,8 @@ temporary directory (config, control socket, pty symlinks), a unique instance na
 awaited on our own NOTIFY_SOCKET (a datagram, not a sleep), every wait bounded.
 
 The links are the demo's (conf/demo.yaml): SharedLink node A <-> node B over a pty (node B also
-has a peer C that never answers), and a CIRCE controller <-> the built-in mediator emulator.
+has a peer C that never answers), a CIRCE controller <-> the built-in mediator emulator, and a
+Pronto4 host <-> vehicle pair over UDP on loopback.
 
 $SHAREDLINK_BUILD names the build whose sharedlinkd and slctl run (default build/); the library
 the binding loads is $SHAREDLINK_LIB (see python/tests/run.py).
@@ -77,7 +78,41 @@ links:
     expect_version: "0.2"
     login_timeout_ms: 1000
     idle_timeout_ms: 2000
+  - name: p4veh                     # a Pronto4 vehicle side, learning the host's lists
+    protocol: sharedlink
+    transport: udp
+    local: "127.0.0.1:{p4veh}"
+    remote: "127.0.0.1:{p4host}"
+    address: B
+    peers:
+      - address: A
+        dialect: pronto4
+        outbound: learn
+        inbound: learn
+  - name: p4host                    # its host
+    protocol: sharedlink
+    transport: udp
+    local: "127.0.0.1:{p4host}"
+    remote: "127.0.0.1:{p4veh}"
+    address: A
+    peers:
+      - address: B
+        dialect: pronto4
+        outbound: [{{name: veh_start, type: long}}]
+        inbound: [{{name: VehicleName, type: string}}]
 """
+
+
+def free_udp_ports(n):
+    """n loopback UDP ports free right now (all bound at once, so they differ)."""
+    socks = [socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in range(n)]
+    try:
+        for s in socks:
+            s.bind(("127.0.0.1", 0))
+        return [s.getsockname()[1] for s in socks]
+    finally:
+        for s in socks:
+            s.close()
 
 
 def build_dir():
@@ -94,7 +129,9 @@ class Daemon:
         self.log_path = os.path.join(self.dir, "daemon.log")
         self.proc = None
         with open(self.config, "w") as f:
-            f.write(CONFIG.format(instance=self.instance, dir=self.dir))
+            p4veh, p4host = free_udp_ports(2)
+            f.write(CONFIG.format(instance=self.instance, dir=self.dir, p4veh=p4veh,
+                                  p4host=p4host))
         self.env = dict(os.environ, SHAREDLINK_RUNTIME_DIR=self.dir,
                         SHAREDLINK_INSTANCE=self.instance)
 

@@ -143,7 +143,7 @@ class TestValues(DaemonCase):
 class TestLinks(DaemonCase):
     def test_links_and_daemon(self):
         links = {l.name: l for l in self.c.links()}
-        self.assertEqual(set(links), {"node_a", "node_b", "arena", "agility"})
+        self.assertEqual(set(links), {"node_a", "node_b", "arena", "agility", "p4veh", "p4host"})
         self.assertEqual(links["node_a"].protocol, "sharedlink")
         self.assertEqual(links["agility"].protocol, "circe")
         self.assertEqual(links["agility"].state_name, "connected")
@@ -163,6 +163,36 @@ class TestLinks(DaemonCase):
         c["a.AutoGpsLat"] = 12.5
         until(c, "b.AutoGpsLat", lambda v: v == 12.5)
         self.assertEqual(c.query("node_b", "A", "a.AutoGpsLat", timeout=WAIT_S), "12.5")
+
+
+class TestPronto4(DaemonCase):
+    def test_command_is_an_event_of_the_vehicle(self):
+        c = self.c
+        follow = c.events(follow=True, new=True, timeout=WAIT_S)
+        c.command("p4host", "ServoPod", "0,TELEOP START")
+        for ev in follow:
+            if ev.type == "command" and ev.link == "p4veh":
+                break
+        else:
+            self.fail("no command event within %.0f s" % WAIT_S)
+        self.assertEqual(ev.text, 'module=ServoPod text="0,TELEOP START"')
+        self.assertEqual(ev.fields, {"module": "ServoPod", "text": "0,TELEOP START"})
+        # An empty text: E<module>|D, an event with an empty text.
+        c.command("p4host", "Physics")
+        for ev in follow:
+            if ev.type == "command" and ev.fields.get("module") == "Physics":
+                break
+        else:
+            self.fail("no second command event within %.0f s" % WAIT_S)
+        self.assertEqual(ev.fields["text"], "")
+
+    def test_values_through_learned_lists(self):
+        c = self.c
+        c["veh_start"] = 7
+        until(c, "p4veh.A.veh_start", lambda v: v == 7)
+        self.assertEqual(c.info("p4veh.A.veh_start").type, "long")
+        c["p4veh.A.VehicleName"] = "VEH_1"
+        until(c, "VehicleName", lambda v: v == "VEH_1")
 
 
 class TestCirce(DaemonCase):
@@ -288,6 +318,28 @@ class TestErrors(DaemonCase):
         self.assertError(sharedlink.Timeout, errno.ETIMEDOUT, c.request,
                          "circe agility sync-clocks", timeout=0.001)
 
+    def test_module_command(self):
+        c = self.c
+        # Refused by the library before anything is sent.
+        for module, text in (("Servo Pod", "x"), ("", "x"), ("Servo|Pod", ""),
+                             ("ServoPod", "0,TELEOP  START"), ("ServoPod", " 0"),
+                             ("ServoPod", "0 "), ("ServoPod", "0|1"), ("ServoPod", "x" * 64),
+                             ("ServoPod", "caf\u00e9")):
+            self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.command, "node_a", module,
+                             text)
+        self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.command, "node_a",
+                         "ServoPod", "0\0x")
+        self.assertRaises(TypeError, c.command, "node_a", "ServoPod", 5)
+        # Through the daemon: no such link; a SharedLink link without a pronto4 peer; a link of
+        # another protocol (EINVAL, as for circe_alert on a SharedLink link above). The round
+        # trip to a pronto4 peer: tests/integration/test_pronto4.c.
+        self.assertError(sharedlink.NotFound, errno.ENOENT, c.command, "nolink", "ServoPod",
+                         "0,TELEOP START")
+        self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.command, "node_a",
+                         "ServoPod", "0,TELEOP START")
+        self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.command, "agility",
+                         "ServoPod", "0,TELEOP START")
+
     def test_no_instance(self):
         self.assertError(sharedlink.NotFound, errno.ENOENT, sharedlink.Client, "nosuchinstance")
         self.assertError(sharedlink.InvalidValue, errno.EINVAL, sharedlink.Client, "bad/name")
@@ -378,6 +430,17 @@ class TestLibrary(unittest.TestCase):
     def test_strerror(self):
         self.assertEqual(sharedlink.strerror(errno.EPERM), sharedlink.strerror(-errno.EPERM))
         self.assertIn("outbound", sharedlink.strerror(errno.EPERM))
+
+    def test_event_fields(self):
+        def fields(text):
+            return sharedlink.Event(1, 0, 0, 0, "command", "v", 0, text).fields
+        self.assertEqual(fields('module=ServoPod text="0,TELEOP START"'),
+                         {"module": "ServoPod", "text": "0,TELEOP START"})
+        self.assertEqual(fields(r'module=X text="say \"hi\" \\ back" n=1'),
+                         {"module": "X", "text": 'say "hi" \\ back', "n": "1"})
+        self.assertEqual(fields("device=E1E1E1 sensor_time=5000 stray"),
+                         {"device": "E1E1E1", "sensor_time": "5000"})
+        self.assertEqual(fields('text="cut short'), {"text": "cut short"})
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 /*
- * slctl query and circe: commands through the daemon's control socket. The library checks every
- * argument against the protocol's ranges before anything is sent and says which one it refused;
- * here the command line is mapped onto its calls.
+ * slctl query, command and circe: commands through the daemon's control socket. The library
+ * checks every argument against the protocol's ranges before anything is sent and says which one
+ * it refused; here the command line is mapped onto its calls.
  */
 #include "cli/cmd_daemon.h"
 
@@ -85,6 +85,58 @@ int cmd_daemon_query(struct slctl *s, int argc, char **argv)
                 return SLCTL_EXIT_OK;
         }
         return command_result(r, reply);
+}
+
+/* ---- command (Pronto4 module commands) ---------------------------------------------------- */
+
+/* Joins words[0..n) with single spaces into buf; 0, or -EMSGSIZE when they do not fit. */
+static int join_words(char *const *words, int n, char *buf, size_t size)
+{
+        size_t len = 0;
+
+        buf[0] = '\0';
+        for (int i = 0; i < n; i++) {
+                int w = snprintf(buf + len, size - len, "%s%s", i ? " " : "", words[i]);
+
+                if (w < 0 || (size_t)w >= size - len)
+                        return -EMSGSIZE;
+                len += (size_t)w;
+        }
+        return 0;
+}
+
+int cmd_daemon_command(struct slctl *s, int argc, char **argv)
+{
+        static const struct args_opt opts[] = { { "wait", 1 }, { NULL, 0 } };
+        char text[SL_COMMAND_TEXT_MAX + 1];
+        struct args a;
+        int code, r;
+
+        code = slctl_args(s, argc, argv, opts, &a);
+        if (code >= 0)
+                return code;
+        if (a.npos < 2)
+                return slctl_usage(s, "give LINK MODULE [TEXT...]");
+        if (join_words(a.pos + 2, a.npos - 2, text, sizeof(text)) < 0)
+                return slctl_error(s, "command text longer than %d bytes", SL_COMMAND_TEXT_MAX);
+        code = slctl_open(s, 0);
+        if (code >= 0)
+                return code;
+        code = apply_wait(s, a.value[0]);
+        if (code >= 0)
+                return code;
+        r = sl_command(s->c, a.pos[0], a.pos[1], text);
+        if (r == -EINVAL)
+                return slctl_error(s, "bad module \"%s\" or text \"%s\": the module is 1..63 "
+                                   "letters, digits, _ . -; the text at most %d bytes of printable "
+                                   "ASCII without | [ ], words separated by single spaces, at most "
+                                   "%d words", a.pos[1], text, SL_COMMAND_TEXT_MAX,
+                                   SL_COMMAND_WORDS_MAX);
+        if (r == -EOPNOTSUPP)
+                return slctl_error(s, "link %s has no pronto4 peer", a.pos[0]);
+        if (r == -ENOTCONN)
+                return slctl_error(s, "link %s is down (--wait MS waits for it)", a.pos[0]);
+        return command_result(r, "");
 }
 
 /* ---- circe --------------------------------------------------------------------------------- */

@@ -124,6 +124,18 @@ static const struct command commands[] = {
           "  --wait MS      if LINK is down, wait up to MS for it instead of failing at once\n"
           "\n"
           "Example: slctl query vehicle A AutoGpsLat\n" },
+        { "command", cmd_daemon_command, "command [--wait MS] LINK MODULE [TEXT...]",
+          "Usage: slctl [-i INSTANCE] command [--wait MS] LINK MODULE [TEXT...]\n"
+          "\n"
+          "Sends the module command E<MODULE>|D<TEXT> to the pronto4 peer(s) of the SharedLink\n"
+          "link LINK (docs/pronto4.md 9). The TEXT words are joined with single spaces. MODULE:\n"
+          "1..63 letters, digits, _ . -; TEXT: at most 63 bytes of printable ASCII without\n"
+          "| [ ], at most 28 words; put -- before a TEXT that starts with '-'. Fails when LINK\n"
+          "is down or has no pronto4 peer.\n"
+          "\n"
+          "  --wait MS      if LINK is down, wait up to MS for it instead of failing at once\n"
+          "\n"
+          "Example: slctl command vehicle ServoPod \"0,TELEOP START\"\n" },
         { "circe", cmd_daemon_circe, "circe LINK OPERATION ...",
           "Usage:\n"
           "  slctl [-i INSTANCE] circe LINK alert ADDR\n"
@@ -173,8 +185,9 @@ static const char overview_tail[] =
         "\n"
         "Environment:\n"
         "  SHAREDLINK_INSTANCE      default instance\n"
-        "  SHAREDLINK_RUNTIME_DIR   where the daemon's control socket is (query, circe), when\n"
-        "                           its configuration does not set runtime_dir elsewhere\n"
+        "  SHAREDLINK_RUNTIME_DIR   where the daemon's control socket is (query, command,\n"
+        "                           circe), when its configuration does not set runtime_dir\n"
+        "                           elsewhere\n"
         "                           (default " SL_RUNTIME_DIR_DEFAULT ")\n"
         "\n"
         "Exit status: 0 ok; 1 error from the daemon or bad input (message on stderr); 2 usage;\n"

@@ -22,6 +22,7 @@
 #include "lib/export.h"
 #include "proto/circe.h"
 #include "proto/control.h"
+#include "proto/sharedlink.h"
 
 #define REQUEST_RUNTIME_DIR_ENV "SHAREDLINK_RUNTIME_DIR"
 #define REQUEST_SOCKET_SUFFIX   ".sock"
@@ -41,6 +42,9 @@ _Static_assert(SL_REPLY_LINE_MAX == CTLP_REPLY_LINE_MAX, "reply line limit");
 _Static_assert(SL_WAIT_MAX_MS == CTLP_WAIT_MAX_MS, "wait limit");
 _Static_assert(SL_CIRCE_ADDRESS_SIZE == CIRCE_ADDRESS_LEN + 1, "address size");
 _Static_assert(SL_CIRCE_DESTS_MAX == CIRCE_VISUALIZE_DEST_MAX, "visualize destinations");
+_Static_assert(SL_COMMAND_TEXT_MAX == SLP_VALUE_MAX, "command text limit");
+/* "command LINK MODULE" and the handle's "wait=MS" leave the rest of the words to the text. */
+_Static_assert(SL_COMMAND_WORDS_MAX + 4 <= SL_REQUEST_WORDS_MAX, "command text words");
 
 #define SL_VISUALIZE_SIZE_V1    sizeof(struct sl_circe_visualize)
 
@@ -604,6 +608,99 @@ SL_EXPORT int sl_query(struct sl_client *c, const char *link, const char *peer, 
         }
         memcpy(reply, value, len + 1u);
         return (int)len;
+}
+
+/* A module command's module: a name of the codec (slp_name_check), one word on the wire. */
+static int check_module(const char *module, char *why, size_t why_size)
+{
+        if (module && slp_name_check(module, strnlen(module, SLP_VALUE_MAX + 1u)) == 0)
+                return 0;
+        say(why, why_size, "bad module \"%.64s\": 1..%d bytes of letters, digits, _ . -",
+            module ? module : "", SL_COMMAND_TEXT_MAX);
+        return -EINVAL;
+}
+
+/*
+ * A module command's text: the wire charset, at most SL_COMMAND_TEXT_MAX bytes, and words
+ * separated by single spaces (the control request splits on spaces, so a leading, trailing or
+ * double space could not arrive as sent). Returns the number of words, or -EINVAL.
+ */
+static int check_command_text(const char *text, char *why, size_t why_size)
+{
+        size_t len = strnlen(text, SL_COMMAND_TEXT_MAX + 1u);
+        int words = 0;
+
+        if (len > SL_COMMAND_TEXT_MAX) {
+                say(why, why_size, "command text longer than %d bytes", SL_COMMAND_TEXT_MAX);
+                return -EINVAL;
+        }
+        if (slp_value_check(SLP_TYPE_STRING, text, len) < 0) {
+                say(why, why_size, "command text has a byte outside 0x20-0x7E, or | [ ]");
+                return -EINVAL;
+        }
+        for (size_t i = 0; i < len; i++) {
+                if (text[i] != ' ')
+                        continue;
+                if (i == 0 || i + 1u == len || text[i + 1u] == ' ') {
+                        say(why, why_size, "command text has a leading, trailing or double space");
+                        return -EINVAL;
+                }
+                words++;
+        }
+        words += len > 0;
+        if (words > SL_COMMAND_WORDS_MAX) {
+                say(why, why_size, "command text has more than %d words", SL_COMMAND_WORDS_MAX);
+                return -EINVAL;
+        }
+        return words;
+}
+
+/* Appends text's space-separated words (checked by check_command_text). */
+static int add_text_words(struct ctlp_builder *b, const char *text, char *why, size_t why_size)
+{
+        while (*text) {
+                size_t n = strcspn(text, " ");
+                char word[SL_COMMAND_TEXT_MAX + 1];
+                int r;
+
+                memcpy(word, text, n);
+                word[n] = '\0';
+                r = add_word(b, "command text", word, why, why_size);
+                if (r < 0)
+                        return r;
+                text += n + (text[n] == ' ');
+        }
+        return 0;
+}
+
+SL_EXPORT int sl_command(struct sl_client *c, const char *link, const char *module,
+                         const char *text)
+{
+        struct ctlp_builder b;
+        int r;
+
+        ctlp_builder_init(&b);
+        if (!c)
+                return -EINVAL;
+        if (!text)
+                text = "";
+        r = check_link(link, NULL, 0);
+        if (r == 0)
+                r = check_module(module, NULL, 0);
+        if (r == 0)
+                r = check_command_text(text, NULL, 0);
+        if (r < 0)
+                return r;
+        r = add_word(&b, "operation", "command", NULL, 0);
+        if (r == 0)
+                r = add_word(&b, "link name", link, NULL, 0);
+        if (r == 0)
+                r = add_word(&b, "module", module, NULL, 0);
+        if (r == 0)
+                r = add_text_words(&b, text, NULL, 0);
+        if (r < 0)
+                return r;
+        return command(c, &b, SL_REQUEST_TIMEOUT_MS, NULL, NULL, NULL, 0);
 }
 
 SL_EXPORT int sl_circe_alert(struct sl_client *c, const char *link, const char *addr, char *reply,

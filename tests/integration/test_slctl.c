@@ -757,6 +757,7 @@ static void test_usage(void **state)
                 { "list", "--json", "--json" }, { "get" }, { "set", "CmdThrottle" },
                 { "set", "a", "b", "c" }, { "watch", "--count" }, { "events", "--timeout", "5" },
                 { "events", "x" }, { "stats", "x" }, { "query", "vehicle", "A" },
+                { "command" }, { "command", "vehicle" }, { "command", "--wait" },
                 { "circe" }, { "circe", "agility" }, { "circe", "agility", "dance" },
                 { "circe", "agility", "alert" }, { "circe", "agility", "alert", "A", "B" },
                 { "circe", "agility", "network-setup", "AAAAAA", "--roles", "1" },
@@ -789,7 +790,7 @@ static void test_usage(void **state)
 static void test_help(void **state)
 {
         static const char *const commands[] = {
-                "list", "get", "set", "watch", "events", "stats", "query", "circe",
+                "list", "get", "set", "watch", "events", "stats", "query", "command", "circe",
         };
         struct fixture *f = *state;
 
@@ -836,6 +837,15 @@ static void test_bad_input(void **state)
                 { "circe", "agility", "visualize", "D15D15", "--faults", "-1" },
                 { "circe", "arena", "emulate", "action", "E1E1E1", "--keys", "65536" },
                 { "circe", "arena", "emulate", "action", "E1E1E1", "--sensor-time", "9999999999" },
+                { "command", "vehicle", "Servo Pod", "x" },
+                { "command", "vehicle", "Servo|Pod" },
+                { "command", "vehicle", "ServoPod", "0,TELEOP|START" },
+                { "command", "vehicle", "ServoPod", "0,TELEOP  START" },
+                { "command", "vehicle", "ServoPod", "0,TELEOP ", "START" },
+                { "command", "vehicle", "ServoPod", "[0]" },
+                { "command", "vehicle", "ServoPod",
+                  "0123456789012345678901234567890123456789", "012345678901234567890123" },
+                { "command", "--wait", "60001", "vehicle", "ServoPod" },
         };
         struct fixture *f = *state;
 
@@ -855,6 +865,11 @@ static void test_bad_input(void **state)
         assert_int_equal(RUN(f, "circe", "agility", "visualize", "d15d15,E1E1E1", "--current",
                              "7", "--start-timer", "--wait", "100"), 3);
         assert_int_equal(RUN(f, "query", "vehicle", "A", "AutoGpsLat"), 3);
+        /* 63 bytes of text in two words is the most a command takes. */
+        assert_int_equal(RUN(f, "command", "vehicle", "ServoPod",
+                             "0123456789012345678901234567890123456789", "0123456789012345678901"),
+                         3);
+        assert_int_equal(RUN(f, "command", "vehicle", "MUI"), 3);
 }
 
 /* ---- no daemon ----------------------------------------------------------------------------- */
@@ -865,7 +880,7 @@ static void test_not_running(void **state)
                 { "list" }, { "list", "--json" }, { "get", "AutoGpsLat" },
                 { "set", "CmdThrottle", "1" }, { "watch" }, { "events" }, { "stats" },
                 { "query", "vehicle", "A", "X" }, { "circe", "agility", "alert", "E1E1E1" },
-                { "circe", "agility", "sync-clocks" },
+                { "circe", "agility", "sync-clocks" }, { "command", "vehicle", "ServoPod", "x" },
         };
         struct fixture *f = *state;
 
@@ -1244,7 +1259,8 @@ static void test_completion(void **state)
         daemon_start_both(f);
         wait_circe_up(f);
         COMPLETE(f, "");
-        assert_string_equal(f->out, "circe\nevents\nget\nhelp\nlist\nquery\nset\nstats\nwatch\n");
+        assert_string_equal(f->out, "circe\ncommand\nevents\nget\nhelp\nlist\nquery\nset\nstats\n"
+                            "watch\n");
         COMPLETE(f, "st");
         assert_string_equal(f->out, "stats\n");
         COMPLETE(f, "--v");
@@ -1279,6 +1295,12 @@ static void test_completion(void **state)
         assert_string_equal(f->out, "node_a\nnode_b\n");
         COMPLETE(f, "query", "--timeout", "100", "node_b", "");
         assert_string_equal(f->out, "A\nC\n");
+        COMPLETE(f, "command", "");
+        assert_string_equal(f->out, "node_a\nnode_b\n");
+        COMPLETE(f, "command", "--wait", "100", "node_a", "");
+        assert_string_equal(f->out, "");
+        COMPLETE(f, "command", "--");
+        assert_string_equal(f->out, "--help\n--wait\n");
         COMPLETE(f, "circe", "");
         assert_string_equal(f->out, "agility\narena\n");
         COMPLETE(f, "circe", "agility", "");
@@ -1309,6 +1331,8 @@ static void test_completion_no_daemon(void **state)
 
         COMPLETE(f, "s");
         assert_string_equal(f->out, "set\nstats\n");
+        COMPLETE(f, "co");
+        assert_string_equal(f->out, "command\n");
         COMPLETE(f, "get", "");
         assert_string_equal(f->out, "");
         COMPLETE(f, "circe", "x", "");

@@ -189,14 +189,14 @@ static void test_reference(void **state)
 static void test_demo(void **state)
 {
         struct config *c = load_ok(DEMO_CONF);
-        const struct config_link *a, *b, *med, *ctl;
+        const struct config_link *a, *b, *med, *ctl, *host, *veh;
 
         (void)state;
         assert_string_equal(c->instance, "demo");
         assert_string_equal(c->runtime_dir, "/tmp/sharedlink-demo");
         assert_string_equal(c->group, "");
-        assert_int_equal(c->n_links, 4);
-        assert_int_equal(c->n_vars, 12);
+        assert_int_equal(c->n_links, 6);
+        assert_int_equal(c->n_vars, 16);
 
         a = link_named(c, "node_a");
         b = link_named(c, "node_b");
@@ -241,6 +241,24 @@ static void test_demo(void **state)
         assert_int_equal(med->circe.emulate[1].capabilities, 31);
         assert_int_equal(med->circe.emulate[2].capabilities, 64);
         assert_true(ctl->circe.checksum);
+
+        /* Pronto4: the host declares its configured lists, the vehicle learns both; each
+         * link's remote is the demo's relay, not the other link. */
+        host = link_named(c, "pronto_host");
+        veh = link_named(c, "pronto");
+        assert_int_equal(host->transport, CONFIG_TRANSPORT_UDP);
+        assert_int_equal(veh->transport, CONFIG_TRANSPORT_UDP);
+        assert_int_equal(host->sl.address, 'A');
+        assert_int_equal(veh->sl.address, 'B');
+        assert_int_equal(host->sl.peers[0].dialect, CONFIG_DIALECT_PRONTO4);
+        assert_int_equal(veh->sl.peers[0].dialect, CONFIG_DIALECT_PRONTO4);
+        assert_true(host->sl.peers[0].declare);
+        assert_false(veh->sl.peers[0].declare);
+        assert_true(veh->sl.peers[0].outbound_learn && veh->sl.peers[0].inbound_learn);
+        assert_int_equal(host->sl.peers[0].n_outbound, 2);
+        assert_int_equal(host->sl.peers[0].outbound[0].type, CONFIG_VAR_LONG);
+        assert_int_equal(host->sl.peers[0].inbound[1].type, CONFIG_VAR_STRING);
+        assert_true(host->sl.crlf && veh->sl.crlf);
         config_free(c);
 }
 

@@ -1700,32 +1700,6 @@ static void test_query_link_down(void **state)
  * Pronto4 over UDP (docs/pronto4.md) */
 
 /* A host link (A) toward a Pronto4 (B), and a bulletin link beside it. */
-static const char yaml_p4_host[] =
-        "links:\n"
-        "  - name: p4h\n"
-        "    protocol: sharedlink\n"
-        "    transport: udp\n"
-        "    local: \"127.0.0.1:0\"\n"
-        "    remote: \"127.0.0.1:@P0@\"\n"
-        "    address: A\n"
-        "    peers:\n"
-        "      - address: B\n"
-        "        dialect: pronto4\n"
-        "        period_ms: 0\n"
-        "        stale_ms: 0\n"
-        "        outbound: [{name: veh_start, type: long}, {name: joy_steer, type: double}]\n"
-        "        inbound: [{name: AutoGpsLat, type: double}, {name: VehicleName, type: string}]\n"
-        "  - name: bul\n"
-        "    protocol: sharedlink\n"
-        "    transport: udp\n"
-        "    local: \"127.0.0.1:0\"\n"
-        "    remote: \"127.0.0.1:@P1@\"\n"
-        "    address: B\n"
-        "    peers:\n"
-        "      - address: A\n"
-        "        period_ms: 0\n"
-        "        outbound: [Cmd]\n";
-
 /* The host: the connect sequence at up, each frame its own datagram ending CR LF, SetIP naming
  * the address the engine's socket really has; data typed; commands from the control socket. */
 static void test_p4_udp_host(void **state)
@@ -1738,7 +1712,7 @@ static void test_p4_udp_host(void **state)
 
         fx_udp(fx, 0);
         fx_udp(fx, 1);
-        fx_start(fx, yaml_p4_host);
+        fx_start(fx, "link_sharedlink_p4_host.yaml");
         fx_control(fx);
         wait_frames(fx, 0, 6);
         snprintf(text, sizeof(text), ":BA|ELink|D0, SetIP, 127.0.0.1:%u, %u",
@@ -1787,25 +1761,6 @@ static void test_p4_udp_host(void **state)
 
 /* The vehicle side: learns the host's lists into the table; a client writes a learned outbound
  * variable through the table and it goes out as the whole list. */
-static const char yaml_p4_vehicle[] =
-        "links:\n"
-        "  - name: p4v\n"
-        "    protocol: sharedlink\n"
-        "    transport: udp\n"
-        "    local: \"127.0.0.1:0\"\n"
-        "    remote: \"127.0.0.1:@P0@\"\n"
-        "    address: B\n"
-        "    peers:\n"
-        "      - address: A\n"
-        "        dialect: pronto4\n"
-        "        period_ms: 0\n"
-        "        stale_ms: 0\n"
-        "        on_change: true\n"
-        "        compression: false\n"
-        "        outbound: learn\n"
-        "        inbound: learn\n"
-        "        learn_max: 4\n";
-
 static void test_p4_udp_vehicle(void **state)
 {
         struct fx *fx = *state;
@@ -1815,7 +1770,7 @@ static void test_p4_udp_vehicle(void **state)
 
         fx->out_spare = 4;
         fx_udp(fx, 0);
-        fx_start(fx, yaml_p4_vehicle);
+        fx_start(fx, "link_sharedlink_p4_vehicle.yaml");
         fx_control(fx);
         /* A learning vehicle says nothing first: a query tells us where it is. */
         client_request(fx, &c, "query p4v A Hello 100\n");

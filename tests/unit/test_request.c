@@ -153,7 +153,7 @@ static void test_line_check(void **state)
 
 /* ---- arguments refused before any connection ---------------------------------------------- */
 
-enum op { OP_REQUEST, OP_QUERY, OP_ALERT, OP_NETWORK, OP_DEVICE, OP_SYNC, OP_ACTION };
+enum op { OP_REQUEST, OP_QUERY, OP_ALERT, OP_NETWORK, OP_DEVICE, OP_SYNC, OP_ACTION, OP_COMMAND };
 
 /* One call of a typed command; unused fields stay 0/NULL. */
 struct call {
@@ -184,12 +184,25 @@ static int run_call(struct sl_client *c, const struct call *k, char *reply, size
         case OP_ACTION:
                 return sl_circe_emulate_action(c, k->link, k->s1, k->h1, (int)k->n1, k->h2, k->n2,
                                                reply, size);
+        case OP_COMMAND: {
+                /* sl_command has no reply buffer: its error's text stands in for one. */
+                int r = sl_command(c, k->link, k->s1, k->s2);
+
+                snprintf(reply, size, "%s", r == -ECONNREFUSED ? "not running" : sl_strerror(r));
+                return r;
+        }
         }
         return -ENOSYS;
 }
 
 #define LONG_LINK       "abcdefghijklmnopqrstuvwxyz012345"      /* 32 bytes: one too many */
 #define LONG_NAME       "abcdefghijklmnopqrstuvwxyz0123456789abcdefghijkl"      /* 48 */
+/* 63 and 64 bytes: the longest module / command text, and one too many. */
+#define TEXT_63         "0123456789abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ0"
+#define TEXT_64         TEXT_63 "1"
+/* 28 and 29 words in 55 and 57 bytes. */
+#define WORDS_28        "a b c d e f g h i j k l m n o p q r s t u v w x y z 0 1"
+#define WORDS_29        WORDS_28 " 2"
 
 static const struct call refused[] = {
         { "request: empty", OP_REQUEST, NULL, "", NULL, 0, 0, 0, 0 },
@@ -239,6 +252,29 @@ static const struct call refused[] = {
         { "action: keys -1", OP_ACTION, "arena", "E1E1E1", NULL, -1, 0, 1, 0 },
         { "action: time 1000000", OP_ACTION, "arena", "E1E1E1", NULL, 0, 1000000, 0, 1 },
         { "action: time -1", OP_ACTION, "arena", "E1E1E1", NULL, 0, -1, 0, 1 },
+        { "command: NULL link", OP_COMMAND, NULL, "ServoPod", "0,TELEOP START", 0, 0, 0, 0 },
+        { "command: link space", OP_COMMAND, "a b", "ServoPod", "x", 0, 0, 0, 0 },
+        { "command: long link", OP_COMMAND, LONG_LINK, "ServoPod", "x", 0, 0, 0, 0 },
+        { "command: NULL module", OP_COMMAND, "vehicle", NULL, "x", 0, 0, 0, 0 },
+        { "command: empty module", OP_COMMAND, "vehicle", "", "x", 0, 0, 0, 0 },
+        { "command: module space", OP_COMMAND, "vehicle", "Servo Pod", "x", 0, 0, 0, 0 },
+        { "command: module comma", OP_COMMAND, "vehicle", "Servo,Pod", "x", 0, 0, 0, 0 },
+        { "command: module bar", OP_COMMAND, "vehicle", "Servo|Pod", "x", 0, 0, 0, 0 },
+        { "command: module 64", OP_COMMAND, "vehicle", TEXT_64, "x", 0, 0, 0, 0 },
+        { "command: text 64", OP_COMMAND, "vehicle", "ServoPod", TEXT_64, 0, 0, 0, 0 },
+        { "command: text bar", OP_COMMAND, "vehicle", "ServoPod", "0|x", 0, 0, 0, 0 },
+        { "command: text bracket", OP_COMMAND, "vehicle", "ServoPod", "0]", 0, 0, 0, 0 },
+        { "command: text [", OP_COMMAND, "vehicle", "ServoPod", "[0", 0, 0, 0, 0 },
+        { "command: text tab", OP_COMMAND, "vehicle", "ServoPod", "0\tx", 0, 0, 0, 0 },
+        { "command: text newline", OP_COMMAND, "vehicle", "ServoPod", "0\nx", 0, 0, 0, 0 },
+        { "command: text 0x7f", OP_COMMAND, "vehicle", "ServoPod", "0\x7f", 0, 0, 0, 0 },
+        { "command: text 0xc3", OP_COMMAND, "vehicle", "ServoPod", "\xc3\xa9", 0, 0, 0, 0 },
+        { "command: double space", OP_COMMAND, "vehicle", "ServoPod", "0,TELEOP  START", 0, 0, 0,
+          0 },
+        { "command: leading space", OP_COMMAND, "vehicle", "ServoPod", " 0,TELEOP", 0, 0, 0, 0 },
+        { "command: trailing space", OP_COMMAND, "vehicle", "ServoPod", "0,TELEOP ", 0, 0, 0, 0 },
+        { "command: only a space", OP_COMMAND, "vehicle", "ServoPod", " ", 0, 0, 0, 0 },
+        { "command: 29 words", OP_COMMAND, "vehicle", "ServoPod", WORDS_29, 0, 0, 0, 0 },
 };
 
 /* The same commands, one step inside each range: they get as far as connecting. */
@@ -258,6 +294,14 @@ static const struct call accepted[] = {
         { "sync", OP_SYNC, "agility", NULL, NULL, 0, 0, 0, 0 },
         { "action: maxima", OP_ACTION, "arena", "E1E1E1", NULL, 65535, 999999, 1, 1 },
         { "action: bad keys not given", OP_ACTION, "arena", "E1E1E1", NULL, -5, -5, 0, 0 },
+        { "command", OP_COMMAND, "vehicle", "ServoPod", "0,TELEOP START", 0, 0, 0, 0 },
+        { "command: NULL text", OP_COMMAND, "vehicle", "MUI", NULL, 0, 0, 0, 0 },
+        { "command: empty text", OP_COMMAND, "vehicle", "a.b-c_9", "", 0, 0, 0, 0 },
+        { "command: 63-byte module and text", OP_COMMAND, "vehicle", TEXT_63, TEXT_63, 0, 0, 0,
+          0 },
+        { "command: 28 words", OP_COMMAND, "vehicle", "Link", WORDS_28, 0, 0, 0, 0 },
+        { "command: punctuation", OP_COMMAND, "vehicle", "Link", "0, SetIP, 1.2.3.4:4220, 4000",
+          0, 0, 0, 0 },
 };
 
 static void test_arguments_refused(void **state)
@@ -286,6 +330,7 @@ static void test_arguments_refused(void **state)
         assert_int_equal(sl_circe_alert(f->c, "agility", "e1e1e1", NULL, 0), -EINVAL);
         assert_int_equal(sl_query(f->c, "vehicle", "A", "X", 0, NULL, 0), -EINVAL);
         assert_int_equal(sl_request(NULL, "ping", 0, NULL, NULL, NULL, 0), -EINVAL);
+        assert_int_equal(sl_command(NULL, "vehicle", "ServoPod", "x"), -EINVAL);
         /* A reply buffer of one byte gets an empty, terminated message. */
         reply[0] = 'x';
         assert_int_equal(sl_circe_alert(f->c, "agility", "FFFFFF", reply, 1), -EINVAL);
@@ -444,6 +489,17 @@ static void test_wire_words(void **state)
                   "circe arena emulate action AAAAAA" },
                 { { "action time 0", OP_ACTION, "arena", "AAAAAA", NULL, 0, 0, 0, 1 },
                   "circe arena emulate action AAAAAA sensor-time=0" },
+                { { "command", OP_COMMAND, "vehicle", "ServoPod", "0,TELEOP START", 0, 0, 0, 0 },
+                  "command vehicle ServoPod 0,TELEOP START" },
+                { { "command no text", OP_COMMAND, "vehicle", "MUI", NULL, 0, 0, 0, 0 },
+                  "command vehicle MUI" },
+                { { "command empty", OP_COMMAND, "v", "Physics", "", 0, 0, 0, 0 },
+                  "command v Physics" },
+                { { "command SetIP", OP_COMMAND, "v", "Link", "0, SetIP, 1.2.3.4:4220, 4000", 0,
+                    0, 0, 0 },
+                  "command v Link 0, SetIP, 1.2.3.4:4220, 4000" },
+                { { "command 28 words", OP_COMMAND, "v", "Link", WORDS_28, 0, 0, 0, 0 },
+                  "command v Link " WORDS_28 },
         };
         static const char *const two[] = { "D15D15", "E1E1E1" };
         const struct sl_circe_visualize all = {
@@ -477,6 +533,9 @@ static void test_wire_words(void **state)
         assert_string_equal(sent_by(f, &rec, &cases[2].call, NULL),
                             "query vehicle B Name.x 250 wait=1500");
         assert_string_equal(sent_by(f, &rec, &cases[0].call, NULL), "ping");
+        /* 28 text words still leave room for the wait. */
+        assert_string_equal(sent_by(f, &rec, &cases[sizeof(cases) / sizeof(cases[0]) - 1].call,
+                                    NULL), "command v Link " WORDS_28 " wait=1500");
         assert_int_equal(sl_set_command_wait(f->c, 0), 0);
         assert_string_equal(sent_by(f, &rec, &alert, NULL), "circe agility alert E1E1E1");
 }

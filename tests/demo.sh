@@ -14,7 +14,7 @@
 #               every datagram; see the marked section below.
 # then stops the daemon with SIGTERM and checks that it cleaned up after itself.
 #
-# Runs as any user: runtime_dir in demo.yaml is under /tmp. Environment: SHAREDLINK_BUILD (the
+# Runs as any user: runtime_dir in demo.yaml is under /tmp, and each user gets <runtime_dir>-<uid>. Environment: SHAREDLINK_BUILD (the
 # build directory, default build), DEMO_CONF (default conf/demo.yaml). Exit status 0 when
 # every step did what it should.
 set -euo pipefail
@@ -25,6 +25,16 @@ daemon=$build/sharedlinkd
 slctl=$build/slctl
 instance=$(sed -n 's/^instance:[[:space:]]*\([^[:space:]#]*\).*/\1/p' "$conf")
 rundir=$(sed -n 's/^runtime_dir:[[:space:]]*\([^[:space:]#]*\).*/\1/p' "$conf")
+# A directory per user (<runtime_dir>-<uid>): a demo someone else ran leaves theirs, never ours.
+# The configuration is copied there with every path under runtime_dir moved along.
+if [ -n "$rundir" ]; then
+        userdir=$rundir-$(id -u)
+        mkdir -p -m 0755 "$userdir" 2>/dev/null || true
+        [ -d "$userdir" ] && [ -O "$userdir" ] && [ -w "$userdir" ] ||
+                { printf 'demo: %s is not a directory of ours\n' "$userdir" >&2; exit 1; }
+        sed "s|$rundir|$userdir|g" "$conf" > "$userdir/demo.yaml"
+        conf=$userdir/demo.yaml rundir=$userdir
+fi
 wait_s=10                       # how long a step may take before the demo gives up
 pid=
 mqtt_pids=()

@@ -18,12 +18,14 @@
  *
  * Adding a key. Each mapping has one key table, next to the function that reads it: top_keys
  * (top level) and link_keys (a link, with where the key applies: protocol, role, transport) in
- * config_schema.c; var_keys, peer_keys and emulate_keys in config_peer.c. Add the key's index and
- * name there, and read it in that mapping's function with a cfg_get_*() of config_value.c (which
- * gives the type, range and message); its default goes where the others' are set, just above.
- * Then add its field to config.h (and to config_link_equal() below if it is a link's setting, so
- * that a reload sees the change), document it in conf/sharedlinkd.yaml, and test it in
- * tests/unit/test_config.c. A check that involves other keys or links goes to config_check.c.
+ * config_schema.c; var_keys, peer_keys and emulate_keys in config_peer.c. A peer's plain integer
+ * or boolean key is one row of peer_keys (name, range, default, field) under a new PK_ index:
+ * parse_peer_plain() reads it. Any other key gets its index and name in its table, and is read
+ * in that mapping's function with a cfg_get_*() of config_value.c (which gives the type, range
+ * and message); its default goes where the others' are set. Then add its field to config.h (and
+ * to config_link_equal() below if it is a link's setting, so that a reload sees the change),
+ * document it in conf/sharedlinkd.yaml, and test it in tests/unit/test_config.c. A check that
+ * involves other keys or links goes to config_check.c.
  */
 #include "daemon/config_internal.h"
 

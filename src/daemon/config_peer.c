@@ -6,6 +6,7 @@
 #include "daemon/config_internal.h"
 
 #include <errno.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -110,12 +111,44 @@ enum {
         PK_STALE_MS, PK_MAX_FRAME, PK_OUTBOUND, PK_INBOUND, PK_DIALECT, PK_DECLARE, PK_LEARN_MAX,
         PK_COUNT
 };
-static const char *const peer_keys[PK_COUNT] = {
-        [PK_ADDRESS] = "address", [PK_PERIOD_MS] = "period_ms", [PK_REFRESH_MS] = "refresh_ms",
-        [PK_COMPRESSION] = "compression", [PK_ON_CHANGE] = "on_change",
-        [PK_MIN_INTERVAL_MS] = "min_interval_ms", [PK_STALE_MS] = "stale_ms",
-        [PK_MAX_FRAME] = "max_frame", [PK_OUTBOUND] = "outbound", [PK_INBOUND] = "inbound",
-        [PK_DIALECT] = "dialect", [PK_DECLARE] = "declare", [PK_LEARN_MAX] = "learn_max",
+
+/*
+ * How each peer key is read. A plain integer or boolean key is its row alone (parse_peer() reads
+ * them in this order, which decides which of two bad keys is reported); the others are read by
+ * their own code below.
+ */
+enum peer_key_kind { PEER_KEY_OWN, PEER_KEY_UINT, PEER_KEY_BOOL };
+
+static const struct peer_key {
+        const char *name;
+        enum peer_key_kind kind;
+        uint32_t min, max, def;         /* UINT: the range; UINT, BOOL: the default */
+        size_t offset;                  /* of the field in struct config_peer */
+} peer_keys[PK_COUNT] = {
+#define PEER_UINT(name, min, max, def, field) \
+        { name, PEER_KEY_UINT, min, max, def, offsetof(struct config_peer, field) }
+#define PEER_BOOL(name, def, field) \
+        { name, PEER_KEY_BOOL, 0, 1, def, offsetof(struct config_peer, field) }
+        [PK_ADDRESS] = { "address", PEER_KEY_OWN, 0, 0, 0, 0 },
+        [PK_PERIOD_MS] = PEER_UINT("period_ms", 0, CONFIG_PERIOD_MS_MAX, CONFIG_PERIOD_MS_DEFAULT,
+                                   period_ms),
+        [PK_REFRESH_MS] = PEER_UINT("refresh_ms", CONFIG_REFRESH_MS_MIN, CONFIG_REFRESH_MS_MAX,
+                                    CONFIG_REFRESH_MS_DEFAULT, refresh_ms),
+        [PK_COMPRESSION] = PEER_BOOL("compression", true, compression),
+        [PK_ON_CHANGE] = PEER_BOOL("on_change", false, on_change),
+        [PK_MIN_INTERVAL_MS] = PEER_UINT("min_interval_ms", 0, CONFIG_MIN_INTERVAL_MS_MAX,
+                                         CONFIG_MIN_INTERVAL_MS_DEFAULT, min_interval_ms),
+        /* 0 here; parse_peer() makes the default CONFIG_STALE_REFRESHES x refresh_ms */
+        [PK_STALE_MS] = PEER_UINT("stale_ms", 0, CONFIG_STALE_MS_MAX, 0, stale_ms),
+        [PK_MAX_FRAME] = PEER_UINT("max_frame", CONFIG_MAX_FRAME_MIN, CONFIG_MAX_FRAME_MAX,
+                                   CONFIG_MAX_FRAME_DEFAULT, max_frame),
+        [PK_OUTBOUND] = { "outbound", PEER_KEY_OWN, 0, 0, 0, 0 },
+        [PK_INBOUND] = { "inbound", PEER_KEY_OWN, 0, 0, 0, 0 },
+        [PK_DIALECT] = { "dialect", PEER_KEY_OWN, 0, 0, 0, 0 },
+        [PK_DECLARE] = { "declare", PEER_KEY_OWN, 0, 0, 0, 0 },
+        [PK_LEARN_MAX] = { "learn_max", PEER_KEY_OWN, 0, 0, 0, 0 },
+#undef PEER_UINT
+#undef PEER_BOOL
 };
 
 /* An outbound or inbound list, or the word "learn" (the list comes from the peer). */
@@ -192,25 +225,44 @@ static int parse_peer_dialect(struct ctx *c, const struct ynode *const *keys,
         return cfg_check_pronto4_frames(c, p, crlf, vals[PK_OUTBOUND], vals[PK_INBOUND]);
 }
 
+/* The rows PEER_KEY_UINT and PEER_KEY_BOOL of peer_keys: their defaults, then the values given. */
+static int parse_peer_plain(struct ctx *c, const struct ynode *const *vals, struct config_peer *p)
+{
+        for (size_t i = 0; i < PK_COUNT; i++) {
+                const struct peer_key *k = &peer_keys[i];
+                char *field = (char *)p + k->offset;
+                int r = 0;
+
+                if (k->kind == PEER_KEY_UINT) {
+                        *(uint32_t *)(void *)field = k->def;
+                        if (vals[i])
+                                r = cfg_get_uint(c, k->name, vals[i], k->min, k->max,
+                                                 (uint32_t *)(void *)field);
+                } else if (k->kind == PEER_KEY_BOOL) {
+                        *(bool *)(void *)field = k->def != 0;
+                        if (vals[i])
+                                r = cfg_get_bool(c, k->name, vals[i], (bool *)(void *)field);
+                }
+                if (r < 0)
+                        return r;
+        }
+        return 0;
+}
 
 static int parse_peer(struct ctx *c, const struct ynode *n, char own_address, bool crlf,
                       struct config_peer *p, const struct ynode **ret_address_node)
 {
+        const char *key_names[PK_COUNT];
         const struct ynode *keys[PK_COUNT], *vals[PK_COUNT];
         int r = cfg_need_kind(c, "peer", n, YNODE_MAPPING);
 
         if (r < 0)
                 return r;
-        r = cfg_map_read(c, n, "in peer", peer_keys, PK_COUNT, keys, vals);
+        for (size_t i = 0; i < PK_COUNT; i++)
+                key_names[i] = peer_keys[i].name;
+        r = cfg_map_read(c, n, "in peer", key_names, PK_COUNT, keys, vals);
         if (r < 0)
                 return r;
-        p->period_ms = CONFIG_PERIOD_MS_DEFAULT;
-        p->refresh_ms = CONFIG_REFRESH_MS_DEFAULT;
-        p->min_interval_ms = CONFIG_MIN_INTERVAL_MS_DEFAULT;
-        p->max_frame = CONFIG_MAX_FRAME_DEFAULT;
-        p->compression = true;
-        p->on_change = false;
-
         if (!vals[PK_ADDRESS])
                 return cfg_fail(c, n, "missing key \"address\" in peer");
         r = cfg_get_sl_address(c, "address", vals[PK_ADDRESS], &p->address);
@@ -220,31 +272,11 @@ static int parse_peer(struct ctx *c, const struct ynode *n, char own_address, bo
         if (p->address == own_address)
                 return cfg_fail(c, vals[PK_ADDRESS], "peer address %c is the link's own address",
                                 p->address);
-        if (vals[PK_PERIOD_MS] && (r = cfg_get_uint(c, "period_ms", vals[PK_PERIOD_MS], 0,
-                                                    CONFIG_PERIOD_MS_MAX, &p->period_ms)) < 0)
+        r = parse_peer_plain(c, vals, p);
+        if (r < 0)
                 return r;
-        if (vals[PK_REFRESH_MS] && (r = cfg_get_uint(c, "refresh_ms", vals[PK_REFRESH_MS],
-                                                     CONFIG_REFRESH_MS_MIN, CONFIG_REFRESH_MS_MAX,
-                                                     &p->refresh_ms)) < 0)
-                return r;
-        if (vals[PK_COMPRESSION] &&
-            (r = cfg_get_bool(c, "compression", vals[PK_COMPRESSION], &p->compression)) < 0)
-                return r;
-        if (vals[PK_ON_CHANGE] && (r = cfg_get_bool(c, "on_change", vals[PK_ON_CHANGE],
-                                                    &p->on_change)) < 0)
-                return r;
-        if (vals[PK_MIN_INTERVAL_MS] &&
-            (r = cfg_get_uint(c, "min_interval_ms", vals[PK_MIN_INTERVAL_MS], 0,
-                              CONFIG_MIN_INTERVAL_MS_MAX, &p->min_interval_ms)) < 0)
-                return r;
-        p->stale_ms = CONFIG_STALE_REFRESHES * p->refresh_ms;
-        if (vals[PK_STALE_MS] && (r = cfg_get_uint(c, "stale_ms", vals[PK_STALE_MS], 0,
-                                                   CONFIG_STALE_MS_MAX, &p->stale_ms)) < 0)
-                return r;
-        if (vals[PK_MAX_FRAME] && (r = cfg_get_uint(c, "max_frame", vals[PK_MAX_FRAME],
-                                                    CONFIG_MAX_FRAME_MIN, CONFIG_MAX_FRAME_MAX,
-                                                    &p->max_frame)) < 0)
-                return r;
+        if (!vals[PK_STALE_MS])
+                p->stale_ms = CONFIG_STALE_REFRESHES * p->refresh_ms;
         if (vals[PK_OUTBOUND] && (r = parse_peer_list(c, "outbound", vals[PK_OUTBOUND],
                                                       &p->outbound, &p->n_outbound,
                                                       &p->outbound_learn)) < 0)

@@ -98,13 +98,16 @@ bool cfg_scalar_is(const struct ynode *n, const char *s);
 bool cfg_is_null(const struct ynode *n);
 
 /*
- * Checks mapping MAP's keys against KNOWN (all scalars, no merge key, no unknown key, no
+ * Checks mapping MAP's keys against a key table (all scalars, no merge key, no unknown key, no
  * duplicate) and files each value under its key's index in vals[] (NULL when absent), keys[]
- * likewise. WHAT ends the unknown-key message ("in link").
+ * likewise. WHAT ends the unknown-key message ("in link"). The table is N_KNOWN entries of
+ * STRIDE bytes, each starting with its name (a const char *): an array of names, or of structs
+ * whose first member is the name; CFG_KEYS(table) passes the last three arguments.
  */
-int cfg_map_read(struct ctx *c, const struct ynode *map, const char *what,
-                 const char *const *known, size_t n_known, const struct ynode **keys,
+int cfg_map_read(struct ctx *c, const struct ynode *map, const char *what, const void *known,
+                 size_t n_known, size_t stride, const struct ynode **keys,
                  const struct ynode **vals);
+#define CFG_KEYS(table)         (table), sizeof(table) / sizeof((table)[0]), sizeof((table)[0])
 /* N is a list or a mapping (KIND); a null N is reported as a missing value of WHAT. */
 int cfg_need_kind(struct ctx *c, const char *what, const struct ynode *n, enum ynode_kind kind);
 

@@ -51,7 +51,7 @@ static int parse_var(struct ctx *c, const struct ynode *n, struct config_var *re
         int r;
 
         if (n->kind == YNODE_MAPPING) {
-                r = cfg_map_read(c, n, "in variable", var_keys, VK_COUNT, keys, vals);
+                r = cfg_map_read(c, n, "in variable", CFG_KEYS(var_keys), keys, vals);
                 if (r < 0)
                         return r;
                 if (!vals[VK_NAME])
@@ -252,15 +252,12 @@ static int parse_peer_plain(struct ctx *c, const struct ynode *const *vals, stru
 static int parse_peer(struct ctx *c, const struct ynode *n, char own_address, bool crlf,
                       struct config_peer *p, const struct ynode **ret_address_node)
 {
-        const char *key_names[PK_COUNT];
         const struct ynode *keys[PK_COUNT], *vals[PK_COUNT];
         int r = cfg_need_kind(c, "peer", n, YNODE_MAPPING);
 
         if (r < 0)
                 return r;
-        for (size_t i = 0; i < PK_COUNT; i++)
-                key_names[i] = peer_keys[i].name;
-        r = cfg_map_read(c, n, "in peer", key_names, PK_COUNT, keys, vals);
+        r = cfg_map_read(c, n, "in peer", CFG_KEYS(peer_keys), keys, vals);
         if (r < 0)
                 return r;
         if (!vals[PK_ADDRESS])
@@ -336,7 +333,7 @@ static int parse_emulated(struct ctx *c, const struct ynode *n, struct config_em
 
         if (r < 0)
                 return r;
-        r = cfg_map_read(c, n, "in emulated device", emulate_keys, EK_COUNT, keys, vals);
+        r = cfg_map_read(c, n, "in emulated device", CFG_KEYS(emulate_keys), keys, vals);
         if (r < 0)
                 return r;
         if (!vals[EK_ADDRESS])

@@ -351,7 +351,6 @@ static int parse_link_transport(struct ctx *c, const struct ynode *map,
 
 static int parse_link(struct ctx *c, const struct ynode *map, unsigned index)
 {
-        const char *key_names[LK_COUNT];
         const struct ynode *keys[LK_COUNT], *vals[LK_COUNT];
         struct config_link *l = &c->cfg->links[index];
         int r;
@@ -359,9 +358,7 @@ static int parse_link(struct ctx *c, const struct ynode *map, unsigned index)
         r = cfg_need_kind(c, "link", map, YNODE_MAPPING);
         if (r < 0)
                 return r;
-        for (size_t i = 0; i < LK_COUNT; i++)
-                key_names[i] = link_keys[i].name;
-        r = cfg_map_read(c, map, "in link", key_names, LK_COUNT, keys, vals);
+        r = cfg_map_read(c, map, "in link", CFG_KEYS(link_keys), keys, vals);
         if (r < 0)
                 return r;
         r = parse_link_name(c, map, vals, index);
@@ -420,7 +417,7 @@ int cfg_parse_root(struct ctx *c, uint32_t root_index)
         if (root->kind != YNODE_MAPPING)
                 return cfg_fail(c, root, "the configuration must be a mapping, not %s",
                                 cfg_describe(c, root));
-        r = cfg_map_read(c, root, "at top level", top_keys, TK_COUNT, keys, vals);
+        r = cfg_map_read(c, root, "at top level", CFG_KEYS(top_keys), keys, vals);
         if (r < 0)
                 return r;
 

@@ -386,8 +386,8 @@ bool cfg_is_null(const struct ynode *n)
  * Checks a mapping's keys against KNOWN (all scalars, no merge key, no unknown key, no duplicate)
  * and files each value under its key's index in vals[] (NULL when absent); keys[] likewise.
  */
-int cfg_map_read(struct ctx *c, const struct ynode *map, const char *what,
-                 const char *const *known, size_t n_known, const struct ynode **keys,
+int cfg_map_read(struct ctx *c, const struct ynode *map, const char *what, const void *known,
+                 size_t n_known, size_t stride, const struct ynode **keys,
                  const struct ynode **vals)
 {
         for (size_t i = 0; i < n_known; i++)
@@ -401,7 +401,8 @@ int cfg_map_read(struct ctx *c, const struct ynode *map, const char *what,
                 if (k->plain && cfg_scalar_is(k, "<<"))
                         return cfg_fail(c, k, "merge keys (\"<<\") are not supported");
                 for (i = 0; i < n_known; i++)
-                        if (cfg_scalar_is(k, known[i]))
+                        if (cfg_scalar_is(k, *(const char *const *)(const void *)
+                                          ((const char *)known + i * stride)))
                                 break;
                 if (i == n_known)
                         return cfg_fail(c, k, "unknown key %s %s", cfg_quote_node(c, k), what);

@@ -1,0 +1,452 @@
+/*
+ * The config module's top level and links (config_internal.h): their key tables, where each
+ * link key applies (protocol, role, transport), and what each key sets.
+ */
+#include "daemon/config_internal.h"
+
+#include <string.h>
+
+/* ---------------------------------------------------------------------------------------------
+ * Links */
+
+enum {
+        LK_NAME, LK_PROTOCOL, LK_TRANSPORT, LK_ROLE, LK_DEVICE, LK_DEVICES, LK_BAUD, LK_PARITY,
+        LK_DATA_BITS, LK_STOP_BITS, LK_FLOW_CONTROL, LK_LOCAL, LK_REMOTE, LK_ADDRESS, LK_PEERS,
+        LK_CHECKSUM, LK_EXPECT_VERSION, LK_LOGIN_TIMEOUT_MS, LK_IDLE_TIMEOUT_MS, LK_VERSION,
+        LK_STATUS, LK_KEEPALIVE_MS, LK_EMULATE, LK_CRLF, LK_COUNT
+};
+
+/* Where a link key applies: protocol/role bits and transport bits. */
+enum {
+        SCOPE_SL = 1 << 0,
+        SCOPE_CONTROLLER = 1 << 1,
+        SCOPE_MEDIATOR = 1 << 2,
+        SCOPE_CIRCE = SCOPE_CONTROLLER | SCOPE_MEDIATOR,
+        SCOPE_ANY_PROTOCOL = SCOPE_SL | SCOPE_CIRCE,
+        SCOPE_SERIAL = 1 << 3,
+        SCOPE_UDP = 1 << 4,
+        SCOPE_PTY = 1 << 5,
+        SCOPE_TTY = SCOPE_SERIAL | SCOPE_PTY,
+        SCOPE_ANY_TRANSPORT = SCOPE_TTY | SCOPE_UDP,
+        SCOPE_ANY = SCOPE_ANY_PROTOCOL | SCOPE_ANY_TRANSPORT,
+};
+
+static const struct link_key {
+        const char *name;
+        unsigned scope;
+} link_keys[LK_COUNT] = {
+        [LK_NAME] = { "name", SCOPE_ANY },
+        [LK_PROTOCOL] = { "protocol", SCOPE_ANY },
+        [LK_TRANSPORT] = { "transport", SCOPE_ANY },
+        [LK_ROLE] = { "role", SCOPE_CIRCE | SCOPE_ANY_TRANSPORT },
+        [LK_DEVICE] = { "device", SCOPE_ANY_PROTOCOL | SCOPE_TTY },
+        [LK_DEVICES] = { "devices", SCOPE_ANY_PROTOCOL | SCOPE_SERIAL },
+        [LK_BAUD] = { "baud", SCOPE_ANY_PROTOCOL | SCOPE_TTY },
+        [LK_PARITY] = { "parity", SCOPE_ANY_PROTOCOL | SCOPE_TTY },
+        [LK_DATA_BITS] = { "data_bits", SCOPE_ANY_PROTOCOL | SCOPE_TTY },
+        [LK_STOP_BITS] = { "stop_bits", SCOPE_ANY_PROTOCOL | SCOPE_TTY },
+        [LK_FLOW_CONTROL] = { "flow_control", SCOPE_ANY_PROTOCOL | SCOPE_TTY },
+        [LK_LOCAL] = { "local", SCOPE_ANY_PROTOCOL | SCOPE_UDP },
+        [LK_REMOTE] = { "remote", SCOPE_ANY_PROTOCOL | SCOPE_UDP },
+        [LK_ADDRESS] = { "address", SCOPE_SL | SCOPE_MEDIATOR | SCOPE_ANY_TRANSPORT },
+        [LK_PEERS] = { "peers", SCOPE_SL | SCOPE_ANY_TRANSPORT },
+        [LK_CHECKSUM] = { "checksum", SCOPE_CIRCE | SCOPE_ANY_TRANSPORT },
+        [LK_EXPECT_VERSION] = { "expect_version", SCOPE_CONTROLLER | SCOPE_ANY_TRANSPORT },
+        [LK_LOGIN_TIMEOUT_MS] = { "login_timeout_ms", SCOPE_CONTROLLER | SCOPE_ANY_TRANSPORT },
+        [LK_IDLE_TIMEOUT_MS] = { "idle_timeout_ms", SCOPE_CONTROLLER | SCOPE_ANY_TRANSPORT },
+        [LK_VERSION] = { "version", SCOPE_MEDIATOR | SCOPE_ANY_TRANSPORT },
+        [LK_STATUS] = { "status", SCOPE_MEDIATOR | SCOPE_ANY_TRANSPORT },
+        [LK_KEEPALIVE_MS] = { "keepalive_ms", SCOPE_MEDIATOR | SCOPE_ANY_TRANSPORT },
+        [LK_EMULATE] = { "emulate", SCOPE_MEDIATOR | SCOPE_ANY_TRANSPORT },
+        [LK_CRLF] = { "crlf", SCOPE_SL | SCOPE_UDP },
+};
+
+static unsigned link_scope(const struct config_link *l)
+{
+        unsigned s;
+
+        if (l->protocol == CONFIG_PROTOCOL_SHAREDLINK)
+                s = SCOPE_SL;
+        else
+                s = l->circe.role == CONFIG_ROLE_CONTROLLER ? SCOPE_CONTROLLER : SCOPE_MEDIATOR;
+        switch (l->transport) {
+        case CONFIG_TRANSPORT_SERIAL:
+                return s | SCOPE_SERIAL;
+        case CONFIG_TRANSPORT_UDP:
+                return s | SCOPE_UDP;
+        case CONFIG_TRANSPORT_PTY:
+                return s | SCOPE_PTY;
+        }
+        return s;
+}
+
+/* Every key present must apply to this protocol, role and transport; checked in file order. */
+static int link_check_scope(struct ctx *c, const struct ynode *map, const struct config_link *l)
+{
+        unsigned scope = link_scope(l);
+
+        for (const struct ynode *k = cfg_child(c, map->first); k; k = cfg_next(c, cfg_next(c, k))) {
+                const struct link_key *lk = &link_keys[0];
+
+                /* cfg_map_read() has accepted every key, so each is in the table. */
+                while (!cfg_scalar_is(k, lk->name))
+                        lk++;
+                if ((lk->scope & scope & SCOPE_ANY_PROTOCOL) == 0) {
+                        if (l->protocol == CONFIG_PROTOCOL_CIRCE && (lk->scope & SCOPE_CIRCE))
+                                return cfg_fail(c, k, "key %s is not valid for role %s",
+                                                cfg_quote_node(c, k),
+                                                config_role_name(l->circe.role));
+                        return cfg_fail(c, k, "key %s is not valid for protocol %s",
+                                        cfg_quote_node(c, k), config_protocol_name(l->protocol));
+                }
+                if ((lk->scope & scope & SCOPE_ANY_TRANSPORT) == 0)
+                        return cfg_fail(c, k, "key %s is not valid for transport %s",
+                                        cfg_quote_node(c, k), config_transport_name(l->transport));
+        }
+        return 0;
+}
+
+static int parse_devices(struct ctx *c, const struct ynode *const *keys,
+                         const struct ynode *const *vals, const struct ynode *map,
+                         struct config_link *l, unsigned link_index)
+{
+        const struct ynode **nodes = c->device_nodes[link_index];
+        int r;
+
+        if (vals[LK_DEVICE] && vals[LK_DEVICES])
+                return cfg_fail(c, keys[LK_DEVICES],
+                                "keys \"device\" and \"devices\" are exclusive");
+        if (vals[LK_DEVICE]) {
+                nodes[0] = vals[LK_DEVICE];
+                l->n_devices = 1;
+                return cfg_get_path(c, "device", vals[LK_DEVICE], l->devices[0],
+                                    sizeof(l->devices[0]));
+        }
+        if (!vals[LK_DEVICES])
+                return cfg_fail(c, map, l->transport == CONFIG_TRANSPORT_PTY
+                                    ? "missing key \"device\" in link"
+                                    : "missing key \"device\" (or \"devices\") in link");
+        r = cfg_need_kind(c, "devices", vals[LK_DEVICES], YNODE_SEQUENCE);
+        if (r < 0)
+                return r;
+        if (vals[LK_DEVICES]->count == 0)
+                return cfg_fail(c, vals[LK_DEVICES], "devices: at least one device is needed");
+        for (const struct ynode *item = cfg_child(c, vals[LK_DEVICES]->first); item;
+             item = cfg_next(c, item)) {
+                if (l->n_devices >= CONFIG_DEVICES_MAX)
+                        return cfg_fail(c, item, "too many devices (at most %u)",
+                                        CONFIG_DEVICES_MAX);
+                nodes[l->n_devices] = item;
+                r = cfg_get_path(c, "devices", item, l->devices[l->n_devices],
+                                 sizeof(l->devices[0]));
+                if (r < 0)
+                        return r;
+                l->n_devices++;
+        }
+        return 0;
+}
+
+static int parse_serial(struct ctx *c, const struct ynode *const *vals, struct config_serial *s)
+{
+        uint32_t v;
+        int e, r;
+
+        if (vals[LK_BAUD] && (r = cfg_get_uint(c, "baud", vals[LK_BAUD], CONFIG_BAUD_MIN,
+                                               CONFIG_BAUD_MAX, &s->baud)) < 0)
+                return r;
+        if (vals[LK_PARITY]) {
+                r = cfg_get_enum(c, "parity", vals[LK_PARITY], &cfg_parities, &e);
+                if (r < 0)
+                        return r;
+                s->parity = (enum config_parity)e;
+        }
+        if (vals[LK_DATA_BITS]) {
+                r = cfg_get_uint(c, "data_bits", vals[LK_DATA_BITS], 7, 8, &v);
+                if (r < 0)
+                        return r;
+                s->data_bits = (uint8_t)v;
+        }
+        if (vals[LK_STOP_BITS]) {
+                r = cfg_get_uint(c, "stop_bits", vals[LK_STOP_BITS], 1, 2, &v);
+                if (r < 0)
+                        return r;
+                s->stop_bits = (uint8_t)v;
+        }
+        if (vals[LK_FLOW_CONTROL]) {
+                r = cfg_get_enum(c, "flow_control", vals[LK_FLOW_CONTROL], &cfg_flows, &e);
+                if (r < 0)
+                        return r;
+                s->flow_control = (enum config_flow)e;
+        }
+        return 0;
+}
+
+/*
+ * crlf (udp only) defaults to on when a peer is pronto4: the public C++ adapter aborts on a
+ * datagram without "]\r\n". A byte stream always ends frames with CR LF, so the one-frame checks
+ * of pronto4 peers count it on every transport, and on udp unless crlf: false says otherwise.
+ */
+static int parse_link_sharedlink(struct ctx *c, const struct ynode *const *vals,
+                                 const struct ynode *map, enum config_transport transport,
+                                 struct config_sharedlink *sl)
+{
+        bool crlf_set = false;
+        int r;
+
+        if (!vals[LK_ADDRESS])
+                return cfg_fail(c, map, "missing key \"address\" in link");
+        r = cfg_get_sl_address(c, "address", vals[LK_ADDRESS], &sl->address);
+        if (r < 0)
+                return r;
+        if (vals[LK_CRLF]) {
+                r = cfg_get_bool(c, "crlf", vals[LK_CRLF], &sl->crlf);
+                if (r < 0)
+                        return r;
+                crlf_set = true;
+        }
+        if (!vals[LK_PEERS])
+                return cfg_fail(c, map, "missing key \"peers\" in link");
+        r = cfg_parse_peers(c, vals[LK_PEERS], transport != CONFIG_TRANSPORT_UDP || !crlf_set ||
+                            sl->crlf, sl);
+        if (r < 0 || crlf_set || transport != CONFIG_TRANSPORT_UDP)
+                return r;
+        for (unsigned i = 0; i < sl->n_peers; i++)
+                sl->crlf |= sl->peers[i].dialect == CONFIG_DIALECT_PRONTO4;
+        return 0;
+}
+
+static int parse_link_circe(struct ctx *c, const struct ynode *const *vals,
+                            struct config_circe *ci)
+{
+        uint32_t v;
+        int r;
+
+        ci->checksum = true;
+        ci->login_timeout_ms = CONFIG_LOGIN_TIMEOUT_MS_DEFAULT;
+        ci->idle_timeout_ms = CONFIG_IDLE_TIMEOUT_MS_DEFAULT;
+        ci->keepalive_ms = CONFIG_KEEPALIVE_MS_DEFAULT;
+        ci->expect_version = (struct config_circe_version){ "0.2", 0, 2, 0 };
+        ci->version = (struct config_circe_version){ "0.2.3", 0, 2, 3 };
+        if (vals[LK_CHECKSUM] && (r = cfg_get_bool(c, "checksum", vals[LK_CHECKSUM],
+                                                   &ci->checksum)) < 0)
+                return r;
+        if (vals[LK_EXPECT_VERSION] &&
+            (r = cfg_get_circe_version(c, "expect_version", vals[LK_EXPECT_VERSION], 2,
+                                       &ci->expect_version)) < 0)
+                return r;
+        if (vals[LK_LOGIN_TIMEOUT_MS] &&
+            (r = cfg_get_uint(c, "login_timeout_ms", vals[LK_LOGIN_TIMEOUT_MS],
+                              CONFIG_TIMEOUT_MS_MIN, CONFIG_TIMEOUT_MS_MAX,
+                              &ci->login_timeout_ms)) < 0)
+                return r;
+        if (vals[LK_IDLE_TIMEOUT_MS] &&
+            (r = cfg_get_uint(c, "idle_timeout_ms", vals[LK_IDLE_TIMEOUT_MS], CONFIG_TIMEOUT_MS_MIN,
+                              CONFIG_TIMEOUT_MS_MAX, &ci->idle_timeout_ms)) < 0)
+                return r;
+        if (vals[LK_VERSION] && (r = cfg_get_circe_version(c, "version", vals[LK_VERSION], 3,
+                                                           &ci->version)) < 0)
+                return r;
+        if (vals[LK_STATUS]) {
+                r = cfg_get_uint(c, "status", vals[LK_STATUS], 0, CIRCE_STATUS_MAX, &v);
+                if (r < 0)
+                        return r;
+                ci->status = (uint16_t)v;
+        }
+        if (vals[LK_ADDRESS]) {
+                r = cfg_get_circe_address(c, "address", vals[LK_ADDRESS], &ci->address);
+                if (r < 0)
+                        return r;
+                ci->has_address = true;
+        }
+        if (vals[LK_KEEPALIVE_MS] &&
+            (r = cfg_get_uint(c, "keepalive_ms", vals[LK_KEEPALIVE_MS], CONFIG_KEEPALIVE_MS_MIN,
+                              CONFIG_KEEPALIVE_MS_MAX, &ci->keepalive_ms)) < 0)
+                return r;
+        if (vals[LK_EMULATE] && (r = cfg_parse_emulate(c, vals[LK_EMULATE], ci)) < 0)
+                return r;
+        return 0;
+}
+
+static int parse_link_name(struct ctx *c, const struct ynode *map,
+                           const struct ynode *const *vals, unsigned index)
+{
+        struct config_link *l = &c->cfg->links[index];
+        int r;
+
+        if (!vals[LK_NAME])
+                return cfg_fail(c, map, "missing key \"name\" in link");
+        r = cfg_get_ident(c, "link name", vals[LK_NAME], l->name, sizeof(l->name));
+        if (r < 0)
+                return r;
+        c->link_name_nodes[index] = vals[LK_NAME];
+        for (unsigned i = 0; i < index; i++)
+                if (strcmp(c->cfg->links[i].name, l->name) == 0)
+                        return cfg_fail(c, vals[LK_NAME], "duplicate link name %s (first at %u:%u)",
+                                        cfg_quote_node(c, vals[LK_NAME]),
+                                        c->link_name_nodes[i]->line,
+                                        c->link_name_nodes[i]->column);
+        return 0;
+}
+
+static int get_required_enum(struct ctx *c, const struct ynode *map, const char *key,
+                             const struct ynode *n, const struct cfg_enum *e, int *ret)
+{
+        if (!n)
+                return cfg_fail(c, map, "missing key \"%s\" in link", key);
+        return cfg_get_enum(c, key, n, e, ret);
+}
+
+/* Protocol, transport and role: what every other key of the link is checked against. */
+static int parse_link_kind(struct ctx *c, const struct ynode *map,
+                           const struct ynode *const *vals, struct config_link *l)
+{
+        int e, r;
+
+        r = get_required_enum(c, map, "protocol", vals[LK_PROTOCOL], &cfg_protocols, &e);
+        if (r < 0)
+                return r;
+        l->protocol = (enum config_protocol)e;
+        r = get_required_enum(c, map, "transport", vals[LK_TRANSPORT], &cfg_transports, &e);
+        if (r < 0)
+                return r;
+        l->transport = (enum config_transport)e;
+        l->circe.role = CONFIG_ROLE_NONE;
+        if (l->protocol == CONFIG_PROTOCOL_CIRCE) {
+                r = get_required_enum(c, map, "role", vals[LK_ROLE], &cfg_roles, &e);
+                if (r < 0)
+                        return r;
+                l->circe.role = (enum config_role)e;
+        }
+        return link_check_scope(c, map, l);
+}
+
+static int parse_link_transport(struct ctx *c, const struct ynode *map,
+                                const struct ynode *const *keys, const struct ynode *const *vals,
+                                unsigned index)
+{
+        struct config_link *l = &c->cfg->links[index];
+        int r;
+
+        l->serial = (struct config_serial){ CONFIG_BAUD_DEFAULT, CONFIG_PARITY_NONE, 8, 1,
+                                            CONFIG_FLOW_NONE };
+        if (l->transport != CONFIG_TRANSPORT_UDP) {
+                r = parse_devices(c, keys, vals, map, l, index);
+                if (r < 0)
+                        return r;
+                return parse_serial(c, vals, &l->serial);
+        }
+        if (!vals[LK_LOCAL])
+                return cfg_fail(c, map, "missing key \"local\" in link");
+        r = cfg_get_endpoint(c, "local", vals[LK_LOCAL], 0, &l->local);
+        if (r < 0)
+                return r;
+        if (vals[LK_REMOTE]) {
+                r = cfg_get_endpoint(c, "remote", vals[LK_REMOTE], 1, &l->remote);
+                if (r < 0)
+                        return r;
+                l->has_remote = true;
+        }
+        return 0;
+}
+
+static int parse_link(struct ctx *c, const struct ynode *map, unsigned index)
+{
+        const struct ynode *keys[LK_COUNT], *vals[LK_COUNT];
+        struct config_link *l = &c->cfg->links[index];
+        int r;
+
+        r = cfg_need_kind(c, "link", map, YNODE_MAPPING);
+        if (r < 0)
+                return r;
+        r = cfg_map_read(c, map, "in link", CFG_KEYS(link_keys), keys, vals);
+        if (r < 0)
+                return r;
+        r = parse_link_name(c, map, vals, index);
+        if (r < 0)
+                return r;
+        r = parse_link_kind(c, map, vals, l);
+        if (r < 0)
+                return r;
+        r = parse_link_transport(c, map, keys, vals, index);
+        if (r < 0)
+                return r;
+        if (l->protocol == CONFIG_PROTOCOL_SHAREDLINK)
+                return parse_link_sharedlink(c, vals, map, l->transport, &l->sl);
+        return parse_link_circe(c, vals, &l->circe);
+}
+
+static int parse_links(struct ctx *c, const struct ynode *n)
+{
+        unsigned i = 0;
+        int r = cfg_need_kind(c, "links", n, YNODE_SEQUENCE);
+
+        if (r < 0)
+                return r;
+        if (n->count == 0)
+                return cfg_fail(c, n, "links: at least one link is needed");
+        for (const struct ynode *item = cfg_child(c, n->first); item;
+             item = cfg_next(c, item), i++) {
+                if (i >= CONFIG_LINKS_MAX)
+                        return cfg_fail(c, item, "too many links (at most %u)", CONFIG_LINKS_MAX);
+                c->cfg->n_links = i + 1;        /* config_free() then sees this link's lists */
+                r = parse_link(c, item, i);
+                if (r < 0)
+                        return r;
+        }
+        return 0;
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Top level */
+
+enum { TK_INSTANCE, TK_RUNTIME_DIR, TK_GROUP, TK_LINKS, TK_COUNT };
+static const char *const top_keys[TK_COUNT] = {
+        [TK_INSTANCE] = "instance", [TK_RUNTIME_DIR] = "runtime_dir", [TK_GROUP] = "group",
+        [TK_LINKS] = "links",
+};
+
+int cfg_parse_root(struct ctx *c, uint32_t root_index)
+{
+        const struct ynode *keys[TK_COUNT], *vals[TK_COUNT];
+        const struct ynode *root = cfg_child(c, root_index);
+        struct config *cfg = c->cfg;
+        int r;
+
+        if (!root || cfg_is_null(root))
+                return cfg_fail_at(c, 1, 1, "empty configuration");
+        if (root->kind != YNODE_MAPPING)
+                return cfg_fail(c, root, "the configuration must be a mapping, not %s",
+                                cfg_describe(c, root));
+        r = cfg_map_read(c, root, "at top level", CFG_KEYS(top_keys), keys, vals);
+        if (r < 0)
+                return r;
+
+        strcpy(cfg->instance, CONFIG_INSTANCE_DEFAULT);
+        strcpy(cfg->runtime_dir, CONFIG_RUNTIME_DIR_DEFAULT);
+        if (vals[TK_INSTANCE] && (r = cfg_get_ident(c, "instance", vals[TK_INSTANCE], cfg->instance,
+                                                    sizeof(cfg->instance))) < 0)
+                return r;
+        if (vals[TK_RUNTIME_DIR]) {
+                r = cfg_get_path(c, "runtime_dir", vals[TK_RUNTIME_DIR], cfg->runtime_dir,
+                                 sizeof(cfg->runtime_dir));
+                if (r < 0)
+                        return r;
+                c->runtime_dir_node = vals[TK_RUNTIME_DIR];
+                cfg->runtime_dir_set = true;
+        }
+        if (vals[TK_GROUP] && (r = cfg_get_group(c, vals[TK_GROUP], cfg->group,
+                                                 sizeof(cfg->group))) < 0)
+                return r;
+        if (!vals[TK_LINKS])
+                return cfg_fail(c, root, "missing key \"links\"");
+        r = parse_links(c, vals[TK_LINKS]);
+        if (r < 0)
+                return r;
+        r = cfg_check_devices(c);
+        if (r < 0)
+                return r;
+        r = cfg_check_reserved_names(c);
+        if (r < 0)
+                return r;
+        return cfg_check_socket_path(c);
+}

@@ -267,10 +267,13 @@ const char *sl_strerror(int err);
  * command is a round trip through the daemon (and often the peer): milliseconds, not the
  * nanoseconds of sl_read. Use them for operations, never to poll data.
  *
- * The runtime directory is $SHAREDLINK_RUNTIME_DIR as it was at sl_open, else
- * SL_RUNTIME_DIR_DEFAULT. The daemon uses the same variable unless its configuration sets
- * runtime_dir: with such a configuration, pass that directory to sl_set_runtime_dir (or set the
- * variable for the client too).
+ * Where the socket is, first that applies: the directory given to sl_set_runtime_dir;
+ * $SHAREDLINK_RUNTIME_DIR as it was at sl_open (or at sl_set_runtime_dir(c, NULL)); the socket
+ * path the daemon publishes in its tables (table layout 1.2: wherever its configuration or its
+ * environment put runtime_dir, so usually nothing needs setting); SL_RUNTIME_DIR_DEFAULT. A
+ * published path is used only when it is absolute, NUL-terminated within its field and names
+ * "<instance>.sock" of this handle's instance; otherwise, and with an older daemon that publishes
+ * none, the default applies.
  *
  * Every argument is checked here before anything is sent, with the ranges of the protocol
  * (PROTOCOLS.md 2.3 for CIRCE): a bad one fails with -EINVAL and nothing reaches the daemon. Each
@@ -328,7 +331,8 @@ struct sl_circe_visualize {
         int placement;                  /* previous placement, 0..999 */
 };
 
-/* Sets the control socket's directory (NULL: back to $SHAREDLINK_RUNTIME_DIR or the default). */
+/* Sets the control socket's directory (NULL: back to $SHAREDLINK_RUNTIME_DIR, else the path the
+ * daemon publishes, else the default). */
 int sl_set_runtime_dir(struct sl_client *c, const char *dir);
 
 /* Commands to a link that is down wait up to wait_ms (0..SL_WAIT_MAX_MS) for it; 0: no wait. */

@@ -219,8 +219,9 @@ class Client:
 
     def __init__(self, instance=None, runtime_dir=None, command_wait=None):
         """instance None: $SHAREDLINK_INSTANCE, else "default". runtime_dir: where the control
-        socket is (for query and circe_*) when the daemon's config sets runtime_dir. command_wait:
-        seconds a command to a link that is down waits for it (default: fail at once)."""
+        socket is (for query and circe_*); rarely needed, the daemon publishes its socket path in
+        its tables (see sl_set_runtime_dir). command_wait: seconds a command to a link that is
+        down waits for it (default: fail at once)."""
         handle = ctypes.c_void_p()
         r = _lib_.sl_open(None if instance is None else _word(instance, "instance"),
                           _byref(handle))

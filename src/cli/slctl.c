@@ -186,9 +186,8 @@ static const char overview_tail[] =
         "Environment:\n"
         "  SHAREDLINK_INSTANCE      default instance\n"
         "  SHAREDLINK_RUNTIME_DIR   where the daemon's control socket is (query, command,\n"
-        "                           circe), when its configuration does not set runtime_dir\n"
-        "                           elsewhere\n"
-        "                           (default " SL_RUNTIME_DIR_DEFAULT ")\n"
+        "                           circe); unset: the path the daemon publishes in its\n"
+        "                           tables, else " SL_RUNTIME_DIR_DEFAULT "\n"
         "\n"
         "Exit status: 0 ok; 1 error from the daemon or bad input (message on stderr); 2 usage;\n"
         "3 the daemon is not running.\n";

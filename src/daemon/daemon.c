@@ -62,6 +62,9 @@ struct daemon_plan {
         struct daemon_decl *decl;
 };
 
+/* The socket path is published in the .in header (layout 1.2): the field must hold any path. */
+_Static_assert(CONFIG_SOCKET_PATH_MAX <= SHM_SOCKET_PATH_SIZE, "socket path field");
+
 struct daemon_link {
         struct daemon *d;
         const struct link_ops *ops;
@@ -413,6 +416,7 @@ static int tables_create(struct daemon *d, const struct config *cfg,
                 .heartbeat_interval_ms = DAEMON_HEARTBEAT_MS,
                 .has_group = plan->has_group,
                 .gid = plan->gid,
+                .control_socket = plan->socket_path,
         };
         int r;
 
@@ -1043,10 +1047,12 @@ int daemon_reload(struct daemon *d)
                           err);
                 goto done;
         }
-        same_tables = decl_equal(d->plan.decl, np.decl);
         same_socket = strcmp(d->plan.socket_path, np.socket_path) == 0 &&
                       d->plan.has_group == np.has_group &&
                       (!np.has_group || d->plan.gid == np.gid);
+        /* The header publishes the socket path once (layout 1.2): moving it takes new tables. */
+        same_tables = decl_equal(d->plan.decl, np.decl) &&
+                      strcmp(d->plan.socket_path, np.socket_path) == 0;
         if (!same_tables) {
                 if (!reload_tables(d, ndc, &np, !same_socket))
                         r = -EAGAIN;

@@ -87,6 +87,8 @@ struct sl_client {
         char instance[SHM_INSTANCE_MAX + 1];
         char runtime_dir[CLIENT_RUNTIME_DIR_SIZE];      /* "": runtime_dir_error says why */
         int runtime_dir_error;
+        int runtime_dir_chosen;         /* 1: set or from the environment, not the default, so
+                                         * the path the header publishes does not apply */
         _Atomic int command_wait_ms;    /* "wait=MS" on query/circe requests; 0: none */
 };
 

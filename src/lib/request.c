@@ -1,7 +1,8 @@
 /*
  * Commands through the daemon's control socket (wire format: src/proto/control.h): one
  * connection per request, every word checked before it is sent, the reply read line by line
- * within one deadline. Nothing here touches the shared-memory tables.
+ * within one deadline. Of the shared-memory tables, only the socket path the header publishes
+ * (layout 1.2) is read here.
  */
 #include "lib/request.h"
 
@@ -93,18 +94,43 @@ static int runtime_dir_store(struct sl_client *c, const char *dir)
         return 0;
 }
 
-static const char *runtime_dir_default(void)
+/* $SHAREDLINK_RUNTIME_DIR, else the default (lock held, or the handle not shared yet). */
+static int runtime_dir_default(struct sl_client *c)
 {
         const char *env = getenv(REQUEST_RUNTIME_DIR_ENV);
 
-        return env && *env ? env : SL_RUNTIME_DIR_DEFAULT;
+        c->runtime_dir_chosen = env && *env;
+        return runtime_dir_store(c, c->runtime_dir_chosen ? env : SL_RUNTIME_DIR_DEFAULT);
 }
 
 void request_init(struct sl_client *c, const char *instance)
 {
         snprintf(c->instance, sizeof(c->instance), "%s", instance);
         atomic_init(&c->command_wait_ms, 0);
-        runtime_dir_store(c, runtime_dir_default());
+        runtime_dir_default(c);
+}
+
+int request_published_socket(const struct shm_in_header *h, const char *instance, char *buf,
+                             size_t size)
+{
+        char path[SHM_SOCKET_PATH_SIZE];
+        char want[SHM_INSTANCE_MAX + sizeof(REQUEST_SOCKET_SUFFIX) + 1];        /* "/NAME.sock" */
+        size_t len, tail;
+
+        if ((h->layout_version & 0xffffu) < SHM_LAYOUT_MINOR_SOCKET || !h->control_socket[0])
+                return -ENOENT;         /* an older daemon: reserved bytes, not a path */
+        /* One copy, checked and used: the object is not ours, its bytes may change meanwhile. */
+        memcpy(path, h->control_socket, sizeof(path));
+        len = strnlen(path, sizeof(path));
+        tail = (size_t)snprintf(want, sizeof(want), "/%s%s", instance, REQUEST_SOCKET_SUFFIX);
+        if (len == sizeof(path) || len >= size || path[0] != '/' || len <= tail ||
+            strcmp(path + len - tail, want) != 0)
+                return -EINVAL;
+        for (size_t i = 0; i < len; i++)        /* ASCII controls: no path of ours has them */
+                if ((unsigned char)path[i] < 0x20 || path[i] == 0x7f)
+                        return -EINVAL;
+        memcpy(buf, path, len + 1);
+        return 0;
 }
 
 SL_EXPORT int sl_set_runtime_dir(struct sl_client *c, const char *dir)
@@ -114,7 +140,12 @@ SL_EXPORT int sl_set_runtime_dir(struct sl_client *c, const char *dir)
         if (!c || (dir && !*dir))
                 return -EINVAL;
         client_wrlock(c);
-        r = runtime_dir_store(c, dir ? dir : runtime_dir_default());
+        if (dir) {
+                r = runtime_dir_store(c, dir);
+                c->runtime_dir_chosen = 1;
+        } else {
+                r = runtime_dir_default(c);
+        }
         client_wrunlock(c);
         return r;
 }
@@ -127,15 +158,23 @@ SL_EXPORT int sl_set_command_wait(struct sl_client *c, int wait_ms)
         return 0;
 }
 
-/* The socket address of c's daemon; 0 or -ENAMETOOLONG. */
+/*
+ * The socket address of c's daemon; 0 or -ENAMETOOLONG. A directory set or in the environment
+ * wins; else the path the daemon published in its tables; else the default.
+ */
 static int socket_address(struct sl_client *c, struct sockaddr_un *ret_sa)
 {
         struct sockaddr_un sa = { .sun_family = AF_UNIX };
         int r;
 
+        _Static_assert(sizeof(sa.sun_path) >= SHM_SOCKET_PATH_SIZE, "published socket path");
         client_rdlock(c);
         r = c->runtime_dir_error;
-        if (r == 0) {
+        if (!c->runtime_dir_chosen &&
+            request_published_socket(c->map->in, c->instance, sa.sun_path,
+                                     sizeof(sa.sun_path)) == 0) {
+                r = 0;
+        } else if (r == 0) {
                 int n = snprintf(sa.sun_path, sizeof(sa.sun_path), "%s/%s%s", c->runtime_dir,
                                  c->instance, REQUEST_SOCKET_SUFFIX);
 

@@ -9,6 +9,7 @@
 
 #include <stddef.h>
 
+struct shm_in_header;
 struct sl_client;
 
 /*
@@ -16,6 +17,15 @@ struct sl_client;
  * ($SHAREDLINK_RUNTIME_DIR, else SL_RUNTIME_DIR_DEFAULT). The handle is not shared yet.
  */
 void request_init(struct sl_client *c, const char *instance);
+
+/*
+ * The control socket path that header h publishes (layout 1.2), checked as hostile input: a NUL
+ * within the field, an absolute path naming "<instance>.sock", no control byte. Copies it into
+ * buf (size >= SHM_SOCKET_PATH_SIZE) and returns 0; -ENOENT when h publishes none (an older
+ * daemon), -EINVAL when the field is not such a path.
+ */
+int request_published_socket(const struct shm_in_header *h, const char *instance, char *buf,
+                             size_t size);
 
 /*
  * Checks a request line with ctlp_request_check(): 1..SL_REQUEST_LINE_MAX bytes, words of

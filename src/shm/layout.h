@@ -39,6 +39,10 @@
  *        client whose .out word still equals it reads the daemon's validated mirror instead of
  *        validating the client-writable slot again. A 1.0 daemon leaves source 0: never equal
  *        to a written word.
+ *   1.2  the header publishes the daemon's control socket path (control_socket, reserved bytes
+ *        before), so clients find the socket with no environment. An older daemon leaves it
+ *        empty: clients use $SHAREDLINK_RUNTIME_DIR or the default, as before. The path is
+ *        written once at creation; a reload that moves the socket recreates the tables.
  */
 #ifndef SHM_LAYOUT_H
 #define SHM_LAYOUT_H
@@ -49,8 +53,9 @@
 #include <stdint.h>
 
 #define SHM_LAYOUT_MAJOR        1u
-#define SHM_LAYOUT_MINOR        1u
+#define SHM_LAYOUT_MINOR        2u
 #define SHM_LAYOUT_MINOR_WAITER 1u      /* first minor with SHM_OUT_WAITING */
+#define SHM_LAYOUT_MINOR_SOCKET 2u      /* first minor with shm_in_header.control_socket */
 #define SHM_LAYOUT_VERSION      ((SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR)
 
 /* "SLNK.IN\0" and "SLNK.OUT" as little-endian words: recognisable in a hex dump. */
@@ -78,6 +83,7 @@
 #define SHM_CAPACITY_MAX        65536u  /* directory entries (configured + ad hoc) */
 #define SHM_INSTANCE_MAX        64u     /* instance name length, without NUL */
 #define SHM_OBJECT_NAME_SIZE    (SHM_INSTANCE_MAX + 32u)
+#define SHM_SOCKET_PATH_SIZE    108u    /* sizeof(sockaddr_un.sun_path): path + NUL */
 
 #define SHM_LINK_NONE           UINT32_MAX      /* dir_entry.link, event.link: no link */
 #define SHM_OUT_NONE            UINT32_MAX      /* dir_entry.out_slot of an inbound variable */
@@ -238,7 +244,9 @@ struct shm_in_header {
         _Atomic uint32_t change;
         uint8_t reserved1[60];
         _Atomic uint64_t counters[SHM_COUNTERS_MAX];    /* daemon-wide (outbound object health) */
-        uint8_t reserved2[256];
+        /* 1.2: absolute path of the control socket, NUL-terminated and NUL-padded; "" if none */
+        char control_socket[SHM_SOCKET_PATH_SIZE];
+        uint8_t reserved2[256 - SHM_SOCKET_PATH_SIZE];
 };
 
 /* One link: name and protocol fixed once published; state seqlocked; counters relaxed words. */
@@ -337,6 +345,7 @@ static_assert(offsetof(struct shm_in_header, event_head) == 152, "event head off
 static_assert(offsetof(struct shm_in_header, change) == 192, "change word offset");
 static_assert(offsetof(struct shm_in_header, change) % SHM_CACHE_LINE == 0, "change word line");
 static_assert(offsetof(struct shm_in_header, counters) == 256, "counters offset");
+static_assert(offsetof(struct shm_in_header, control_socket) == 768, "control socket offset");
 static_assert(sizeof(struct shm_link) == 640, "link size");
 static_assert(offsetof(struct shm_link, name) == 56, "link name offset");
 static_assert(offsetof(struct shm_link, counters) == 128, "link counters offset");

@@ -430,6 +430,10 @@ static int config_check(const struct shm_table_config *cfg)
                 return -EINVAL;
         if (cfg->event_capacity > SHM_EVENTS_MAX)
                 return -EINVAL;
+        if (cfg->control_socket && (cfg->control_socket[0] != '/' ||
+                                    strnlen(cfg->control_socket, SHM_SOCKET_PATH_SIZE) >=
+                                    SHM_SOCKET_PATH_SIZE))
+                return -EINVAL;
         for (uint32_t i = 0; i < cfg->nvars; i++)
                 if (var_check(&cfg->vars[i], SHM_LINKS_MAX) < 0)
                         return -EINVAL;
@@ -546,6 +550,7 @@ static int in_fill(struct shm_table *t, const struct shm_table_config *cfg,
         h->slots_offset = g->slots_offset;
         atomic_store_explicit(&h->heartbeat_ns, clock_ns(CLOCK_MONOTONIC), memory_order_relaxed);
         atomic_store_explicit(&h->change, (uint32_t)(t->epoch >> 32), memory_order_relaxed);
+        copy_field(h->control_socket, sizeof(h->control_socket), cfg->control_socket);
 
         for (uint32_t i = 0; i < cfg->nlinks; i++)
                 if (link_fill(&t->links[i], &cfg->links[i]) < 0)

@@ -52,6 +52,8 @@ struct shm_table_config {
         uint32_t heartbeat_interval_ms; /* how often the daemon calls shm_table_heartbeat; 0: never */
         int has_group;                  /* 1: .in 0640 and both objects owned by `gid` */
         gid_t gid;
+        const char *control_socket;     /* published in the header (layout 1.2): absolute,
+                                         * < SHM_SOCKET_PATH_SIZE bytes; NULL: none */
 };
 
 /* What the outbound scan found in one slot. */

@@ -7,8 +7,8 @@
  * stats, pipelining, unknown request, empty and binary lines, overlong line, unknown link,
  * protocol mismatch, half-closed client, connection limit, stale and foreign sockets,
  * permissions); runtime_dir creation; SIGHUP reload (changed link reopened, unchanged one
- * untouched, tables kept or recreated, bad config kept out); no fd leak across reloads; a missing
- * device recovering; no idle wakeups; WATCHDOG=1.
+ * untouched, tables kept or recreated, recreated when the socket moves, bad config kept out); no
+ * fd leak across reloads; a missing device recovering; no idle wakeups; WATCHDOG=1.
  */
 #define _GNU_SOURCE     /* setgroups */
 #include <setjmp.h>
@@ -32,6 +32,8 @@
 #include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
+
+#include <sharedlink.h>
 
 #include "common/harness.h"
 
@@ -793,6 +795,40 @@ static void test_reload_settings(void **state)
         stop_two_held(h, &p1, &p2);
 }
 
+/*
+ * The socket moves (runtime_dir now in the file): the tables publish the path (layout 1.2), so
+ * they are recreated, and a client that was never told any directory follows the socket.
+ */
+static void test_reload_socket_moves(void **state)
+{
+        struct harness *h = *state;
+        char moved[PATH_BUF], head[PATH_BUF + 32], path[2 * PATH_BUF], reply[REPLY_MAX];
+        struct sl_client *c = NULL;
+        uint64_t epoch, now;
+        long pid;
+
+        start_two(h);
+        epoch = ping_epoch(h);
+        unsetenv("SHAREDLINK_RUNTIME_DIR");     /* of this process: the daemon's is h->dir */
+        assert_int_equal(sl_open(h->instance, &c), 0);
+        assert_int_equal(sl_request(c, "ping", 0, NULL, NULL, reply, sizeof(reply)), 0);
+
+        snprintf(moved, sizeof(moved), "%s/moved", h->dir);
+        snprintf(head, sizeof(head), "runtime_dir: %s\n", moved);
+        reload_two(h, head, 100, NULL);
+        assert_int_equal(harness_log_contains(h, "tables recreated"), 1);
+        socket_path(h, path, sizeof(path));
+        assert_false(path_exists(path));
+        snprintf(path, sizeof(path), "%s/%s.sock", moved, h->instance);
+        assert_true(path_exists(path));
+        assert_int_equal(sl_request(c, "ping", 0, NULL, NULL, reply, sizeof(reply)), 0);
+        assert_int_equal(sscanf(reply, "%ld %" SCNu64, &pid, &now), 2);
+        assert_int_equal(pid, h->pid);
+        assert_true(now != epoch);
+        sl_close(c);
+        stop_ok(h, SIGTERM);
+}
+
 /* A variable list changes: new tables (new epoch), every link restarted. */
 static void test_reload_variables(void **state)
 {
@@ -954,6 +990,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_request_outlives_client, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_reload_settings, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_reload_variables, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_reload_socket_moves, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_reload_bad, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_reload_no_fd_leak, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_missing_device, setup, teardown),

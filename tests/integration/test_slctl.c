@@ -72,6 +72,7 @@ struct fixture {
         char out[OUT_SIZE];
         char err[ERR_SIZE];
         int ignore_sigint;              /* start slctl with SIGINT ignored (as `cmd &` in sh) */
+        int no_runtime_env;             /* start slctl without SHAREDLINK_RUNTIME_DIR */
 };
 
 static int make_table(struct fixture *f, uint32_t event_capacity, struct shm_table **ret)
@@ -150,7 +151,10 @@ static void proc_start(struct fixture *f, const char *const *args, struct proc *
                 union { const char *const *c; char *const *m; } u = { .c = argv };
 
                 setenv("SHAREDLINK_INSTANCE", f->h.instance, 1);
-                setenv("SHAREDLINK_RUNTIME_DIR", f->h.dir, 1);
+                if (f->no_runtime_env)
+                        unsetenv("SHAREDLINK_RUNTIME_DIR");
+                else
+                        setenv("SHAREDLINK_RUNTIME_DIR", f->h.dir, 1);
                 if (f->ignore_sigint)
                         signal(SIGINT, SIG_IGN);
                 dup2(out[1], STDOUT_FILENO);
@@ -1525,6 +1529,39 @@ static void test_daemon_query(void **state)
                          -ETIMEDOUT);
 }
 
+/*
+ * Layout 1.2: the daemon publishes its control socket in the tables, so slctl and the library
+ * find a socket in a temporary runtime directory with no SHAREDLINK_RUNTIME_DIR at all.
+ */
+static void test_daemon_published_socket(void **state)
+{
+        struct fixture *f = *state;
+        struct sl_client *c = NULL;
+        char reply[SL_VALUE_SIZE], want[64];
+
+        unsetenv("SHAREDLINK_RUNTIME_DIR");     /* of this process, in case a user set it */
+        daemon_start_sharedlink(f);
+        f->no_runtime_env = 1;
+        assert_int_equal(RUN(f, "set", "a.Lat", "40.5"), 0);
+        assert_int_equal(RUN(f, "query", "--wait", "10000", "node_b", "A", "a.Lat"), 0);
+        assert_string_equal(f->out, "40.5\n");
+        assert_int_equal(RUN(f, "stats"), 0);
+        snprintf(want, sizeof(want), "sharedlinkd pid %d, running", (int)f->h.pid);
+        assert_non_null(strstr(f->out, want));
+        /* A handle that was never told the directory: the published path. */
+        assert_int_equal(sl_open(f->h.instance, &c), 0);
+        assert_int_equal(sl_set_command_wait(c, 10000), 0);
+        assert_int_equal(sl_query(c, "node_b", "A", "a.Lat", 0, reply, sizeof(reply)), 4);
+        assert_string_equal(reply, "40.5");
+        /* The environment still wins over it: a directory nobody listens in is refused. */
+        assert_int_equal(setenv("SHAREDLINK_RUNTIME_DIR", "/nonexistent/sharedlink", 1), 0);
+        assert_int_equal(sl_set_runtime_dir(c, NULL), 0);
+        unsetenv("SHAREDLINK_RUNTIME_DIR");
+        assert_int_equal(sl_query(c, "node_b", "A", "a.Lat", 0, reply, sizeof(reply)),
+                         -ECONNREFUSED);
+        sl_close(c);
+}
+
 /* The table commands on the real daemon's tables. */
 static void test_daemon_tables(void **state)
 {
@@ -1572,6 +1609,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_daemon_library, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_tables, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_query, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_daemon_published_socket, setup_bare,
+                                                teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_stats_scope, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_completion, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_completion_no_daemon, setup_bare, teardown),

@@ -46,7 +46,8 @@ struct fixture {
         int listen_fd;
 };
 
-static int setup(void **state)
+/* Tables (publishing the socket path when publish), a handle, a directory for the socket. */
+static int setup_tables(void **state, int publish)
 {
         struct fixture *f = calloc(1, sizeof(*f));
         struct shm_table_config cfg = { .vars = vars, .nvars = 1 };
@@ -58,13 +59,26 @@ static int setup(void **state)
         cfg.instance = f->instance;
         snprintf(f->dir, sizeof(f->dir), "/tmp/sltest-req.XXXXXX");
         *state = f;
-        if (!mkdtemp(f->dir) || shm_table_create(&cfg, &f->t) < 0 ||
-            sl_open(f->instance, &f->c) < 0)
-                return -1;
-        if (snprintf(f->sock, sizeof(f->sock), "%s/%s.sock", f->dir, f->instance) >=
+        if (!mkdtemp(f->dir) ||
+            snprintf(f->sock, sizeof(f->sock), "%s/%s.sock", f->dir, f->instance) >=
             (int)sizeof(f->sock))
                 return -1;
-        return sl_set_runtime_dir(f->c, f->dir) == 0 ? 0 : -1;
+        cfg.control_socket = publish ? f->sock : NULL;
+        unsetenv("SHAREDLINK_RUNTIME_DIR");
+        return shm_table_create(&cfg, &f->t) < 0 || sl_open(f->instance, &f->c) < 0 ? -1 : 0;
+}
+
+static int setup(void **state)
+{
+        if (setup_tables(state, 0) < 0)
+                return -1;
+        return sl_set_runtime_dir(((struct fixture *)*state)->c,
+                                  ((struct fixture *)*state)->dir) == 0 ? 0 : -1;
+}
+
+static int setup_published(void **state)
+{
+        return setup_tables(state, 1);
 }
 
 static int teardown(void **state)
@@ -635,6 +649,99 @@ static void test_reply_flood(void **state)
                 close(fd);
 }
 
+/* ---- the socket path the tables publish (layout 1.2) --------------------------------------- */
+
+/* The handle connects where the tables say: a listener that never accepts leaves it waiting. */
+static void assert_uses_published(struct fixture *f)
+{
+        char reply[REPLY_SIZE];
+
+        assert_int_equal(sl_request(f->c, "ping", SHORT_MS, NULL, NULL, reply, sizeof(reply)),
+                         -ETIMEDOUT);
+}
+
+/* The handle connects to "<dir>/<instance>.sock", where nobody listens. */
+static void assert_uses_dir(struct fixture *f, const char *dir)
+{
+        char reply[REPLY_SIZE], want[REPLY_SIZE];
+
+        snprintf(want, sizeof(want), "%s/%s.sock", dir, f->instance);
+        assert_int_equal(sl_request(f->c, "ping", SHORT_MS, NULL, NULL, reply, sizeof(reply)),
+                         -ECONNREFUSED);
+        assert_non_null(strstr(reply, want));
+}
+
+static void test_published_precedence(void **state)
+{
+        struct fixture *f = *state;
+
+        f->listen_fd = bind_socket(f, 1);
+        /* Neither a call nor the environment said where: the published path. */
+        assert_uses_published(f);
+        /* The environment (read at sl_open or sl_set_runtime_dir(NULL)) comes before it. */
+        assert_int_equal(setenv("SHAREDLINK_RUNTIME_DIR", "/nonexistent/env", 1), 0);
+        assert_int_equal(sl_set_runtime_dir(f->c, NULL), 0);
+        assert_uses_dir(f, "/nonexistent/env");
+        /* An explicit directory comes first, whatever the environment says. */
+        assert_int_equal(sl_set_runtime_dir(f->c, "/nonexistent/set"), 0);
+        assert_uses_dir(f, "/nonexistent/set");
+        unsetenv("SHAREDLINK_RUNTIME_DIR");
+        assert_uses_dir(f, "/nonexistent/set");
+        /* Back to no choice: the published path again. */
+        assert_int_equal(sl_set_runtime_dir(f->c, NULL), 0);
+        assert_uses_published(f);
+}
+
+/* A scribbled field (the .in object may be forged): the default, never a crash or overread. */
+static void test_published_hostile(void **state)
+{
+        struct fixture *f = *state;
+        struct shmtest_view v;
+        struct shm_in_header *h;
+        char saved[SHM_SOCKET_PATH_SIZE], other[SHM_SOCKET_PATH_SIZE], name[SHM_OBJECT_NAME_SIZE];
+        const char *bad[] = { "relative/x.sock", "/tmp/other.sock", "/tmp/\001/@.sock",
+                              "/tmp/@.sockx", "/tmp/@.sock/", "/tmp/x@.sock", "@.sock" };
+
+        f->listen_fd = bind_socket(f, 1);
+        assert_int_equal(shm_layout_object_name(f->instance, "in", name, sizeof(name)), 0);
+        v = shmtest_view_open(name, 1);
+        h = shmtest_in_header(&v);
+        assert_non_null(v.base);
+        memcpy(saved, h->control_socket, sizeof(saved));
+        /* No NUL within the field. */
+        memset(h->control_socket, 'A', sizeof(h->control_socket));
+        h->control_socket[0] = '/';
+        assert_uses_dir(f, SL_RUNTIME_DIR_DEFAULT);
+        /* Paths that do not name this instance's socket ("@" stands for the instance). */
+        for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+                char *at = strchr(bad[i], '@');
+                int n = at ? (int)(at - bad[i]) : (int)strlen(bad[i]);
+
+                snprintf(other, sizeof(other), "%.*s%s%s", n, bad[i], at ? f->instance : "",
+                         at ? at + 1 : "");
+                memset(h->control_socket, 0, sizeof(h->control_socket));
+                memcpy(h->control_socket, other, strlen(other));
+                assert_uses_dir(f, SL_RUNTIME_DIR_DEFAULT);
+        }
+        /* A valid path in an older layout is reserved bytes, not a path. */
+        memcpy(h->control_socket, saved, sizeof(saved));
+        h->layout_version = (SHM_LAYOUT_MAJOR << 16) | (SHM_LAYOUT_MINOR_SOCKET - 1u);
+        assert_uses_dir(f, SL_RUNTIME_DIR_DEFAULT);
+        /* Restored: used again. */
+        h->layout_version = SHM_LAYOUT_VERSION;
+        assert_uses_published(f);
+        shmtest_view_close(&v);
+}
+
+/* Tables of an older daemon (field empty): the default, as before layout 1.2. */
+static void test_published_none(void **state)
+{
+        struct fixture *f = *state;
+
+        assert_int_equal(sl_set_runtime_dir(f->c, NULL), 0);
+        assert_uses_dir(f, SL_RUNTIME_DIR_DEFAULT);
+}
+
 static void test_settings(void **state)
 {
         struct fixture *f = *state;
@@ -691,6 +798,11 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_no_answer, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_reply_flood, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_settings, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_published_precedence, setup_published,
+                                                teardown),
+                cmocka_unit_test_setup_teardown(test_published_hostile, setup_published,
+                                                teardown),
+                cmocka_unit_test_setup_teardown(test_published_none, setup, teardown),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

@@ -261,6 +261,53 @@ static void test_create_errors(void **state)
         assert_int_equal(shmtest_object_size(f->out_name), -ENOENT);
 }
 
+/* Layout 1.2: the header publishes the control socket path, NUL-padded; none is "". */
+static void test_create_socket_path(void **state)
+{
+        struct shmtest_table *f = *state;
+        char path[SHM_SOCKET_PATH_SIZE + 1];
+        struct shmtest_view v;
+        struct shm_table *t = NULL;
+        struct shm_in_header *h;
+
+        /* Refused: relative, and one byte too long for sun_path (nothing is left behind). */
+        f->cfg.control_socket = "run/x.sock";
+        assert_int_equal(shm_table_create(&f->cfg, &t), -EINVAL);
+        memset(path, 'p', sizeof(path) - 1);
+        path[0] = '/';
+        path[SHM_SOCKET_PATH_SIZE] = '\0';
+        f->cfg.control_socket = path;
+        assert_int_equal(shm_table_create(&f->cfg, &t), -EINVAL);
+        assert_null(t);
+        assert_int_equal(shmtest_object_size(f->in_name), -ENOENT);
+        /* The longest that fits is written whole. */
+        path[SHM_SOCKET_PATH_SIZE - 1] = '\0';
+        assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
+        v = shmtest_view_open(f->in_name, 0);
+        h = shmtest_in_header(&v);
+        assert_non_null(v.base);
+        assert_int_equal(h->layout_version & 0xffffu, SHM_LAYOUT_MINOR_SOCKET);
+        assert_memory_equal(h->control_socket, path, SHM_SOCKET_PATH_SIZE);
+        shmtest_view_close(&v);
+        f->t = shm_table_destroy(f->t);
+        /* A short one is NUL-padded to the end of the field. */
+        f->cfg.control_socket = "/run/sharedlink/x.sock";
+        assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
+        v = shmtest_view_open(f->in_name, 0);
+        h = shmtest_in_header(&v);
+        assert_string_equal(h->control_socket, "/run/sharedlink/x.sock");
+        for (size_t i = strlen("/run/sharedlink/x.sock"); i < SHM_SOCKET_PATH_SIZE; i++)
+                assert_int_equal(h->control_socket[i], 0);
+        shmtest_view_close(&v);
+        f->t = shm_table_destroy(f->t);
+        /* None: an empty field, as an older daemon leaves it. */
+        f->cfg.control_socket = NULL;
+        assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
+        v = shmtest_view_open(f->in_name, 0);
+        assert_string_equal(shmtest_in_header(&v)->control_socket, "");
+        shmtest_view_close(&v);
+}
+
 static void test_refuse_live_self(void **state)
 {
         struct shmtest_table *f = *state;
@@ -1093,6 +1140,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_create_layout, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_create_group, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_create_errors, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_create_socket_path, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_refuse_live_self, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_replace_stale_refuse_live, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_replace_garbage, setup_bare, teardown),

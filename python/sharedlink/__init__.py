@@ -437,13 +437,24 @@ class Client:
             _raise(r, "reading %s" % name)
         return (meta.sequence, meta.flags & (SL_FLAG_VALID | SL_FLAG_STALE))
 
-    def wait(self, names=None, timeout=None):
+    def wait(self, names=None, timeout=None, spin_us=None):
         """Waits until one of names (None: every variable) changed (a new value, or it became
         valid/stale) since the previous wait() on this client saw it, or timeout seconds passed
         (None: no limit). Returns the names that changed, [] on timeout. The first wait for a
-        name compares with its state at that call: nothing is reported for the past."""
+        name compares with its state at that call: nothing is reported for the past.
+        spin_us (0..SL_WAIT_SPIN_MAX_US): poll the table that long before each sleep
+        (sl_wait_with with SL_WAIT_SPIN), for changes due within microseconds, at the price of
+        a busy CPU while it spins; None: block at once (sl_wait)."""
         if isinstance(names, str):
             names = [names]
+        opts = None
+        if spin_us is not None:
+            if not isinstance(spin_us, int) or not 0 <= spin_us <= _lib.SL_WAIT_SPIN_MAX_US:
+                raise InvalidValue(_errno.EINVAL, strerror(_errno.EINVAL),
+                                   "spin_us: 0..%d microseconds expected"
+                                   % _lib.SL_WAIT_SPIN_MAX_US)
+            opts = _lib.sl_wait_opts(size=ctypes.sizeof(_lib.sl_wait_opts),
+                                     flags=_lib.SL_WAIT_SPIN, spin_us=spin_us)
         h = self._handle()
         deadline = None if timeout is None else time.monotonic() + max(timeout, 0.0)
         while True:
@@ -462,7 +473,11 @@ class Client:
                                                              WAIT_SLICE_S)
             if left <= 0:
                 return []
-            r = _lib_.sl_wait(h, _byref(self._changes), int(left * _MS + 0.999))
+            if opts is None:
+                r = _lib_.sl_wait(h, _byref(self._changes), int(left * _MS + 0.999))
+            else:
+                r = _lib_.sl_wait_with(h, _byref(self._changes), int(left * _MS + 0.999),
+                                       _byref(opts))
             if r < 0:
                 _raise(r, "waiting for a change")
 

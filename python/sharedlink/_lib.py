@@ -40,7 +40,7 @@ SL_FLAG_REPAIRED = 0x8
 
 SL_EVENT_TRUNCATED = 0x1
 SL_EVENT_RESTARTED = 0x2
-SL_WAIT_SPIN = 0x1             # sl_wait_with (not bound yet: Client.wait blocks)
+SL_WAIT_SPIN = 0x1             # sl_wait_with: Client.wait(..., spin_us=N)
 SL_WAIT_SPIN_MAX_US = 10000
 
 SL_RUNTIME_DIR_DEFAULT = "/run/sharedlink"
@@ -124,6 +124,14 @@ class sl_daemon_info(ctypes.Structure):
     ]
 
 
+class sl_wait_opts(ctypes.Structure):
+    _fields_ = [
+        ("size", c_size_t),
+        ("flags", c_u32),
+        ("spin_us", c_u32),
+    ]
+
+
 class sl_event(ctypes.Structure):
     _fields_ = [
         ("size", c_size_t),
@@ -166,7 +174,7 @@ class sl_circe_visualize(ctypes.Structure):
 
 
 STRUCTS = (sl_meta, sl_var_info, sl_counter, sl_link_info, sl_daemon_info, sl_event,
-           sl_circe_visualize)
+           sl_circe_visualize, sl_wait_opts)
 
 sl_data_fn = ctypes.CFUNCTYPE(c_int, c_char_p, ctypes.c_void_p)
 sl_sync_fn = ctypes.CFUNCTYPE(c_int, c_char_p, c_int, ctypes.c_void_p)
@@ -190,6 +198,7 @@ PROTOTYPES = {
     "sl_write_double": (c_int, (_client_p, c_int, ctypes.c_double, c_int)),
     "sl_write_long": (c_int, (_client_p, c_int, c_long)),
     "sl_wait": (c_int, (_client_p, _P(c_u32), c_int)),
+    "sl_wait_with": (c_int, (_client_p, _P(c_u32), c_int, _P(sl_wait_opts))),
     "sl_events_read": (c_int, (_client_p, _P(c_u64), _P(sl_event), c_size_t)),
     "sl_events_now": (c_int, (_client_p, _P(c_u64))),
     "sl_link_count": (c_int, (_client_p,)),
@@ -298,6 +307,7 @@ def check_sizes(handle):
             return
         reply = ctypes.create_string_buffer(SL_REPLY_LINE_MAX + 1)
         cursor = c_u64(0)
+        change = c_u32(0)
 
         def visualize(v):
             reply.value = b""
@@ -312,6 +322,9 @@ def check_sizes(handle):
             # A local cursor: the reads it makes are thrown away.
             sl_event: lambda e: lib.sl_events_read(handle, ctypes.byref(cursor),
                                                    ctypes.byref(e), 1),
+            # timeout 0, no flags: returns at once (0 or 1); a short size is -EINVAL.
+            sl_wait_opts: lambda o: lib.sl_wait_with(handle, ctypes.byref(change), 0,
+                                                     ctypes.byref(o)),
         }
         for struct_type, call in checks.items():
             short, full = _accepts(call, struct_type)

@@ -139,6 +139,18 @@ class TestValues(DaemonCase):
         changed = c.wait(None, timeout=WAIT_S)
         self.assertIn("b.CmdThrottle", changed + c.wait(None, timeout=WAIT_S))
 
+    def test_wait_spin(self):
+        c = self.c
+        c.wait(["b.CmdThrottle"], timeout=0)
+        self.assertEqual(c.wait(["b.CmdThrottle"], timeout=0.05, spin_us=200), [])
+        c["b.CmdThrottle"] = c.read_long("b.CmdThrottle") + 1
+        self.assertEqual(c.wait(["b.CmdThrottle"], timeout=WAIT_S, spin_us=1000),
+                         ["b.CmdThrottle"])
+        for bad in (-1, sharedlink._lib.SL_WAIT_SPIN_MAX_US + 1, 1.5):
+            with self.assertRaises(sharedlink.InvalidValue) as e:
+                c.wait(["b.CmdThrottle"], timeout=0, spin_us=bad)
+            self.assertEqual(e.exception.errno, errno.EINVAL)
+
 
 class TestLinks(DaemonCase):
     def test_links_and_daemon(self):

@@ -40,6 +40,8 @@ static void structs(void)
         OFF(sl_daemon_info, heartbeat_interval_ms); OFF(sl_daemon_info, started_real_ns);
         OFF(sl_daemon_info, counter_count); OFF(sl_daemon_info, counters);
 
+        SIZE(sl_wait_opts);
+        OFF(sl_wait_opts, size); OFF(sl_wait_opts, flags); OFF(sl_wait_opts, spin_us);
         SIZE(sl_event);
         OFF(sl_event, size); OFF(sl_event, seq); OFF(sl_event, lost); OFF(sl_event, mono_ns);
         OFF(sl_event, real_ns); OFF(sl_event, type); OFF(sl_event, type_name);

@@ -311,6 +311,9 @@ static void query_start(struct lsl *l, struct control_request *req, const struct
                                     LINK_SHAREDLINK_QUERIES_MAX, l->cfg->name);
         else if (r == -ENOTCONN)
                 control_reply_error(req, ENOTCONN, "link %s is %s", l->cfg->name, l->status);
+        else if (r == -EMSGSIZE)
+                control_reply_error(req, EMSGSIZE, "a query for %s does not fit the peer's "
+                                    "max_frame", w->name);
         else if (r < 0)
                 control_reply_error(req, r, "cannot send the query: %s", strerror(-r));
 }

@@ -401,6 +401,9 @@ int link_sharedlink_session_query(struct link_sharedlink_session *s, uint64_t no
                 return -EBUSY;
         n = slp_encode_query(s->txbuf, sizeof(s->txbuf), s->peers[peer].cfg->address, s->addr,
                              name, sls_encode_flags(s));
+        /* The peer drops a frame over its max_frame as overlong: never send one it cannot take. */
+        if (n > 0 && (size_t)n > s->peers[peer].cfg->max_frame)
+                n = -EMSGSIZE;
         r = n < 0 ? n : sls_send_frame(s, s->txbuf, (size_t)n);
         if (r < 0)
                 return r;

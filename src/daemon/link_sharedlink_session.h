@@ -119,7 +119,8 @@ int link_sharedlink_session_peer(const struct link_sharedlink_session *s, const 
  * Sends Q<name> to peer (an index from link_sharedlink_session_peer()) and follows the answer
  * for timeout_ms; answer(token) is called once later. Returns 0, or -ENOTCONN (down), -EBUSY
  * (LINK_SHAREDLINK_QUERIES_MAX pending; queries whose client left are ended first to make room),
- * -EINVAL (bad peer or name) or the send error, with nothing pending.
+ * -EINVAL (bad peer or name), -EMSGSIZE (the Q frame is longer than the peer's max_frame) or
+ * the send error, with nothing pending.
  */
 int link_sharedlink_session_query(struct link_sharedlink_session *s, uint64_t now_ms,
                                   void *token, int peer, const char *name, unsigned timeout_ms);

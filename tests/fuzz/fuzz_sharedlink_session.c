@@ -178,9 +178,8 @@ static int hook_send(void *arg, const char *buf, size_t len)
         CHECK(r.frame->src == b.cfg.sl.address);
         p = peer_of(r.frame->dst);
         CHECK(p != NULL);
-        /* A query goes whole whatever max_frame says (one Q of a configured-length name). */
-        CHECK(len <= p->max_frame || (r.frame->nfields == 1 &&
-                                      r.frame->fields[0].type == SLP_FIELD_Q));
+        /* Every frame fits the peer's max_frame, queries included (-EMSGSIZE otherwise). */
+        CHECK(len <= p->max_frame);
         /* Only the CR LF of a byte stream (or of a link with crlf) may follow the frame. */
         if (b.cfg.transport != CONFIG_TRANSPORT_UDP || b.cfg.sl.crlf)
                 CHECK(len - used == 2 && buf[used] == '\r' && buf[used + 1] == '\n');
@@ -552,7 +551,8 @@ static void op_query(struct link_sharedlink_session *s, struct input *in)
                                           1 + (unsigned)take(in) * 20);
         if (r < 0)
                 t->pending = false;
-        CHECK(r == 0 || r == -EINVAL || r == -ENOTCONN || r == -EBUSY || r == -ENOBUFS);
+        CHECK(r == 0 || r == -EINVAL || r == -ENOTCONN || r == -EBUSY || r == -ENOBUFS ||
+              r == -EMSGSIZE);
         CHECK(r != 0 || b.up);
 }
 

@@ -450,6 +450,8 @@ static void test_stale(void **state)
  * while max_frame allows, more frames after. */
 static void test_replies(void **state)
 {
+        struct answer a = { .alive = true };
+        char name[SHM_NAME_SIZE];
         struct link_sharedlink_session *s;
 
         (void)state;
@@ -464,7 +466,18 @@ static void test_replies(void **state)
                     "[:AB|RGear|D");
         assert_int_equal(rec.counters[SHM_COUNTER_QUERIES_IN], 6);
         assert_int_equal(rec.counters[SHM_COUNTER_ANSWERS_OUT], 6);
+
+        /* A query of ours must fit the peer's max_frame too: 40 takes a 29-byte name
+         * ("[:AB|Q" + name + "|Chh]", a datagram), not a 30-byte one. */
+        memset(name, 'n', 30);
+        name[30] = '\0';
+        assert_int_equal(link_sharedlink_session_query(s, T0, &a, 0, name, 100), -EMSGSIZE);
+        assert_int_equal(rec.counters[SHM_COUNTER_QUERIES_OUT], 0);
+        name[29] = '\0';
+        assert_int_equal(link_sharedlink_session_query(s, T0, &a, 0, name, 100), 0);
+        assert_int_equal(rec.counters[SHM_COUNTER_QUERIES_OUT], 1);
         link_sharedlink_session_free(s);
+        assert_int_equal(a.err, ECANCELED);
 }
 
 /* R|D: to this peer's configured variable of that name, else its ad hoc variable, created

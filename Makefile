@@ -197,6 +197,8 @@ SYS_LIBS := $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lutil -lm
 LIBSL_SO   := $(O)/libsharedlink.so.$(SOVERSION)
 LIBSL_A    := $(O)/libsharedlink.a
 LIBSL_SYM  := src/lib/libsharedlink.sym
+# The exported function names of libsharedlink.sym, one a line (sed -n).
+LIBSL_SYM_SED := 's/^[[:space:]]*\(sl_[a-z0-9_]*\);$$/\1/p'
 SHAREDLINKD:= $(O)/sharedlinkd
 SLCTL      := $(O)/slctl
 MQTT_BRIDGE:= $(O)/sharedlink-mqtt
@@ -229,7 +231,8 @@ help:
 	@echo "make install    install into PREFIX (/usr/local) under DESTDIR; make uninstall removes it"
 
 # Builds the asan variant of everything and the tsan variant of the stress tests, then runs every
-# test binary once, with one total at the end.
+# test binary once, with one total at the end; tests/check-symbols.sh holds the asan and the
+# optimised library to the exports of libsharedlink.sym.
 # The Python tests drive the asan sharedlinkd and slctl, but load the optimised library: an ASan
 # library in a Python that is not built with ASan needs libasan preloaded into the interpreter
 # (and into everything it starts), which depends on the Python build; the binding's own memory
@@ -238,7 +241,7 @@ help:
 check:
 	$(MAKE) --no-print-directory SAN=asan test-build
 	$(if $(STRESS_SRC),$(MAKE) --no-print-directory SAN=tsan test-build-tsan)
-	$(if $(PY_SRC),$(MAKE) --no-print-directory SAN= build/libsharedlink.so.$(SOVERSION))
+	$(MAKE) --no-print-directory SAN= build/libsharedlink.so.$(SOVERSION) build/libsharedlink.a
 	@TEST_TIMEOUT=$(TEST_TIMEOUT) SHAREDLINK_BUILD=build/asan PYTHON=$(PYTHON) \
 	    SHAREDLINK_LIB=$(CURDIR)/build/libsharedlink.so.$(SOVERSION) \
 	    SHAREDLINK_LAYOUT=$(CURDIR)/build/asan/tests/python/layout tests/run-tests.sh \
@@ -247,6 +250,7 @@ check:
 	    --stress "$(call variant_bins,build/asan,$(STRESS_SRC))" \
 	    --tsan "$(call variant_bins,build/tsan,$(STRESS_SRC))" \
 	    --integration "$(call variant_bins,build/asan,$(INTEG_SRC))" \
+	    --symbols tests/check-symbols.sh \
 	    $(if $(PY_SRC),--python python/tests/run.py) \
 	    --peers "$(PEER_TESTS)"
 
@@ -327,7 +331,24 @@ $(LIBSL_SO): $(LIB_OBJ) $(LIBSL_SYM)
 	    -lpthread
 	$(Q)ln -sf libsharedlink.so.$(SOVERSION) $(O)/libsharedlink.so
 
-$(LIBSL_A): $(LIB_OBJ)
+# The archive holds one relocatable object whose only globals are the exported functions: linked
+# statically, the library's internal names (shm_*, circe_*, request_*, ...) would otherwise be
+# globals of the program and collide with its own; -fvisibility=hidden hides them from the .so
+# only. tests/check-symbols.sh (make check) holds both files to libsharedlink.sym.
+LD      ?= ld
+OBJCOPY ?= objcopy
+LIBSL_EXPORTS := $(O)/libsharedlink.exports
+LIBSL_A_OBJ   := $(O)/libsharedlink.o
+
+$(LIBSL_EXPORTS): $(LIBSL_SYM)
+	@mkdir -p $(@D)
+	$(call quiet,GEN)sed -n $(LIBSL_SYM_SED) $< > $@
+
+$(LIBSL_A_OBJ): $(LIB_OBJ) $(LIBSL_EXPORTS) Makefile
+	$(call quiet,LD)$(LD) -r -o $@.tmp $(LIB_OBJ)
+	$(Q)$(OBJCOPY) --keep-global-symbols=$(LIBSL_EXPORTS) $@.tmp $@ && rm -f $@.tmp
+
+$(LIBSL_A): $(LIBSL_A_OBJ)
 	$(call quiet,AR)rm -f $@
 	$(Q)$(AR) rcs $@ $^
 
@@ -375,7 +396,7 @@ LDCONFIG     ?= ldconfig
 MAN_PAGES    := $(wildcard man/*.[1-8])
 mandir_of     = $(DESTDIR)$(MANDIR)/man$(subst .,,$(suffix $(1)))
 # One alias page per exported function, so that `man sl_read` opens libsharedlink(3).
-MAN_ALIASES   = $(shell sed -n 's/^[[:space:]]*\(sl_[a-z0-9_]*\);$$/\1/p' $(LIBSL_SYM))
+MAN_ALIASES   = $(shell sed -n $(LIBSL_SYM_SED) $(LIBSL_SYM))
 UNIT_FILES   := $(wildcard systemd/*.service)
 UNIT_SED     := -e 's@^ExecStart=/usr/local/sbin/\(sharedlinkd\|sharedlink-mqtt\) @ExecStart=$(SBINDIR)/\1 @' \
                 -e 's|^\(ExecStart=.* -c \)/etc/sharedlink/|\1$(SYSCONFDIR)/sharedlink/|'

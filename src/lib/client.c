@@ -410,12 +410,110 @@ static void client_membarrier(void)
         client_membarrier_cmd(MEMBARRIER_CMD_GLOBAL);
 }
 
+/*
+ * Giving slots back. A thread that exits keeps its thread pointer's claim forever unless someone
+ * clears it, and a program that starts many short-lived threads would fill every slot with dead
+ * owners, leaving its live threads on the shared count. So each thread keeps a list of its claims
+ * under one pthread key of the library, whose destructor clears each owner word when the thread
+ * exits. A claim holds a reference on the slot set, so the destructor may run before, during or
+ * after sl_close of that handle: the set is freed by whichever of the two lets go last. Claims on
+ * handles that were closed are dropped from the list at the thread's next claim, so a long-lived
+ * thread that opens and closes handles keeps no more than it uses. The key is the library's only
+ * process-wide state, made once; when it cannot be made, threads simply do not claim.
+ */
+struct client_claim {
+        struct client_claim *next;
+        struct client_reader_set *set;
+        struct client_reader *slot;
+};
+
+static pthread_once_t claims_once = PTHREAD_ONCE_INIT;
+static pthread_key_t claims_key;
+static int claims_key_ok;
+
+/* Drops a reference on a slot set; the last one frees it. */
+static void reader_set_put(struct client_reader_set *set)
+{
+        /* acq_rel: every use of the set happens before the free that follows the last drop. */
+        if (atomic_fetch_sub_explicit(&set->refs, 1u, memory_order_acq_rel) == 1u)
+                free(set);
+}
+
+/* The key's destructor: the exiting thread gives back every slot it holds. */
+static void claims_release(void *list)
+{
+        struct client_claim *next;
+
+        for (struct client_claim *cl = list; cl; cl = next) {
+                next = cl->next;
+                /* Only the owner writes its claimed owner word, and it is outside every read
+                 * section now; release: its last section is over before another thread's CAS
+                 * can take the slot. */
+                atomic_store_explicit(&cl->slot->owner, 0u, memory_order_release);
+                reader_set_put(cl->set);
+                free(cl);
+        }
+}
+
+static void claims_key_create(void)
+{
+        claims_key_ok = pthread_key_create(&claims_key, claims_release) == 0;
+}
+
+/*
+ * An unloaded library must not leave its destructor registered with the threads that outlive it
+ * (dlclose); their claims then stay with them, as before there was a key.
+ */
+__attribute__((destructor)) static void claims_key_delete(void)
+{
+        if (claims_key_ok)
+                pthread_key_delete(claims_key);
+}
+
+/* Drops the claims behind *link that belong to closed handles (the calling thread's list). */
+static void claims_prune(struct client_claim **link)
+{
+        while (*link) {
+                struct client_claim *cl = *link;
+
+                if (atomic_load_explicit(&cl->set->closed, memory_order_acquire)) {
+                        *link = cl->next;
+                        reader_set_put(cl->set);
+                        free(cl);
+                } else {
+                        link = &cl->next;
+                }
+        }
+}
+
 void client_reader_claim(struct sl_client *c, uintptr_t self)
 {
+        struct client_reader *r = client_reader_of(c, self);
+        struct client_claim *cl;
         uintptr_t expected = 0;
 
-        atomic_compare_exchange_strong_explicit(&client_reader_of(c, self)->owner, &expected,
-                                                self, memory_order_relaxed, memory_order_relaxed);
+        if (pthread_once(&claims_once, claims_key_create) != 0 || !claims_key_ok)
+                return;
+        cl = malloc(sizeof(*cl));
+        if (!cl)
+                return;
+        if (!atomic_compare_exchange_strong_explicit(&r->owner, &expected, self,
+                                                     memory_order_acquire, memory_order_relaxed)) {
+                free(cl);
+                return;
+        }
+        atomic_fetch_add_explicit(&c->reader_set->refs, 1u, memory_order_relaxed);
+        cl->set = c->reader_set;
+        cl->slot = r;
+        cl->next = pthread_getspecific(claims_key);
+        /* The new claim goes first: a failed setspecific leaves the stored list as it was. */
+        if (pthread_setspecific(claims_key, cl) != 0) {
+                atomic_store_explicit(&r->owner, 0u, memory_order_release);
+                reader_set_put(cl->set);
+                free(cl);
+                return;
+        }
+        claims_prune(&cl->next);
 }
 
 /* Writer: waits until no thread is inside a read section through its slot. */
@@ -438,12 +536,18 @@ static void slots_wait_idle(struct sl_client *c)
 static void slots_init(struct sl_client *c)
 {
 #if !defined(SHM_SEQLOCK_TSAN)
+        struct client_reader_set *set;
+
         if (client_membarrier_register() < 0)
                 return;
-        c->slots = aligned_alloc(sizeof(struct client_reader),
-                                 CLIENT_READER_SLOTS * sizeof(struct client_reader));
-        if (c->slots)
-                memset(c->slots, 0, CLIENT_READER_SLOTS * sizeof(struct client_reader));
+        set = aligned_alloc(_Alignof(struct client_reader_set), sizeof(*set));
+        if (!set)
+                return;
+        memset(set, 0, sizeof(*set));
+        atomic_init(&set->refs, 1u);
+        atomic_init(&set->closed, 0u);
+        c->reader_set = set;
+        c->slots = set->slot;
 #else
         (void)c;
 #endif
@@ -554,7 +658,11 @@ SL_EXPORT struct sl_client *sl_close(struct sl_client *c)
         out_unmap(c);
         client_map_put(c->map);
         pthread_mutex_destroy(&c->writers);
-        free(c->slots);
+        if (c->reader_set) {
+                /* Threads that still hold slots free the set when they exit. */
+                atomic_store_explicit(&c->reader_set->closed, 1u, memory_order_release);
+                reader_set_put(c->reader_set);
+        }
         freelocale(c->c_locale);
         free(c->id_names);
         free(c->id_index);

@@ -24,10 +24,10 @@
 
 #define CLIENT_IDS_MAX          (4u * SHM_CAPACITY_MAX)  /* ids a handle hands out in its life */
 #define CLIENT_HEARTBEAT_MISSES 3u      /* heartbeat older than this many intervals: not alive */
-#define CLIENT_RUNTIME_DIR_SIZE 108
+#define CLIENT_RUNTIME_DIR_SIZE 108     /* sizeof(sun_path): the socket path must fit it anyway */
 #define CLIENT_NS_PER_MS        1000000ull
 #define CLIENT_READER_SLOTS     64u     /* threads that read without a locked instruction */
-#define CLIENT_READER_SHIFT     (64u - 6u)      /* log2(CLIENT_READER_SLOTS) bits of a hash */     /* sizeof(sun_path): the socket path must fit it anyway */
+#define CLIENT_READER_SHIFT     (64u - 6u)      /* log2(CLIENT_READER_SLOTS) bits of a hash */
 
 /* One mapping of .in, shared by the handle and any sl_wait sleeping on it. */
 struct client_map {
@@ -56,12 +56,24 @@ struct client_reader {
         uint8_t pad[64 - sizeof(uintptr_t) - sizeof(uint32_t)];
 } __attribute__((aligned(64)));
 
+/*
+ * A handle's reader slots, allocated apart from the handle: a thread that claimed a slot gives it
+ * back when it exits (client.c), which may be after sl_close. Each claim and the handle hold a
+ * reference; the last one frees the set.
+ */
+struct client_reader_set {
+        struct client_reader slot[CLIENT_READER_SLOTS];
+        _Atomic uint32_t refs;
+        _Atomic uint32_t closed;        /* 1 once sl_close dropped the handle's reference */
+};
+
 struct sl_client {
         /* the handle's lock (client.c): readers inside, a writer wanting in, writers in turn */
         _Atomic uint32_t readers;
         _Atomic uint32_t writer;
         pthread_mutex_t writers;
-        struct client_reader *slots;    /* CLIENT_READER_SLOTS, or NULL: readers count only */
+        struct client_reader *slots;    /* reader_set->slot, or NULL: readers count only */
+        struct client_reader_set *reader_set;
         char in_name[SHM_OBJECT_NAME_SIZE];
         char out_name[SHM_OBJECT_NAME_SIZE];
         struct client_map *map;
@@ -124,7 +136,10 @@ static inline int client_needs_refresh(const struct sl_client *c)
                out_generation != c->out_generation || (!c->out && c->out_error == -EAGAIN);
 }
 
-/* Claims a reader slot for the calling thread if its slot is free (client.c). */
+/*
+ * Claims a reader slot for the calling thread if its slot is free, to be given back when the
+ * thread exits (client.c).
+ */
 void client_reader_claim(struct sl_client *c, uintptr_t self);
 
 /* The calling thread: its thread pointer, unique among live threads and cheap to read. */

@@ -27,6 +27,7 @@
 #include <sharedlink.h>
 
 #include "common/shmtest.h"
+#include "lib/client.h"
 #include "shm/futex.h"
 #include "shm/layout.h"
 #include "shm/slot.h"
@@ -217,6 +218,126 @@ static void test_read(void **state)
         assert_int_equal(big.m.flags, SL_FLAG_VALID | SL_FLAG_STALE);
         for (size_t i = 0; i < sizeof(big.tail); i++)
                 assert_int_equal(big.tail[i], 0x77);
+}
+
+/* ---- reader slots ------------------------------------------------------------------------- */
+
+#define SHORT_READERS   (10u * CLIENT_READER_SLOTS)     /* threads started over one test */
+#define SHORT_BATCH     8u      /* of them alive at once, so that several slots are claimed */
+#define SLOT_VALUE      "40.5"
+
+/* One short-lived reader: reads once, then waits until the main thread let it go. */
+struct short_reader {
+        struct sl_client *c;
+        pthread_barrier_t *have_read;   /* the batch and the main thread */
+        pthread_barrier_t *may_exit;    /* the same, or NULL: exit right after reading */
+        int result;
+        char value[SL_VALUE_SIZE];
+};
+
+static void *short_reader_main(void *arg)
+{
+        struct short_reader *r = arg;
+
+        r->result = sl_read(r->c, LAT, r->value, sizeof(r->value), NULL);
+        /* A second read goes through the slot the first one claimed (when it was free). */
+        if (r->result >= 0)
+                r->result = sl_read(r->c, LAT, r->value, sizeof(r->value), NULL);
+        pthread_barrier_wait(r->have_read);
+        if (r->may_exit)
+                pthread_barrier_wait(r->may_exit);
+        return NULL;
+}
+
+/* Reader slots of c that a thread holds (0 when c has none: ThreadSanitizer, no membarrier). */
+static unsigned slots_owned(const struct sl_client *c)
+{
+        unsigned n = 0;
+
+        for (unsigned i = 0; c->slots && i < CLIENT_READER_SLOTS; i++)
+                n += atomic_load_explicit(&c->slots[i].owner, memory_order_acquire) != 0;
+        return n;
+}
+
+/* Starts a batch of readers on c; the caller meets them at have_read, then at may_exit. */
+static void batch_start(struct short_reader *r, pthread_t *th, struct sl_client *c,
+                        pthread_barrier_t *have_read, pthread_barrier_t *may_exit, unsigned n)
+{
+        for (unsigned i = 0; i < n; i++) {
+                r[i] = (struct short_reader){ .c = c, .have_read = have_read,
+                                              .may_exit = i % 2u ? may_exit : NULL };
+                assert_int_equal(pthread_create(&th[i], NULL, short_reader_main, &r[i]), 0);
+        }
+}
+
+static void batch_join(struct short_reader *r, pthread_t *th, unsigned n)
+{
+        for (unsigned i = 0; i < n; i++) {
+                pthread_join(th[i], NULL);
+                assert_int_equal(r[i].result, (int)strlen(SLOT_VALUE));
+                assert_string_equal(r[i].value, SLOT_VALUE);
+        }
+}
+
+/*
+ * Ten times as many short-lived threads as a handle has reader slots each read, and every slot
+ * a thread claimed is free again once it has exited: dead threads do not keep them from the
+ * live ones.
+ */
+static void test_reader_slots_freed(void **state)
+{
+        struct fixture *f = *state;
+        struct short_reader r[SHORT_BATCH];
+        pthread_t th[SHORT_BATCH];
+        pthread_barrier_t have_read, may_exit;
+        unsigned before = slots_owned(f->c);    /* this thread's, if it read before */
+
+        assert_int_equal(shm_table_set_str(f->tb.t, LAT, SLOT_VALUE), 0);
+        assert_int_equal(pthread_barrier_init(&have_read, NULL, SHORT_BATCH + 1u), 0);
+        assert_int_equal(pthread_barrier_init(&may_exit, NULL, SHORT_BATCH / 2u + 1u), 0);
+        for (unsigned done = 0; done < SHORT_READERS; done += SHORT_BATCH) {
+                batch_start(r, th, f->c, &have_read, &may_exit, SHORT_BATCH);
+                pthread_barrier_wait(&have_read);
+                /* All of them alive and done reading: the first of each slot claimed it. */
+                if (f->c->slots)
+                        assert_true(slots_owned(f->c) > before);
+                pthread_barrier_wait(&may_exit);
+                batch_join(r, th, SHORT_BATCH);
+                assert_int_equal(slots_owned(f->c), before);
+        }
+        pthread_barrier_destroy(&may_exit);
+        pthread_barrier_destroy(&have_read);
+}
+
+/*
+ * Threads that hold slots of a handle closed under them: half of them exit while sl_close runs,
+ * half after it. Each gives its slot back to a set that outlives the handle (AddressSanitizer
+ * would report a use after free), and a handle opened next starts with every slot free.
+ */
+static void test_reader_slots_close_first(void **state)
+{
+        struct fixture *f = *state;
+        struct short_reader r[SHORT_BATCH];
+        pthread_t th[SHORT_BATCH];
+        pthread_barrier_t have_read, may_exit;
+        struct sl_client *c;
+
+        assert_int_equal(shm_table_set_str(f->tb.t, LAT, SLOT_VALUE), 0);
+        assert_int_equal(pthread_barrier_init(&have_read, NULL, SHORT_BATCH + 1u), 0);
+        assert_int_equal(pthread_barrier_init(&may_exit, NULL, SHORT_BATCH / 2u + 1u), 0);
+        for (unsigned done = 0; done < SHORT_READERS; done += SHORT_BATCH) {
+                assert_int_equal(sl_open(f->tb.instance, &c), 0);
+                batch_start(r, th, c, &have_read, &may_exit, SHORT_BATCH);
+                pthread_barrier_wait(&have_read);
+                assert_null(sl_close(c));
+                pthread_barrier_wait(&may_exit);
+                batch_join(r, th, SHORT_BATCH);
+        }
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        assert_int_equal(slots_owned(c), 0);
+        assert_null(sl_close(c));
+        pthread_barrier_destroy(&may_exit);
+        pthread_barrier_destroy(&have_read);
 }
 
 static void test_read_numbers(void **state)
@@ -1200,6 +1321,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_find_info, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_numbers, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_reader_slots_freed, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_reader_slots_close_first, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_refused, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_numbers, setup, teardown),

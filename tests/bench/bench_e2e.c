@@ -663,7 +663,7 @@ static void stage_on_change(void *userdata, const struct shm_out_change *change)
         if (change->status != SHM_OUT_CHANGED)
                 return;
         snprintf(body, sizeof(body), "N0|D%s", change->value);
-        n = wire_slp_frame(frame, sizeof(frame), 'A', 'B', body, false);
+        n = wire_slp_frame(frame, sizeof(frame), 'A', 'B', body, true);
         if (write_all(l->tx_fd, frame, n) < 0)
                 l->failed = 1;
 }

@@ -230,9 +230,10 @@ help:
 	@echo "make deps       install the build dependencies with apt-get (root) or print the command"
 	@echo "make install    install into PREFIX (/usr/local) under DESTDIR; make uninstall removes it"
 
-# Builds the asan variant of everything and the tsan variant of the stress tests, then runs every
-# test binary once, with one total at the end; tests/check-symbols.sh holds the asan and the
-# optimised library to the exports of libsharedlink.sym.
+# Builds the asan variant of everything, the tsan variant of the stress tests and the optimised
+# benchmarks (built, not run: see bench-build), then runs every test binary once, with one total
+# at the end; tests/check-symbols.sh holds the asan and the optimised library to the exports of
+# libsharedlink.sym.
 # The Python tests drive the asan sharedlinkd and slctl, but load the optimised library: an ASan
 # library in a Python that is not built with ASan needs libasan preloaded into the interpreter
 # (and into everything it starts), which depends on the Python build; the binding's own memory
@@ -242,6 +243,7 @@ check:
 	$(MAKE) --no-print-directory SAN=asan test-build
 	$(if $(STRESS_SRC),$(MAKE) --no-print-directory SAN=tsan test-build-tsan)
 	$(MAKE) --no-print-directory SAN= build/libsharedlink.so.$(SOVERSION) build/libsharedlink.a
+	$(if $(BENCH_SRC),$(MAKE) --no-print-directory SAN= bench-build)
 	@TEST_TIMEOUT=$(TEST_TIMEOUT) SHAREDLINK_BUILD=build/asan PYTHON=$(PYTHON) \
 	    SHAREDLINK_LIB=$(CURDIR)/build/libsharedlink.so.$(SOVERSION) \
 	    SHAREDLINK_LAYOUT=$(CURDIR)/build/asan/tests/python/layout tests/run-tests.sh \
@@ -557,11 +559,16 @@ $(PYBENCH_C): tests/bench/read_loop.c $(LIBSL_SO)
 	$(call quiet,LD)$(CC) -std=c11 -D_DEFAULT_SOURCE $(OPT) $(WARN) -Iinclude -o $@ $< $(LIBSL_SO) \
 	    -Wl,-rpath,$(CURDIR)/$(O)
 
+# `make check` builds (does not run) every benchmark the way `make bench` does, so a change that
+# breaks one fails the check instead of the next `make bench`.
+.PHONY: bench-build
+bench-build: $(BENCH_BIN) $(if $(PYBENCH),$(PYBENCH_C))
+
 # Every benchmark, the Python read next to the C one, then sl_read from a program built against
 # a temporary `make install` (tests/bench/bench_install.sh), then one table of every figure next
 # to its goal.
 BENCH_LOG := $(O)/bench/bench.log
-bench-run: all $(BENCH_BIN) $(if $(PYBENCH),$(PYBENCH_C))
+bench-run: all bench-build
 	@set -eo pipefail; : > $(BENCH_LOG); \
 	    for b in $(BENCH_BIN); do echo "== $$b"; SHAREDLINK_BUILD=$(O) $$b | tee -a $(BENCH_LOG); done; \
 	    $(if $(PYBENCH),echo "== $(PYBENCH)"; SHAREDLINK_BUILD=$(O) \

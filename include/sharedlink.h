@@ -228,7 +228,9 @@ struct sl_wait_opts {
  * changed by then: a change that comes within the budget is seen without the futex wake-up of the
  * daemon's thread and the scheduler's latency (microseconds on a virtual machine), at the price of
  * a CPU kept busy for the whole spin. For a loop that waits for data due within microseconds; -EINVAL
- * for unknown flags or a budget above SL_WAIT_SPIN_MAX_US. Returns as sl_wait.
+ * for unknown flags or a budget above SL_WAIT_SPIN_MAX_US. Returns as sl_wait. The spin yields its
+ * CPU every 10 us to any other runnable thread there (the daemon and the tty it waits for may need
+ * it), and a thread allowed on one CPU only does not spin at all.
  */
 int sl_wait_with(struct sl_client *c, uint32_t *cursor, int timeout_ms,
                  const struct sl_wait_opts *opts);

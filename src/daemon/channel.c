@@ -341,6 +341,12 @@ static bool channel_read(struct channel *ch, unsigned revents)
                         ch->ops.input(ch, ch->rbuf, (size_t)n, ch->arg);
                 if (ch->gen != gen || ch->free_pending || ch->state != CHANNEL_STATE_UP)
                         return false;
+                /* A byte stream that gave less than asked for had nothing more right then: the
+                 * read that would only say EAGAIN is one syscall per frame saved (poll is level
+                 * triggered, so bytes that come later are reported again). Not with a hang-up or
+                 * an error pending: that read is what tells it below. */
+                if (!dgram && (size_t)n < sizeof(ch->rbuf) && !(revents & (POLLHUP | POLLERR)))
+                        return true;
         }
         /* A tty that reports a hang-up or an error but has nothing to read would make poll()
          * return at once forever: that is a dead device too. (A UDP socket's POLLERR is an

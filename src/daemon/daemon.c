@@ -28,6 +28,7 @@
 #include "daemon/control.h"
 #include "daemon/link.h"
 #include "daemon/log.h"
+#include "daemon/stages.h"
 #include "shm/table.h"
 
 #define DAEMON_GROUP_BUF        16384   /* getgrnam_r buffer */
@@ -85,10 +86,23 @@ struct daemon {
         struct daemon_link *links[CONFIG_LINKS_MAX];
         unsigned n_links;
         int wake_fd;                    /* -1 when not on the loop */
+        /* The outbound path timed in here, reported by `stats`: client write -> wake thread
+         * signals -> poll loop runs -> frame handed to the link. While a scan answers a wake-up,
+         * wake_stamps holds its signal and poll stamps (else 0: nothing is recorded). */
+        struct stages out_stages;
+        uint64_t wake_stamps[2];
         struct evloop_timer heartbeat;
         struct evloop_timer watchdog;
         struct log_ratelimit out_rl;    /* outbound object trouble */
         char status[NOTIFY_STATUS_MAX];
+};
+
+/* The stages of d->out_stages, as `stats` names them. */
+#define DAEMON_OUT_STAGES       3
+static const char *const daemon_out_stage_names[DAEMON_OUT_STAGES] = {
+        "write_to_wake",        /* sl_write's time stamp -> the wake thread signals its eventfd */
+        "wake_to_loop",         /* -> the poll loop returns with it */
+        "loop_to_sent",         /* -> out scan done and the frame handed to the link's channel */
 };
 
 static void daemon_on_request(struct control_request *req, int argc, char **argv, void *arg);
@@ -595,6 +609,20 @@ static bool link_learns_outbound(const struct config_link *cfg)
         return false;
 }
 
+/* One outbound change handed to its link in a scan that answered a wake-up: its stages. */
+static void daemon_time_out_change(struct daemon *d, const struct shm_out_change *change)
+{
+        uint64_t stamps[DAEMON_OUT_STAGES + 1];
+
+        if (change->status != SHM_OUT_CHANGED || d->wake_stamps[0] == 0)
+                return;
+        stamps[0] = change->mono_ns;
+        stamps[1] = d->wake_stamps[0];
+        stamps[2] = d->wake_stamps[1];
+        stamps[3] = evloop_clock_ns();
+        stages_record(&d->out_stages, stamps);
+}
+
 static void daemon_on_out_change(void *userdata, const struct shm_out_change *change)
 {
         struct daemon *d = userdata;
@@ -617,8 +645,10 @@ static void daemon_on_out_change(void *userdata, const struct shm_out_change *ch
         if (link >= d->n_links)
                 return;
         dl = d->links[link];
-        if (dl && dl->engine && dl->ops->outbound)
+        if (dl && dl->engine && dl->ops->outbound) {
                 dl->ops->outbound(dl->engine, change);
+                daemon_time_out_change(d, change);
+        }
 }
 
 static void daemon_out_scan(struct daemon *d)
@@ -635,11 +665,13 @@ static void daemon_on_wake(struct evloop *loop, int fd, unsigned revents, void *
 {
         struct daemon *d = arg;
 
-        (void)loop;
         (void)fd;
         (void)revents;
         shm_table_out_wake_ack(d->table);
+        d->wake_stamps[0] = shm_table_out_wake_stamp(d->table);
+        d->wake_stamps[1] = evloop_now_ns(loop);
         daemon_out_scan(d);
+        d->wake_stamps[0] = d->wake_stamps[1] = 0;
 }
 
 static int wake_start(struct daemon *d)
@@ -778,6 +810,14 @@ static void request_stats(struct daemon *d, struct control_request *req)
                            " orphan_answers=%" PRIu64, cs.clients, cs.accepted, cs.refused_full,
                            cs.denied, cs.requests, cs.bad_requests, cs.overlong, cs.slow_readers,
                            cs.orphaned, cs.orphan_answers);
+        for (unsigned k = 0; k < DAEMON_OUT_STAGES; k++) {
+                struct stages_summary sum = { 0 };
+
+                stages_summary(&d->out_stages, k, &sum);
+                control_reply_data(req, "outbound_stage %s samples=%zu p50_ns=%" PRIu32
+                                   " p99_ns=%" PRIu32 " max_ns=%" PRIu32, daemon_out_stage_names[k],
+                                   sum.samples, sum.p50_ns, sum.p99_ns, sum.max_ns);
+        }
         control_reply_ok(req, NULL);
 }
 
@@ -887,6 +927,7 @@ int daemon_new(struct evloop *loop, struct notify *notify, const char *config_pa
         d->loop = loop;
         d->notify = notify;
         d->wake_fd = -1;
+        stages_init(&d->out_stages, DAEMON_OUT_STAGES);
         evloop_timer_init(&d->heartbeat, loop, daemon_on_heartbeat, d);
         evloop_timer_init(&d->watchdog, loop, daemon_on_watchdog, d);
         log_ratelimit_init(&d->out_rl, "outbound table", LOG_RATELIMIT_INTERVAL_MS,

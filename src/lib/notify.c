@@ -1,8 +1,10 @@
 /*
  * Waiting for changes (futex on the .in change word) and reading the event ring.
  */
+#define _GNU_SOURCE     /* sched_getaffinity, CPU_COUNT */
 #include <errno.h>
 #include <limits.h>
+#include <sched.h>
 #include <string.h>
 
 #include <sharedlink.h>
@@ -37,6 +39,12 @@ static uint32_t change_word(const struct client_map *m)
 /* Spinning reads the clock once per this many polls of the change word (a pause each): often
  * enough for a budget of microseconds, rare enough that the clock is not what it spins on. */
 #define NOTIFY_SPIN_CHECK       32u
+/* The longest a spinner holds its CPU before sched_yield() hands it to whatever else is runnable
+ * there. The threads that bring the change (the tty's flip-buffer worker, the daemon, the program
+ * writing the frame) need a CPU: on a machine of few cores the scheduler may queue one of them
+ * behind the spinner for a whole time slice (milliseconds), which made a spin slower than a plain
+ * sleep in the futex. A yield with nothing else runnable returns at once. */
+#define NOTIFY_SPIN_YIELD_NS    10000u
 
 /*
  * The spin of SL_WAIT_SPIN: polls the change word until it differs from cursor (1) or until
@@ -44,13 +52,35 @@ static uint32_t change_word(const struct client_map *m)
  */
 static int wait_spin(const struct client_map *m, uint32_t cursor, uint64_t spin_end)
 {
+        uint64_t yield_at = client_now(CLOCK_MONOTONIC) + NOTIFY_SPIN_YIELD_NS;
+
         for (unsigned i = 1;; i++) {
+                uint64_t now;
+
                 if (change_word(m) != cursor)
                         return 1;
                 shm_seqlock_relax();
-                if (i % NOTIFY_SPIN_CHECK == 0 && client_now(CLOCK_MONOTONIC) >= spin_end)
+                if (i % NOTIFY_SPIN_CHECK != 0)
+                        continue;
+                now = client_now(CLOCK_MONOTONIC);
+                if (now >= spin_end)
                         return 0;
+                if (now >= yield_at) {
+                        sched_yield();
+                        yield_at = now + NOTIFY_SPIN_YIELD_NS;
+                }
         }
+}
+
+/* Whether this thread may run on more than one CPU. On one, a spin only keeps the CPU from the
+ * daemon and the tty it waits for: SL_WAIT_SPIN then blocks at once. */
+static int spin_can_help(void)
+{
+        cpu_set_t set;
+
+        if (sched_getaffinity(0, sizeof(set), &set) < 0)
+                return 1;
+        return CPU_COUNT(&set) > 1;
 }
 
 /* Spin budget in ns of opts (NULL: none); -EINVAL for a struct or a budget we do not take. */
@@ -84,7 +114,7 @@ SL_EXPORT int sl_wait_with(struct sl_client *c, uint32_t *cursor, int timeout_ms
         client_unlock(c);
 
         /* Spin first, never past the deadline; timeout 0 only checks, as without a spin. */
-        if (spin_ns > 0 && timeout_ms != 0) {
+        if (spin_ns > 0 && timeout_ms != 0 && spin_can_help()) {
                 uint64_t spin_end = now + (uint64_t)spin_ns;
 
                 if (timeout_ms > 0 && spin_end > deadline)

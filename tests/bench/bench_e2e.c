@@ -2,8 +2,12 @@
  * End-to-end latency and idle cost of a real sharedlinkd (SharedLink links over pty pairs whose
  * master the benchmark holds), measured side by side in one run:
  *
- *   floor     a frame written into a pty master -> a thread blocked in read() on the slave has
- *             its last byte (what any program pays to get bytes through a pty);
+ *   floor     a frame written into a pty master -> a thread blocked in poll() on the slave has
+ *             read its last byte (what any program pays to get bytes through a pty). Measured
+ *             like the daemon's side of inbound: the same frame bytes, the slave opened and set
+ *             up by the daemon's own serial_open() (non-blocking, raw, VMIN=1 VTIME=0, exclusive,
+ *             flushed), a second descriptor on it held open by us as for the daemon's link, and
+ *             a reader that sleeps in poll() and then read()s, as the daemon's loop does;
  *   wake-up   one futex wake-up from a thread to another (what handing a value from the daemon
  *             to a client costs at least, on top of the floor);
  *   inbound   a frame written into the master of the daemon's link -> a client thread blocked
@@ -48,6 +52,7 @@
 
 #include "common/harness.h"
 #include "common/wire.h"
+#include "daemon/serial.h"
 #include "shm/table.h"
 
 #define SAMPLES         3000
@@ -497,6 +502,41 @@ static long long stat_field(const char *text, const char *key)
         return p ? atoll(p + strlen(pat)) : -1;
 }
 
+/* The outbound stages the daemon timed itself, from its `stats` reply ("outbound_stage NAME
+ * samples=N p50_ns=N p99_ns=N max_ns=N"): the same cuts as the in-process run below, but in the
+ * real daemon, over its last writes (all of this run's outbound samples, warm-up included). */
+static void print_daemon_stages(struct harness *h)
+{
+        static const char *const keys[] = { "write_to_wake", "wake_to_loop", "loop_to_sent" };
+        static const char *const what[] = {
+                "sl_write -> wake thread signals", "eventfd -> poll loop runs",
+                "scan + frame handed to the link",
+        };
+        char reply[LINE_MAX_BENCH * 4], pat[64];
+
+        if (control_request(h, "stats\n", reply, sizeof(reply)) < 0) {
+                printf("  (the daemon did not answer `stats`: no stages from the daemon)\n");
+                return;
+        }
+        printf("outbound stage by stage, measured in the daemon (us)     median      p99      max\n");
+        for (size_t k = 0; k < sizeof(keys) / sizeof(keys[0]); k++) {
+                unsigned long long n, p50, p99, max;
+                const char *p;
+
+                snprintf(pat, sizeof(pat), "outbound_stage %s ", keys[k]);
+                p = strstr(reply, pat);
+                if (!p || sscanf(p + strlen(pat), "samples=%llu p50_ns=%llu p99_ns=%llu max_ns=%llu",
+                                 &n, &p50, &p99, &max) != 4) {
+                        printf("  %-34s (not reported)\n", what[k]);
+                        continue;
+                }
+                printf("  %-34s %19.1f %8.1f %8.1f   (%llu writes)\n", what[k],
+                       (double)p50 / NS_PER_US, (double)p99 / NS_PER_US, (double)max / NS_PER_US, n);
+                printf("FIGURE|dstage%zu|outbound stage in the daemon: %s (p99)|%.1f|us|-\n", k + 1,
+                       what[k], (double)p99 / NS_PER_US);
+        }
+}
+
 /* ---------------------------------------------------------------------------------------------
  * Runs */
 
@@ -517,7 +557,9 @@ static int run_latency(void)
         struct sl_client *c = NULL;
         double fmed, fp99, hmed, hp99, imed, ip99, mmed, mp99, smed, sp99, omed, op99;
         int master, slave, fm, fs, r;
-        char pts[HARNESS_PATH_MAX];
+        char pts[HARNESS_PATH_MAX], err[SERIAL_ERR_MAX];
+        struct serial_config floor_cfg;
+        struct serial_port floor_port;
 
         r = daemon_start(&h, "e2e", 1, &master, &slave);
         if (r < 0) {
@@ -536,10 +578,17 @@ static int run_latency(void)
         r = harness_openpty(&fm, &fs, pts);
         if (r < 0)
                 goto out;
-        fcntl(fs, F_SETFL, fcntl(fs, F_GETFL) | O_NONBLOCK);
+        /* Floor: a pty pair of our own, its slave opened the way the daemon opens a link's. */
+        serial_config_default(&floor_cfg);
+        r = serial_open(pts, &floor_cfg, &floor_port, err, sizeof(err));
+        if (r < 0) {
+                fprintf(stderr, "bench_e2e: floor pty: %s\n", err);
+                close(fm);
+                close(fs);
+                goto out;
+        }
         sem_init(&hop_sem, 0, 0);
-        /* Floor: a pty pair of our own, the same frame bytes. */
-        wf = (struct waiter){ .fd = fs };
+        wf = (struct waiter){ .fd = floor_port.fd };
         ffc = (struct frame_cause){ .fd = fm, .dst = 'B', .src = 'A' };
         /* One futex wake-up between two threads: what the table adds to the pty, at least. */
         wh = (struct waiter){ 0 };
@@ -590,6 +639,7 @@ static int run_latency(void)
         waiter_stop(&ws);
         waiter_stop(&wo);
         sem_destroy(&hop_sem);
+        serial_close(&floor_port);
         close(fm);
         close(fs);
         if (r < 0)
@@ -616,6 +666,7 @@ static int run_latency(void)
                (double)wi.cpu_ns / SAMPLES / NS_PER_US, GAP_US);
         printf("  outbound: sl_write -> pty master   %8.1f %8.1f   p99 %s 1 ms target\n", omed,
                op99, op99 < 1000.0 ? "under" : "OVER");
+        print_daemon_stages(&h);
         printf("FIGURE|pty_floor|pty floor (median)|%.1f|us|-\n", fmed);
         printf("FIGURE|inbound|inbound, blocking sl_wait (median)|%.1f|us|-\n", imed);
         printf("FIGURE|inbound_ratio|inbound blocking / floor|%.2f|x|<=1.5\n", imed / fmed);
@@ -663,7 +714,7 @@ static void stage_on_change(void *userdata, const struct shm_out_change *change)
         if (change->status != SHM_OUT_CHANGED)
                 return;
         snprintf(body, sizeof(body), "N0|D%s", change->value);
-        n = wire_slp_frame(frame, sizeof(frame), 'A', 'B', body, false);
+        n = wire_slp_frame(frame, sizeof(frame), 'A', 'B', body, true);
         if (write_all(l->tx_fd, frame, n) < 0)
                 l->failed = 1;
 }

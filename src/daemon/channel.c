@@ -146,6 +146,12 @@ static void channel_schedule_retry(struct channel *ch)
 {
         unsigned delay = ch->backoff_next;
 
+        if (!transport_reopens(ch->params.kind)) {
+                /* A replay's end, or a recording that cannot be played: final. */
+                ch->state = CHANNEL_STATE_STOPPED;
+                ch->retry_ms = 0;
+                return;
+        }
         ch->backoff_next = delay >= ch->backoff_max / 2 ? ch->backoff_max : delay * 2;
         ch->retry_ms = delay;
         ch->state = CHANNEL_STATE_BACKOFF;
@@ -321,10 +327,13 @@ static bool channel_read(struct channel *ch, unsigned revents)
                         continue;
                 }
                 if (n < 0) {
-                        ch->stats.io_errors++;
+                        if (n != -ENODATA)      /* a replay's end is no I/O error */
+                                ch->stats.io_errors++;
                         if (transport_error_fatal(ch->tp, (int)n)) {
                                 if (n == -EPIPE)
                                         channel_set_reason(ch, "hang-up");
+                                else if (n == -ENODATA)
+                                        channel_set_reason(ch, "end of recording");
                                 else
                                         channel_set_reason(ch, "read: %s", strerror((int)-n));
                                 channel_go_down(ch, true);

@@ -6,7 +6,8 @@
  *   POLLERR, read returning 0; a missing device; a failing write), it closes it, reports
  *   `down` with a reason, waits (100 ms, doubling up to 5 s) and reopens, trying the next of
  *   several serial devices each time. A link that stayed up for at least the maximum backoff
- *   starts again at the minimum delay.
+ *   starts again at the minimum delay. A transport that does not reopen (transport_reopens():
+ *   a replay) reports `down` with retry 0 and the channel is STOPPED.
  * - Reads whatever arrives and hands it to `input`: bytes for a tty or pty, exactly one
  *   datagram per call for UDP.
  * - Sends frames: channel_send() writes at once when nothing is queued (no extra wakeup),

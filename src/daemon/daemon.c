@@ -28,6 +28,7 @@
 #include "daemon/control.h"
 #include "daemon/link.h"
 #include "daemon/log.h"
+#include "daemon/replay.h"
 #include "shm/table.h"
 
 #define DAEMON_GROUP_BUF        16384   /* getgrnam_r buffer */
@@ -374,6 +375,17 @@ int daemon_check_config(const struct config *config, char *err, size_t errsz)
         int r = plan_make(config, &plan, err, errsz);
 
         plan_clear(&plan);
+        /* Only here, not at start: there a broken recording fails its link, not the daemon. */
+        for (unsigned i = 0; r == 0 && i < config->n_links; i++) {
+                const struct config_link *l = &config->links[i];
+                char why[TRANSPORT_ERR_MAX];
+
+                if (l->transport != CONFIG_TRANSPORT_REPLAY)
+                        continue;
+                r = replay_check_file(l->replay_file, why, sizeof(why));
+                if (r < 0)
+                        errf(err, errsz, r, "link %s: %s", l->name, why);
+        }
         return r;
 }
 

@@ -21,6 +21,8 @@ static enum transport_kind transport_kind_of(enum config_transport t)
                 return TRANSPORT_UDP;
         case CONFIG_TRANSPORT_PTY:
                 return TRANSPORT_PTY;
+        case CONFIG_TRANSPORT_REPLAY:
+                return TRANSPORT_REPLAY;
         case CONFIG_TRANSPORT_SERIAL:
         default:
                 return TRANSPORT_SERIAL;
@@ -64,6 +66,13 @@ static int link_transport_params(const struct config_link *cfg, struct transport
         params->serial.data_bits = cfg->serial.data_bits;
         params->serial.stop_bits = cfg->serial.stop_bits;
         params->serial.flow = flow_of(cfg->serial.flow_control);
+        if (cfg->transport == CONFIG_TRANSPORT_REPLAY &&
+            transport_params_add_device(params, cfg->replay_file) < 0) {
+                log_warnx("link %s: file %s: path too long", cfg->name, cfg->replay_file);
+                return -EINVAL;
+        }
+        params->replay_speed = cfg->replay_speed;
+        params->replay_loop = cfg->replay_loop;
         for (unsigned i = 0; i < cfg->n_devices; i++)
                 if (transport_params_add_device(params, cfg->devices[i]) < 0) {
                         log_warnx("link %s: device %s: path too long or too many devices",

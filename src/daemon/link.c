@@ -11,6 +11,7 @@
 #include "daemon/control.h"
 
 #include "daemon/log.h"
+#include "daemon/recorder.h"
 #include "daemon/transport.h"
 #include "shm/table.h"
 
@@ -102,7 +103,10 @@ int link_channel_new(const struct link_env *env, const struct channel_ops *ops, 
         r = link_transport_params(env->cfg, &params);
         if (r < 0)
                 return r;
-        return channel_new(env->loop, &params, NULL, ops, arg, ret_channel);
+        r = channel_new(env->loop, &params, NULL, ops, arg, ret_channel);
+        if (r == 0 && env->tap)
+                channel_set_tap(*ret_channel, recorder_chunk, env->tap);
+        return r;
 }
 
 void link_publish_channel_stats(const struct link_env *env, const struct channel *ch)

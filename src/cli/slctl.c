@@ -12,6 +12,7 @@
 
 #include "cli/cmd_daemon.h"
 #include "cli/cmd_info.h"
+#include "cli/cmd_record.h"
 #include "cli/cmd_vars.h"
 
 #ifndef SHAREDLINK_VERSION
@@ -136,6 +137,22 @@ static const struct command commands[] = {
           "  --wait MS      if LINK is down, wait up to MS for it instead of failing at once\n"
           "\n"
           "Example: slctl command vehicle ServoPod \"0,TELEOP START\"\n" },
+        { "record", cmd_record, "record [--duration S] [--count N] LINK FILE",
+          "Usage: slctl [-i INSTANCE] record [--duration S] [--count N] LINK FILE\n"
+          "\n"
+          "Records what the link LINK receives and sends into FILE (\"-\": standard output),\n"
+          "one line per chunk read from or written to its device, with CLOCK_MONOTONIC times\n"
+          "since the start (docs/recording.md), until interrupted (SIGINT, SIGTERM), the\n"
+          "link is stopped or the daemon stops. Prints how many chunks and bytes it recorded\n"
+          "on standard error. The daemon never waits for a slow recorder: what does not fit\n"
+          "its queue is dropped and marked in the file with \"# dropped N chunks\".\n"
+          "A recording is played back by a link with \"transport: replay\" and \"file: FILE\".\n"
+          "Needs the same rights as commands (the daemon's group).\n"
+          "\n"
+          "  --duration S   stop after S seconds\n"
+          "  --count N      stop after N chunks\n"
+          "\n"
+          "Example: slctl record vehicle /tmp/vehicle.rec\n" },
         { "circe", cmd_daemon_circe, "circe LINK OPERATION ...",
           "Usage:\n"
           "  slctl [-i INSTANCE] circe LINK alert ADDR\n"

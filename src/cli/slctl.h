@@ -1,6 +1,6 @@
 /*
  * slctl: what every command shares. Commands live in cmd_vars.c (list, get, set, watch),
- * cmd_info.c (events, stats) and cmd_daemon.c (query, circe); slctl.c parses the global options,
+ * cmd_info.c (events, stats), cmd_daemon.c (query, circe) and cmd_record.c (record); slctl.c parses the global options,
  * dispatches, and holds the help texts. Built only on <sharedlink.h>.
  *
  * A command is `int cmd(struct slctl *s, int argc, char **argv)` with argv[0] its own name, and

@@ -31,6 +31,8 @@ struct channel {
         struct transport_params params;
         struct channel_ops ops;
         void *arg;
+        channel_tap_fn tap;             /* NULL unless a recorder may listen */
+        void *tap_arg;
 
         enum channel_state state;
         struct transport *tp;           /* open while UP */
@@ -63,6 +65,12 @@ static void channel_set_reason(struct channel *ch, const char *fmt, ...)
         va_start(ap, fmt);
         vsnprintf(ch->reason, sizeof(ch->reason), fmt, ap);
         va_end(ap);
+}
+
+static void channel_tap(struct channel *ch, bool out, const void *data, size_t len)
+{
+        if (ch->tap && len > 0)
+                ch->tap(ch->tap_arg, out, data, len);
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -146,6 +154,12 @@ static void channel_schedule_retry(struct channel *ch)
 {
         unsigned delay = ch->backoff_next;
 
+        if (!transport_reopens(ch->params.kind)) {
+                /* A replay's end, or a recording that cannot be played: final. */
+                ch->state = CHANNEL_STATE_STOPPED;
+                ch->retry_ms = 0;
+                return;
+        }
         ch->backoff_next = delay >= ch->backoff_max / 2 ? ch->backoff_max : delay * 2;
         ch->retry_ms = delay;
         ch->state = CHANNEL_STATE_BACKOFF;
@@ -292,6 +306,7 @@ static bool channel_flush(struct channel *ch)
                         continue;
                 }
                 ch->stats.bytes_out += (uint64_t)n;
+                channel_tap(ch, true, p, (size_t)n);
                 if (dgram) {
                         ch->stats.datagrams_out++;
                         channel_q_drop(&ch->q, hdr + len);
@@ -321,10 +336,13 @@ static bool channel_read(struct channel *ch, unsigned revents)
                         continue;
                 }
                 if (n < 0) {
-                        ch->stats.io_errors++;
+                        if (n != -ENODATA)      /* a replay's end is no I/O error */
+                                ch->stats.io_errors++;
                         if (transport_error_fatal(ch->tp, (int)n)) {
                                 if (n == -EPIPE)
                                         channel_set_reason(ch, "hang-up");
+                                else if (n == -ENODATA)
+                                        channel_set_reason(ch, "end of recording");
                                 else
                                         channel_set_reason(ch, "read: %s", strerror((int)-n));
                                 channel_go_down(ch, true);
@@ -337,6 +355,7 @@ static bool channel_read(struct channel *ch, unsigned revents)
                 ch->stats.bytes_in += (uint64_t)n;
                 if (dgram)
                         ch->stats.datagrams_in++;
+                channel_tap(ch, false, ch->rbuf, (size_t)n);
                 if (ch->ops.input)
                         ch->ops.input(ch, ch->rbuf, (size_t)n, ch->arg);
                 if (ch->gen != gen || ch->free_pending || ch->state != CHANNEL_STATE_UP)
@@ -473,6 +492,7 @@ int channel_send(struct channel *ch, const void *data, size_t len)
                 n = channel_write(ch, data, len);
         if (n >= 0) {
                 ch->stats.bytes_out += (uint64_t)n;
+                channel_tap(ch, true, data, (size_t)n);
                 if (dgram) {
                         ch->stats.datagrams_out++;
                         return 0;
@@ -506,6 +526,12 @@ void channel_fail(struct channel *ch, const char *reason)
                 return;
         channel_set_reason(ch, "%s", reason ? reason : "failed");
         channel_go_down(ch, false);
+}
+
+void channel_set_tap(struct channel *ch, channel_tap_fn fn, void *arg)
+{
+        ch->tap = fn;
+        ch->tap_arg = fn ? arg : NULL;
 }
 
 enum channel_state channel_state(const struct channel *ch)

@@ -6,7 +6,8 @@
  *   POLLERR, read returning 0; a missing device; a failing write), it closes it, reports
  *   `down` with a reason, waits (100 ms, doubling up to 5 s) and reopens, trying the next of
  *   several serial devices each time. A link that stayed up for at least the maximum backoff
- *   starts again at the minimum delay.
+ *   starts again at the minimum delay. A transport that does not reopen (transport_reopens():
+ *   a replay) reports `down` with retry 0 and the channel is STOPPED.
  * - Reads whatever arrives and hands it to `input`: bytes for a tty or pty, exactly one
  *   datagram per call for UDP.
  * - Sends frames: channel_send() writes at once when nothing is queued (no extra wakeup),
@@ -23,6 +24,7 @@
 #ifndef SHAREDLINK_DAEMON_CHANNEL_H
 #define SHAREDLINK_DAEMON_CHANNEL_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -44,6 +46,10 @@ enum channel_state {
 };
 
 struct channel;
+
+/* A copy of every chunk read from (out false) or written to (out true) the transport, as it
+ * passes: what `record` taps (recorder.h). It must not call channel_*() functions. */
+typedef void (*channel_tap_fn)(void *arg, bool out, const uint8_t *data, size_t len);
 
 /* Each may be NULL. */
 struct channel_ops {
@@ -101,6 +107,9 @@ int channel_send(struct channel *ch, const void *data, size_t len);
 /* An engine-level failure (no login reply, idle timeout): closes, backs off, then tries the
  * next device. Ignored unless up. Calls no callback. */
 void channel_fail(struct channel *ch, const char *reason);
+
+/* Sets (fn NULL: clears) the tap that sees every chunk read or written. */
+void channel_set_tap(struct channel *ch, channel_tap_fn fn, void *arg);
 
 /* Current state. */
 enum channel_state channel_state(const struct channel *ch);

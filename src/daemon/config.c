@@ -247,6 +247,9 @@ bool config_link_equal(const struct config_link *a, const struct config_link *b)
         if (strcmp(a->local.text, b->local.text) != 0 || a->has_remote != b->has_remote ||
             strcmp(a->remote.text, b->remote.text) != 0)
                 return false;
+        if (strcmp(a->replay_file, b->replay_file) != 0 || a->replay_speed != b->replay_speed ||
+            a->replay_loop != b->replay_loop)
+                return false;
         if (a->protocol == CONFIG_PROTOCOL_SHAREDLINK)
                 return sharedlink_equal(&a->sl, &b->sl);
         return circe_equal(&a->circe, &b->circe);

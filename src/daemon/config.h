@@ -80,6 +80,11 @@
 #define CONFIG_INSTANCE_DEFAULT         "default"
 #define CONFIG_RUNTIME_DIR_DEFAULT      "/run/sharedlink"
 
+/* replay: speed is a factor on the recorded pace, e.g. 0.5 or 10 ("max": no pacing) */
+#define CONFIG_REPLAY_SPEED_MIN         0.001
+#define CONFIG_REPLAY_SPEED_MAX         1000.0
+#define CONFIG_REPLAY_SPEED_TEXT_MAX    16u     /* "1000.000000" and a little more */
+
 #define CONFIG_ERROR_MAX        512u
 
 enum config_protocol {
@@ -91,6 +96,7 @@ enum config_transport {
         CONFIG_TRANSPORT_SERIAL,
         CONFIG_TRANSPORT_UDP,
         CONFIG_TRANSPORT_PTY,           /* creates a pty, symlinks its slave at devices[0] */
+        CONFIG_TRANSPORT_REPLAY,        /* plays a recording (docs/recording.md) into the engine */
 };
 
 enum config_role {
@@ -214,6 +220,11 @@ struct config_link {
         struct config_endpoint local;   /* udp */
         struct config_endpoint remote;  /* udp, when has_remote */
         bool has_remote;
+        /* replay: the recording (absolute path), the pace (0: as fast as the engine takes it,
+         * else a factor on the recorded times' pace) and whether to start over at the end */
+        char replay_file[CONFIG_PATH_MAX];
+        double replay_speed;
+        bool replay_loop;
         struct config_sharedlink sl;    /* protocol sharedlink */
         struct config_circe circe;      /* protocol circe */
 };

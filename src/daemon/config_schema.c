@@ -4,6 +4,7 @@
  */
 #include "daemon/config_internal.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 /* ---------------------------------------------------------------------------------------------
@@ -13,7 +14,7 @@ enum {
         LK_NAME, LK_PROTOCOL, LK_TRANSPORT, LK_ROLE, LK_DEVICE, LK_DEVICES, LK_BAUD, LK_PARITY,
         LK_DATA_BITS, LK_STOP_BITS, LK_FLOW_CONTROL, LK_LOCAL, LK_REMOTE, LK_ADDRESS, LK_PEERS,
         LK_CHECKSUM, LK_EXPECT_VERSION, LK_LOGIN_TIMEOUT_MS, LK_IDLE_TIMEOUT_MS, LK_VERSION,
-        LK_STATUS, LK_KEEPALIVE_MS, LK_EMULATE, LK_CRLF, LK_COUNT
+        LK_STATUS, LK_KEEPALIVE_MS, LK_EMULATE, LK_CRLF, LK_FILE, LK_SPEED, LK_LOOP, LK_COUNT
 };
 
 /* Where a link key applies: protocol/role bits and transport bits. */
@@ -26,8 +27,12 @@ enum {
         SCOPE_SERIAL = 1 << 3,
         SCOPE_UDP = 1 << 4,
         SCOPE_PTY = 1 << 5,
+        SCOPE_REPLAY = 1 << 6,
         SCOPE_TTY = SCOPE_SERIAL | SCOPE_PTY,
-        SCOPE_ANY_TRANSPORT = SCOPE_TTY | SCOPE_UDP,
+        /* A replay link takes (and ignores) the keys of the transport it was recorded on, so a
+         * field configuration is replayed by changing only transport and adding file. */
+        SCOPE_WIRE = SCOPE_TTY | SCOPE_UDP | SCOPE_REPLAY,
+        SCOPE_ANY_TRANSPORT = SCOPE_WIRE,
         SCOPE_ANY = SCOPE_ANY_PROTOCOL | SCOPE_ANY_TRANSPORT,
 };
 
@@ -39,15 +44,15 @@ static const struct link_key {
         [LK_PROTOCOL] = { "protocol", SCOPE_ANY },
         [LK_TRANSPORT] = { "transport", SCOPE_ANY },
         [LK_ROLE] = { "role", SCOPE_CIRCE | SCOPE_ANY_TRANSPORT },
-        [LK_DEVICE] = { "device", SCOPE_ANY_PROTOCOL | SCOPE_TTY },
-        [LK_DEVICES] = { "devices", SCOPE_ANY_PROTOCOL | SCOPE_SERIAL },
-        [LK_BAUD] = { "baud", SCOPE_ANY_PROTOCOL | SCOPE_TTY },
-        [LK_PARITY] = { "parity", SCOPE_ANY_PROTOCOL | SCOPE_TTY },
-        [LK_DATA_BITS] = { "data_bits", SCOPE_ANY_PROTOCOL | SCOPE_TTY },
-        [LK_STOP_BITS] = { "stop_bits", SCOPE_ANY_PROTOCOL | SCOPE_TTY },
-        [LK_FLOW_CONTROL] = { "flow_control", SCOPE_ANY_PROTOCOL | SCOPE_TTY },
-        [LK_LOCAL] = { "local", SCOPE_ANY_PROTOCOL | SCOPE_UDP },
-        [LK_REMOTE] = { "remote", SCOPE_ANY_PROTOCOL | SCOPE_UDP },
+        [LK_DEVICE] = { "device", SCOPE_ANY_PROTOCOL | SCOPE_TTY | SCOPE_REPLAY },
+        [LK_DEVICES] = { "devices", SCOPE_ANY_PROTOCOL | SCOPE_SERIAL | SCOPE_REPLAY },
+        [LK_BAUD] = { "baud", SCOPE_ANY_PROTOCOL | SCOPE_TTY | SCOPE_REPLAY },
+        [LK_PARITY] = { "parity", SCOPE_ANY_PROTOCOL | SCOPE_TTY | SCOPE_REPLAY },
+        [LK_DATA_BITS] = { "data_bits", SCOPE_ANY_PROTOCOL | SCOPE_TTY | SCOPE_REPLAY },
+        [LK_STOP_BITS] = { "stop_bits", SCOPE_ANY_PROTOCOL | SCOPE_TTY | SCOPE_REPLAY },
+        [LK_FLOW_CONTROL] = { "flow_control", SCOPE_ANY_PROTOCOL | SCOPE_TTY | SCOPE_REPLAY },
+        [LK_LOCAL] = { "local", SCOPE_ANY_PROTOCOL | SCOPE_UDP | SCOPE_REPLAY },
+        [LK_REMOTE] = { "remote", SCOPE_ANY_PROTOCOL | SCOPE_UDP | SCOPE_REPLAY },
         [LK_ADDRESS] = { "address", SCOPE_SL | SCOPE_MEDIATOR | SCOPE_ANY_TRANSPORT },
         [LK_PEERS] = { "peers", SCOPE_SL | SCOPE_ANY_TRANSPORT },
         [LK_CHECKSUM] = { "checksum", SCOPE_CIRCE | SCOPE_ANY_TRANSPORT },
@@ -58,7 +63,10 @@ static const struct link_key {
         [LK_STATUS] = { "status", SCOPE_MEDIATOR | SCOPE_ANY_TRANSPORT },
         [LK_KEEPALIVE_MS] = { "keepalive_ms", SCOPE_MEDIATOR | SCOPE_ANY_TRANSPORT },
         [LK_EMULATE] = { "emulate", SCOPE_MEDIATOR | SCOPE_ANY_TRANSPORT },
-        [LK_CRLF] = { "crlf", SCOPE_SL | SCOPE_UDP },
+        [LK_CRLF] = { "crlf", SCOPE_SL | SCOPE_UDP | SCOPE_REPLAY },
+        [LK_FILE] = { "file", SCOPE_ANY_PROTOCOL | SCOPE_REPLAY },
+        [LK_SPEED] = { "speed", SCOPE_ANY_PROTOCOL | SCOPE_REPLAY },
+        [LK_LOOP] = { "loop", SCOPE_ANY_PROTOCOL | SCOPE_REPLAY },
 };
 
 static unsigned link_scope(const struct config_link *l)
@@ -76,6 +84,8 @@ static unsigned link_scope(const struct config_link *l)
                 return s | SCOPE_UDP;
         case CONFIG_TRANSPORT_PTY:
                 return s | SCOPE_PTY;
+        case CONFIG_TRANSPORT_REPLAY:
+                return s | SCOPE_REPLAY;
         }
         return s;
 }
@@ -320,6 +330,59 @@ static int parse_link_kind(struct ctx *c, const struct ynode *map,
         return link_check_scope(c, map, l);
 }
 
+/* "max" (0: no pacing), or a plain decimal number (digits, at most one point) in range. */
+static int parse_speed(struct ctx *c, const struct ynode *n, double *ret)
+{
+        char text[CONFIG_REPLAY_SPEED_TEXT_MAX];
+        bool point = false, digit = false;
+        double v;
+        int r;
+
+        if (cfg_scalar_is(n, "max")) {
+                *ret = 0;
+                return 0;
+        }
+        r = cfg_get_string(c, "speed", n, text, sizeof(text));
+        if (r < 0)
+                return r;
+        for (const char *p = text; *p; p++) {
+                if (*p == '.' && !point) {
+                        point = true;
+                        continue;
+                }
+                if (*p < '0' || *p > '9')
+                        return cfg_fail(c, n, "speed: expected max or a number like 1.0, 0.5 or "
+                                        "10, got %s", cfg_quote_node(c, n));
+                digit = true;
+        }
+        v = digit ? strtod(text, NULL) : 0;
+        if (!digit || v < CONFIG_REPLAY_SPEED_MIN || v > CONFIG_REPLAY_SPEED_MAX)
+                return cfg_fail(c, n, "speed: %s is out of range (%g..%g, or max)",
+                                cfg_quote_node(c, n), CONFIG_REPLAY_SPEED_MIN,
+                                CONFIG_REPLAY_SPEED_MAX);
+        *ret = v;
+        return 0;
+}
+
+/* file, speed (default 1.0), loop (default false); the recorded transport's keys are ignored. */
+static int parse_replay(struct ctx *c, const struct ynode *map, const struct ynode *const *vals,
+                        struct config_link *l)
+{
+        int r;
+
+        if (!vals[LK_FILE])
+                return cfg_fail(c, map, "missing key \"file\" in link (the recording to replay)");
+        r = cfg_get_path(c, "file", vals[LK_FILE], l->replay_file, sizeof(l->replay_file));
+        if (r < 0)
+                return r;
+        l->replay_speed = 1.0;
+        if (vals[LK_SPEED] && (r = parse_speed(c, vals[LK_SPEED], &l->replay_speed)) < 0)
+                return r;
+        if (vals[LK_LOOP] && (r = cfg_get_bool(c, "loop", vals[LK_LOOP], &l->replay_loop)) < 0)
+                return r;
+        return 0;
+}
+
 static int parse_link_transport(struct ctx *c, const struct ynode *map,
                                 const struct ynode *const *keys, const struct ynode *const *vals,
                                 unsigned index)
@@ -329,6 +392,8 @@ static int parse_link_transport(struct ctx *c, const struct ynode *map,
 
         l->serial = (struct config_serial){ CONFIG_BAUD_DEFAULT, CONFIG_PARITY_NONE, 8, 1,
                                             CONFIG_FLOW_NONE };
+        if (l->transport == CONFIG_TRANSPORT_REPLAY)
+                return parse_replay(c, map, vals, l);
         if (l->transport != CONFIG_TRANSPORT_UDP) {
                 r = parse_devices(c, keys, vals, map, l, index);
                 if (r < 0)

@@ -116,6 +116,7 @@ static const struct cfg_enum_name transport_names[] = {
         { "serial", CONFIG_TRANSPORT_SERIAL },
         { "udp", CONFIG_TRANSPORT_UDP },
         { "pty", CONFIG_TRANSPORT_PTY },
+        { "replay", CONFIG_TRANSPORT_REPLAY },
 };
 const struct cfg_enum cfg_transports = { transport_names, ENUM_COUNT(transport_names) };
 static const struct cfg_enum_name role_names[] = {

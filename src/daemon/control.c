@@ -585,6 +585,13 @@ int control_request_alive(const struct control_request *req)
         return req->client && !req->client->broken;
 }
 
+size_t control_request_queued(const struct control_request *req)
+{
+        if (!req->client)
+                return 0;
+        return req->client->out_len - req->client->out_off;
+}
+
 void control_get_stats(const struct control *c, struct control_stats *ret_stats)
 {
         *ret_stats = c->stats;

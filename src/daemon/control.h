@@ -98,6 +98,10 @@ void control_reply_error(struct control_request *req, int err, const char *fmt, 
 /* Whether the client that sent req is still connected (an engine may stop waiting early). */
 int control_request_alive(const struct control_request *req);
 
+/* Reply bytes queued for req's client and not sent yet (0 once it is gone): a streaming answer
+ * (a recorder) keeps under its own bound with it instead of being disconnected as a slow reader. */
+size_t control_request_queued(const struct control_request *req);
+
 /* Copies the counters. */
 void control_get_stats(const struct control *c, struct control_stats *ret_stats);
 

@@ -28,6 +28,8 @@
 #include "daemon/control.h"
 #include "daemon/link.h"
 #include "daemon/log.h"
+#include "daemon/recorder.h"
+#include "daemon/replay.h"
 #include "daemon/stages.h"
 #include "shm/table.h"
 
@@ -72,6 +74,7 @@ struct daemon_link {
         struct daemon_config *dc;       /* the configuration it was created with */
         struct link_env env;            /* handed to the engine; stable address */
         void *engine;                   /* NULL when create() failed */
+        struct recorder_tap *tap;       /* `record LINK` (recorder.h) */
         char failure[DAEMON_ERROR_MAX]; /* why, for STATUS and commands */
 };
 
@@ -94,6 +97,7 @@ struct daemon {
         struct evloop_timer heartbeat;
         struct evloop_timer watchdog;
         struct log_ratelimit out_rl;    /* outbound object trouble */
+        struct recorder_stats rec_stats;        /* every link's recorders */
         char status[NOTIFY_STATUS_MAX];
 };
 
@@ -388,6 +392,17 @@ int daemon_check_config(const struct config *config, char *err, size_t errsz)
         int r = plan_make(config, &plan, err, errsz);
 
         plan_clear(&plan);
+        /* Only here, not at start: there a broken recording fails its link, not the daemon. */
+        for (unsigned i = 0; r == 0 && i < config->n_links; i++) {
+                const struct config_link *l = &config->links[i];
+                char why[TRANSPORT_ERR_MAX];
+
+                if (l->transport != CONFIG_TRANSPORT_REPLAY)
+                        continue;
+                r = replay_check_file(l->replay_file, why, sizeof(why));
+                if (r < 0)
+                        errf(err, errsz, r, "link %s: %s", l->name, why);
+        }
         return r;
 }
 
@@ -535,6 +550,7 @@ static void link_stop(struct daemon *d, unsigned i)
                 log_debug("link %s: stopping", dl->env.cfg->name);
                 dl->ops->destroy(dl->engine);
         }
+        recorder_tap_free(dl->tap, "link stopped");
         dconfig_unref(dl->dc);
         free(dl);
         d->links[i] = NULL;
@@ -547,10 +563,21 @@ static int link_start(struct daemon *d, unsigned i, struct daemon_config *dc,
 {
         struct daemon_link *dl = calloc(1, sizeof(*dl));
         const struct config_link *l = &dc->config->links[i];
+        struct recorder_link_info info = {
+                .link = l->name,
+                .protocol = config_protocol_name(l->protocol),
+                .transport = config_transport_name(l->transport),
+                .instance = dc->config->instance,
+        };
         int r;
 
         if (!dl)
                 return -ENOMEM;
+        dl->tap = recorder_tap_new(&info, &d->rec_stats);
+        if (!dl->tap) {
+                free(dl);
+                return -ENOMEM;
+        }
         dl->d = d;
         dl->ops = ops;
         dl->dc = dconfig_ref(dc);
@@ -559,6 +586,7 @@ static int link_start(struct daemon *d, unsigned i, struct daemon_config *dc,
         dl->env.shm_link = i;
         dl->env.config = dc->config;
         dl->env.cfg = l;
+        dl->env.tap = dl->tap;
         d->links[i] = dl;
         r = ops->create(&dl->env, &dl->engine);
         if (r < 0) {
@@ -752,6 +780,8 @@ static void daemon_on_heartbeat(struct evloop *loop, struct evloop_timer *t, voi
 
                 if (dl && dl->engine && dl->ops->heartbeat)
                         dl->ops->heartbeat(dl->engine);
+                if (dl)
+                        recorder_sweep(dl->tap);
         }
         log_ratelimit_flush(&d->out_rl);
         daemon_status(d, false);
@@ -818,7 +848,41 @@ static void request_stats(struct daemon *d, struct control_request *req)
                                    " p99_ns=%" PRIu32 " max_ns=%" PRIu32, daemon_out_stage_names[k],
                                    sum.samples, sum.p50_ns, sum.p99_ns, sum.max_ns);
         }
+        control_reply_data(req, "record recorders=%u started=%" PRIu64 " chunks=%" PRIu64
+                           " dropped=%" PRIu64, d->rec_stats.active, d->rec_stats.started,
+                           d->rec_stats.chunks, d->rec_stats.dropped);
         control_reply_ok(req, NULL);
+}
+
+static struct daemon_link *link_by_name(struct daemon *d, const char *name)
+{
+        for (unsigned i = 0; i < d->n_links; i++)
+                if (d->links[i] && strcmp(d->links[i]->env.cfg->name, name) == 0)
+                        return d->links[i];
+        return NULL;
+}
+
+/* "record LINK": answered by the link's recorders until the client leaves (recorder.h). */
+static void request_record(struct daemon *d, struct control_request *req, int argc, char **argv)
+{
+        struct daemon_link *dl;
+        int r;
+
+        if (argc != 2) {
+                control_reply_error(req, EINVAL, "usage: record LINK");
+                return;
+        }
+        dl = link_by_name(d, argv[1]);
+        if (!dl) {
+                control_reply_error(req, ENOENT, "no link named \"%s\"", argv[1]);
+                return;
+        }
+        r = recorder_add(dl->tap, req);
+        if (r == -EBUSY)
+                control_reply_error(req, EBUSY, "link %s has %u recorders already", argv[1],
+                                    RECORDER_PER_LINK_MAX);
+        else if (r < 0)
+                control_reply_error(req, -r, "cannot record link %s: %s", argv[1], strerror(-r));
 }
 
 /* "<command word> LINK ... [wait=MS]": the wait is parsed here, once, for every engine. */
@@ -881,6 +945,8 @@ static void daemon_on_request(struct control_request *req, int argc, char **argv
                         control_reply_error(req, EINVAL, "usage: stats");
                 else
                         request_stats(d, req);
+        } else if (strcmp(argv[0], "record") == 0) {
+                request_record(d, req, argc, argv);
         } else if (link_protocol_for_command(argv[0], &protocol) == 0) {
                 request_link(d, req, argc, argv, protocol);
         } else {

@@ -45,7 +45,8 @@ struct daemon;
 
 /*
  * Checks what the parser cannot: an engine for every link's protocol in this build, the group
- * exists, every link's declaration works, the socket path fits. 0, or -errno with a one-line
+ * exists, every link's declaration works, the socket path fits, every replay link's recording
+ * reads ("FILE:LINE: message" for a broken line). 0, or -errno with a one-line
  * message in err ("link x: protocol circe not available in this build").
  */
 int daemon_check_config(const struct config *config, char *err, size_t errsz);

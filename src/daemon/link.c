@@ -11,6 +11,7 @@
 #include "daemon/control.h"
 
 #include "daemon/log.h"
+#include "daemon/recorder.h"
 #include "daemon/transport.h"
 #include "shm/table.h"
 
@@ -21,6 +22,8 @@ static enum transport_kind transport_kind_of(enum config_transport t)
                 return TRANSPORT_UDP;
         case CONFIG_TRANSPORT_PTY:
                 return TRANSPORT_PTY;
+        case CONFIG_TRANSPORT_REPLAY:
+                return TRANSPORT_REPLAY;
         case CONFIG_TRANSPORT_SERIAL:
         default:
                 return TRANSPORT_SERIAL;
@@ -64,6 +67,13 @@ static int link_transport_params(const struct config_link *cfg, struct transport
         params->serial.data_bits = cfg->serial.data_bits;
         params->serial.stop_bits = cfg->serial.stop_bits;
         params->serial.flow = flow_of(cfg->serial.flow_control);
+        if (cfg->transport == CONFIG_TRANSPORT_REPLAY &&
+            transport_params_add_device(params, cfg->replay_file) < 0) {
+                log_warnx("link %s: file %s: path too long", cfg->name, cfg->replay_file);
+                return -EINVAL;
+        }
+        params->replay_speed = cfg->replay_speed;
+        params->replay_loop = cfg->replay_loop;
         for (unsigned i = 0; i < cfg->n_devices; i++)
                 if (transport_params_add_device(params, cfg->devices[i]) < 0) {
                         log_warnx("link %s: device %s: path too long or too many devices",
@@ -93,7 +103,10 @@ int link_channel_new(const struct link_env *env, const struct channel_ops *ops, 
         r = link_transport_params(env->cfg, &params);
         if (r < 0)
                 return r;
-        return channel_new(env->loop, &params, NULL, ops, arg, ret_channel);
+        r = channel_new(env->loop, &params, NULL, ops, arg, ret_channel);
+        if (r == 0 && env->tap)
+                channel_set_tap(*ret_channel, recorder_chunk, env->tap);
+        return r;
 }
 
 void link_publish_channel_stats(const struct link_env *env, const struct channel *ch)

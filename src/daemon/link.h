@@ -33,6 +33,7 @@ struct shm_table;
 struct shm_var;
 struct shm_out_change;
 struct control_request;
+struct recorder_tap;
 
 /* Everything an engine gets from the core; valid until the engine's destroy() returns. */
 struct link_env {
@@ -41,6 +42,7 @@ struct link_env {
         uint32_t shm_link;                      /* this link's index in the table's link area */
         const struct config *config;            /* the whole configuration in force */
         const struct config_link *cfg;          /* this link's settings (points into config) */
+        struct recorder_tap *tap;               /* `record` listens here (NULL: nobody can) */
 };
 
 struct link_ops {
@@ -117,7 +119,8 @@ int link_command_wait(int *argc, char *const *argv, unsigned *ret_wait_ms, char 
 
 /*
  * Creates (stopped) the channel of env's link from its configuration (serial settings, devices,
- * pty path, udp endpoints), with the given callbacks. The engine then calls channel_start().
+ * pty path, udp endpoints, replay file), with the given callbacks and env's recorder tap. The
+ * engine then calls channel_start().
  * 0 or -errno (-EINVAL with a log line when the configuration cannot be mapped).
  */
 int link_channel_new(const struct link_env *env, const struct channel_ops *ops, void *arg,

@@ -16,6 +16,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "daemon/replay.h"
+
 #define TRANSPORT_PORT_MAX      65535
 #define TRANSPORT_PORT_LEN      8       /* "65535" and NUL, with room */
 #define TRANSPORT_PTS_MAX       64      /* "/dev/pts/NNN" */
@@ -38,6 +40,8 @@ struct transport {
         bool udp_have_peer;                     /* udp, unconnected: last sender known */
         struct sockaddr_storage udp_peer;
         socklen_t udp_peer_len;
+
+        struct replay *replay;                  /* replay */
 };
 
 /* ---------------------------------------------------------------------------------------------
@@ -124,6 +128,13 @@ const char *transport_params_check(const struct transport_params *params)
                 if (params->n_devices != 1)
                         return "pty needs exactly one device (the symlink path)";
                 break;
+        case TRANSPORT_REPLAY:
+                if (params->n_devices != 1 || params->devices[0][0] == '\0' ||
+                    strnlen(params->devices[0], TRANSPORT_PATH_MAX) == TRANSPORT_PATH_MAX)
+                        return "replay needs exactly one file";
+                if (params->replay_speed < 0)
+                        return "replay speed must be positive (0 for max)";
+                return NULL;
         case TRANSPORT_UDP:
                 if (!params->local[0] && !params->remote[0])
                         return "udp needs a local or a remote address";
@@ -414,6 +425,14 @@ int transport_open(const struct transport_params *params, unsigned device_index,
         case TRANSPORT_PTY:
                 r = transport_open_pty(t, params, err, errsz);
                 break;
+        case TRANSPORT_REPLAY:
+                r = replay_open(params->devices[0], params->replay_speed, params->replay_loop,
+                                &t->replay, err, errsz);
+                if (r == 0) {
+                        t->fd = replay_fd(t->replay);
+                        snprintf(t->name, sizeof(t->name), "%s", params->devices[0]);
+                }
+                break;
         default:
                 r = transport_open_udp(t, params, err, errsz);
                 break;
@@ -440,6 +459,9 @@ struct transport *transport_close(struct transport *t)
                         close(t->pty_slave_fd);
                 if (t->fd >= 0)
                         close(t->fd);
+                break;
+        case TRANSPORT_REPLAY:
+                replay_close(t->replay);        /* owns t->fd */
                 break;
         default:
                 if (t->fd >= 0)
@@ -496,6 +518,8 @@ ssize_t transport_read(struct transport *t, void *buf, size_t size)
 
         if (t->kind == TRANSPORT_UDP)
                 return transport_read_udp(t, buf, size);
+        if (t->kind == TRANSPORT_REPLAY)
+                return replay_read(t->replay, buf, size);
         do {
                 n = read(t->fd, buf, size);
         } while (n < 0 && errno == EINTR);
@@ -510,6 +534,8 @@ ssize_t transport_write(struct transport *t, const void *buf, size_t len)
 {
         ssize_t n;
 
+        if (t->kind == TRANSPORT_REPLAY)
+                return replay_write(t->replay, len);
         do {
                 if (t->kind != TRANSPORT_UDP)
                         n = write(t->fd, buf, len);
@@ -524,6 +550,11 @@ ssize_t transport_write(struct transport *t, const void *buf, size_t len)
         if (n < 0)
                 return errno == EWOULDBLOCK ? -EAGAIN : -errno;
         return n;
+}
+
+bool transport_reopens(enum transport_kind kind)
+{
+        return kind != TRANSPORT_REPLAY;
 }
 
 bool transport_error_fatal(const struct transport *t, int err)

@@ -12,6 +12,9 @@
  *   up. The price: bytes written while no peer has the slave open wait in the pty (a few KiB),
  *   then writes would block and the channel's queue drops frames; a peer that opens the slave
  *   later first reads those stale bytes (the codecs resynchronise on the next frame start).
+ * - TRANSPORT_REPLAY: devices[0] is a recording (replay.h) played as if it came from the wire:
+ *   one recorded "<" chunk per read at the recorded pace, writes counted and dropped. Its end is
+ *   a read error, -ENODATA, that is final: transport_reopens() is false for this kind.
  * - TRANSPORT_UDP: local and/or remote "host:port" ("[v6]:port" for IPv6), numeric addresses or
  *   "localhost" only (no DNS lookups in the event loop). One datagram per frame both ways.
  *   With a remote, the socket is connected (the kernel drops datagrams from anyone else); with
@@ -31,12 +34,14 @@
 #define TRANSPORT_PATH_MAX      256     /* a device or symlink path, NUL included */
 #define TRANSPORT_ADDR_MAX      96      /* "host:port", NUL included */
 #define TRANSPORT_DATAGRAM_MAX  8192    /* largest UDP datagram taken in or sent */
-#define TRANSPORT_ERR_MAX       SERIAL_ERR_MAX
+/* A serial error, or a replay's "FILE:LINE: message" (a path and a recording parse error). */
+#define TRANSPORT_ERR_MAX       (TRANSPORT_PATH_MAX + 128)
 
 enum transport_kind {
         TRANSPORT_SERIAL,
         TRANSPORT_PTY,
         TRANSPORT_UDP,
+        TRANSPORT_REPLAY,               /* plays a recording: replay.h */
 };
 
 /* Plain data, copied by value; main.c fills it from the configuration. */
@@ -47,6 +52,8 @@ struct transport_params {
         struct serial_config serial;    /* serial and pty (the slave's settings) */
         char local[TRANSPORT_ADDR_MAX]; /* udp; "" for none */
         char remote[TRANSPORT_ADDR_MAX];
+        double replay_speed;            /* replay: devices[0] is the file; 0 = "max" */
+        bool replay_loop;
 };
 
 struct transport;
@@ -86,12 +93,16 @@ const char *transport_pty_slave(const struct transport *transport);
 
 /* Reads bytes (stream) or one datagram. Returns the length (0 only for an empty datagram),
  * -EAGAIN when nothing is there, -EPIPE when a tty hung up (read returned 0), -EMSGSIZE for a
- * datagram larger than size (dropped), or another -errno. */
+ * datagram larger than size (dropped), -ENODATA at the end of a replay, or another -errno. */
 ssize_t transport_read(struct transport *transport, void *buf, size_t size);
 
 /* Writes bytes (may be partial) or one whole datagram. Returns the length written, -EAGAIN,
  * -EDESTADDRREQ (udp: no peer known yet), or another -errno. */
 ssize_t transport_write(struct transport *transport, const void *buf, size_t len);
+
+/* Whether a transport of this kind that went down is opened again (false for a replay: its end
+ * or a broken recording is final until the link is restarted). */
+bool transport_reopens(enum transport_kind kind);
 
 /* Whether err (negative) from transport_read/write means the transport is broken and must be
  * reopened; false for per-datagram errors (ICMP unreachable, too large, no peer yet). */

@@ -299,12 +299,11 @@ class TestErrors(DaemonCase):
 
     def test_commands(self):
         c = self.c
-        # A command for another role of the protocol, and for another protocol (the daemon
-        # answers EINVAL for that one, although sharedlink.h says EOPNOTSUPP).
+        # A command for another role of the protocol, and for another protocol: EOPNOTSUPP.
         e = self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.circe_alert, "arena",
                              "E1E1E1")
         self.assertIn("mediator", e.detail)
-        e = self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.circe_alert, "node_a",
+        e = self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.circe_alert, "node_a",
                              "E1E1E1")
         self.assertIn("speaks sharedlink", e.detail)
         self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.circe_emulate_action,
@@ -349,7 +348,7 @@ class TestErrors(DaemonCase):
                          "0,TELEOP START")
         self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.command, "node_a",
                          "ServoPod", "0,TELEOP START")
-        self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.command, "agility",
+        self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.command, "agility",
                          "ServoPod", "0,TELEOP START")
 
     def test_no_instance(self):

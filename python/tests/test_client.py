@@ -299,12 +299,11 @@ class TestErrors(DaemonCase):
 
     def test_commands(self):
         c = self.c
-        # A command for another role of the protocol, and for another protocol (the daemon
-        # answers EINVAL for that one, although sharedlink.h says EOPNOTSUPP).
+        # A command for another role of the protocol, and for another protocol: EOPNOTSUPP both.
         e = self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.circe_alert, "arena",
                              "E1E1E1")
         self.assertIn("mediator", e.detail)
-        e = self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.circe_alert, "node_a",
+        e = self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.circe_alert, "node_a",
                              "E1E1E1")
         self.assertIn("speaks sharedlink", e.detail)
         self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.circe_emulate_action,
@@ -343,13 +342,13 @@ class TestErrors(DaemonCase):
                          "ServoPod", "0\0x")
         self.assertRaises(TypeError, c.command, "node_a", "ServoPod", 5)
         # Through the daemon: no such link; a SharedLink link without a pronto4 peer; a link of
-        # another protocol (EINVAL, as for circe_alert on a SharedLink link above). The round
+        # another protocol (EOPNOTSUPP, as for circe_alert on a SharedLink link above). The round
         # trip to a pronto4 peer: tests/integration/test_pronto4.c.
         self.assertError(sharedlink.NotFound, errno.ENOENT, c.command, "nolink", "ServoPod",
                          "0,TELEOP START")
         self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.command, "node_a",
                          "ServoPod", "0,TELEOP START")
-        self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.command, "agility",
+        self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.command, "agility",
                          "ServoPod", "0,TELEOP START")
 
     def test_no_instance(self):

@@ -105,6 +105,26 @@ static int join_words(char *const *words, int n, char *buf, size_t size)
         return 0;
 }
 
+/*
+ * sl_command's EOPNOTSUPP (it has no reply text): a link of another protocol, or a SharedLink link
+ * without a pronto4 peer. The tables say which protocol the link speaks.
+ */
+static int command_unsupported(struct slctl *s, const char *link)
+{
+        struct sl_link_info info = { .size = sizeof(info) };
+        int n = sl_link_count(s->c);
+
+        for (int i = 0; i < n; i++) {
+                if (sl_link_info(s->c, i, &info) < 0 || strcmp(info.name, link) != 0)
+                        continue;
+                if (strcmp(info.protocol, "sharedlink") != 0)
+                        return slctl_error(s, "link %s speaks %s: command is for sharedlink links "
+                                           "(%s)", link, info.protocol, sl_strerror(-EOPNOTSUPP));
+                break;
+        }
+        return slctl_error(s, "link %s has no pronto4 peer", link);
+}
+
 int cmd_daemon_command(struct slctl *s, int argc, char **argv)
 {
         static const struct args_opt opts[] = { { "wait", 1 }, { NULL, 0 } };
@@ -133,7 +153,7 @@ int cmd_daemon_command(struct slctl *s, int argc, char **argv)
                                    "%d words", a.pos[1], text, SL_COMMAND_TEXT_MAX,
                                    SL_COMMAND_WORDS_MAX);
         if (r == -EOPNOTSUPP)
-                return slctl_error(s, "link %s has no pronto4 peer", a.pos[0]);
+                return command_unsupported(s, a.pos[0]);
         if (r == -ENOTCONN)
                 return slctl_error(s, "link %s is down (--wait MS waits for it)", a.pos[0]);
         return command_result(r, "");

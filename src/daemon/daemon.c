@@ -804,9 +804,12 @@ static void request_link(struct daemon *d, struct control_request *req, int argc
                 control_reply_error(req, ENOENT, "no link named \"%s\"", argv[1]);
                 return;
         }
+        /* Well formed, for a link that exists: not a bad argument but an operation the link's
+         * protocol does not have. */
         if (dl->env.cfg->protocol != protocol) {
-                control_reply_error(req, EINVAL, "link %s speaks %s, not %s", argv[1],
-                                    config_protocol_name(dl->env.cfg->protocol),
+                control_reply_error(req, EOPNOTSUPP, "link %s speaks %s: %s is for %s links "
+                                    "(operation not supported on this link's protocol)",
+                                    argv[1], config_protocol_name(dl->env.cfg->protocol), argv[0],
                                     config_protocol_name(protocol));
                 return;
         }

@@ -36,7 +36,7 @@ SL_EXPORT const char *sl_strerror(int err)
         case ETIMEDOUT: return "timed out waiting for the answer";
         case ECONNRESET: return "the daemon closed the connection before answering";
         case ENAMETOOLONG: return "the control socket path is too long";
-        case EOPNOTSUPP: return "not supported by this link (protocol or role)";
+        case EOPNOTSUPP: return "operation not supported on this link (its protocol or role)";
         default:        return "unexpected error";
         }
 }

@@ -263,7 +263,8 @@ static void test_back_to_back(void **state)
                             "ERR 22 bad wait \"60001\": a decimal number 0..60000 expected\n");
         assert_string_equal(request(f, "circe agility alert E1E1E1 wait=5000"), "OK\n");
         assert_string_equal(request(f, "query agility A X wait=5"),
-                            "ERR 22 link agility speaks circe, not sharedlink\n");
+                            "ERR 95 link agility speaks circe: query is for sharedlink links "
+                            "(operation not supported on this link's protocol)\n");
 }
 
 /* The same operations through slctl, when it is built (the slctl branch). */

@@ -410,7 +410,7 @@ static const struct reply_case reply_cases[] = {
         { "query", "ERR 22 usage: query LINK" },
         { "query nosuch B name", "ERR 2 no link named \"nosuch\"" },
         { "circe nosuch alert 123456", "ERR 2 no link named \"nosuch\"" },
-        { "circe p1 alert 123456", "ERR 22 link p1 speaks sharedlink, not circe" },
+        { "circe p1 alert 123456", "ERR 95 link p1 speaks sharedlink: circe is for circe links" },
         { "ping\x01", "ERR 22 request contains a byte outside printable ASCII" },
         { "ping\r", "OK " },    /* CRLF line ends are taken */
         /* Routed to the SharedLink engine of p1, whose peer B (nobody) never answers. */

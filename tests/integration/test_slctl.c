@@ -1530,6 +1530,59 @@ static void test_daemon_query(void **state)
 }
 
 /*
+ * An operation for the other protocol's links: EOPNOTSUPP, not EINVAL, on the control socket
+ * (ERR 95), from the library and from slctl, each saying which protocol the link speaks.
+ */
+static void test_daemon_wrong_protocol(void **state)
+{
+        static const char *const lines[][2] = {
+                { "query agility A a.Lat", "link agility speaks circe: query is for sharedlink" },
+                { "command agility ServoPod 0,Stop",
+                  "link agility speaks circe: command is for sharedlink" },
+                { "circe node_b alert E1E1E1",
+                  "link node_b speaks sharedlink: circe is for circe" },
+        };
+        struct fixture *f = *state;
+        char sock[2 * HARNESS_PATH_MAX], reply[SL_REPLY_LINE_MAX + 1], want[SL_REPLY_LINE_MAX];
+        int fd;
+
+        daemon_start_both(f);
+        snprintf(sock, sizeof(sock), "%s/%s.sock", f->h.dir, f->h.instance);
+        fd = harness_connect_unix(sock);
+        assert_true(fd >= 0);
+        for (size_t i = 0; i < sizeof(lines) / sizeof(lines[0]); i++) {
+                assert_true(harness_control_request(fd, lines[i][0], reply, sizeof(reply),
+                                                    WAIT_MS) > 0);
+                snprintf(want, sizeof(want), "ERR %d %s links (operation not supported on this "
+                         "link's protocol)\n", EOPNOTSUPP, lines[i][1]);
+                assert_string_equal(reply, want);
+        }
+        close(fd);
+
+        assert_int_equal(sl_query(f->c, "agility", "A", "a.Lat", 0, reply, sizeof(reply)),
+                         -EOPNOTSUPP);
+        assert_non_null(strstr(reply, "speaks circe"));
+        assert_int_equal(sl_command(f->c, "agility", "ServoPod", "0,Stop"), -EOPNOTSUPP);
+        assert_int_equal(sl_circe_alert(f->c, "node_b", "E1E1E1", reply, sizeof(reply)),
+                         -EOPNOTSUPP);
+        assert_non_null(strstr(reply, "speaks sharedlink"));
+        assert_non_null(strstr(sl_strerror(-EOPNOTSUPP), "not supported"));
+
+        assert_int_equal(RUN(f, "query", "agility", "A", "a.Lat"), 1);
+        assert_non_null(strstr(f->err, "slctl: link agility speaks circe: query is for "
+                               "sharedlink links (operation not supported"));
+        assert_int_equal(RUN(f, "command", "agility", "ServoPod", "0,Stop"), 1);
+        assert_non_null(strstr(f->err, "slctl: link agility speaks circe: command is for "
+                               "sharedlink links (operation not supported"));
+        assert_int_equal(RUN(f, "circe", "node_b", "alert", "E1E1E1"), 1);
+        assert_non_null(strstr(f->err, "slctl: link node_b speaks sharedlink: circe is for "
+                               "circe links (operation not supported"));
+        /* A SharedLink link without a pronto4 peer is still told apart. */
+        assert_int_equal(RUN(f, "command", "node_b", "ServoPod", "0,Stop"), 1);
+        assert_non_null(strstr(f->err, "link node_b has no pronto4 peer"));
+}
+
+/*
  * Layout 1.2: the daemon publishes its control socket in the tables, so slctl and the library
  * find a socket in a temporary runtime directory with no SHAREDLINK_RUNTIME_DIR at all.
  */
@@ -1609,6 +1662,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_daemon_library, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_tables, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_query, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_daemon_wrong_protocol, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_published_socket, setup_bare,
                                                 teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_stats_scope, setup_bare, teardown),

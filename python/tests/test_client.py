@@ -299,7 +299,7 @@ class TestErrors(DaemonCase):
 
     def test_commands(self):
         c = self.c
-        # A command for another role of the protocol, and for another protocol: EOPNOTSUPP.
+        # A command for another role of the protocol, and for another protocol: EOPNOTSUPP both.
         e = self.assertError(sharedlink.NotSupported, errno.EOPNOTSUPP, c.circe_alert, "arena",
                              "E1E1E1")
         self.assertIn("mediator", e.detail)
@@ -342,7 +342,7 @@ class TestErrors(DaemonCase):
                          "ServoPod", "0\0x")
         self.assertRaises(TypeError, c.command, "node_a", "ServoPod", 5)
         # Through the daemon: no such link; a SharedLink link without a pronto4 peer; a link of
-        # another protocol (EINVAL, as for circe_alert on a SharedLink link above). The round
+        # another protocol (EOPNOTSUPP, as for circe_alert on a SharedLink link above). The round
         # trip to a pronto4 peer: tests/integration/test_pronto4.c.
         self.assertError(sharedlink.NotFound, errno.ENOENT, c.command, "nolink", "ServoPod",
                          "0,TELEOP START")

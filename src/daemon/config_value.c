@@ -10,6 +10,8 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "proto/sharedlink.h"
+
 /* A scalar holding a value of some kind: not a list or mapping, not null. */
 static int need_scalar(struct ctx *c, const char *key, const struct ynode *n, const char *expected)
 {
@@ -243,7 +245,7 @@ int cfg_get_sl_address(struct ctx *c, const char *key, const struct ynode *n, ch
 
         if (r < 0)
                 return r;
-        if (n->len != 1 || n->text[0] < 'A' || n->text[0] > 'P')
+        if (!slp_address_text_valid(n->text, n->len))
                 return cfg_fail(c, n, "%s %s is not a SharedLink node address (A..P)", key,
                                 cfg_quote_node(c, n));
         *ret = n->text[0];

@@ -32,10 +32,6 @@
 #define REQUEST_SYNC_EXTRA_MS   10000   /* sync-clocks follows devices for 3 s, plus slack */
 #define NS_PER_MS               1000000ull
 
-/* SharedLink node addresses (PROTOCOLS.md 1.1). */
-#define SL_NODE_FIRST           'A'
-#define SL_NODE_LAST            'P'
-
 /* The public limits are the protocols' (proto/control.h, proto/circe.h), word for word. */
 _Static_assert(SL_REQUEST_LINE_MAX + 1 == CTLP_LINE_MAX, "request line limit");
 _Static_assert(SL_REQUEST_WORDS_MAX == CTLP_WORDS_MAX, "request word limit");
@@ -610,7 +606,7 @@ SL_EXPORT int sl_query(struct sl_client *c, const char *link, const char *peer, 
         r = check_link(link, reply, reply_size);
         if (r < 0)
                 return r;
-        if (!peer || peer[0] < SL_NODE_FIRST || peer[0] > SL_NODE_LAST || peer[1] != '\0') {
+        if (!peer || !slp_address_text_valid(peer, strnlen(peer, 2))) {
                 say(reply, reply_size, "bad peer \"%.16s\": a node address A..P expected",
                     peer ? peer : "");
                 return -EINVAL;

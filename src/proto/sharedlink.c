@@ -54,11 +54,6 @@ _Static_assert(SLP_FRAME_MAX <= UINT16_MAX, "slp_field.len is 16 bits");
 
 static const char sl_hex_upper[] = "0123456789ABCDEF";
 
-static bool is_addr(char c)
-{
-        return c >= 'A' && c < 'A' + SLP_ADDR_COUNT;
-}
-
 static bool is_type_letter(char c)
 {
         return c >= 'A' && c <= 'Z';
@@ -197,7 +192,7 @@ static enum slp_decode_reason check_header(const char *b, size_t lp)
         if (b[0] != ':')
                 return SLP_REASON_BAD_HEADER;
         for (size_t i = 1; i <= 2; i++)
-                if (i >= lp || !is_addr(b[i]))
+                if (i >= lp || !slp_address_valid(b[i]))
                         return SLP_REASON_BAD_ADDRESS;
         if (b[3] != '|')
                 return SLP_REASON_BAD_HEADER;
@@ -610,7 +605,7 @@ int slp_frame_encode(char *buf, size_t size, char dst, char src,
         size_t total = SL_HEADER_LEN + SL_TRAILER_LEN + (crlf ? SL_CRLF_LEN : 0);
         size_t at;
 
-        if (!is_addr(dst) || !is_addr(src) || nfields == 0)
+        if (!slp_address_valid(dst) || !slp_address_valid(src) || nfields == 0)
                 return -EINVAL;
         for (size_t i = 0; i < nfields; i++) {
                 const struct slp_field *f = &fields[i];
@@ -714,7 +709,8 @@ int slp_encode_list(const struct slp_list *list, size_t *cursor, char *buf, size
         size_t total, at;
         int r;
 
-        if (!is_addr(list->dst) || !is_addr(list->src) || max_frame > SLP_FRAME_MAX)
+        if (!slp_address_valid(list->dst) || !slp_address_valid(list->src) ||
+            max_frame > SLP_FRAME_MAX)
                 return -EINVAL;
         if (start >= list->count)
                 return 0;
@@ -1059,8 +1055,9 @@ static int encode_named(const struct slp_named_list *l, bool declaration, size_t
         size_t total, at;
         int r;
 
-        if (!is_addr(l->dst) || !is_addr(l->src) || (l->head != 'N' && l->head != 'L') ||
-            max_frame > SLP_FRAME_MAX || (l->one_frame && start != 0 && start < l->count))
+        if (!slp_address_valid(l->dst) || !slp_address_valid(l->src) ||
+            (l->head != 'N' && l->head != 'L') || max_frame > SLP_FRAME_MAX ||
+            (l->one_frame && start != 0 && start < l->count))
                 return -EINVAL;
         if (start >= l->count)
                 return 0;
@@ -1144,7 +1141,8 @@ int slp_encode_list_whole(const struct slp_list *list, char *buf, size_t size)
         size_t cursor = 0;
         int r;
 
-        if (!is_addr(list->dst) || !is_addr(list->src) || max_frame > SLP_FRAME_MAX)
+        if (!slp_address_valid(list->dst) || !slp_address_valid(list->src) ||
+            max_frame > SLP_FRAME_MAX)
                 return -EINVAL;
         if (list->count == 0)
                 return 0;

@@ -51,6 +51,22 @@
 #define SLP_INDEX_MAX            (UINT32_MAX - 1)
 
 /* ---------------------------------------------------------------------------------------------
+ * Node addresses: the one statement of the rule, for the codec, the config and the library */
+
+/* Whether c is a SharedLink node address, 'A'..'P' (PROTOCOLS.md 1.1, the frame grammar).
+ * Inline: the decoder asks it of every frame's two address bytes. */
+static inline bool slp_address_valid(char c)
+{
+        return c >= 'A' && c < 'A' + SLP_ADDR_COUNT;
+}
+
+/* Whether text[0..len) is one node address as written in a config or a command ("A".."P"). */
+static inline bool slp_address_text_valid(const char *text, size_t len)
+{
+        return len == 1 && slp_address_valid(text[0]);
+}
+
+/* ---------------------------------------------------------------------------------------------
  * Fields and frames */
 
 /* Field types; each known type's value is its letter on the wire. */

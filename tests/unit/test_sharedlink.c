@@ -16,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <errno.h>
+#include <limits.h>
 #include <cmocka.h>
 
 #include "common/wire.h"
@@ -1092,6 +1093,34 @@ static const struct value_case value_cases[] = {
         { (enum slp_type)3, "0", -EINVAL },
 };
 
+/* Node addresses: exactly the sixteen letters A..P, one character, whatever the byte. */
+static void test_address_valid(void **state)
+{
+        unsigned valid = 0;
+
+        (void)state;
+        for (int b = CHAR_MIN; b <= CHAR_MAX; b++) {
+                char c = (char)b;
+                bool want = c >= 'A' && c <= 'P';
+
+                if (slp_address_valid(c) != want)
+                        print_error("address byte 0x%02x: got %d\n", (unsigned char)c, !want);
+                assert_int_equal(slp_address_valid(c), want);
+                valid += want;
+        }
+        assert_int_equal(valid, SLP_ADDR_COUNT);
+        assert_true(slp_address_text_valid("A", 1));
+        assert_true(slp_address_text_valid("P", 1));
+        assert_false(slp_address_text_valid("Q", 1));
+        assert_false(slp_address_text_valid("@", 1));
+        assert_false(slp_address_text_valid("a", 1));
+        assert_false(slp_address_text_valid("AB", 2));
+        assert_false(slp_address_text_valid("", 0));
+        /* The length is the caller's: "A" with its NUL is two bytes, not an address. */
+        assert_false(slp_address_text_valid("A", 2));
+        assert_true(slp_address_text_valid("AB", 1));
+}
+
 static void test_value_check(void **state)
 {
         (void)state;
@@ -1612,6 +1641,7 @@ int main(void)
                 cmocka_unit_test(test_list_errors),
                 cmocka_unit_test(test_roundtrip_vectors),
                 cmocka_unit_test(test_type_parse),
+                cmocka_unit_test(test_address_valid),
                 cmocka_unit_test(test_value_check),
                 cmocka_unit_test(test_name_check),
                 cmocka_unit_test(test_declaration_encode),

@@ -72,9 +72,10 @@ static const char veh_links[] =
 static const char *const veh_inbound[] = { "AutoGpsLat", "AutoGpsLon", "AutoGpsHead",
                                            "AutoGpsVel", NULL };
 
-/* What the engine counts on receive: these must be the same after a replay. */
+/* What the engine counts on receive: these must be the same after a replay. (bytes_in is
+ * published lazily, at I/O bursts and heartbeats: not compared here.) */
 static const char *const rx_counters[] = {
-        "frames_in", "bytes_in", "noise_bytes", "bad_checksum", "resync", "overlong",
+        "frames_in", "noise_bytes", "bad_checksum", "resync", "overlong",
         "bad_address", "bad_field", "unknown_field", "empty_field", "list_mismatch",
         "unknown_peer", "not_for_us", "queries_in", "bad_header", "unknown_op", "bad_value",
         "missing_param", "skipped_param", "repeated_param", NULL,
@@ -399,8 +400,8 @@ static void test_record_replay_sharedlink(void **state)
         wait_value(t, "AutoGpsVel", "2");
         snap(t, veh_inbound, rx_counters, &rec);
         assert_true(rec.counters[0] >= 3);      /* frames_in */
-        assert_int_equal(rec.counters[3], 1);   /* bad_checksum */
-        assert_true(rec.counters[2] > 0);       /* noise_bytes: the garbage */
+        assert_int_equal(rec.counters[2], 1);   /* bad_checksum */
+        assert_true(rec.counters[1] > 0);       /* noise_bytes: the garbage */
         record_stop(t, SIGINT, err, sizeof(err));
         assert_non_null(strstr(err, "slctl: recorded "));
         stop(t);

@@ -486,7 +486,7 @@ static struct bad_case bad_cases[] = {
         { "unknown_peer_key", SL_LINK SL_PEER "        perod_ms: 50\n",
           "t.yaml:10:9: unknown key \"perod_ms\" in peer" },
         { "unknown_link_key", SL_LINK SL_PEER "    speed: 9600\n",
-          "t.yaml:10:5: unknown key \"speed\" in link" },
+          "t.yaml:10:5: key \"speed\" is not valid for transport serial" },
         { "unknown_variable_key", SL_LINK "      - {address: B, inbound: [{name: v, typ: long}]}\n",
           "t.yaml:8:42: unknown key \"typ\" in variable" },
         { "unknown_emulate_key", CIRCE_LINK "    role: mediator\n    transport: pty\n"
@@ -562,7 +562,7 @@ static struct bad_case bad_cases[] = {
         { "protocol_unknown", "links:\n  - {name: x, protocol: kermit}\n",
           "t.yaml:2:25: protocol: expected sharedlink or circe, got \"kermit\"" },
         { "transport_unknown", "links:\n  - {name: x, protocol: circe, transport: usb}\n",
-          "t.yaml:2:43: transport: expected serial, udp or pty, got \"usb\"" },
+          "t.yaml:2:43: transport: expected serial, udp, pty or replay, got \"usb\"" },
         { "role_unknown", CIRCE_LINK "    transport: serial\n    role: gateway\n",
           "t.yaml:6:11: role: expected controller or mediator, got \"gateway\"" },
 

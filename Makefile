@@ -373,7 +373,7 @@ $(PCFILE_UNINST): Makefile
 	    'Version: $(VERSION)' 'Libs: -L$${libdir} -Wl,-rpath,$${libdir} -lsharedlink' \
 	    'Libs.private: -lpthread' 'Cflags: -I$${includedir}' > $@
 
-$(SLCTL): $(call obj,$(CLI_SRC)) $(LIBSL_A)
+$(SLCTL): $(call obj,$(CLI_SRC) src/proto/recording.c) $(LIBSL_A)
 	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $^ -lpthread
 
 # The bridge links the shared library the installed way: only its exported (versioned) symbols

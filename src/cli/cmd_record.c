@@ -1,9 +1,11 @@
 /*
  * slctl record: asks the daemon to stream what a link receives and sends ("record LINK" on the
  * control socket) and writes the lines to a file, one whole line per write(2), so that the file
- * holds only whole lines whenever the command stops. SIGINT and SIGTERM stop it cleanly: the
- * handler runs only between two writes (the signals are blocked around each), prints the summary
- * and exits 0. The format is docs/recording.md's.
+ * holds only whole lines whenever the command stops. SIGINT and SIGTERM stop it cleanly: what
+ * the daemon had already sent is still written (the lines stay RECORD_DRAIN_MS in flight at most:
+ * a timer then ends the command), then the summary is printed and the exit is 0; a second signal
+ * ends it at once. The handlers run only between two writes (the signals are blocked around
+ * each). The format is docs/recording.md's; the lines are counted by its reader.
  */
 #include "cli/cmd_record.h"
 
@@ -14,26 +16,33 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/time.h>
 #include <unistd.h>
 
 #include "cli/slctl.h"
+#include "proto/recording.h"
 
 #define REPLY_SIZE              (SL_REPLY_LINE_MAX + 1)
 #define RECORD_FILE_MODE        0644
 #define RECORD_DURATION_MAX     (24L * 3600L * 365L)   /* seconds: --duration up to a year */
 #define RECORD_MS_PER_S         1000L
-#define RECORD_DROPPED          "# dropped "
 #define RECORD_SUMMARY_MAX      512
 #define RECORD_U64_DIGITS       24
+/* After a stop signal, how long the lines the daemon already sent have to arrive: a local
+ * socket hands them over in microseconds; this leaves room for a loaded machine. */
+#define RECORD_DRAIN_MS         300
+#define RECORD_US_PER_MS        1000L
 
 /* What the signal handler reads: updated only while SIGINT and SIGTERM are blocked. */
 static struct {
         int fd;                         /* -1 until the first line: an error leaves no file */
         const char *file;
         int open_error;
-        uint64_t lines, chunks, bytes, dropped;
+        uint64_t lines, chunks, bytes;
         long count;                     /* --count: stop after this many chunks (0: no limit) */
         int write_error;
+        volatile sig_atomic_t stopping; /* a stop signal came: draining until the timer */
+        struct rec_reader reader;       /* counts chunks, bytes and drops as replay will */
 } rec;
 
 /* Appends s to buf (async-signal-safe). */
@@ -71,7 +80,7 @@ static void print_summary(void)
         n = put_str(buf, n, sizeof(buf), " chunks (");
         n = put_u64(buf, n, sizeof(buf), rec.bytes);
         n = put_str(buf, n, sizeof(buf), " bytes), ");
-        n = put_u64(buf, n, sizeof(buf), rec.dropped);
+        n = put_u64(buf, n, sizeof(buf), rec.reader.dropped);
         n = put_str(buf, n, sizeof(buf), " dropped by the daemon, to ");
         n = put_str(buf, n, sizeof(buf), strcmp(rec.file, "-") ? rec.file : "standard output");
         n = put_str(buf, n, sizeof(buf), "\n");
@@ -79,11 +88,22 @@ static void print_summary(void)
                 return;                 /* nowhere to say it */
 }
 
-static void on_stop_signal(int sig)
+/* The drain after a stop signal is over (SIGALRM), or a second stop signal came. */
+static void on_stop_now(int sig)
 {
         (void)sig;
         print_summary();
         _exit(SLCTL_EXIT_OK);
+}
+
+/* A stop signal: the lines already on their way are still written, for RECORD_DRAIN_MS. */
+static void on_stop_signal(int sig)
+{
+        struct itimerval drain = { .it_value = { .tv_usec = RECORD_DRAIN_MS * RECORD_US_PER_MS } };
+
+        if (rec.stopping || setitimer(ITIMER_REAL, &drain, NULL) < 0)
+                on_stop_now(sig);
+        rec.stopping = 1;
 }
 
 static void block_stop_signals(int how)
@@ -93,6 +113,7 @@ static void block_stop_signals(int how)
         sigemptyset(&set);
         sigaddset(&set, SIGINT);
         sigaddset(&set, SIGTERM);
+        sigaddset(&set, SIGALRM);
         sigprocmask(how, &set, NULL);
 }
 
@@ -103,8 +124,11 @@ static void catch_stop_signals(void)
         memset(&sa, 0, sizeof(sa));
         sa.sa_handler = on_stop_signal;
         sigemptyset(&sa.sa_mask);
+        sigaddset(&sa.sa_mask, SIGALRM);
         sigaction(SIGINT, &sa, NULL);
         sigaction(SIGTERM, &sa, NULL);
+        sa.sa_handler = on_stop_now;
+        sigaction(SIGALRM, &sa, NULL);
 }
 
 static int write_all(int fd, const char *p, size_t len)
@@ -122,46 +146,15 @@ static int write_all(int fd, const char *p, size_t len)
         return 0;
 }
 
-/* How many bytes the escaped field of a chunk line stands for (docs/recording.md). */
-static uint64_t escaped_bytes(const char *s)
+/* Counts a line with the format's own reader: a chunk, its bytes, and "# dropped N chunks".
+ * A line it refuses is still written (the file says what the daemon sent) but not counted. */
+static void count_line(const char *text, size_t len)
 {
-        uint64_t n = 0;
-
-        while (*s) {
-                if (s[0] == '\\' && s[1] == 'x' && s[2] && s[3])
-                        s += 4;
-                else if (s[0] == '\\' && s[1])
-                        s += 2;
-                else
-                        s++;
-                n++;
-        }
-        return n;
-}
-
-/* Counts a line: a comment ("# dropped N chunks" adds N), or a chunk line (the last piece of a
- * chunk has no '+' after its direction). */
-static void count_line(const char *text)
-{
-        const char *dir, *bytes;
-
         rec.lines++;
-        if (text[0] == '#') {
-                size_t plen = strlen(RECORD_DROPPED);
-
-                if (strncmp(text, RECORD_DROPPED, plen) == 0)
-                        rec.dropped += strtoull(text + plen, NULL, 10);
-                return;
-        }
-        dir = strchr(text, ' ');
-        if (!dir)
-                return;
-        dir++;
-        bytes = strchr(dir, ' ');
-        if (bytes)
-                rec.bytes += escaped_bytes(bytes + 1);
-        if (dir[0] && dir[1] != '+')
+        if (rec_reader_line(&rec.reader, text, len) == 1) {
                 rec.chunks++;
+                rec.bytes += rec.reader.len;
+        }
 }
 
 static int open_output(void)
@@ -193,7 +186,7 @@ static int on_line(const char *text, void *arg)
         block_stop_signals(SIG_BLOCK);
         r = write_all(rec.fd, line, len);
         if (r == 0)
-                count_line(text);
+                count_line(text, len - 1);
         else
                 rec.write_error = -r;
         block_stop_signals(SIG_UNBLOCK);
@@ -234,6 +227,7 @@ int cmd_record(struct slctl *s, int argc, char **argv)
                 return slctl_error(s, "out of memory");
         rec.fd = -1;
         rec.file = a.pos[1];
+        rec_reader_init(&rec.reader);
         catch_stop_signals();
         r = sl_request(s->c, request, duration ? (int)(duration * RECORD_MS_PER_S) : -1, on_line,
                        line, reply, sizeof(reply));

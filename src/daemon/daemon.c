@@ -890,7 +890,7 @@ static void request_link(struct daemon *d, struct control_request *req, int argc
                          enum config_protocol protocol)
 {
         char err[DAEMON_ERROR_MAX];
-        struct daemon_link *dl = NULL;
+        struct daemon_link *dl;
         unsigned wait_ms;
 
         if (argc < 3) {
@@ -901,9 +901,7 @@ static void request_link(struct daemon *d, struct control_request *req, int argc
                 control_reply_error(req, EINVAL, "%s", err);
                 return;
         }
-        for (unsigned i = 0; i < d->n_links && !dl; i++)
-                if (d->links[i] && strcmp(d->links[i]->env.cfg->name, argv[1]) == 0)
-                        dl = d->links[i];
+        dl = link_by_name(d, argv[1]);
         if (!dl) {
                 control_reply_error(req, ENOENT, "no link named \"%s\"", argv[1]);
                 return;

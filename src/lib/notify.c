@@ -113,8 +113,9 @@ SL_EXPORT int sl_wait_with(struct sl_client *c, uint32_t *cursor, int timeout_ms
         m = client_map_get(c);
         client_unlock(c);
 
-        /* Spin first, never past the deadline; timeout 0 only checks, as without a spin. */
-        if (spin_ns > 0 && timeout_ms != 0 && spin_can_help()) {
+        /* Spin first, never past the deadline; timeout 0 only checks, as without a spin. The
+         * affinity syscall is paid only when there is nothing to take yet. */
+        if (spin_ns > 0 && timeout_ms != 0 && change_word(m) == *cursor && spin_can_help()) {
                 uint64_t spin_end = now + (uint64_t)spin_ns;
 
                 if (timeout_ms > 0 && spin_end > deadline)

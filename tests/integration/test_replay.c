@@ -23,6 +23,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -46,6 +48,13 @@
 #define FLOOD_FRAMES    8000            /* about 550 KB through a link with a stalled recorder,
                                          * more than its socket buffer and queue hold */
 #define RECORD_REQ      "record veh\n"
+#define GAP_MS          150             /* between the frames of a recording with real gaps */
+#define NS_PER_US       1000u
+#define NS_PER_MS       1000000u
+#define LOOP_PASSES     3               /* a looping replay is looked at after this many */
+#define LOOP_END_S      "0.300000"      /* a looping recording's quiet tail, then over again */
+#define HOUR_S          "3600.000000"   /* a recording that would take an hour at speed 1 */
+#define REPLY_BUF       4096
 
 /* The configuration of the demo's node_b (conf/demo.yaml), on the test's pty or on a replay. */
 static const char veh_links[] =
@@ -53,7 +62,6 @@ static const char veh_links[] =
         "  - name: veh\n"
         "    protocol: sharedlink\n"
         "%s"
-        "    baud: 115200\n"
         "    address: B\n"
         "    peers:\n"
         "      - address: A\n"
@@ -73,9 +81,9 @@ static const char *const veh_inbound[] = { "AutoGpsLat", "AutoGpsLon", "AutoGpsH
                                            "AutoGpsVel", NULL };
 
 /* What the engine counts on receive: these must be the same after a replay. (bytes_in is
- * published lazily, at I/O bursts and heartbeats: not compared here.) */
+ * published after each read's frames: snap() waits for that with a control round trip.) */
 static const char *const rx_counters[] = {
-        "frames_in", "noise_bytes", "bad_checksum", "resync", "overlong",
+        "frames_in", "bytes_in", "noise_bytes", "bad_checksum", "resync", "overlong",
         "bad_address", "bad_field", "unknown_field", "empty_field", "list_mismatch",
         "unknown_peer", "not_for_us", "queries_in", "bad_header", "unknown_op", "bad_value",
         "missing_param", "skipped_param", "repeated_param", NULL,
@@ -85,6 +93,7 @@ struct it {
         struct harness h;
         struct sl_client *c;
         int master, slave;
+        int udp;                        /* the peer's UDP socket, -1 when none */
         char dev[PATH_BUF];
         char rec[PATH_BUF];             /* the recording */
         pid_t rec_pid;                  /* slctl record in the background, 0 when none */
@@ -104,7 +113,7 @@ static int setup(void **state)
         if (!t || harness_init(&t->h, "rp") < 0)
                 return -1;
         t->h.capture_log = 1;
-        t->master = t->slave = -1;
+        t->master = t->slave = t->udp = -1;
         t->buf = malloc(FILE_MAX + 1);
         if (!t->buf)
                 return -1;
@@ -127,6 +136,8 @@ static int teardown(void **state)
                 close(t->master);
         if (t->slave >= 0)
                 close(t->slave);
+        if (t->udp >= 0)
+                close(t->udp);
         free(t->buf);
         free(t);
         return 0;
@@ -172,18 +183,42 @@ static void stop(struct it *t)
         assert_true(st >= 0 && WIFEXITED(st) && WEXITSTATUS(st) == 0);
 }
 
+/* Where the veh link is: the test's pty (serial), a UDP socket pair, or a replay of the
+ * recording (which keeps the recorded transport's keys: a replay takes and ignores them). */
+enum veh_wire { VEH_SERIAL, VEH_UDP };
+
+struct veh_opts {
+        enum veh_wire wire;
+        const char *speed;              /* NULL: live; else a replay at this speed */
+        bool loop;
+        uint16_t port, peer_port;       /* VEH_UDP: the daemon's and the test's */
+};
+
+static void veh_config_with(struct it *t, char *out, size_t size, const struct veh_opts *o)
+{
+        char transport[PATH_BUF * 4], keys[PATH_BUF * 2];
+
+        if (o->wire == VEH_UDP)
+                snprintf(keys, sizeof(keys), "    local: \"127.0.0.1:%u\"\n"
+                         "    remote: \"127.0.0.1:%u\"\n", o->port, o->peer_port);
+        else
+                snprintf(keys, sizeof(keys), "    device: %s\n    baud: 115200\n", t->dev);
+        if (o->speed)
+                snprintf(transport, sizeof(transport), "    transport: replay\n    file: %s\n"
+                         "    speed: %s\n    loop: %s\n%s", t->rec, o->speed,
+                         o->loop ? "true" : "false", keys);
+        else
+                snprintf(transport, sizeof(transport), "    transport: %s\n%s",
+                         o->wire == VEH_UDP ? "udp" : "serial", keys);
+        snprintf(out, size, veh_links, transport);
+}
+
 /* The veh configuration on the pty, or on the recording with speed. */
 static void veh_config(struct it *t, char *out, size_t size, const char *speed)
 {
-        char transport[PATH_BUF * 4];
+        const struct veh_opts o = { .wire = VEH_SERIAL, .speed = speed };
 
-        if (speed)      /* device and baud stay: a replay takes the recorded transport's keys */
-                snprintf(transport, sizeof(transport), "    transport: replay\n    file: %s\n"
-                         "    speed: %s\n    device: %s\n", t->rec, speed, t->dev);
-        else
-                snprintf(transport, sizeof(transport), "    transport: serial\n    device: %s\n",
-                         t->dev);
-        snprintf(out, size, veh_links, transport);
+        veh_config_with(t, out, size, &o);
 }
 
 /* Starts `slctl record [extra] LINK FILE` in the background, stderr to a file. */
@@ -321,11 +356,28 @@ static void wait_value(struct it *t, const char *name, const char *value)
         fail_msg("%s never read %s", name, value);
 }
 
+/* A control round trip. The daemon runs one event loop: once it answers, what it did for the
+ * input before (the values we saw, and the channel counters such as bytes_in that it publishes
+ * right after them, in the same callback) is all in the tables. */
+static void settle(struct it *t)
+{
+        char sock[sizeof(t->h.dir) + sizeof(t->h.instance) + 8], reply[REPLY_BUF];
+        int fd;
+
+        snprintf(sock, sizeof(sock), "%s/%s.sock", t->h.dir, t->h.instance);
+        fd = harness_connect_unix(sock);
+        assert_true(fd >= 0);
+        assert_true(harness_control_request(fd, "ping", reply, sizeof(reply), WAIT_MS) > 0);
+        close(fd);
+        assert_memory_equal(reply, "OK", 2);
+}
+
 static void snap(struct it *t, const char *const *names, const char *const *counters,
                  struct snapshot *s)
 {
         struct sl_link_info li;
 
+        settle(t);
         memset(s, 0, sizeof(*s));
         for (int i = 0; names[i]; i++) {
                 int id = sl_find(t->c, names[i]);
@@ -366,15 +418,88 @@ static void replay(struct it *t, const char *speed)
         assert_memory_equal(li.state_name, "down", 4);
 }
 
+/* How many times the captured daemon log holds needle. */
+static unsigned log_count(struct it *t, const char *needle)
+{
+        unsigned n = 0;
+        const char *p = t->buf;
+
+        read_file(t->h.log_path, t->buf, FILE_MAX);
+        while ((p = strstr(p, needle)) != NULL) {
+                n++;
+                p += strlen(needle);
+        }
+        return n;
+}
+
+/* Appends a chunk line (at most REC_PIECE_MAX bytes) to a recording being written in text. */
+static void rec_add(char *text, size_t size, uint64_t t_us, enum rec_dir dir, const void *data,
+                    size_t len)
+{
+        char line[REC_LINE_MAX + 1];
+        size_t used, n = strlen(text);
+
+        assert_true(len <= REC_PIECE_MAX);
+        rec_format_chunk(line, t_us, dir, false, data, len, &used);
+        assert_int_equal(used, len);
+        assert_true(n + strlen(line) + 2 < size);
+        snprintf(text + n, size - n, "%s\n", line);
+}
+
+/* Appends the frame B<-A with body, CR LF included, received at t_us. */
+static void rec_add_frame(char *text, size_t size, uint64_t t_us, const char *body)
+{
+        char buf[FRAME_MAX];
+        size_t n = wire_slp_frame(buf, sizeof(buf), 'B', 'A', body, true);
+
+        rec_add(text, size, t_us, REC_DIR_IN, buf, n);
+}
+
+/* rec_parse_text() callback: the time of the first and the last "<" chunk. */
+struct in_span {
+        uint64_t first_us, last_us;
+        unsigned chunks;
+};
+
+static int take_span(void *arg, const struct rec_reader *r)
+{
+        struct in_span *sp = arg;
+
+        if (r->dir != REC_DIR_IN)
+                return 0;
+        if (sp->chunks++ == 0)
+                sp->first_us = r->last_t_us;
+        sp->last_us = r->last_t_us;
+        return 0;
+}
+
+/* Checks the recording t->rec and returns the span of its "<" chunks. */
+static struct in_span rec_span(struct it *t)
+{
+        struct rec_reader *rd = calloc(1, sizeof(*rd));
+        struct in_span sp = { 0, 0, 0 };
+        size_t len = read_file(t->rec, t->buf, FILE_MAX);
+
+        assert_non_null(rd);
+        rec_reader_init(rd);
+        assert_int_equal(rec_parse_text(rd, t->buf, len, take_span, &sp), 0);
+        free(rd);
+        return sp;
+}
+
 /* ---- tests ---------------------------------------------------------------------------------- */
 
-/* Record the demo link's traffic from a peer, replay it twice: same values, same counters. */
+/* Record the demo link's traffic from a peer, with real gaps between the frames, replay it twice:
+ * same values, same counters (bytes_in too); at speed 1.0 no chunk comes before its time. */
 static void test_record_replay_sharedlink(void **state)
 {
         struct it *t = *state;
         struct snapshot rec, got;
         char links[CONF_MAX], err[1024], junk[] = "\x01garbage\xff";
+        struct sl_meta meta = { .size = sizeof(meta) };
         struct rec_reader *rd;
+        struct in_span span;
+        uint64_t t0;
         size_t len;
 
         plug(t);
@@ -382,13 +507,17 @@ static void test_record_replay_sharedlink(void **state)
         start(t, links);
         record_start(t, "veh", NULL);
 
+        /* The gaps make the recording span hundreds of ms, for the pace check below. */
         send_frame(t, "N0|D40.5|D-105.25|D90|D1.5");
         wait_value(t, "AutoGpsVel", "1.5");
+        poll(NULL, 0, GAP_MS);
         send_frame(t, "N2|D180");               /* AutoGpsHead alone */
         wait_value(t, "AutoGpsHead", "180");
+        poll(NULL, 0, GAP_MS);
         /* Garbage, then a frame with a bad checksum, then one split over two writes. */
         assert_int_equal(harness_write_all(t->master, junk, sizeof(junk) - 1, WAIT_MS), 0);
         assert_int_equal(harness_write_all(t->master, "[:BA|N0|D1|C00]\r\n", 17, WAIT_MS), 0);
+        poll(NULL, 0, GAP_MS);
         {
                 char buf[FRAME_MAX];
                 size_t n = wire_slp_frame(buf, sizeof(buf), 'B', 'A', "N0|D41.25|D-106|D270|D2",
@@ -400,8 +529,9 @@ static void test_record_replay_sharedlink(void **state)
         wait_value(t, "AutoGpsVel", "2");
         snap(t, veh_inbound, rx_counters, &rec);
         assert_true(rec.counters[0] >= 3);      /* frames_in */
-        assert_int_equal(rec.counters[2], 1);   /* bad_checksum */
-        assert_true(rec.counters[1] > 0);       /* noise_bytes: the garbage */
+        assert_true(rec.counters[1] > 0);       /* bytes_in */
+        assert_int_equal(rec.counters[3], 1);   /* bad_checksum */
+        assert_true(rec.counters[2] > 0);       /* noise_bytes: the garbage */
         record_stop(t, SIGINT, err, sizeof(err));
         assert_non_null(strstr(err, "slctl: recorded "));
         stop(t);
@@ -410,12 +540,15 @@ static void test_record_replay_sharedlink(void **state)
         len = read_file(t->rec, t->buf, FILE_MAX);
         assert_memory_equal(t->buf, REC_HEADER "\n# link: veh\n", strlen(REC_HEADER) + 13);
         assert_non_null(strstr(t->buf, "\\x01garbage\\xff"));
+        assert_non_null(strstr(t->buf, "\n# transport: serial\n"));
         rd = calloc(1, sizeof(*rd));
         assert_non_null(rd);
         rec_reader_init(rd);
         len = (size_t)rec_parse_text(rd, t->buf, len, NULL, NULL);
         free(rd);
         assert_int_equal(len, 0);
+        span = rec_span(t);
+        assert_true(span.last_us - span.first_us >= 3u * GAP_MS * 1000u);
 
         replay(t, "max");
         snap(t, veh_inbound, rx_counters, &got);
@@ -423,9 +556,100 @@ static void test_record_replay_sharedlink(void **state)
         assert_int_equal(harness_log_contains(&t->h, "engine sent"), 1);
         stop(t);
 
+        /* At 1.0 a chunk recorded at time T is played no sooner than T after the replay began
+         * (after t0): the last value came at least span.last_us after t0. A lower bound only:
+         * a busy machine may be later, never earlier. */
+        t0 = harness_now_ns();
         replay(t, "1.0");
         snap(t, veh_inbound, rx_counters, &got);
         snap_equal(&rec, &got, veh_inbound, rx_counters, "speed 1.0");
+        assert_true(sl_read(t->c, sl_find(t->c, "AutoGpsVel"), err, sizeof(err), &meta) >= 0);
+        if (meta.mono_ns < t0 + span.last_us * NS_PER_US)
+                fail_msg("speed 1.0: the last chunk came %llu us after the start, recorded at "
+                         "%llu us", (unsigned long long)((meta.mono_ns - t0) / NS_PER_US),
+                         (unsigned long long)span.last_us);
+        stop(t);
+}
+
+/* speed: max does not wait for the recorded times: a recording an hour long plays at once. */
+static void test_replay_max_does_not_wait(void **state)
+{
+        struct it *t = *state;
+        char text[CONF_MAX] = REC_HEADER "\n# link: veh\n";
+        struct snapshot got;
+        static const char *const none[] = { NULL };
+
+        rec_add_frame(text, sizeof(text), 1, "N0|D1|D2|D3|D4");
+        rec_add_frame(text, sizeof(text), 1800u * 1000000u, "N2|D5");
+        snprintf(text + strlen(text), sizeof(text) - strlen(text), HOUR_S " > x\n");
+        assert_int_equal(harness_write_file(&t->h, "veh.rec", text, NULL), 0);
+        snprintf(t->dev, sizeof(t->dev), "%s/tty0", t->h.dir);
+        /* replay() waits WAIT_MS for the end: far less than the hour the recording spans. */
+        replay(t, "max");
+        snap(t, veh_inbound, none, &got);
+        assert_string_equal(got.values[0], "1");
+        assert_string_equal(got.values[2], "5");
+        assert_string_equal(got.values[3], "4");
+        stop(t);
+}
+
+/* loop: true plays the recording again and again: after n passes every receive counter is n
+ * times one pass's, and the values are the recording's. */
+static void test_replay_loop(void **state)
+{
+        struct it *t = *state;
+        const struct veh_opts looping = { .wire = VEH_SERIAL, .speed = "1.0", .loop = true };
+        char links[CONF_MAX], text[CONF_MAX] = REC_HEADER "\n# link: veh\n";
+        uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * NS_PER_MS;
+        struct snapshot one, got;
+        unsigned done = 0;
+        bool seen = false;
+
+        /* Frames, noise before a frame, a bad checksum; every pass ends quiet (a ">" line). */
+        rec_add_frame(text, sizeof(text), 1000, "N0|D40.5|D-105.25|D90|D1.5");
+        rec_add(text, sizeof(text), 2000, REC_DIR_IN, "\x01junk[:BA|N0|D1|C00]\r\n", 22);
+        rec_add_frame(text, sizeof(text), 3000, "N2|D180");
+        snprintf(text + strlen(text), sizeof(text) - strlen(text), LOOP_END_S " > x\n");
+        assert_int_equal(harness_write_file(&t->h, "veh.rec", text, NULL), 0);
+        snprintf(t->dev, sizeof(t->dev), "%s/tty0", t->h.dir);
+
+        /* One pass, not looping: what one pass counts. */
+        replay(t, "max");
+        snap(t, veh_inbound, rx_counters, &one);
+        assert_int_equal(one.counters[0], 2);   /* frames_in */
+        assert_int_equal(one.counters[3], 1);   /* bad_checksum */
+        assert_true(one.counters[2] > 0);       /* noise_bytes */
+        stop(t);
+
+        veh_config_with(t, links, sizeof(links), &looping);
+        start(t, links);
+        assert_int_equal(harness_wait_log(&t->h, "looping", WAIT_MS), 0);
+        /* Looked at between two passes: after `done` passes ended (the log says so at each
+         * end), pass done + 1 has played all its frames, and the log still says done (no
+         * further pass began while the counters were read). A pass that begins meanwhile
+         * (a slow machine) only makes it look again. */
+        while (!seen && harness_now_ns() < deadline) {
+                struct sl_link_info li;
+                uint32_t cursor = 0;
+
+                done = log_count(t, "replay done");
+                if (done < LOOP_PASSES - 1) {
+                        sl_wait(t->c, &cursor, 50);
+                        continue;
+                }
+                link_info(t, &li);
+                if (counter(&li, "frames_in") < (done + 1) * one.counters[0]) {
+                        sl_wait(t->c, &cursor, 50);
+                        continue;
+                }
+                snap(t, veh_inbound, rx_counters, &got);
+                seen = log_count(t, "replay done") == done;
+        }
+        assert_true(seen);
+        for (int i = 0; rx_counters[i]; i++)
+                one.counters[i] *= done + 1;
+        snap_equal(&one, &got, veh_inbound, rx_counters, "looping");
+        assert_int_equal(log_count(t, "end of recording"), 0);
         stop(t);
 }
 
@@ -630,16 +854,27 @@ static void test_record_replay_circe(void **state)
                 "    role: controller\n"
                 "    %s"
                 "    device: %s\n";
-        char part1[CONF_MAX], part2[CONF_MAX], tr[PATH_BUF * 2];
+        char part1[CONF_MAX], part2[CONF_MAX], tr[PATH_BUF * 2], late[PATH_BUF];
 
         snprintf(arena, sizeof(arena), "%s/arena.tty", t->h.dir);
+        snprintf(late, sizeof(late), "%s/late.tty", t->h.dir);
         snprintf(t->rec, sizeof(t->rec), "%s/agility.rec", t->h.dir);
-        /* The controller comes first: its link index is 0 in both runs. */
-        snprintf(part1, sizeof(part1), controller, "transport: serial\n", arena);
+        /* The controller comes first: its link index is 0 in both runs. It opens late.tty,
+         * which leads to the mediator's pty only once the recorder listens: the whole session
+         * is recorded, the login included (else a fast login could be over before). */
+        snprintf(part1, sizeof(part1), controller, "transport: serial\n", late);
         snprintf(part2, sizeof(part2), mediator, arena);
         snprintf(links, sizeof(links), "links:\n%s%s", part1, part2);
         start(t, links);
         record_start(t, "agility", NULL);
+        {
+                char pts[PATH_BUF];
+                ssize_t n = readlink(arena, pts, sizeof(pts) - 1);
+
+                assert_true(n > 0);
+                pts[n] = '\0';
+                assert_int_equal(symlink(pts, late), 0);
+        }
         {
                 uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * 1000000u;
                 char v[SL_VALUE_SIZE] = "";
@@ -683,7 +918,7 @@ static void test_record_replay_circe(void **state)
                 rec.counters[1] = in_bytes;     /* bytes_in as recorded */
         }
         snprintf(tr, sizeof(tr), "transport: replay\n    file: %s\n    speed: max\n", t->rec);
-        snprintf(part1, sizeof(part1), controller, tr, arena);
+        snprintf(part1, sizeof(part1), controller, tr, late);
         snprintf(links, sizeof(links), "links:\n%s", part1);
         start(t, links);
         assert_int_equal(harness_wait_log(&t->h, "replay done", WAIT_MS), 0);
@@ -700,6 +935,8 @@ int main(void)
 {
         const struct CMUnitTest tests[] = {
                 cmocka_unit_test_setup_teardown(test_record_replay_sharedlink, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_replay_max_does_not_wait, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_replay_loop, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_broken_recording, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_record_errors_and_slow_recorder, setup,
                                                 teardown),

@@ -534,6 +534,11 @@ void channel_set_tap(struct channel *ch, channel_tap_fn fn, void *arg)
         ch->tap_arg = fn ? arg : NULL;
 }
 
+bool channel_datagram(const struct channel *ch)
+{
+        return transport_params_datagram(&ch->params);
+}
+
 enum channel_state channel_state(const struct channel *ch)
 {
         return ch->state;

@@ -111,6 +111,10 @@ void channel_fail(struct channel *ch, const char *reason);
 /* Sets (fn NULL: clears) the tap that sees every chunk read or written. */
 void channel_set_tap(struct channel *ch, channel_tap_fn fn, void *arg);
 
+/* Whether the channel reads and writes whole datagrams (udp, a replay of udp): known from its
+ * parameters, before it is started. */
+bool channel_datagram(const struct channel *ch);
+
 /* Current state. */
 enum channel_state channel_state(const struct channel *ch);
 

@@ -12,6 +12,7 @@
 
 #include "daemon/log.h"
 #include "daemon/recorder.h"
+#include "daemon/replay.h"
 #include "daemon/transport.h"
 #include "shm/table.h"
 
@@ -72,6 +73,9 @@ static int link_transport_params(const struct config_link *cfg, struct transport
                 log_warnx("link %s: file %s: path too long", cfg->name, cfg->replay_file);
                 return -EINVAL;
         }
+        /* Decided once, here: the engine asks the channel (channel_datagram()). */
+        if (cfg->transport == CONFIG_TRANSPORT_REPLAY)
+                params->replay_datagram = replay_file_datagram(cfg->replay_file);
         params->replay_speed = cfg->replay_speed;
         params->replay_loop = cfg->replay_loop;
         for (unsigned i = 0; i < cfg->n_devices; i++)

@@ -593,11 +593,12 @@ static int lsl_create(const struct link_env *env, void **ret_engine)
         snprintf(l->status, sizeof(l->status), "%s", state_word(l->state));
         log_ratelimit_init(&l->rl, cfg->name, LOG_RATELIMIT_INTERVAL_MS, LOG_RATELIMIT_BURST);
         evloop_timer_init(&l->timer, env->loop, on_timer, l);
-        r = link_sharedlink_session_new(cfg, cfg->transport == CONFIG_TRANSPORT_UDP,
-                                        &session_hooks, l, &l->session);
+        /* The channel first: it knows whether reads are datagrams (udp, or a replay of udp). */
+        r = link_channel_new(env, &ch_ops, l, &l->ch);
         if (r < 0)
                 goto fail;
-        r = link_channel_new(env, &ch_ops, l, &l->ch);
+        r = link_sharedlink_session_new(cfg, channel_datagram(l->ch), &session_hooks, l,
+                                        &l->session);
         if (r < 0)
                 goto fail;
 
@@ -615,6 +616,7 @@ static int lsl_create(const struct link_env *env, void **ret_engine)
 fail:
         /* Nothing is armed or pending before the channel starts. */
         link_sharedlink_session_free(l->session);
+        channel_free(l->ch);
         free(l);
         return r;
 }

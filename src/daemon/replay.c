@@ -43,6 +43,7 @@ struct replay {
         uint64_t ref_out_bytes;         /* what the recording says the daemon sent */
         uint64_t ref_out_chunks;
         uint64_t dropped;               /* chunks the recorder could not keep */
+        bool datagram;                  /* recorded on udp: each "<" chunk was a datagram */
 
         uint64_t start_ns;              /* when this pass began */
         size_t next;                    /* index of the next chunk to hand out */
@@ -182,11 +183,49 @@ static int replay_load(struct replay *rp, const char *path, bool keep, char *err
                 r = -EBADMSG;
         } else {
                 rp->dropped = reader->dropped;
+                rp->datagram = rec_reader_datagram(reader);
         }
 out:
         free(text);
         free(reader);
         return r;
+}
+
+bool replay_file_datagram(const char *path)
+{
+        struct rec_reader *reader = malloc(sizeof(*reader));
+        char *head = malloc(REPLAY_HEAD_MAX);
+        bool datagram = false;
+        size_t len = 0, pos = 0;
+        int fd = open(path, O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK);
+
+        if (fd < 0 || !reader || !head)
+                goto out;
+        while (len < REPLAY_HEAD_MAX) {
+                ssize_t n = read(fd, head + len, REPLAY_HEAD_MAX - len);
+
+                if (n < 0 && errno == EINTR)
+                        continue;
+                if (n <= 0)
+                        break;
+                len += (size_t)n;
+        }
+        rec_reader_init(reader);
+        /* Whole lines only, up to the first chunk: the metadata is over there. */
+        while (pos < len && !reader->chunk_seen) {
+                const char *nl = memchr(head + pos, '\n', len - pos);
+
+                if (!nl || rec_reader_line(reader, head + pos, (size_t)(nl - (head + pos))) < 0)
+                        break;
+                pos = (size_t)(nl - head) + 1;
+        }
+        datagram = rec_reader_datagram(reader);
+out:
+        if (fd >= 0)
+                close(fd);
+        free(head);
+        free(reader);
+        return datagram;
 }
 
 int replay_check_file(const char *path, char *err, size_t errsz)
@@ -260,9 +299,9 @@ int replay_open(const char *path, double speed, bool loop, struct replay **ret_r
                 snprintf(speed_text, sizeof(speed_text), "%g", speed);
         else
                 snprintf(speed_text, sizeof(speed_text), "max");
-        log_info("replay %s: %zu chunks in, %" PRIu64 " out, %.3f s, speed %s%s", path,
+        log_info("replay %s: %zu chunks in, %" PRIu64 " out, %.3f s, speed %s%s%s", path,
                  rp->n_chunks, rp->ref_out_chunks, (double)rp->end_t_us / REPLAY_US_PER_S,
-                 speed_text, loop ? ", looping" : "");
+                 speed_text, rp->datagram ? ", as datagrams" : "", loop ? ", looping" : "");
         if (rp->dropped)
                 log_warnx("replay %s: the recorder dropped %" PRIu64 " chunks: the recording "
                           "has gaps", path, rp->dropped);
@@ -283,6 +322,11 @@ struct replay *replay_close(struct replay *rp)
         free(rp->blob);
         free(rp);
         return NULL;
+}
+
+bool replay_datagram(const struct replay *rp)
+{
+        return rp->datagram;
 }
 
 int replay_fd(const struct replay *rp)

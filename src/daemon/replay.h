@@ -11,6 +11,9 @@
  *   takes them, still in order and one per read, CHANNEL_READ_BUDGET per wakeup like any fd.
  * - Writes (what the engine sends) are counted and dropped; the ">" chunks of the recording are the
  *   reference the end-of-replay log line compares them with.
+ * - A recording of a UDP link ("# transport: udp" in its head) is played as datagrams: each "<"
+ *   chunk is one read, and the link's engine is told, before it starts, to take each read as one
+ *   datagram (replay_file_datagram()), as it did on the wire.
  * - At the end (the time of the recording's last line), a one-line summary is logged and reads
  *   return -ENODATA (the channel then reports "end of recording" and does not reopen), or the
  *   replay starts over when loop is set.
@@ -24,6 +27,7 @@
 #include <sys/types.h>
 
 #define REPLAY_FILE_MAX         (64u << 20)     /* bytes of a recording read at open */
+#define REPLAY_HEAD_MAX         4096    /* bytes read for the metadata before the first chunk */
 
 struct replay;
 
@@ -31,12 +35,20 @@ struct replay;
  * line: -EBADMSG) or "FILE: reason" (-ENOENT, -EFBIG over REPLAY_FILE_MAX...) in err. */
 int replay_check_file(const char *path, char *err, size_t errsz);
 
+/* Whether the recording at path says it was made on a datagram transport ("# transport: udp"
+ * among the comments before its first chunk, within REPLAY_HEAD_MAX bytes). Reads only the head;
+ * false also when it cannot be read (the open then says why). */
+bool replay_file_datagram(const char *path);
+
 /* Loads path (as replay_check_file) and starts playing it now; speed 0 is "max". */
 int replay_open(const char *path, double speed, bool loop, struct replay **ret_replay, char *err,
                 size_t errsz);
 
 /* Logs nothing, frees; returns NULL. NULL ok. */
 struct replay *replay_close(struct replay *rp);
+
+/* Whether the loaded recording was made on a datagram transport (as replay_file_datagram()). */
+bool replay_datagram(const struct replay *rp);
 
 /* The timerfd to poll for input. */
 int replay_fd(const struct replay *rp);

@@ -42,6 +42,7 @@ struct transport {
         socklen_t udp_peer_len;
 
         struct replay *replay;                  /* replay */
+        bool datagram;                          /* transport_params_datagram() */
 };
 
 /* ---------------------------------------------------------------------------------------------
@@ -415,6 +416,7 @@ int transport_open(const struct transport_params *params, unsigned device_index,
                 return -ENOMEM;
         }
         t->kind = params->kind;
+        t->datagram = transport_params_datagram(params);
         t->fd = -1;
         t->serial.fd = -1;
         t->pty_slave_fd = -1;
@@ -428,6 +430,14 @@ int transport_open(const struct transport_params *params, unsigned device_index,
         case TRANSPORT_REPLAY:
                 r = replay_open(params->devices[0], params->replay_speed, params->replay_loop,
                                 &t->replay, err, errsz);
+                if (r == 0 && replay_datagram(t->replay) != t->datagram) {
+                        /* The engine was set up for the other kind: it would decode wrongly. */
+                        snprintf(err, errsz, "%s: the recording's transport changed since the "
+                                 "link was set up (restart the daemon to play it)",
+                                 params->devices[0]);
+                        t->replay = replay_close(t->replay);
+                        r = -ESTALE;
+                }
                 if (r == 0) {
                         t->fd = replay_fd(t->replay);
                         snprintf(t->name, sizeof(t->name), "%s", params->devices[0]);
@@ -477,9 +487,15 @@ int transport_fd(const struct transport *t)
         return t->fd;
 }
 
+bool transport_params_datagram(const struct transport_params *params)
+{
+        return params->kind == TRANSPORT_UDP ||
+               (params->kind == TRANSPORT_REPLAY && params->replay_datagram);
+}
+
 bool transport_is_datagram(const struct transport *t)
 {
-        return t->kind == TRANSPORT_UDP;
+        return t->datagram;
 }
 
 const char *transport_name(const struct transport *t)

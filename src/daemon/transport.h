@@ -14,7 +14,8 @@
  *   later first reads those stale bytes (the codecs resynchronise on the next frame start).
  * - TRANSPORT_REPLAY: devices[0] is a recording (replay.h) played as if it came from the wire:
  *   one recorded "<" chunk per read at the recorded pace, writes counted and dropped. Its end is
- *   a read error, -ENODATA, that is final: transport_reopens() is false for this kind.
+ *   a read error, -ENODATA, that is final: transport_reopens() is false for this kind. With
+ *   replay_datagram set (a recording of a UDP link), each chunk is one datagram, as on UDP.
  * - TRANSPORT_UDP: local and/or remote "host:port" ("[v6]:port" for IPv6), numeric addresses or
  *   "localhost" only (no DNS lookups in the event loop). One datagram per frame both ways.
  *   With a remote, the socket is connected (the kernel drops datagrams from anyone else); with
@@ -54,6 +55,8 @@ struct transport_params {
         char remote[TRANSPORT_ADDR_MAX];
         double replay_speed;            /* replay: devices[0] is the file; 0 = "max" */
         bool replay_loop;
+        bool replay_datagram;           /* replay: chunks are datagrams (the recording's head
+                                         * said udp when the link was set up) */
 };
 
 struct transport;
@@ -71,6 +74,10 @@ int transport_params_set_udp(struct transport_params *params, const char *local,
 /* NULL when the params can be opened as far as syntax goes, else a short reason. */
 const char *transport_params_check(const struct transport_params *params);
 
+/* Whether a transport opened with params reads and writes whole datagrams: udp, or a replay
+ * with replay_datagram. */
+bool transport_params_datagram(const struct transport_params *params);
+
 /* Opens device `device_index` of params (serial), the pty, or the UDP socket. 0 or -errno with
  * a one-line reason in err ("open /dev/ttyUSB0: No such file or directory"; NULL if errsz 0). */
 int transport_open(const struct transport_params *params, unsigned device_index,
@@ -82,7 +89,8 @@ struct transport *transport_close(struct transport *transport);
 /* The non-blocking fd to poll. */
 int transport_fd(const struct transport *transport);
 
-/* Whether reads and writes are whole datagrams (udp) rather than a byte stream. */
+/* Whether reads and writes are whole datagrams (udp, a replay of udp) rather than a byte
+ * stream. */
 bool transport_is_datagram(const struct transport *transport);
 
 /* What is open: the device path, the pty symlink path, or "udp <local> -> <remote>". */

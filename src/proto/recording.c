@@ -260,12 +260,26 @@ static int rec_fail(struct rec_reader *r, const char *why)
         return -EINVAL;
 }
 
-/* "# dropped N chunks": adds N to r->dropped (other comments are metadata only). */
+/* "# transport: X" before the first chunk: X kept, when it fits (the first one counts). */
+static void rec_note_transport(struct rec_reader *r, const char *line, size_t len)
+{
+        size_t plen = strlen(REC_TRANSPORT_PREFIX);
+
+        if (r->chunk_seen || r->transport[0] || len <= plen || len - plen >= REC_META_MAX ||
+            memcmp(line, REC_TRANSPORT_PREFIX, plen) != 0)
+                return;
+        memcpy(r->transport, line + plen, len - plen);
+        r->transport[len - plen] = '\0';
+}
+
+/* "# dropped N chunks": adds N to r->dropped; "# transport: X" is kept (other comments are
+ * metadata only). */
 static void rec_note_comment(struct rec_reader *r, const char *line, size_t len)
 {
         size_t plen = strlen(REC_DROPPED_PREFIX), p = plen;
         uint64_t n = 0;
 
+        rec_note_transport(r, line, len);
         if (len <= plen || memcmp(line, REC_DROPPED_PREFIX, plen) != 0)
                 return;
         while (p < len && p - plen < REC_DROPPED_DIGITS && line[p] >= '0' && line[p] <= '9')
@@ -296,6 +310,7 @@ int rec_reader_line(struct rec_reader *r, const char *line, size_t len)
                 rec_note_comment(r, line, len);
                 return 0;
         }
+        r->chunk_seen = true;
         if (l->t_us < r->last_t_us)
                 return rec_fail(r, "time goes backwards");
         if (r->continuing) {
@@ -313,6 +328,11 @@ int rec_reader_line(struct rec_reader *r, const char *line, size_t len)
         r->last_t_us = l->t_us;
         r->continuing = l->more;
         return l->more ? 0 : 1;
+}
+
+bool rec_reader_datagram(const struct rec_reader *r)
+{
+        return strcmp(r->transport, REC_TRANSPORT_DATAGRAM) == 0;
 }
 
 int rec_reader_end(struct rec_reader *r)

@@ -26,6 +26,8 @@
 
 #define REC_HEADER              "# sharedlink recording 1"
 #define REC_DROPPED_PREFIX      "# dropped "            /* "# dropped N chunks" */
+#define REC_TRANSPORT_PREFIX    "# transport: "         /* the recorded link's transport */
+#define REC_TRANSPORT_DATAGRAM  "udp"   /* a transport whose chunks are datagrams */
 #define REC_PIECE_MAX           1000    /* chunk bytes one line carries */
 #define REC_CHUNK_MAX           8192    /* bytes of one whole chunk (TRANSPORT_DATAGRAM_MAX) */
 #define REC_SECONDS_DIGITS      10      /* time: seconds before the point */
@@ -35,6 +37,7 @@
 #define REC_LINE_MAX            (REC_SECONDS_DIGITS + 1 + REC_MICROS_DIGITS + 1 + 2 + 1 + \
                                  REC_PIECE_MAX * REC_ESCAPE_MAX)
 #define REC_WHY_MAX             96      /* a parse error message, NUL included */
+#define REC_META_MAX            32      /* a metadata value the reader keeps, NUL included */
 
 enum rec_dir {
         REC_DIR_IN,                     /* '<': the daemon received it from the wire */
@@ -76,6 +79,9 @@ struct rec_reader {
         bool continuing;                /* the last piece had "+" */
         uint64_t last_t_us;
         uint64_t dropped;               /* the sum of "# dropped N chunks" comments */
+        bool chunk_seen;                /* a chunk line came: metadata is over */
+        char transport[REC_META_MAX];   /* of the first "# transport: X" before any chunk
+                                         * ("" when none, or when X is longer) */
         enum rec_dir dir;               /* of the chunk being assembled */
         size_t len;
         uint8_t chunk[REC_CHUNK_MAX];
@@ -91,6 +97,9 @@ void rec_reader_init(struct rec_reader *r);
  * line continues; -EINVAL for a broken line, the message in r->why and the line in r->line_no.
  */
 int rec_reader_line(struct rec_reader *r, const char *line, size_t len);
+
+/* Whether the recording read so far says its chunks were datagrams ("# transport: udp"). */
+bool rec_reader_datagram(const struct rec_reader *r);
 
 /* The recording ended: 0, or -EINVAL (no header, a chunk cut after "+") with r->why set. */
 int rec_reader_end(struct rec_reader *r);

@@ -653,6 +653,76 @@ static void test_replay_loop(void **state)
         stop(t);
 }
 
+/* A UDP link: every datagram is one chunk, and the replay hands each to the engine as one
+ * datagram again. A frame cut over two datagrams is two broken datagrams on UDP (a datagram
+ * carries whole frames); played as a byte stream it would join into one good frame. */
+static void test_record_replay_udp(void **state)
+{
+        struct it *t = *state;
+        struct sockaddr_in daemon_addr = { .sin_family = AF_INET };
+        struct sockaddr_in me = { .sin_family = AF_INET };
+        socklen_t mlen = sizeof(me);
+        struct veh_opts o = { .wire = VEH_UDP };
+        char links[CONF_MAX], err[1024], buf[FRAME_MAX];
+        struct snapshot rec, got;
+        size_t n;
+        int fd;
+
+        /* The daemon's port: one the kernel had free a moment ago. */
+        fd = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+        me.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+        assert_true(fd >= 0);
+        assert_int_equal(bind(fd, (struct sockaddr *)&me, sizeof(me)), 0);
+        assert_int_equal(getsockname(fd, (struct sockaddr *)&me, &mlen), 0);
+        o.port = ntohs(me.sin_port);
+        close(fd);
+        t->udp = socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+        me.sin_port = 0;
+        assert_true(t->udp >= 0);
+        assert_int_equal(bind(t->udp, (struct sockaddr *)&me, sizeof(me)), 0);
+        mlen = sizeof(me);
+        assert_int_equal(getsockname(t->udp, (struct sockaddr *)&me, &mlen), 0);
+        o.peer_port = ntohs(me.sin_port);
+        daemon_addr.sin_port = htons(o.port);
+        daemon_addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+
+        veh_config_with(t, links, sizeof(links), &o);
+        start(t, links);
+        record_start(t, "veh", NULL);
+#define SEND_DGRAM(p, len) \
+        assert_int_equal(sendto(t->udp, (p), (len), 0, (struct sockaddr *)&daemon_addr, \
+                                sizeof(daemon_addr)), (ssize_t)(len))
+        n = wire_slp_frame(buf, sizeof(buf), 'B', 'A', "N0|D40.5|D-105.25|D90|D1.5", true);
+        SEND_DGRAM(buf, n);
+        wait_value(t, "AutoGpsVel", "1.5");
+        /* The cut frame: a truncated frame, then noise; the values stay. */
+        n = wire_slp_frame(buf, sizeof(buf), 'B', 'A', "N0|D7|D8|D9|D1", true);
+        SEND_DGRAM(buf, 10);
+        SEND_DGRAM(buf + 10, n - 10);
+        /* Without CR LF, as a datagram may be. */
+        n = wire_slp_frame(buf, sizeof(buf), 'B', 'A', "N2|D270", false);
+        SEND_DGRAM(buf, n);
+#undef SEND_DGRAM
+        wait_value(t, "AutoGpsHead", "270");
+        snap(t, veh_inbound, rx_counters, &rec);
+        assert_string_equal(rec.values[0], "40.5");     /* the cut frame was not taken */
+        assert_int_equal(rec.counters[0], 2);           /* frames_in */
+        assert_int_equal(rec.counters[4], 1);           /* resync: the truncated frame */
+        record_stop(t, SIGINT, err, sizeof(err));
+        stop(t);
+        read_file(t->rec, t->buf, FILE_MAX);
+        assert_non_null(strstr(t->buf, "\n# transport: udp\n"));
+
+        o.speed = "max";
+        veh_config_with(t, links, sizeof(links), &o);
+        start(t, links);
+        assert_int_equal(harness_wait_log(&t->h, "as datagrams", WAIT_MS), 0);
+        assert_int_equal(harness_wait_log(&t->h, "end of recording", WAIT_MS), 0);
+        snap(t, veh_inbound, rx_counters, &got);
+        snap_equal(&rec, &got, veh_inbound, rx_counters, "udp replay");
+        stop(t);
+}
+
 /* A broken line: -n names FILE:LINE; at start the link fails with it, the daemon runs on. */
 static void test_broken_recording(void **state)
 {
@@ -937,6 +1007,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_record_replay_sharedlink, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_replay_max_does_not_wait, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_replay_loop, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_record_replay_udp, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_broken_recording, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_record_errors_and_slow_recorder, setup,
                                                 teardown),

@@ -296,6 +296,39 @@ static void test_text_good(void **state)
         free(r);
 }
 
+/* "# transport: X" before the first chunk names the recorded transport; later ones, or one too
+ * long to keep, do not; only "udp" makes the chunks datagrams. */
+static void test_text_transport(void **state)
+{
+        static const struct {
+                const char *text, *transport;
+                bool datagram;
+        } cases[] = {
+                { REC_HEADER "\n# link: p4\n# transport: udp\n0.000001 < A\n", "udp", true },
+                { REC_HEADER "\n# transport: serial\n0.000001 < A\n", "serial", false },
+                { REC_HEADER "\n# transport: pty\n# transport: udp\n", "pty", false },
+                { REC_HEADER "\n0.000001 < A\n# transport: udp\n", "", false },
+                { REC_HEADER "\n# transport:udp\n", "", false },
+                { REC_HEADER "\n# transport: udpudpudpudpudpudpudpudpudpudpudp\n", "", false },
+                { REC_HEADER "\n# transport: udp6\n", "udp6", false },
+        };
+        struct rec_reader *r = calloc(1, sizeof(*r));
+
+        (void)state;
+        assert_non_null(r);
+        for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+                rec_reader_init(r);
+                assert_int_equal(rec_parse_text(r, cases[i].text, strlen(cases[i].text), NULL,
+                                                NULL), 0);
+                assert_string_equal(r->transport, cases[i].transport);
+                assert_int_equal(rec_reader_datagram(r), cases[i].datagram);
+        }
+        /* A reader used again forgets the last recording's transport. */
+        rec_reader_init(r);
+        assert_string_equal(r->transport, "");
+        free(r);
+}
+
 static void test_text_broken(void **state)
 {
         static const struct {
@@ -390,6 +423,7 @@ int main(void)
                 cmocka_unit_test(test_parse_broken_lines),
                 cmocka_unit_test(test_parse_too_long),
                 cmocka_unit_test(test_text_good),
+                cmocka_unit_test(test_text_transport),
                 cmocka_unit_test(test_text_broken),
                 cmocka_unit_test(test_text_limits),
         };

@@ -2,7 +2,8 @@
  * transport + serial: parameter checks; the serial kind on real ptys (the test owns the pair,
  * the transport opens the slave) at standard and non-standard speeds with the settings read
  * back and the original settings restored; the pty kind's symlink; UDP on loopback with
- * datagram boundaries. Reconnection lives in test_channel.c.
+ * datagram boundaries; a replay of a UDP recording as datagrams. Reconnection lives in
+ * test_channel.c.
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -27,7 +28,9 @@
 #include "common/harness.h"
 #include "daemon/serial.h"
 #include "daemon/serial_speed.h"
+#include "daemon/replay.h"
 #include "daemon/transport.h"
+#include "proto/recording.h"
 
 #define WAIT_MS         5000
 
@@ -629,6 +632,64 @@ static void test_udp_localhost_and_errors(void **state)
         assert_int_equal(transport_open(&p, 0, &a, err, sizeof(err)), -EADDRNOTAVAIL);
 }
 
+/* Writes text to <dir>/name; its path in out (TRANSPORT_PATH_MAX). */
+static void write_in(const struct fixture *f, const char *name, const char *text, char *out)
+{
+        FILE *fp;
+
+        path_in(f, name, out);
+        fp = fopen(out, "w");
+        assert_non_null(fp);
+        assert_int_equal(fputs(text, fp) >= 0, 1);
+        assert_int_equal(fclose(fp), 0);
+}
+
+/* A recording that says "# transport: udp" before its first chunk is played as datagrams, if
+ * the link was set up so (replay_datagram); one that does not, as a byte stream; a recording
+ * that changed kind since the link was set up is refused rather than decoded the wrong way. */
+static void test_replay_datagram(void **state)
+{
+        const struct fixture *f = *state;
+        char udp[TRANSPORT_PATH_MAX], tty[TRANSPORT_PATH_MAX], late[TRANSPORT_PATH_MAX];
+        char err[TRANSPORT_ERR_MAX], buf[16];
+        struct transport_params p;
+        struct transport *t;
+
+        write_in(f, "udp.rec", REC_HEADER "\n# link: p4\n# transport: udp\n0.000001 < AB\n"
+                 "0.000002 < C\n", udp);
+        write_in(f, "tty.rec", REC_HEADER "\n# transport: serial\n0.000001 < AB\n", tty);
+        write_in(f, "late.rec", REC_HEADER "\n0.000001 < AB\n# transport: udp\n", late);
+        assert_true(replay_file_datagram(udp));
+        assert_false(replay_file_datagram(tty));
+        assert_false(replay_file_datagram(late));       /* after the first chunk: not metadata */
+        path_in(f, "missing.rec", late);
+        assert_false(replay_file_datagram(late));       /* unreadable: the open says why */
+
+        transport_params_init(&p, TRANSPORT_REPLAY);
+        assert_int_equal(transport_params_add_device(&p, udp), 0);
+        p.replay_datagram = true;
+        assert_true(transport_params_datagram(&p));
+        assert_int_equal(transport_open(&p, 0, &t, err, sizeof(err)), 0);
+        assert_true(transport_is_datagram(t));
+        wait_readable(transport_fd(t));
+        assert_int_equal(transport_read(t, buf, sizeof(buf)), 2);
+        wait_readable(transport_fd(t));
+        assert_int_equal(transport_read(t, buf, sizeof(buf)), 1);
+        transport_close(t);
+
+        /* Set up as a stream, but the file says udp: refused. */
+        p.replay_datagram = false;
+        assert_false(transport_params_datagram(&p));
+        assert_int_equal(transport_open(&p, 0, &t, err, sizeof(err)), -ESTALE);
+        assert_non_null(strstr(err, "transport changed"));
+
+        transport_params_init(&p, TRANSPORT_REPLAY);
+        assert_int_equal(transport_params_add_device(&p, tty), 0);
+        assert_int_equal(transport_open(&p, 0, &t, err, sizeof(err)), 0);
+        assert_false(transport_is_datagram(t));
+        transport_close(t);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -638,6 +699,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_serial_open_errors, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_pty_symlink, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_pty_symlink_rules, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_replay_datagram, setup, teardown),
                 cmocka_unit_test(test_udp_ipv4),
                 cmocka_unit_test(test_udp_ipv6),
                 cmocka_unit_test(test_udp_localhost_and_errors),

@@ -5,10 +5,10 @@
 #
 # Commands, options and their fixed values come from here; variable names, link names, peers and
 # device addresses from the running daemon, through the slctl being completed (`slctl list`,
-# `slctl stats`), with the -i INSTANCE already on the line. Nothing is printed on errors: with no
-# daemon running, only the fixed words complete.
+# `slctl stats`), with the -i INSTANCE already on the line; record's FILE from the file system.
+# Nothing is printed on errors: with no daemon running, only the fixed words complete.
 
-_slctl_commands="list get set watch events stats query command circe help"
+_slctl_commands="list get set watch events stats query command record circe help"
 _slctl_circe_ops="alert network-setup device-setup sync-clocks visualize emulate"
 
 # _slctl_run PROG ARGS...: runs slctl quietly, stdout only.
@@ -85,7 +85,8 @@ _slctl()
 
         # Words after the command that are not options (nor an option's value): the positionals.
         local pos=() w
-        local valued=" --count --timeout --wait --roles --assign --dest --capabilities --keys "
+        local valued=" --count --duration --timeout --wait --roles --assign --dest --capabilities "
+        valued+="--keys "
         valued+="--sensor-time --current --next --primary --secondary --faults --refusals "
         valued+="--eliminated --placement "
         for ((i = ci + 1; i < COMP_CWORD; i++)); do
@@ -114,6 +115,7 @@ _slctl()
         stats)  opts="--json --all" ;;
         query)  opts="--timeout --wait" ;;
         command) opts="--wait" ;;
+        record) opts="--duration --count" ;;
         esac
         if [[ $cur == -* ]]; then
                 case $command in
@@ -145,6 +147,14 @@ _slctl()
                 esac ;;
         command)
                 [ ${#pos[@]} -eq 0 ] && _slctl_reply "$(_slctl_links sharedlink)" ;;
+        record)
+                # Any link, then the file to write (or - for standard output, typed as is).
+                case ${#pos[@]} in
+                0)      _slctl_reply "$(_slctl_links "")" ;;
+                1)      # compopt works only inside a completion bash runs: quiet elsewhere.
+                        compopt -o filenames 2>/dev/null
+                        mapfile -t COMPREPLY < <(compgen -f -- "$cur") ;;
+                esac ;;
         circe)
                 case ${#pos[@]} in
                 0)      _slctl_reply "$(_slctl_links circe)" ;;

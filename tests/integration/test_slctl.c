@@ -1258,13 +1258,13 @@ static void complete_argv(struct fixture *f, const char *const *words)
 static void test_completion(void **state)
 {
         struct fixture *f = *state;
-        char words[sizeof(f->h.instance) + 4];
+        char words[sizeof(f->h.dir) + sizeof(f->h.instance) + 16];
 
         daemon_start_both(f);
         wait_circe_up(f);
         COMPLETE(f, "");
-        assert_string_equal(f->out, "circe\ncommand\nevents\nget\nhelp\nlist\nquery\nset\nstats\n"
-                            "watch\n");
+        assert_string_equal(f->out, "circe\ncommand\nevents\nget\nhelp\nlist\nquery\nrecord\nset\n"
+                            "stats\nwatch\n");
         COMPLETE(f, "st");
         assert_string_equal(f->out, "stats\n");
         COMPLETE(f, "--v");
@@ -1326,6 +1326,29 @@ static void test_completion(void **state)
         assert_string_equal(f->out, "AAAAAA\n");
         COMPLETE(f, "circe", "agility", "network-setup", "E1E1E1", "--r");
         assert_string_equal(f->out, "--roles\n");
+        /* record: its options, any link, then the file (from the file system). */
+        COMPLETE(f, "rec");
+        assert_string_equal(f->out, "record\n");
+        COMPLETE(f, "record", "--");
+        assert_string_equal(f->out, "--count\n--duration\n--help\n");
+        COMPLETE(f, "record", "");
+        assert_string_equal(f->out, "agility\narena\nnode_a\nnode_b\n");
+        COMPLETE(f, "record", "--duration", "5", "no");
+        assert_string_equal(f->out, "node_a\nnode_b\n");
+        COMPLETE(f, "record", "--count", "9", "");
+        assert_string_equal(f->out, "agility\narena\nnode_a\nnode_b\n");
+        assert_int_equal(harness_write_file(&f->h, "old.rec", "", NULL), 0);
+        assert_int_equal(harness_write_file(&f->h, "old.txt", "", NULL), 0);
+        snprintf(words, sizeof(words), "%s/old.r", f->h.dir);
+        COMPLETE(f, "record", "node_a", words);
+        snprintf(words, sizeof(words), "%s/old.rec\n", f->h.dir);
+        assert_string_equal(f->out, words);
+        snprintf(words, sizeof(words), "%s/old.", f->h.dir);
+        COMPLETE(f, "record", "--duration", "60", "agility", words);
+        assert_non_null(strstr(f->out, "old.rec\n"));
+        assert_non_null(strstr(f->out, "old.txt\n"));
+        COMPLETE(f, "record", "node_a", words, "");
+        assert_string_equal(f->out, "");
 }
 
 /* With no daemon, the fixed words still complete, and slctl's complaints stay hidden. */
@@ -1339,6 +1362,10 @@ static void test_completion_no_daemon(void **state)
         assert_string_equal(f->out, "command\n");
         COMPLETE(f, "get", "");
         assert_string_equal(f->out, "");
+        COMPLETE(f, "record", "");
+        assert_string_equal(f->out, "");
+        COMPLETE(f, "record", "--d");
+        assert_string_equal(f->out, "--duration\n");
         COMPLETE(f, "circe", "x", "");
         assert_string_equal(f->out, "alert\ndevice-setup\nemulate\nnetwork-setup\n"
                             "sync-clocks\nvisualize\n");

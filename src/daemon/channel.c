@@ -336,13 +336,15 @@ static bool channel_read(struct channel *ch, unsigned revents)
                         continue;
                 }
                 if (n < 0) {
-                        if (n != -ENODATA)      /* a replay's end is no I/O error */
+                        const char *end = transport_end_reason(ch->tp, (int)n);
+
+                        if (!end)               /* a replay's end is no I/O error */
                                 ch->stats.io_errors++;
                         if (transport_error_fatal(ch->tp, (int)n)) {
-                                if (n == -EPIPE)
+                                if (end)
+                                        channel_set_reason(ch, "%s", end);
+                                else if (n == -EPIPE)
                                         channel_set_reason(ch, "hang-up");
-                                else if (n == -ENODATA)
-                                        channel_set_reason(ch, "end of recording");
                                 else
                                         channel_set_reason(ch, "read: %s", strerror((int)-n));
                                 channel_go_down(ch, true);

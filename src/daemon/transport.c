@@ -573,6 +573,11 @@ bool transport_reopens(enum transport_kind kind)
         return kind != TRANSPORT_REPLAY;
 }
 
+const char *transport_end_reason(const struct transport *t, int err)
+{
+        return t->kind == TRANSPORT_REPLAY && err == -ENODATA ? "end of recording" : NULL;
+}
+
 bool transport_error_fatal(const struct transport *t, int err)
 {
         if (err == -EAGAIN)

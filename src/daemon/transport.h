@@ -112,6 +112,11 @@ ssize_t transport_write(struct transport *transport, const void *buf, size_t len
  * or a broken recording is final until the link is restarted). */
 bool transport_reopens(enum transport_kind kind);
 
+/* For err (negative) from transport_read: the reason when it is the normal end of a transport
+ * that ends ("end of recording": a replay's -ENODATA), which is no I/O error; else NULL. Only a
+ * replay ends: the same errno from a device is an error like any other. */
+const char *transport_end_reason(const struct transport *transport, int err);
+
 /* Whether err (negative) from transport_read/write means the transport is broken and must be
  * reopened; false for per-datagram errors (ICMP unreachable, too large, no peer yet). */
 bool transport_error_fatal(const struct transport *transport, int err);

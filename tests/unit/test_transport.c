@@ -607,6 +607,7 @@ static void test_udp_localhost_and_errors(void **state)
         assert_int_equal(transport_write(a, "hi", 2), 2);
         wait_readable(transport_fd(b));
         assert_int_equal(transport_read(b, buf, sizeof(buf)), 2);
+        assert_null(transport_end_reason(b, -ENODATA));
 
         /* The same port again: bind fails with a reason naming the address. */
         snprintf(addr, sizeof(addr), "127.0.0.1:%u", port);
@@ -671,6 +672,9 @@ static void test_replay_datagram(void **state)
         assert_true(transport_params_datagram(&p));
         assert_int_equal(transport_open(&p, 0, &t, err, sizeof(err)), 0);
         assert_true(transport_is_datagram(t));
+        /* Its end is the end of a replay, not an I/O error; the same errno elsewhere is one. */
+        assert_string_equal(transport_end_reason(t, -ENODATA), "end of recording");
+        assert_null(transport_end_reason(t, -EIO));
         wait_readable(transport_fd(t));
         assert_int_equal(transport_read(t, buf, sizeof(buf)), 2);
         wait_readable(transport_fd(t));

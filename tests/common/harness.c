@@ -142,6 +142,50 @@ int harness_write_file(struct harness *h, const char *name, const char *text, ch
         return r;
 }
 
+int harness_start_config(struct harness *h, const char *name, const char *body, int timeout_ms,
+                         char *why, size_t whysz)
+{
+        size_t size = strlen(body) + sizeof(h->instance) + sizeof(h->dir) + 64, n = 0;
+        char *text = malloc(size), path[HARNESS_PATH_MAX];
+        int st = 0, r, fd;
+
+        if (whysz)
+                why[0] = '\0';
+        if (!text)
+                return -ENOMEM;
+        snprintf(text, size, "instance: %s\nruntime_dir: %s\n%s", h->instance, h->dir, body);
+        r = harness_write_file(h, name, text, path);
+        free(text);
+        if (r < 0) {
+                if (whysz)
+                        snprintf(why, whysz, "cannot write %s: %s", name, strerror(-r));
+                return r;
+        }
+        r = harness_start_daemon(h, path, timeout_ms, &st, NULL);
+        if (r == 0)
+                return 0;
+        if (h->capture_log && harness_log_contains(h, "not available in this build") == 1)
+                return -ENOTSUP;
+        if (whysz)
+                n = (size_t)snprintf(why, whysz, "%s (status %d)%s", strerror(-r), st,
+                                     h->capture_log ? "; log: " : "");
+        fd = h->capture_log && n + 1 < whysz ? open(h->log_path, O_RDONLY | O_CLOEXEC) : -1;
+        if (fd >= 0) {
+                ssize_t k = read(fd, why + n, whysz - n - 1);
+
+                why[n + (k > 0 ? (size_t)k : 0)] = '\0';
+                close(fd);
+        }
+        return r;
+}
+
+void harness_close_fd(int *fd)
+{
+        if (*fd >= 0)
+                close(*fd);
+        *fd = -1;
+}
+
 /* Reads every pending notify datagram; returns 1 once one contains needle. */
 static int drain_notify(struct harness *h, const char *needle)
 {

@@ -46,6 +46,21 @@ const char *harness_slctl_path(void);
 int harness_start_daemon(struct harness *h, const char *config, int timeout_ms, int *ret_status,
                          const char *const *extra_args);
 
+/* The message harness_start_config() leaves: the outcome and the head of the captured log. */
+#define HARNESS_WHY_MAX 2048
+
+/* Writes "instance: <instance>\nruntime_dir: <dir>\n" and then body (e.g. a "links:" document)
+ * to <dir>/<name> and starts the daemon on it as harness_start_daemon() does (no extra args).
+ * 0 once READY=1 came; -ENOTSUP when the daemon refused a link whose engine this build lacks
+ * ("not available in this build" in the captured log: the caller skips the test); else the
+ * -errno of the write or the start, with why (whysz bytes, 0 for none) telling the wait status
+ * and the head of the captured log. */
+int harness_start_config(struct harness *h, const char *name, const char *body, int timeout_ms,
+                         char *why, size_t whysz);
+
+/* Closes *fd if it is open (>= 0) and sets it to -1: for teardowns. */
+void harness_close_fd(int *fd);
+
 /* Waits for a notify datagram containing `needle` (e.g. "RELOADING=1"); 0 or -ETIMEDOUT. */
 int harness_wait_notify(struct harness *h, const char *needle, int timeout_ms);
 

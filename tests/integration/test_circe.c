@@ -36,6 +36,7 @@
 #include "common/circe_garbage.h"
 #include "common/circe_sessions.h"
 #include "common/harness.h"
+#include "common/slwait.h"
 #include "common/testdata.h"
 #include "common/wire.h"
 #include "proto/circe.h"
@@ -106,27 +107,15 @@ static int teardown(void **state)
 /* Starts the daemon on links (a "links:" document) under the test's instance. */
 static void start(struct fx *f, const char *links)
 {
-        char text[CONFIG_MAX], path[PATH_BUF], sock[PATH_BUF];
-        int st = 0;
+        char why[HARNESS_WHY_MAX], sock[PATH_BUF];
+        int r;
 
-        snprintf(text, sizeof(text), "instance: %s\n%s", f->h.instance, links);
-        assert_int_equal(harness_write_file(&f->h, "circe.yaml", text, path), 0);
         f->h.capture_log = 1;
-        if (harness_start_daemon(&f->h, path, T_START_MS, &st, NULL) != 0) {
-                /* A build whose link registry does not have the CIRCE engine yet. */
-                if (harness_log_contains(&f->h, "not available in this build") == 1)
-                        skip();
-                char log[2048] = "";
-                FILE *fp = fopen(f->h.log_path, "r");
-
-                if (fp) {
-                        size_t n = fread(log, 1, sizeof(log) - 1, fp);
-
-                        log[n] = '\0';
-                        fclose(fp);
-                }
-                fail_msg("sharedlinkd did not start (status %d): %s", st, log);
-        }
+        r = harness_start_config(&f->h, "circe.yaml", links, T_START_MS, why, sizeof(why));
+        if (r == -ENOTSUP)
+                skip();         /* a build whose link registry does not have the CIRCE engine */
+        if (r < 0)
+                fail_msg("sharedlinkd did not start: %s", why);
         assert_int_equal(sl_open(f->h.instance, &f->cl), 0);
         snprintf(sock, sizeof(sock), "%s/%s.sock", f->h.dir, f->h.instance);
         f->ctl = harness_connect_unix(sock);
@@ -146,23 +135,15 @@ static const char *request(struct fx *f, const char *line)
 
 static bool value_is(struct fx *f, const char *name, const char *want)
 {
-        char buf[SL_VALUE_SIZE];
-        int id = sl_find(f->cl, name);
-
-        return id >= 0 && sl_read(f->cl, id, buf, sizeof(buf), NULL) >= 0 &&
-               strcmp(buf, want) == 0;
+        return slwait_value_is(f->cl, name, want);
 }
 
 static void wait_value(struct fx *f, const char *name, const char *want)
 {
-        uint64_t deadline = harness_now_ns() + (uint64_t)T_WAIT_MS * 1000000u;
-        uint32_t cursor = 0;
+        char last[SL_VALUE_SIZE];
 
-        while (!value_is(f, name, want)) {
-                if (harness_now_ns() > deadline)
-                        fail_msg("%s never became \"%s\"", name, want);
-                sl_wait(f->cl, &cursor, 200);
-        }
+        if (slwait_value(f->cl, name, want, T_WAIT_MS, last, sizeof(last)) < 0)
+                fail_msg("%s never became \"%s\" (last \"%s\")", name, want, last);
 }
 
 /* Waits for an event of that type on that link whose text contains needle. */

@@ -35,6 +35,7 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/slwait.h"
 
 #define START_MS        20000
 #define WAIT_MS         10000
@@ -188,12 +189,9 @@ static int teardown(void **state)
                 peer_stop(&t->peers[i]);
         sl_close(t->c);
         harness_cleanup(&t->h);
-        if (t->master >= 0)
-                close(t->master);
-        if (t->slave >= 0)
-                close(t->slave);
-        if (t->udp >= 0)
-                close(t->udp);
+        harness_close_fd(&t->master);
+        harness_close_fd(&t->slave);
+        harness_close_fd(&t->udp);
         free(t);
         return 0;
 }
@@ -249,16 +247,13 @@ static uint16_t free_port(void)
 
 static void start(struct it *t, const char *links_yaml)
 {
-        char yaml[YAML_MAX], path[HARNESS_PATH_MAX];
-        int st = 0, r;
+        char yaml[YAML_MAX], why[HARNESS_WHY_MAX];
+        int r;
 
-        r = snprintf(yaml, sizeof(yaml), "instance: %s\nruntime_dir: %s\nlinks:\n%s",
-                     t->h.instance, t->h.dir, links_yaml);
+        r = snprintf(yaml, sizeof(yaml), "links:\n%s", links_yaml);
         assert_true(r > 0 && (size_t)r < sizeof(yaml));
-        assert_int_equal(harness_write_file(&t->h, "p4.yaml", yaml, path), 0);
-        r = harness_start_daemon(&t->h, path, START_MS, &st, NULL);
-        if (r < 0)
-                fail_msg("daemon did not start: %s (status %d)", strerror(-r), st);
+        if (harness_start_config(&t->h, "p4.yaml", yaml, START_MS, why, sizeof(why)) < 0)
+                fail_msg("daemon did not start: %s", why);
         assert_int_equal(sl_open(t->h.instance, &t->c), 0);
         assert_int_equal(sl_set_runtime_dir(t->c, t->h.dir), 0);
         assert_int_equal(sl_events_now(t->c, &t->ev_cursor), 0);
@@ -485,19 +480,10 @@ static void wait_data_item(struct it *t, const char *hdr, size_t n, size_t k, co
 
 static void wait_value(struct it *t, const char *name, const char *value)
 {
-        uint64_t deadline = deadline_in(WAIT_MS);
-        uint32_t cursor = 0;
-        char buf[SL_VALUE_SIZE] = "";
+        char last[SL_VALUE_SIZE];
 
-        while (ms_left(deadline) > 0) {
-                int id = sl_find(t->c, name);
-
-                if (id >= 0 && sl_read(t->c, id, buf, sizeof(buf), NULL) >= 0 &&
-                    strcmp(buf, value) == 0)
-                        return;
-                sl_wait(t->c, &cursor, 100);
-        }
-        fail_msg("%s never read \"%s\" (last \"%s\")", name, value, buf);
+        if (slwait_value(t->c, name, value, WAIT_MS, last, sizeof(last)) < 0)
+                fail_msg("%s never read \"%s\" (last \"%s\")", name, value, last);
 }
 
 /* The value of name now ("" when never set); the variable must exist. */

@@ -34,6 +34,7 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/slwait.h"
 #include "common/wire.h"
 #include "proto/recording.h"
 
@@ -132,12 +133,9 @@ static int teardown(void **state)
         }
         sl_close(t->c);
         harness_cleanup(&t->h);
-        if (t->master >= 0)
-                close(t->master);
-        if (t->slave >= 0)
-                close(t->slave);
-        if (t->udp >= 0)
-                close(t->udp);
+        harness_close_fd(&t->master);
+        harness_close_fd(&t->slave);
+        harness_close_fd(&t->udp);
         free(t->buf);
         free(t);
         return 0;
@@ -160,19 +158,14 @@ static void plug(struct it *t)
  * fresh log. */
 static void start(struct it *t, const char *links)
 {
-        char yaml[CONF_MAX * 2], path[PATH_BUF];
-        int st = 0, r;
+        char why[HARNESS_WHY_MAX];
 
         sl_close(t->c);
         t->c = NULL;
-        snprintf(yaml, sizeof(yaml), "instance: %s\nruntime_dir: %s\n%s", t->h.instance,
-                 t->h.dir, links);
-        assert_int_equal(harness_write_file(&t->h, "rp.yaml", yaml, path), 0);
         if (truncate(t->h.log_path, 0) < 0)
                 assert_int_equal(errno, ENOENT);
-        r = harness_start_daemon(&t->h, path, START_MS, &st, NULL);
-        if (r < 0)
-                fail_msg("daemon did not start: %s (status %d)", strerror(-r), st);
+        if (harness_start_config(&t->h, "rp.yaml", links, START_MS, why, sizeof(why)) < 0)
+                fail_msg("daemon did not start: %s", why);
         assert_int_equal(sl_open(t->h.instance, &t->c), 0);
 }
 
@@ -945,21 +938,8 @@ static void test_record_replay_circe(void **state)
                 pts[n] = '\0';
                 assert_int_equal(symlink(pts, late), 0);
         }
-        {
-                uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * 1000000u;
-                char v[SL_VALUE_SIZE] = "";
-                uint32_t cursor = 0;
-
-                while (harness_now_ns() < deadline) {
-                        int id = sl_find(t->c, "agility.device.AAAAAA.capabilities");
-
-                        if (id >= 0 && sl_read(t->c, id, v, sizeof(v), NULL) >= 0 &&
-                            strcmp(v, "31") == 0)
-                                break;
-                        sl_wait(t->c, &cursor, 50);
-                }
-                assert_string_equal(v, "31");
-        }
+        assert_int_equal(slwait_value(t->c, "agility.device.AAAAAA.capabilities", "31", WAIT_MS,
+                                      err, sizeof(err)), 0);
         record_stop(t, SIGINT, err, sizeof(err));
         snap(t, names, counters, &rec);
         stop(t);

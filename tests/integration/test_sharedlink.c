@@ -31,6 +31,7 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/slwait.h"
 #include "common/testdata.h"
 #include "common/wire.h"
 #include "proto/sharedlink.h"
@@ -77,12 +78,9 @@ static int teardown(void **state)
 
         sl_close(t->c);
         harness_cleanup(&t->h);
-        if (t->master >= 0)
-                close(t->master);
-        if (t->slave >= 0)
-                close(t->slave);
-        if (t->udp >= 0)
-                close(t->udp);
+        harness_close_fd(&t->master);
+        harness_close_fd(&t->slave);
+        harness_close_fd(&t->udp);
         free(t->dec);
         for (int i = 0; i < MEM_MAX; i++)
                 free(t->mem[i]);
@@ -133,19 +131,13 @@ static void unplug(struct it *t)
  * replaced, under the test's instance and runtime dir. */
 static void start(struct it *t, const char *file)
 {
-        char port[8], links[YAML_MAX], path[HARNESS_PATH_MAX];
-        char yaml[YAML_MAX + 2 * HARNESS_PATH_MAX];
+        char port[8], links[YAML_MAX], why[HARNESS_WHY_MAX];
         const char *const subst[] = { "@DEV@", t->dev, "@DIR@", t->h.dir, "@PORT@", port, NULL };
-        int st = 0, r;
 
         snprintf(port, sizeof(port), "%u", t->test_port);
         assert_true(testdata_load(file, subst, links, sizeof(links)) > 0);
-        snprintf(yaml, sizeof(yaml), "instance: %s\nruntime_dir: %s\n%s", t->h.instance, t->h.dir,
-                 links);
-        assert_int_equal(harness_write_file(&t->h, "sl.yaml", yaml, path), 0);
-        r = harness_start_daemon(&t->h, path, START_MS, &st, NULL);
-        if (r < 0)
-                fail_msg("daemon did not start: %s (status %d)", strerror(-r), st);
+        if (harness_start_config(&t->h, "sl.yaml", links, START_MS, why, sizeof(why)) < 0)
+                fail_msg("daemon did not start: %s", why);
         assert_int_equal(sl_open(t->h.instance, &t->c), 0);
 }
 
@@ -180,19 +172,10 @@ static void send_frame(int fd, const char *text)
 /* Waits (on the change word) until name reads value. */
 static void wait_value(struct it *t, const char *name, const char *value)
 {
-        uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * 1000000u;
-        uint32_t cursor = 0;
-        char buf[SL_VALUE_SIZE];
+        char last[SL_VALUE_SIZE];
 
-        while (harness_now_ns() < deadline) {
-                int id = sl_find(t->c, name);
-
-                if (id >= 0 && sl_read(t->c, id, buf, sizeof(buf), NULL) >= 0 &&
-                    strcmp(buf, value) == 0)
-                        return;
-                sl_wait(t->c, &cursor, 100);
-        }
-        fail_msg("%s never read %s", name, value);
+        if (slwait_value(t->c, name, value, WAIT_MS, last, sizeof(last)) < 0)
+                fail_msg("%s never read %s (last \"%s\")", name, value, last);
 }
 
 static void wait_state(struct it *t, int link, const char *prefix)

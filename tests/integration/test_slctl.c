@@ -33,6 +33,7 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/slwait.h"
 #include "cli/counters.h"
 #include "common/testdata.h"
 #include "common/shmtest.h"
@@ -933,17 +934,15 @@ static void test_dead_daemon(void **state)
  * engine. */
 static void daemon_start(struct fixture *f, const char *links)
 {
-        char text[CONFIG_MAX], path[HARNESS_PATH_MAX];
-        int st = 0;
+        char why[HARNESS_WHY_MAX];
+        int r;
 
-        snprintf(text, sizeof(text), "instance: %s\n%s", f->h.instance, links);
-        assert_int_equal(harness_write_file(&f->h, "slctl.yaml", text, path), 0);
         f->h.capture_log = 1;
-        if (harness_start_daemon(&f->h, path, START_MS, &st, NULL) != 0) {
-                if (harness_log_contains(&f->h, "not available in this build") == 1)
-                        skip();
-                fail_msg("sharedlinkd did not start (status %d)", st);
-        }
+        r = harness_start_config(&f->h, "slctl.yaml", links, START_MS, why, sizeof(why));
+        if (r == -ENOTSUP)
+                skip();
+        if (r < 0)
+                fail_msg("sharedlinkd did not start: %s", why);
         assert_int_equal(sl_open(f->h.instance, &f->c), 0);
         /* The daemon runs with SHAREDLINK_RUNTIME_DIR set; this process does not have it. */
         assert_int_equal(sl_set_runtime_dir(f->c, f->h.dir), 0);
@@ -965,25 +964,13 @@ static void daemon_start_circe(struct fixture *f)
         daemon_start(f, links);
 }
 
-static int value_is(struct fixture *f, const char *name, const char *want)
-{
-        char buf[SL_VALUE_SIZE];
-        int id = sl_find(f->c, name);
-
-        return id >= 0 && sl_read(f->c, id, buf, sizeof(buf), NULL) >= 0 && strcmp(buf, want) == 0;
-}
-
 /* Waits (sl_wait, not sleeping) until name reads want. */
 static void wait_value(struct fixture *f, const char *name, const char *want)
 {
-        uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * 1000000u;
-        uint32_t cursor = 0;
+        char last[SL_VALUE_SIZE];
 
-        while (!value_is(f, name, want)) {
-                if (harness_now_ns() > deadline)
-                        fail_msg("%s never became \"%s\"", name, want);
-                sl_wait(f->c, &cursor, 200);
-        }
+        if (slwait_value(f->c, name, want, WAIT_MS, last, sizeof(last)) < 0)
+                fail_msg("%s never became \"%s\" (last \"%s\")", name, want, last);
 }
 
 static void wait_circe_up(struct fixture *f)
@@ -1019,14 +1006,15 @@ static void test_daemon_circe(void **state)
                              "5678", "--faults", "1", "--refusals", "2", "--eliminated", "1",
                              "--placement", "3"), 0);
         wait_value(f, "arena.device.D15D15.current_competitor", "12");
-        assert_true(value_is(f, "arena.device.D15D15.next_competitor", "13"));
-        assert_true(value_is(f, "arena.device.D15D15.primary_time", "1234"));
-        assert_true(value_is(f, "arena.device.D15D15.timer_running", "0"));  /* primary stops it */
-        assert_true(value_is(f, "arena.device.D15D15.secondary_time", "5678"));
-        assert_true(value_is(f, "arena.device.D15D15.faults", "1"));
-        assert_true(value_is(f, "arena.device.D15D15.refusals", "2"));
-        assert_true(value_is(f, "arena.device.D15D15.eliminated", "1"));
-        assert_true(value_is(f, "arena.device.D15D15.placement", "3"));
+        assert_true(slwait_value_is(f->c, "arena.device.D15D15.next_competitor", "13"));
+        assert_true(slwait_value_is(f->c, "arena.device.D15D15.primary_time", "1234"));
+        /* The primary time stops the timer. */
+        assert_true(slwait_value_is(f->c, "arena.device.D15D15.timer_running", "0"));
+        assert_true(slwait_value_is(f->c, "arena.device.D15D15.secondary_time", "5678"));
+        assert_true(slwait_value_is(f->c, "arena.device.D15D15.faults", "1"));
+        assert_true(slwait_value_is(f->c, "arena.device.D15D15.refusals", "2"));
+        assert_true(slwait_value_is(f->c, "arena.device.D15D15.eliminated", "1"));
+        assert_true(slwait_value_is(f->c, "arena.device.D15D15.placement", "3"));
 
         /* A gate passage on the emulator is an action event of the controller. */
         assert_int_equal(RUN(f, "circe", "arena", "emulate", "action", "E1E1E1", "--keys",

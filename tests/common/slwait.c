@@ -1,0 +1,47 @@
+/*
+ * Waiting for values through the client library (see slwait.h).
+ */
+#include "common/slwait.h"
+
+#include <errno.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "common/harness.h"
+
+#define SLWAIT_NS_PER_MS 1000000u
+
+/* The text of name now into buf; false when it does not exist or cannot be read. */
+static bool slwait_read(struct sl_client *c, const char *name, char *buf, size_t size)
+{
+        int id = sl_find(c, name);
+
+        return id >= 0 && sl_read(c, id, buf, size, NULL) >= 0;
+}
+
+bool slwait_value_is(struct sl_client *c, const char *name, const char *want)
+{
+        char buf[SL_VALUE_SIZE];
+
+        return slwait_read(c, name, buf, sizeof(buf)) && strcmp(buf, want) == 0;
+}
+
+int slwait_value(struct sl_client *c, const char *name, const char *want, int timeout_ms,
+                 char *last, size_t lastsz)
+{
+        uint64_t deadline = harness_now_ns() + (uint64_t)timeout_ms * SLWAIT_NS_PER_MS;
+        char buf[SL_VALUE_SIZE] = "";
+        uint32_t cursor = 0;
+
+        for (;;) {
+                if (slwait_read(c, name, buf, sizeof(buf)) && strcmp(buf, want) == 0)
+                        return 0;
+                if (harness_now_ns() >= deadline)
+                        break;
+                sl_wait(c, &cursor, SLWAIT_SLICE_MS);
+        }
+        if (lastsz)
+                snprintf(last, lastsz, "%s", buf);
+        return -ETIMEDOUT;
+}

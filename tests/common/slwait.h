@@ -1,0 +1,24 @@
+/*
+ * Waiting for a value through the real client library, as a client would: the change word
+ * (sl_wait) between looks, never a sleep, always with a timeout. Plain C, no cmocka: the caller
+ * decides what a timeout means.
+ */
+#ifndef TESTS_SLWAIT_H
+#define TESTS_SLWAIT_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+#include <sharedlink.h>
+
+#define SLWAIT_SLICE_MS 100     /* the longest sl_wait between two looks */
+
+/* Whether the variable name exists and reads want (as text) now. */
+bool slwait_value_is(struct sl_client *c, const char *name, const char *want);
+
+/* Waits until name reads want; 0, or -ETIMEDOUT after timeout_ms with the last text read in
+ * last (lastsz bytes, 0 for none; "" when it never read). */
+int slwait_value(struct sl_client *c, const char *name, const char *want, int timeout_ms,
+                 char *last, size_t lastsz);
+
+#endif

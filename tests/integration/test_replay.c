@@ -595,6 +595,7 @@ static void test_replay_loop(void **state)
         char links[CONF_MAX], text[CONF_MAX] = REC_HEADER "\n# link: veh\n";
         uint64_t deadline = harness_now_ns() + (uint64_t)WAIT_MS * NS_PER_MS;
         struct snapshot one, got;
+        uint32_t cursor = 0;
         unsigned done = 0;
         bool seen = false;
 
@@ -623,7 +624,6 @@ static void test_replay_loop(void **state)
          * (a slow machine) only makes it look again. */
         while (!seen && harness_now_ns() < deadline) {
                 struct sl_link_info li;
-                uint32_t cursor = 0;
 
                 done = log_count(t, "replay done");
                 if (done < LOOP_PASSES - 1) {

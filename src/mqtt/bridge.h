@@ -21,8 +21,9 @@
  *    fixed client id), so libmosquitto re-sends the unconfirmed messages with their message ids
  *    after reconnecting. With events_qos 2 the broker keeps the ids of the QoS 2 messages it has
  *    received (in its persistence file across its own restart) and drops a re-sent one: exactly
- *    once. With QoS 1 the protocol has no such memory: a message whose PUBACK was lost with the
- *    connection arrives twice (same seq).
+ *    once, and in order at the subscribers given the broker settings of sharedlink-mqtt(8),
+ *    BROKER REQUIREMENTS. With QoS 1 the protocol has no such memory: a message whose PUBACK
+ *    was lost with the connection arrives twice (same seq).
  *  - the daemon's ring overran (events written faster than the bridge got them out): an
  *    "overrun" notice with the number lost goes out before the next event, never hidden.
  */

@@ -134,11 +134,24 @@ int mqtt_broker_start(struct mqtt_broker *b, const char *dir, int port, int time
         if (!f)
                 return -errno;
         /* Persistence: the broker-restart test needs the sessions and queued messages back.
-         * No message limit per client: the test's subscriber may lag behind a burst. As root,
-         * mosquitto would switch to its own user, which cannot write the test's directory. */
-        fprintf(f, "listener %d 127.0.0.1\nallow_anonymous true\npersistence true\n"
-                   "persistence_location %s/\nmax_queued_messages 0\n%s", b->port, dir,
-                geteuid() == 0 ? "user root\n" : "");
+         * No message limit per client: the test's subscriber may lag behind a burst.
+         * max_inflight_messages: large and finite, the deployment requirement in
+         * sharedlink-mqtt(8). mosquitto 2.0.11 keeps QoS 1/2 messages to one client in order
+         * only while that client's in-flight quota is not full (over it, messages are queued
+         * and a new one can overtake them when a QoS 1 PUBACK frees a slot), and after its
+         * own restart it restores only max_inflight_messages in-flight messages per client
+         * with their state; "no maximum" (0, and 65535 behaves the same) restores none, so a
+         * QoS 2 message whose PUBREL had gone out is sent again as a new PUBLISH, which the
+         * subscriber delivers a second time (tests/tools/mosquitto_qos2_restore.py shows it
+         * with one message). As root, mosquitto would switch to its own user, which cannot
+         * write the test's directory. MQTT_BROKER_LOG_ALL=1: every packet in broker.log. */
+        fprintf(f, "listener %d 127.0.0.1\n%s%spersistence true\npersistence_location %s/\n"
+                   "max_queued_messages 0\nmax_inflight_messages %d\n%s%s", b->port,
+                b->listener_conf ? b->listener_conf : "",
+                b->listener_conf && strstr(b->listener_conf, "allow_anonymous") ? "" :
+                "allow_anonymous true\n", dir, MQTT_BROKER_INFLIGHT,
+                geteuid() == 0 ? "user root\n" : "",
+                getenv("MQTT_BROKER_LOG_ALL") ? "log_type all\n" : "");
         if (fclose(f) != 0)
                 return -errno;
         b->pid = fork();

@@ -19,6 +19,7 @@
 #define MQTT_TOPIC_MAX          256
 #define MQTT_PAYLOAD_MAX        1024
 #define MQTT_VALUES_MAX         4096    /* topics whose last payload a client keeps */
+#define MQTT_BROKER_INFLIGHT    1000    /* the broker's max_inflight_messages: see mqtt.c */
 
 struct mqtt_broker {
         char dir[HARNESS_PATH_MAX];
@@ -26,6 +27,9 @@ struct mqtt_broker {
         char log[HARNESS_PATH_MAX + 32];
         int port;
         pid_t pid;                      /* 0 when not running */
+        /* Lines for the listener (cafile/certfile/keyfile: TLS) and its security
+         * (password_file, allow_anonymous false); NULL: anonymous plain TCP. */
+        const char *listener_conf;
 };
 
 struct mqtt_bridge {
@@ -80,7 +84,8 @@ const char *mqtt_bridge_path(void);
 int mqtt_broker_available(void);
 
 /* Writes a broker config into dir (listener 127.0.0.1:port, a free port when port is 0,
- * anonymous, persistence in dir) and starts mosquitto; 0 once it accepts connections. */
+ * b->listener_conf or anonymous, persistence in dir) and starts mosquitto; 0 once it accepts
+ * TCP connections. */
 int mqtt_broker_start(struct mqtt_broker *b, const char *dir, int port, int timeout_ms);
 
 /* SIGTERM (the broker saves its persistence file) and wait; 0 or -ETIMEDOUT. */

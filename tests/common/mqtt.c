@@ -227,6 +227,8 @@ static int notify_ready(struct mqtt_bridge *br)
                 buf[n] = '\0';
                 if (strstr(buf, "READY=1"))
                         found = 1;
+                if (strstr(buf, "STATUS="))
+                        snprintf(br->status, sizeof(br->status), "%s", buf);
         }
         return found;
 }
@@ -245,6 +247,7 @@ int mqtt_bridge_start(struct mqtt_bridge *br, struct harness *h, const char *con
                 return r;
         snprintf(br->log_path, sizeof(br->log_path), "%s/bridge.log", h->dir);
         notify_ready(br);       /* forget an earlier run's datagrams */
+        br->status[0] = '\0';
         br->pid = fork();
         if (br->pid < 0)
                 return -errno;
@@ -317,6 +320,64 @@ int mqtt_bridge_log_contains(struct mqtt_bridge *br, const char *needle)
                 return -errno;
         buf[n] = '\0';
         return strstr(buf, needle) != NULL;
+}
+
+/* Occurrences of needle in the bridge's log (its first 1 MiB), or -errno. */
+static int log_count(struct mqtt_bridge *br, const char *needle)
+{
+        enum { LOG_READ_MAX = 1 << 20 };
+        char *buf = malloc(LOG_READ_MAX + 1);
+        int fd = open(br->log_path, O_RDONLY | O_CLOEXEC), n = 0;
+        ssize_t len;
+
+        if (!buf || fd < 0) {
+                n = fd < 0 ? -errno : -ENOMEM;
+                free(buf);
+                if (fd >= 0)
+                        close(fd);
+                return n;
+        }
+        len = read(fd, buf, LOG_READ_MAX);
+        close(fd);
+        if (len < 0) {
+                free(buf);
+                return -EIO;
+        }
+        buf[len] = '\0';
+        for (const char *p = buf; (p = strstr(p, needle)); p += strlen(needle))
+                n++;
+        free(buf);
+        return n;
+}
+
+int mqtt_bridge_wait_log(struct mqtt_bridge *br, const char *needle, unsigned n,
+                         int timeout_ms)
+{
+        uint64_t deadline = deadline_of(timeout_ms);
+
+        /* A file gives no event when it grows: look in short slices. */
+        while (log_count(br, needle) < (int)n) {
+                if (left_ms(deadline) == 0)
+                        return -ETIMEDOUT;
+                poll(NULL, 0, MQTT_SLICE_MS);
+        }
+        return 0;
+}
+
+int mqtt_bridge_wait_status(struct mqtt_bridge *br, const char *needle, int timeout_ms)
+{
+        uint64_t deadline = deadline_of(timeout_ms);
+
+        for (;;) {
+                struct pollfd p = { .fd = br->notify_fd, .events = POLLIN };
+
+                notify_ready(br);
+                if (strstr(br->status, needle))
+                        return 0;
+                if (left_ms(deadline) == 0)
+                        return -ETIMEDOUT;
+                poll(&p, 1, left_ms(deadline));
+        }
 }
 
 /* ---- a client -------------------------------------------------------------------------------- */
@@ -452,6 +513,13 @@ int mqtt_client_wait_connects(struct mqtt_client *c, uint64_t after, int timeout
 int mqtt_client_start(struct mqtt_client *c, int port, const char *id, bool clean,
                       const char *subscription, int qos, int timeout_ms)
 {
+        return mqtt_client_start_auth(c, port, id, clean, subscription, qos, NULL, timeout_ms);
+}
+
+int mqtt_client_start_auth(struct mqtt_client *c, int port, const char *id, bool clean,
+                           const char *subscription, int qos,
+                           const struct mqtt_client_auth *auth, int timeout_ms)
+{
         int r;
 
         memset(c, 0, sizeof(*c));
@@ -473,6 +541,12 @@ int mqtt_client_start(struct mqtt_client *c, int port, const char *id, bool clea
         mosquitto_reconnect_delay_set(c->m, 1, 1, false);
         /* QoS 1/2 messages from the broker are acknowledged as they arrive: no inflight cap. */
         mosquitto_max_inflight_messages_set(c->m, 0);
+        if (auth && auth->ca_file &&
+            mosquitto_tls_set(c->m, auth->ca_file, NULL, NULL, NULL, NULL) != MOSQ_ERR_SUCCESS)
+                return -EINVAL;
+        if (auth && auth->username &&
+            mosquitto_username_pw_set(c->m, auth->username, auth->password) != MOSQ_ERR_SUCCESS)
+                return -EINVAL;
         r = mosquitto_connect(c->m, "127.0.0.1", port, MQTT_KEEPALIVE_S);
         if (r != MOSQ_ERR_SUCCESS)
                 return -ECONNREFUSED;

@@ -38,6 +38,7 @@ struct mqtt_bridge {
         char log_path[HARNESS_PATH_MAX + 32];
         int notify_fd;
         pid_t pid;
+        char status[1024];              /* the last STATUS= notification seen */
 };
 
 /* The last payload seen on one topic. */
@@ -105,11 +106,30 @@ void mqtt_bridge_cleanup(struct mqtt_bridge *br);
 /* Whether the bridge's log contains needle: 1, 0 or -errno. */
 int mqtt_bridge_log_contains(struct mqtt_bridge *br, const char *needle);
 
+/* Waits until the bridge's log contains needle at least n times; 0 or -ETIMEDOUT. */
+int mqtt_bridge_wait_log(struct mqtt_bridge *br, const char *needle, unsigned n,
+                         int timeout_ms);
+
+/* Waits until the bridge's last STATUS= notification (sd_notify) contains needle, e.g.
+ * "STATUS=broker disconnected (refused"; 0 or -ETIMEDOUT. */
+int mqtt_bridge_wait_status(struct mqtt_bridge *br, const char *needle, int timeout_ms);
+
 /* Connects a client (id; clean: clean session) to 127.0.0.1:port, subscribes to subscription
  * (may be NULL) with qos, and runs it in its own thread (reconnecting by itself). 0 once
  * subscribed, or -errno. */
 int mqtt_client_start(struct mqtt_client *c, int port, const char *id, bool clean,
                       const char *subscription, int qos, int timeout_ms);
+
+/* TLS and credentials of a client (each NULL: not used). */
+struct mqtt_client_auth {
+        const char *ca_file;            /* TLS, the broker's certificate checked against it */
+        const char *username, *password;
+};
+
+/* mqtt_client_start with TLS and/or a username and password. */
+int mqtt_client_start_auth(struct mqtt_client *c, int port, const char *id, bool clean,
+                           const char *subscription, int qos,
+                           const struct mqtt_client_auth *auth, int timeout_ms);
 
 /* Stops and frees (NULL-safe on a zeroed struct). */
 void mqtt_client_stop(struct mqtt_client *c);

@@ -18,6 +18,11 @@
  *  - a bridge killed in mid-burst (QoS 1) loses nothing and repeats at most its window;
  *  - more events than the ring holds while the bridge is away: one "overrun" notice with the
  *    exact number lost, where the gap is; a daemon restart: a "daemon-restarted" notice;
+ *  - TLS and passwords: a broker with a TLS listener (a throwaway CA and server certificate
+ *    made with openssl) and a mosquitto_passwd file; the bridge with tls: {ca_file} and
+ *    username/password_file round-trips a value; a wrong password or a CA that did not sign
+ *    the broker's certificate: the reason in the log (once) and in STATUS=, retries backing off
+ *    to reconnect_max_ms, nothing published, a clean stop;
  *  - `sharedlink-mqtt -n` reports FILE:LINE:COL.
  */
 #define _GNU_SOURCE
@@ -146,7 +151,9 @@ static void start_daemon(struct fx *f)
                 assert_int_equal(sl_open(f->h.instance, &f->cl), 0);
 }
 
-static void write_bridge_conf(struct fx *f, int events_qos, const char *extra)
+/* broker_extra: more keys of broker: (indented by two), extra: more top-level keys. */
+static void write_bridge_conf_broker(struct fx *f, int events_qos, const char *broker_extra,
+                                     const char *extra)
 {
         char text[CONFIG_MAX];
 
@@ -157,13 +164,19 @@ static void write_bridge_conf(struct fx *f, int events_qos, const char *extra)
                  "  port: %d\n"
                  "  keepalive_s: 5\n"
                  "  reconnect_min_ms: 50\n"
-                 "  reconnect_max_ms: 400\n"
+                 "  reconnect_max_ms: 400\n%s"
                  "cursor_file: %s/cursor\n"
                  "writable: [\"a.*\"]\n"
                  "events_qos: %d\n"
                  "drain_ms: 20000\n%s",
-                 f->h.instance, f->broker.port, f->h.dir, events_qos, extra ? extra : "");
+                 f->h.instance, f->broker.port, broker_extra ? broker_extra : "", f->h.dir,
+                 events_qos, extra ? extra : "");
         assert_int_equal(harness_write_file(&f->h, "bridge.yaml", text, f->bridge_conf), 0);
+}
+
+static void write_bridge_conf(struct fx *f, int events_qos, const char *extra)
+{
+        write_bridge_conf_broker(f, events_qos, NULL, extra);
 }
 
 static void start_bridge(struct fx *f)
@@ -654,6 +667,131 @@ static void test_events_overrun(void **state)
         assert_int_equal(next, 101 + OVERRUN_AWAY + 1);
 }
 
+/* ---- TLS and passwords ----------------------------------------------------------------------- */
+
+#define TLS_USER        "truck7"
+#define TLS_PASSWORD    "s3cret"
+#define RETRIES         3       /* refused attempts seen before "it never published" */
+
+/* A throwaway CA, a server certificate it signs (CN 127.0.0.1: libmosquitto checks the host
+ * name, and OpenSSL compares the CN when there is no DNS subjectAltName), a second CA that
+ * signed nothing of ours, and a mosquitto password file; all in the test's directory. */
+static int tls_files(struct fx *f)
+{
+        char cmd[PATH_BUF * 4 + 1024];
+        int r;
+
+        if (access("/usr/bin/openssl", X_OK) != 0 || access("/usr/bin/mosquitto_passwd", X_OK))
+                return -ENOENT;
+        r = snprintf(cmd, sizeof(cmd),
+                     "cd %s && { "
+                     "openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes "
+                     "-keyout ca.key -out ca.crt -days 2 -subj /CN=sharedlink-test-ca && "
+                     "openssl req -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes "
+                     "-keyout server.key -out server.csr -subj /CN=127.0.0.1 && "
+                     "openssl x509 -req -in server.csr -CA ca.crt -CAkey ca.key -CAcreateserial "
+                     "-out server.crt -days 2 && "
+                     "openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:prime256v1 -nodes "
+                     "-keyout other.key -out other.crt -days 2 -subj /CN=some-other-ca && "
+                     "mosquitto_passwd -c -b passwd %s %s && "
+                     "printf '%%s\\n' %s > password && printf 'wrong\\n' > wrong-password; "
+                     "} >tls.log 2>&1",
+                     f->h.dir, TLS_USER, TLS_PASSWORD, TLS_PASSWORD);
+        if (r < 0 || (size_t)r >= sizeof(cmd))
+                return -ENAMETOOLONG;
+        return system(cmd) == 0 ? 0 : -EIO;
+}
+
+/* A broker with a TLS listener that wants a username and password, and a subscriber that has
+ * both; the bridge gets the password in password_file and the CA in ca_file (names in the
+ * test's directory). */
+static void tls_start(struct fx *f, const char *password_file, const char *ca_file)
+{
+        static char listener[PATH_BUF * 4];
+        char ca[PATH_BUF], extra[CONFIG_MAX / 2];
+        struct mqtt_client_auth auth = { .ca_file = ca, .username = TLS_USER,
+                                         .password = TLS_PASSWORD };
+        char sub[MQTT_TOPIC_MAX];
+
+        need_broker();
+        if (tls_files(f) < 0) {
+                print_message("openssl or mosquitto_passwd missing (make deps): skipped\n");
+                skip();
+        }
+        start_daemon(f);
+        snprintf(listener, sizeof(listener),
+                 "cafile %s/ca.crt\ncertfile %s/server.crt\nkeyfile %s/server.key\n"
+                 "password_file %s/passwd\nallow_anonymous false\n",
+                 f->h.dir, f->h.dir, f->h.dir, f->h.dir);
+        f->broker.listener_conf = listener;
+        f->broker.port = 0;
+        start_broker(f);
+        snprintf(ca, sizeof(ca), "%s/ca.crt", f->h.dir);
+        snprintf(sub, sizeof(sub), "%s/#", f->base);
+        assert_int_equal(mqtt_client_start_auth(&f->sub, f->broker.port, "test-tls", true, sub, 1,
+                                                &auth, T_START_MS), 0);
+        snprintf(extra, sizeof(extra), "  username: %s\n  password_file: %s/%s\n"
+                 "  tls: {ca_file: %s/%s}\n", TLS_USER, f->h.dir, password_file, f->h.dir,
+                 ca_file);
+        write_bridge_conf_broker(f, 1, extra, NULL);
+        start_bridge(f);
+}
+
+/* TLS (ca_file) and username/password_file: values round-trip through the broker. */
+static void test_tls_password(void **state)
+{
+        struct fx *f = *state;
+
+        tls_start(f, "password", "ca.crt");
+        wait_value(f, topic(f, "status", NULL), "online");
+        set(f, "a.Lat", "12.5", 4);
+        wait_value(f, topic(f, "b.Lat", NULL), "12.5");
+        assert_int_equal(mqtt_bridge_wait_status(&f->bridge, "STATUS=broker connected,",
+                                                 T_WAIT_MS), 0);
+}
+
+/* Refused attempts: the reason logged (once as an error) and in the service status, retries
+ * backing off to reconnect_max_ms, nothing published; then a clean stop. */
+static void refused_connections(struct fx *f, const char *why)
+{
+        char status[128];
+
+        if (mqtt_bridge_wait_log(&f->bridge, why, RETRIES, T_WAIT_MS) != 0) {
+                dump_logs(f);
+                fail_msg("the bridge's log does not say \"%s\" %d times", why, RETRIES);
+        }
+        snprintf(status, sizeof(status), "STATUS=broker disconnected (%s", why);
+        assert_int_equal(mqtt_bridge_wait_status(&f->bridge, status, T_WAIT_MS), 0);
+        /* The backoff doubles from 50 ms up to reconnect_max_ms (400), and stays there. */
+        assert_int_equal(mqtt_bridge_wait_log(&f->bridge, "retrying in 400 ms", 2, T_WAIT_MS),
+                         0);
+        assert_int_equal(mqtt_bridge_log_contains(&f->bridge, "retrying in 200 ms"), 1);
+        assert_int_equal(mqtt_client_count(&f->sub, topic(f, "status", NULL)), 0);
+        assert_int_equal(mqtt_client_count(&f->sub, topic(f, "bridge", NULL)), 0);
+        stop_bridge(f, SIGTERM);
+}
+
+static void test_wrong_password(void **state)
+{
+        struct fx *f = *state;
+
+        tls_start(f, "wrong-password", "ca.crt");
+        refused_connections(f, "refused the connection: Connection Refused: not authorised");
+        /* An error and a warning once, then quieter: no log flood while it retries. */
+        assert_int_equal(mqtt_bridge_wait_log(&f->bridge, "<3>broker", 1, T_WAIT_MS), 0);
+        assert_true(mqtt_bridge_wait_log(&f->bridge, "<3>broker", 2, 0) != 0);
+        assert_true(mqtt_bridge_wait_log(&f->bridge, "<4>broker", 2, 0) != 0);
+}
+
+static void test_wrong_ca(void **state)
+{
+        struct fx *f = *state;
+
+        tls_start(f, "password", "other.crt");
+        refused_connections(f, "TLS: OpenSSL Error[0]: error:0A000086:SSL routines::"
+                               "certificate verify failed");
+}
+
 static void test_check_config(void **state)
 {
         struct fx *f = *state;
@@ -686,6 +824,9 @@ int main(void)
                                                 teardown),
                 cmocka_unit_test_setup_teardown(test_events_bridge_killed, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_events_overrun, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_tls_password, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_wrong_password, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_wrong_ca, setup, teardown),
         };
 
         /* MQTT_TEST_FILTER=test_values* runs only the matching tests (debugging). */

@@ -380,6 +380,108 @@ int mqtt_bridge_wait_status(struct mqtt_bridge *br, const char *needle, int time
         }
 }
 
+/* ---- a raw connection ------------------------------------------------------------------------ */
+
+#define RAW_CONNECT             0x10
+#define RAW_CONNACK             0x20
+#define RAW_PUBLISH             0x30
+#define RAW_PINGREQ             0xc0
+#define RAW_PINGRESP            0xd0
+#define RAW_HEAD_MAX            8       /* fixed header and topic length */
+#define RAW_REMAINING_MAX       (128u * 128u * 128u - 1u)       /* what 3 length bytes say */
+
+/* Appends the fixed header (type, remaining length) to out; the bytes written. */
+static size_t raw_header(unsigned char *out, unsigned type, size_t remaining)
+{
+        size_t n = 0;
+
+        out[n++] = (unsigned char)type;
+        do {
+                out[n] = (unsigned char)(remaining % 128u);
+                remaining /= 128u;
+                if (remaining)
+                        out[n] |= 0x80u;
+                n++;
+        } while (remaining);
+        return n;
+}
+
+static int raw_send(int fd, const void *buf, size_t len)
+{
+        const unsigned char *p = buf;
+
+        while (len) {
+                ssize_t w = send(fd, p, len, MSG_NOSIGNAL);
+
+                if (w < 0 && errno == EINTR)
+                        continue;
+                if (w < 0)
+                        return errno == EPIPE || errno == ECONNRESET ? 1 : -errno;
+                p += w;
+                len -= (size_t)w;
+        }
+        return 0;
+}
+
+/* The first byte of the next packet, -ECONNRESET at EOF, -ETIMEDOUT. */
+static int raw_next(int fd, uint64_t deadline)
+{
+        unsigned char b[4];
+        struct pollfd p = { .fd = fd, .events = POLLIN };
+        ssize_t n;
+
+        if (poll(&p, 1, left_ms(deadline)) <= 0)
+                return -ETIMEDOUT;
+        n = recv(fd, b, sizeof(b), 0);  /* CONNACK and PINGRESP are 4 and 2 bytes */
+        if (n <= 0)
+                return -ECONNRESET;
+        return b[0];
+}
+
+int mqtt_raw_publish(int port, const void *topic, size_t topic_len, const void *payload,
+                     size_t len, int timeout_ms)
+{
+        static const unsigned char connect_body[] = {
+                0, 4, 'M', 'Q', 'T', 'T', 4, 0x02 /* clean session */, 0, 10 /* keepalive */,
+                0, 7, 'r', 'a', 'w', 't', 'e', 's', 't' };
+        static const unsigned char ping[] = { RAW_PINGREQ, 0 };
+        struct sockaddr_in sa = { .sin_family = AF_INET, .sin_port = htons((uint16_t)port),
+                                  .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
+        uint64_t deadline = deadline_of(timeout_ms);
+        unsigned char head[RAW_HEAD_MAX + 2];
+        size_t remaining = 2 + topic_len + len, n;
+        int fd, r;
+
+        if (topic_len > UINT16_MAX || remaining > RAW_REMAINING_MAX)
+                return -EMSGSIZE;
+        fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+        if (fd < 0)
+                return -errno;
+        if (connect(fd, (struct sockaddr *)&sa, sizeof(sa)) < 0) {
+                r = -errno;
+                goto out;
+        }
+        n = raw_header(head, RAW_CONNECT, sizeof(connect_body));
+        if ((r = raw_send(fd, head, n)) != 0 ||
+            (r = raw_send(fd, connect_body, sizeof(connect_body))) != 0)
+                goto out;
+        if ((r = raw_next(fd, deadline)) != RAW_CONNACK) {
+                r = r < 0 ? r : -EPROTO;
+                goto out;
+        }
+        n = raw_header(head, RAW_PUBLISH, remaining);
+        head[n++] = (unsigned char)(topic_len >> 8);
+        head[n++] = (unsigned char)(topic_len & 0xffu);
+        if ((r = raw_send(fd, head, n)) != 0 || (r = raw_send(fd, topic, topic_len)) != 0 ||
+            (r = raw_send(fd, payload, len)) != 0 || (r = raw_send(fd, ping, sizeof(ping))) != 0)
+                goto out;
+        r = raw_next(fd, deadline);
+        r = r == RAW_PINGRESP ? 0 : r == -ECONNRESET ? 1 : r < 0 ? r : -EPROTO;
+out:
+        close(fd);
+        return r;
+}
+
 /* ---- a client -------------------------------------------------------------------------------- */
 
 static const char *json_after(const char *p, size_t len, const char *key)

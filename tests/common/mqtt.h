@@ -131,6 +131,13 @@ int mqtt_client_start_auth(struct mqtt_client *c, int port, const char *id, bool
                            const char *subscription, int qos,
                            const struct mqtt_client_auth *auth, int timeout_ms);
 
+/* A raw MQTT 3.1.1 connection (no library between the test and the wire, so that it can send
+ * what libmosquitto refuses to): CONNECT, a QoS 0 PUBLISH of topic (topic_len bytes, any
+ * bytes) with payload, then PINGREQ. Returns 1 when the broker closed the connection instead
+ * of answering the ping (it refused the PUBLISH), 0 when it answered, or -errno. */
+int mqtt_raw_publish(int port, const void *topic, size_t topic_len, const void *payload,
+                     size_t len, int timeout_ms);
+
 /* Stops and frees (NULL-safe on a zeroed struct). */
 void mqtt_client_stop(struct mqtt_client *c);
 

@@ -7,14 +7,18 @@
  *  - values round-trip both ways: an MQTT set/ reaches the peer over the wire and comes back as
  *    the peer's inbound variable; an sl_write comes out on MQTT; a broker that is down when the
  *    bridge starts is waited for;
- *  - refused writes (inbound, not writable, too long, not UTF-8, bad characters, unknown name,
- *    extra topic levels) get an error reply, are counted, and change nothing;
+ *  - refused writes (inbound, not writable, too long (64 bytes and 256 KiB), not UTF-8, bad
+ *    characters, unknown name, extra topic levels) get an error reply, are counted, and change
+ *    nothing; set/ topics MQTT forbids (wildcards, not UTF-8), sent by a raw client, are
+ *    dropped by the broker and change nothing, and the bridge goes on;
  *  - a daemon that stops makes values stale and the status offline; its restart is followed;
  *  - 10,000 gate passages across a bridge restart and a broker restart, each in mid-burst,
  *    arrive at a persistent-session QoS 2 subscriber exactly once and in order (QoS 2; the
  *    broker configured as sharedlink-mqtt(8) requires: max_inflight_messages large and
  *    finite, tests/common/mqtt.c says why); and with QoS 1 across a bridge restart, exactly
  *    once;
+ *  - the broker drops the bridge's connection in mid-burst (a session takeover) and stays up:
+ *    10,000 events exactly once, in order (QoS 2);
  *  - a bridge killed in mid-burst (QoS 1) loses nothing and repeats at most its window;
  *  - more events than the ring holds while the bridge is away: one "overrun" notice with the
  *    exact number lost, where the gap is; a daemon restart: a "daemon-restarted" notice;
@@ -62,6 +66,7 @@
 #define RING_EVENTS     1024    /* the daemon's event ring (SHM_EVENTS_DEFAULT) */
 #define OVERRUN_AWAY    1500    /* passages while the bridge is away: more than the ring */
 #define BRIDGE_WINDOW   64      /* events_window's default */
+#define HUGE_PAYLOAD    (256 * 1024)    /* a set/ payload far over the value size */
 
 struct fx {
         struct harness h;
@@ -331,6 +336,7 @@ static void refused(struct fx *f, const char *name, const void *payload, size_t 
 static void test_refused_writes(void **state)
 {
         struct fx *f = *state;
+        static char huge[HUGE_PAYLOAD];
         char long_value[80], json[MQTT_PAYLOAD_MAX];
         struct sl_meta meta;
         char v[SL_VALUE_SIZE];
@@ -340,9 +346,11 @@ static void test_refused_writes(void **state)
         wait_value(f, topic(f, "b.Lon", NULL), "7.5");
 
         memset(long_value, '9', sizeof(long_value));
+        memset(huge, '9', HUGE_PAYLOAD);
         refused(f, "b.Lat", "1", 1, "inbound");                 /* inbound: read only */
         refused(f, "b.Throttle", "1", 1, "not-writable");       /* outbound, not in writable */
         refused(f, "a.Lon", long_value, SL_VALUE_SIZE, "too-long");     /* 64 bytes */
+        refused(f, "a.Lon", huge, HUGE_PAYLOAD, "too-long");
         refused(f, "a.Lon", "\xff\xfe", 2, "not-utf8");
         refused(f, "a.Lon", "\xc0\xaf", 2, "not-utf8");         /* overlong '/' */
         refused(f, "a.Lon", "1|2", 3, "bad-value");             /* UTF-8, not wire text */
@@ -358,8 +366,40 @@ static void test_refused_writes(void **state)
         read_value(f, "a.Lon", v, &meta);
         assert_string_equal(v, long_value);
 
-        wait_contains(f, topic(f, "bridge", NULL), "\"set_refused\":9", json, sizeof(json));
+        wait_contains(f, topic(f, "bridge", NULL), "\"set_refused\":10", json, sizeof(json));
         assert_non_null(strstr(json, "\"set_written\":2"));
+}
+
+/* Topics MQTT forbids in a PUBLISH (wildcards, not UTF-8) under set/, sent raw: the broker
+ * drops the client that sends them, the bridge never sees them, nothing changes; the bridge
+ * goes on (a later write works). bridge_format_set_topic refuses them too (unit test). */
+static void test_set_bad_topics(void **state)
+{
+        struct fx *f = *state;
+        const char *bad[] = { "a.Lon+", "+", "#", "a.L#", "+/error", "a.Lon\xff", "\xc0\xae" };
+        char t[MQTT_TOPIC_MAX], json[MQTT_PAYLOAD_MAX], v[SL_VALUE_SIZE];
+        struct sl_meta meta;
+
+        start_all(f, "test-bad-topics");
+        set(f, "a.Lon", "1.5", 3);
+        wait_value(f, topic(f, "b.Lon", NULL), "1.5");
+        /* The same raw client with a good topic: the broker takes it (the test can tell). */
+        snprintf(t, sizeof(t), "%s", topic(f, "set", "a.Lon"));
+        assert_int_equal(mqtt_raw_publish(f->broker.port, t, strlen(t), "2.5", 3, T_WAIT_MS), 0);
+        wait_value(f, topic(f, "b.Lon", NULL), "2.5");
+        for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+                snprintf(t, sizeof(t), "%s", topic(f, "set", bad[i]));
+                if (mqtt_raw_publish(f->broker.port, t, strlen(t), "9", 1, T_WAIT_MS) != 1)
+                        fail_msg("the broker took a PUBLISH to %s", t);
+        }
+        read_value(f, "a.Lon", v, &meta);
+        assert_string_equal(v, "2.5");
+        set(f, "a.Lon", "3.5", 3);
+        wait_value(f, topic(f, "b.Lon", NULL), "3.5");
+        wait_contains(f, topic(f, "bridge", NULL), "\"set_written\":3", json, sizeof(json));
+        assert_non_null(strstr(json, "\"set_refused\":0"));
+        /* The bridge's own connection was never disturbed. */
+        assert_int_equal(mqtt_bridge_log_contains(&f->bridge, "retrying in"), 0);
 }
 
 /* The daemon stops: values stale, status offline; it restarts: followed, writes flow again. */
@@ -594,6 +634,32 @@ static void test_events_exactly_once(void **state)
         assert_int_equal(mqtt_bridge_log_contains(&f->bridge, "resuming after event"), 1);
 }
 
+/* QoS 2: the broker drops the bridge's connection in mid-burst (another client takes its
+ * session over with the bridge's client id, then leaves) while the broker stays up: the
+ * bridge reconnects, libmosquitto sends the unacknowledged messages again with their ids, and
+ * the broker recognises them: exactly once, in order. */
+static void test_events_connection_dropped(void **state)
+{
+        struct fx *f = *state;
+        struct mqtt_client thief;
+        char id[MQTT_TOPIC_MAX];
+        int i = 5000;
+
+        events_start(f, 2, "test-events-drop");
+        passages(f, 0, i, true);
+        assert_int_equal(mqtt_bridge_log_contains(&f->bridge, "retrying in"), 0);
+        passages(f, i, i + BURST, false);
+        snprintf(id, sizeof(id), "sharedlink-mqtt-%s", f->h.instance);
+        memset(&thief, 0, sizeof(thief));
+        assert_int_equal(mqtt_client_start(&thief, f->broker.port, id, false, NULL, 0,
+                                           T_START_MS), 0);
+        mqtt_client_stop(&thief);
+        passages(f, i + BURST, EVENTS_TOTAL, true);
+        check_events(f, REPEATS_NONE);
+        /* The drop happened, and the bridge came back by itself. */
+        assert_int_equal(mqtt_bridge_wait_log(&f->bridge, "retrying in", 1, T_WAIT_MS), 0);
+}
+
 /* QoS 1: a clean bridge restart in mid-burst loses and repeats nothing. */
 static void test_events_qos1_bridge_restart(void **state)
 {
@@ -824,6 +890,9 @@ int main(void)
                                                 teardown),
                 cmocka_unit_test_setup_teardown(test_events_bridge_killed, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_events_overrun, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_events_connection_dropped, setup,
+                                                teardown),
+                cmocka_unit_test_setup_teardown(test_set_bad_topics, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_tls_password, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wrong_password, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wrong_ca, setup, teardown),

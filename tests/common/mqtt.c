@@ -138,12 +138,13 @@ int mqtt_broker_start(struct mqtt_broker *b, const char *dir, int port, int time
          * max_inflight_messages: large and finite, the deployment requirement in
          * sharedlink-mqtt(8). mosquitto 2.0.11 keeps QoS 1/2 messages to one client in order
          * only while that client's in-flight quota is not full (over it, messages are queued
-         * and a new one can overtake them when a QoS 1 PUBACK frees a slot), and after its
-         * own restart it restores only max_inflight_messages in-flight messages per client
-         * with their state; "no maximum" (0, and 65535 behaves the same) restores none, so a
-         * QoS 2 message whose PUBREL had gone out is sent again as a new PUBLISH, which the
-         * subscriber delivers a second time (tests/tools/mosquitto_qos2_restore.py shows it
-         * with one message). As root, mosquitto would switch to its own user, which cannot
+         * and a new one can overtake them when a QoS 1 PUBACK frees a slot; its count also
+         * lets more than the limit be in flight: 29 QoS 2 messages awaiting PUBCOMP at 20),
+         * and after its own restart it restores only max_inflight_messages in-flight messages
+         * per client with their state; "no maximum" (0, and 65535 behaves the same) restores
+         * none. The others, even a QoS 2 message whose PUBREL had gone out, are sent again as
+         * new PUBLISHes, which the subscriber delivers a second time
+         * (tests/tools/mosquitto_qos2_restore.py shows it). As root, mosquitto would switch to its own user, which cannot
          * write the test's directory. MQTT_BROKER_LOG_ALL=1: every packet in broker.log. */
         fprintf(f, "listener %d 127.0.0.1\n%s%spersistence true\npersistence_location %s/\n"
                    "max_queued_messages 0\nmax_inflight_messages %d\n%s%s", b->port,

@@ -7,10 +7,12 @@ PUBREC -> PUBREL and withholds only the final PUBCOMP (as if it were lost when t
 stopped). The receiver has then delivered the message and, per MQTT 3.1.1 4.3.3, may forget
 its packet id. Case 1 reconnects to the same broker process; case 2 restarts the broker
 (SIGTERM: persistence saved) first. MQTT 3.1.1 4.4 requires the broker to resend PUBREL.
-Usage: mosquitto_qos2_restore.py [MAX_INFLIGHT_MESSAGES]   (default 20)
+Usage: mosquitto_qos2_restore.py [MAX_INFLIGHT_MESSAGES [MESSAGES]]   (default 20 1)
 Not a test (it needs no sharedlink): the evidence behind the broker requirement in
 sharedlink-mqtt(8). With mosquitto 2.0.11: 20, 1000 or 65534 -> PUBREL (right); 0 or 65535
-("no maximum") -> PUBLISH dup=1 after the restart, a second delivery.
+("no maximum") -> PUBLISH dup=1 after the restart, a second delivery of every message whose
+PUBREL had gone out. A plain reconnection to the same broker process gets PUBREL in every case:
+the loss of state is in the restore from the persistence file.
 """
 import os, socket, struct, subprocess, sys, tempfile, time
 
@@ -60,26 +62,32 @@ def start_broker(d, port, inflight):
 def free_port():
     s = socket.socket(); s.bind(("127.0.0.1", 0)); p = s.getsockname()[1]; s.close(); return p
 
-def run(restart, inflight):
+def run(restart, inflight, count):
     d, port = tempfile.mkdtemp(), free_port()
     b = start_broker(d, port, inflight)
     print(f"case: {'broker restart' if restart else 'reconnect, same broker'} "
-          f"(max_inflight_messages {inflight})")
+          f"(max_inflight_messages {inflight}, {count} message(s))")
     sub = connect(port, "sub")
     sub.sendall(packet(8, 2, struct.pack("!H", 1) + enc_str("t") + bytes([2])))
     assert read_packet(sub)[0] == 9
     pub = connect(port, "pub")
-    pub.sendall(packet(3, 2 << 1, enc_str("t") + struct.pack("!H", 1) + b"event-1"))
-    assert read_packet(pub)[0] == 5
-    pub.sendall(packet(6, 2, struct.pack("!H", 1)))
-    assert read_packet(pub)[0] == 7
-    t, fl, body = read_packet(sub)          # PUBLISH to the subscriber
-    mid = struct.unpack("!H", body[3:5])[0]
-    print(f"  got PUBLISH mid {mid}; sending PUBREC")
-    sub.sendall(packet(5, 0, struct.pack("!H", mid)))
-    t, _, _ = read_packet(sub); assert t == 6
-    print(f"  got PUBREL mid {mid}: the subscriber delivers the message now and, withholding "
-          "PUBCOMP, forgets the id")
+    for k in range(1, count + 1):
+        pub.sendall(packet(3, 2 << 1, enc_str("t") + struct.pack("!H", k) + f"event-{k}".encode()))
+        assert read_packet(pub)[0] == 5
+        pub.sendall(packet(6, 2, struct.pack("!H", k)))
+        assert read_packet(pub)[0] == 7
+    released = []
+    try:
+        while len(released) < count:
+            t, fl, body = read_packet(sub)
+            if t == 3:                      # PUBLISH: answer PUBREC
+                sub.sendall(packet(5, 0, body[3:5]))
+            elif t == 6:                    # PUBREL: delivered now; PUBCOMP withheld
+                released.append(struct.unpack("!H", body[:2])[0])
+    except socket.timeout:
+        pass
+    print(f"  PUBREL came for {len(released)} of {count} message(s) {released}: the subscriber "
+          "delivered those and, withholding PUBCOMP, forgets their ids")
     sub.close(); pub.close()
     if restart:
         b.terminate(); b.wait()
@@ -97,5 +105,6 @@ def run(restart, inflight):
     sub.close(); b.terminate(); b.wait()
 
 inflight = int(sys.argv[1]) if len(sys.argv) > 1 else 20
-run(False, inflight)
-run(True, inflight)
+count = int(sys.argv[2]) if len(sys.argv) > 2 else 1
+run(False, inflight, count)
+run(True, inflight, count)

@@ -854,8 +854,9 @@ static void test_wrong_ca(void **state)
         struct fx *f = *state;
 
         tls_start(f, "password", "other.crt");
-        refused_connections(f, "TLS: OpenSSL Error[0]: error:0A000086:SSL routines::"
-                               "certificate verify failed");
+        /* OpenSSL's words; the error code in front of them differs between its versions. */
+        refused_connections(f, "TLS: OpenSSL Error");
+        assert_int_equal(mqtt_bridge_log_contains(&f->bridge, "certificate verify failed"), 1);
 }
 
 static void test_check_config(void **state)

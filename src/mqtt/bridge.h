@@ -59,6 +59,7 @@ struct bridge_counters {
         uint64_t unpublishable;         /* variables whose name cannot be a topic */
         uint64_t publish_errors;
         uint64_t cursor_errors;
+        uint64_t broker_errors;         /* connections refused, failed or dropped */
 };
 
 struct bridge;
@@ -93,6 +94,10 @@ int bridge_pump(struct bridge *b, const struct bridge_sink *sink);
 
 /* The broker acknowledged mid; unknown mids (values) are ignored. */
 void bridge_acked(struct bridge *b, int mid);
+
+/* Counts a broker connection that was refused, failed or dropped (published once connected
+ * again: the history of the link to the broker). */
+void bridge_broker_error(struct bridge *b);
 
 /* Number of events published and not yet acknowledged. */
 unsigned bridge_unacked(const struct bridge *b);

@@ -95,6 +95,7 @@ static void connection_lost(struct bridge_mqtt *bm, uint64_t now_ns, const char 
         news = bm->state == CONN_UP || strcmp(text, bm->error) != 0;
         bm->refused = false;
         memcpy(bm->error, text, sizeof(text));
+        bridge_broker_error(bm->b);
         bridge_log(news ? BRIDGE_LOG_WARNING : BRIDGE_LOG_DEBUG,
                    "broker %s:%d: %s; retrying in %u ms", bm->cfg->host, bm->cfg->port, text,
                    bm->backoff_ms);

@@ -69,9 +69,10 @@ quiet  =
 endif
 
 # python3: the Python binding (python/tests) and tests/peers/ (the Pronto4 test peer), in `make check`.
-# mosquitto: the MQTT bridge's tests start a broker of their own.
+# mosquitto: the MQTT bridge's tests start a broker of their own (and mosquitto_passwd); openssl
+# makes their throwaway TLS certificates.
 DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev python3 \
-                  libmosquitto-dev mosquitto mosquitto-clients
+                  libmosquitto-dev mosquitto mosquitto-clients openssl
 DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
 
 # ---------------------------------------------------------------------------------------------

@@ -511,6 +511,11 @@ void bridge_acked(struct bridge *b, int mid)
         }
 }
 
+void bridge_broker_error(struct bridge *b)
+{
+        count(b, &b->counters.broker_errors, 1);
+}
+
 unsigned bridge_unacked(const struct bridge *b)
 {
         return b->w_count;
@@ -622,5 +627,6 @@ int bridge_counters_json(const struct bridge *b, char *buf, size_t size)
         bridge_json_u64(&j, "unpublishable", c->unpublishable);
         bridge_json_u64(&j, "publish_errors", c->publish_errors);
         bridge_json_u64(&j, "cursor_errors", c->cursor_errors);
+        bridge_json_u64(&j, "broker_errors", c->broker_errors);
         return bridge_json_end(&j);
 }

@@ -21,8 +21,9 @@
  *    fixed client id), so libmosquitto re-sends the unconfirmed messages with their message ids
  *    after reconnecting. With events_qos 2 the broker keeps the ids of the QoS 2 messages it has
  *    received (in its persistence file across its own restart) and drops a re-sent one: exactly
- *    once. With QoS 1 the protocol has no such memory: a message whose PUBACK was lost with the
- *    connection arrives twice (same seq).
+ *    once, and in order at the subscribers given the broker settings of sharedlink-mqtt(8),
+ *    BROKER REQUIREMENTS. With QoS 1 the protocol has no such memory: a message whose PUBACK
+ *    was lost with the connection arrives twice (same seq).
  *  - the daemon's ring overran (events written faster than the bridge got them out): an
  *    "overrun" notice with the number lost goes out before the next event, never hidden.
  */
@@ -58,6 +59,7 @@ struct bridge_counters {
         uint64_t unpublishable;         /* variables whose name cannot be a topic */
         uint64_t publish_errors;
         uint64_t cursor_errors;
+        uint64_t broker_errors;         /* connections refused, failed or dropped */
 };
 
 struct bridge;
@@ -92,6 +94,10 @@ int bridge_pump(struct bridge *b, const struct bridge_sink *sink);
 
 /* The broker acknowledged mid; unknown mids (values) are ignored. */
 void bridge_acked(struct bridge *b, int mid);
+
+/* Counts a broker connection that was refused, failed or dropped (published once connected
+ * again: the history of the link to the broker). */
+void bridge_broker_error(struct bridge *b);
 
 /* Number of events published and not yet acknowledged. */
 unsigned bridge_unacked(const struct bridge *b);

@@ -32,11 +32,10 @@
 #define BRIDGE_RECONNECT_MAX_DEFAULT 5000u
 #define BRIDGE_RECONNECT_LIMIT  600000u /* reconnect_*_ms */
 #define BRIDGE_WINDOW_DEFAULT   64u
-/* Half of mosquitto's max_inflight_messages default (20). An MQTT 3.1.1 broker cannot tell a
- * client its limit; mosquitto drops the connection of a client far over it. At exactly 20,
- * test_mqtt's QoS 2 run lost a few events after a bridge restart in 2 of 6 runs (none in 14 at
- * 10): most likely mosquitto's incoming quota, which it answers with a PUBREC that a 3.1.1
- * client cannot tell from success, dropping the message. MQTT 5 reason codes would show it. */
+/* At most the broker's max_inflight_messages (mosquitto's default is 20; sharedlink-mqtt(8) asks
+ * for 1000): an MQTT 3.1.1 broker cannot tell a client its limit, mosquitto drops the connection
+ * of a client far over it and answers a QoS 2 message over its incoming quota with a PUBREC that
+ * a 3.1.1 client cannot tell from success. 10 also keeps a broker at its default safe. */
 #define BRIDGE_INFLIGHT_DEFAULT 10u
 #define BRIDGE_INFLIGHT_MAX     65535u
 #define BRIDGE_CURSOR_SYNC_DEFAULT 1000u

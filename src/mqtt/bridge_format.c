@@ -69,10 +69,16 @@ int bridge_format_set_topic(const char *base, const char *topic, char *ret_name)
         name = topic + bl + sl;
         slash = strchr(name, '/');
         if (slash) {
-                /* Our own replies come back to us through the set/# subscription. */
-                if (!strcmp(slash, ERROR_SUFFIX) && slash > name)
-                        return 0;
-                return -EINVAL;
+                char own[SL_NAME_SIZE];
+
+                /* Our own replies come back to us through the set/# subscription: only under
+                 * a name we could have answered for, anything else is refused. */
+                nl = (size_t)(slash - name);
+                if (strcmp(slash, ERROR_SUFFIX) != 0 || nl == 0 || nl >= sizeof(own))
+                        return -EINVAL;
+                memcpy(own, name, nl);
+                own[nl] = '\0';
+                return bridge_format_name_ok(own) ? 0 : -EINVAL;
         }
         nl = strlen(name);
         if (nl == 0 || nl >= SL_NAME_SIZE || !bridge_format_name_ok(name))

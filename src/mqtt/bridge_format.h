@@ -58,7 +58,8 @@ int bridge_format_name_ok(const char *name);
 /*
  * Splits a topic received under base/set/: returns 1 and the variable name in ret_name
  * (SL_NAME_SIZE) for "base/set/<name>", 0 for the bridge's own "base/set/<name>/error" replies
- * (to be ignored), -EINVAL for anything else (other levels, a name too long or not allowed).
+ * (to be ignored; <name> a name the bridge could answer for), -EINVAL for anything else (other
+ * levels, a name too long or not allowed: wildcards, not UTF-8, control characters).
  */
 int bridge_format_set_topic(const char *base, const char *topic, char *ret_name);
 

@@ -27,6 +27,7 @@
 #define STATUS_OFFLINE          "offline"
 #define STATUS_QOS              1
 #define CLIENT_ID_PREFIX        "sharedlink-mqtt-"
+#define BRIDGE_ERROR_TEXT_MAX   160
 
 enum conn_state {
         CONN_IDLE,                      /* no connection; next attempt at next_ns */
@@ -46,6 +47,10 @@ struct bridge_mqtt {
         uint64_t next_ns;               /* CONN_IDLE: the next attempt */
         uint64_t misc_ns;               /* the next mosquitto_loop_misc */
         uint64_t connect_ns;            /* CONN_CONNECTING: when the attempt gives up */
+        bool refused;                   /* the broker refused the CONNECT ... */
+        char refusal[BRIDGE_ERROR_TEXT_MAX];    /* ... for this reason */
+        char error[BRIDGE_ERROR_TEXT_MAX];      /* why the last attempt failed ("" while up) */
+        char tls_error[BRIDGE_ERROR_TEXT_MAX];  /* libmosquitto's last OpenSSL message */
         char status_topic[BRIDGE_TOPIC_MAX];
         char set_topic[BRIDGE_TOPIC_MAX];
         char client_id[BRIDGE_CLIENT_ID_MAX + BRIDGE_INSTANCE_MAX];
@@ -77,19 +82,42 @@ static int sink_publish(void *arg, const char *topic, const void *payload, size_
         }
 }
 
-/* The broker is gone (refused, dropped, or never answered): try again after the backoff. */
+/* The broker is gone (refused, dropped, or never answered): try again after the backoff. A
+ * refusal (bad credentials, say) is the reason, not the connection closing that follows it. A
+ * warning when the connection was up or the reason is new; the same reason at every retry is
+ * only debug, so a broker that stays away does not flood the journal. */
 static void connection_lost(struct bridge_mqtt *bm, uint64_t now_ns, const char *why)
 {
-        if (bm->state == CONN_UP || bm->backoff_ms == bm->cfg->reconnect_min_ms)
-                bridge_log(BRIDGE_LOG_WARNING, "broker %s:%d: %s; retrying in %u ms",
-                           bm->cfg->host, bm->cfg->port, why, bm->backoff_ms);
-        else
-                bridge_log(BRIDGE_LOG_DEBUG, "broker %s:%d: %s; retrying in %u ms",
-                           bm->cfg->host, bm->cfg->port, why, bm->backoff_ms);
+        char text[BRIDGE_ERROR_TEXT_MAX];
+        bool news;
+
+        snprintf(text, sizeof(text), "%s", bm->refused ? bm->refusal : why);
+        news = bm->state == CONN_UP || strcmp(text, bm->error) != 0;
+        bm->refused = false;
+        memcpy(bm->error, text, sizeof(text));
+        bridge_broker_error(bm->b);
+        bridge_log(news ? BRIDGE_LOG_WARNING : BRIDGE_LOG_DEBUG,
+                   "broker %s:%d: %s; retrying in %u ms", bm->cfg->host, bm->cfg->port, text,
+                   bm->backoff_ms);
         bm->state = CONN_IDLE;
         bm->next_ns = now_ns + (uint64_t)bm->backoff_ms * NS_PER_MS;
         bm->backoff_ms = bm->backoff_ms * 2u > bm->cfg->reconnect_max_ms ?
                          bm->cfg->reconnect_max_ms : bm->backoff_ms * 2u;
+}
+
+/* What a failed libmosquitto call means, into why: OpenSSL's own words for a TLS error. */
+static void error_text(struct bridge_mqtt *bm, int r, char *why, size_t size)
+{
+        if (r == MOSQ_ERR_TLS)
+                snprintf(why, size, "TLS: %.150s", bm->tls_error[0] ? bm->tls_error :
+                         mosquitto_strerror(r));
+        else if (r == MOSQ_ERR_ERRNO)
+                snprintf(why, size, "%s", strerror(errno));
+        else if (r == MOSQ_ERR_EAI)
+                snprintf(why, size, "host name not resolved");
+        else
+                snprintf(why, size, "%s", mosquitto_strerror(r));
+        bm->tls_error[0] = '\0';
 }
 
 static uint64_t now_ns(void)
@@ -106,11 +134,22 @@ static void on_connect(struct mosquitto *m, void *arg, int rc)
         int r;
 
         if (rc != 0) {
-                /* The broker closes the connection next; on_disconnect backs off. */
-                bridge_log(BRIDGE_LOG_ERR, "broker %s:%d refused the connection: %s",
-                           bm->cfg->host, bm->cfg->port, mosquitto_connack_string(rc));
+                char why[BRIDGE_ERROR_TEXT_MAX];
+                size_t n;
+
+                /* The broker closes the connection next; connection_lost backs off. Logged as
+                 * an error once, not at every retry of the same refusal. */
+                n = (size_t)snprintf(why, sizeof(why), "refused the connection: %s",
+                                     mosquitto_connack_string(rc));
+                if (n > 0 && n < sizeof(why) && why[n - 1] == '.')
+                        why[n - 1] = '\0';
+                bridge_log(strcmp(why, bm->error) ? BRIDGE_LOG_ERR : BRIDGE_LOG_DEBUG,
+                           "broker %s:%d: %s", bm->cfg->host, bm->cfg->port, why);
+                memcpy(bm->refusal, why, sizeof(why));
+                bm->refused = true;
                 return;
         }
+        bm->error[0] = '\0';
         bridge_log(BRIDGE_LOG_INFO, "broker %s:%d: connected as %s", bm->cfg->host,
                    bm->cfg->port, bm->client_id);
         bm->state = CONN_UP;
@@ -150,6 +189,17 @@ static void on_message(struct mosquitto *m, void *arg, const struct mosquitto_me
         if (msg->payloadlen < 0)
                 return;
         bridge_set(bm->b, &bm->sink, msg->topic, msg->payload, (size_t)msg->payloadlen);
+}
+
+/* libmosquitto says what OpenSSL objected to only through its log: kept for the error of
+ * the attempt (a certificate that does not verify, say), the rest is dropped. */
+static void on_log(struct mosquitto *m, void *arg, int level, const char *text)
+{
+        struct bridge_mqtt *bm = arg;
+
+        (void)m;
+        if (level == MOSQ_LOG_ERR && strstr(text, "SSL"))
+                snprintf(bm->tls_error, sizeof(bm->tls_error), "%s", text);
 }
 
 static int setup_tls(struct bridge_mqtt *bm, char *err, size_t err_size)
@@ -199,6 +249,7 @@ static int setup(struct bridge_mqtt *bm, char *err, size_t err_size)
         mosquitto_disconnect_callback_set(bm->m, on_disconnect);
         mosquitto_publish_callback_set(bm->m, on_publish);
         mosquitto_message_callback_set(bm->m, on_message);
+        mosquitto_log_callback_set(bm->m, on_log);
         return 0;
 }
 
@@ -252,6 +303,7 @@ const struct bridge_sink *bridge_mqtt_sink(struct bridge_mqtt *bm)
 
 void bridge_mqtt_connect_due(struct bridge_mqtt *bm, uint64_t now)
 {
+        char why[BRIDGE_ERROR_TEXT_MAX];
         int r;
 
         if (bm->state != CONN_IDLE || now < bm->next_ns)
@@ -262,22 +314,17 @@ void bridge_mqtt_connect_due(struct bridge_mqtt *bm, uint64_t now)
                 r = mosquitto_connect_async(bm->m, bm->cfg->host, bm->cfg->port,
                                             bm->cfg->keepalive_s);
         if (r == MOSQ_ERR_SUCCESS || r == MOSQ_ERR_CONN_PENDING) {
-                /* Even a failed first attempt set host and port up for reconnect_async. */
                 bm->ever_started = true;
                 bm->state = CONN_CONNECTING;
                 bm->misc_ns = now + MISC_INTERVAL_MS * NS_PER_MS;
                 bm->connect_ns = now + (uint64_t)bm->cfg->keepalive_s * 1000u * NS_PER_MS;
                 return;
         }
-        if (r == MOSQ_ERR_ERRNO || r == MOSQ_ERR_EAI) {
-                bm->ever_started = r == MOSQ_ERR_ERRNO;
-                connection_lost(bm, now, r == MOSQ_ERR_EAI ? "host name not resolved" :
-                                strerror(errno));
-                return;
-        }
-        bridge_log(BRIDGE_LOG_ERR, "broker %s:%d: %s", bm->cfg->host, bm->cfg->port,
-                   mosquitto_strerror(r));
-        connection_lost(bm, now, "cannot connect");
+        /* Even a failed first attempt set host and port up for reconnect_async, unless the
+         * name did not resolve. */
+        bm->ever_started = r != MOSQ_ERR_EAI;
+        error_text(bm, r, why, sizeof(why));
+        connection_lost(bm, now, why);
 }
 
 int bridge_mqtt_fd(struct bridge_mqtt *bm)
@@ -292,9 +339,12 @@ bool bridge_mqtt_want_write(struct bridge_mqtt *bm)
 
 static void io_result(struct bridge_mqtt *bm, int r, uint64_t now)
 {
+        char why[BRIDGE_ERROR_TEXT_MAX];
+
         if (r == MOSQ_ERR_SUCCESS || bm->state == CONN_IDLE)
                 return;
-        connection_lost(bm, now, r == MOSQ_ERR_ERRNO ? strerror(errno) : mosquitto_strerror(r));
+        error_text(bm, r, why, sizeof(why));
+        connection_lost(bm, now, why);
 }
 
 void bridge_mqtt_io(struct bridge_mqtt *bm, short revents, uint64_t now)
@@ -329,6 +379,11 @@ int bridge_mqtt_timeout_ms(const struct bridge_mqtt *bm, uint64_t now)
 bool bridge_mqtt_connected(const struct bridge_mqtt *bm)
 {
         return bm->state == CONN_UP;
+}
+
+const char *bridge_mqtt_error(const struct bridge_mqtt *bm)
+{
+        return bm->state == CONN_UP ? "" : bm->error;
 }
 
 bool bridge_mqtt_take_fresh(struct bridge_mqtt *bm)

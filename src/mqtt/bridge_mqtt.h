@@ -44,6 +44,10 @@ int bridge_mqtt_timeout_ms(const struct bridge_mqtt *bm, uint64_t now_ns);
 /* 1 once CONNACK accepted and until the connection drops. */
 bool bridge_mqtt_connected(const struct bridge_mqtt *bm);
 
+/* Why the last connection attempt failed or the connection dropped ("" while connected or
+ * before the first attempt): for the service status. */
+const char *bridge_mqtt_error(const struct bridge_mqtt *bm);
+
 /* 1 once after each accepted (re)connection: the caller then publishes everything. */
 bool bridge_mqtt_take_fresh(struct bridge_mqtt *bm);
 

@@ -42,7 +42,7 @@
 #define TICK_MS                 1000u   /* rescan anyway (staleness by heartbeat), stats */
 #define ATTACH_MIN_MS           100u    /* sl_open retries while no daemon runs ... */
 #define ATTACH_MAX_MS           5000u   /* ... doubling to this */
-#define STATUS_MAX              160
+#define STATUS_MAX              320     /* a state and a reason per side */
 
 #ifndef SHAREDLINK_VERSION
 #define SHAREDLINK_VERSION      "unknown"
@@ -154,10 +154,13 @@ static void status_update(struct main_ctx *ctx)
 {
         char s[STATUS_MAX];
 
-        /* Only states, no counts: sd_notify blocks when nobody reads fast enough, and a count
-         * would change with every event. */
-        snprintf(s, sizeof(s), "STATUS=broker %s, sharedlinkd %s",
+        /* Only states and reasons, no counts: sd_notify blocks when nobody reads fast enough,
+         * and a count would change with every event. */
+        const char *why = bridge_mqtt_error(ctx->bm);
+
+        snprintf(s, sizeof(s), "STATUS=broker %s%s%s%s, sharedlinkd %s",
                  bridge_mqtt_connected(ctx->bm) ? "connected" : "disconnected",
+                 why[0] ? " (" : "", why, why[0] ? ")" : "",
                  !bridge_attached(ctx->b) ? "not found" :
                  !strcmp(bridge_status(ctx->b), "online") ? "running" : "not running");
         if (strcmp(s, ctx->status) != 0) {

@@ -134,11 +134,25 @@ int mqtt_broker_start(struct mqtt_broker *b, const char *dir, int port, int time
         if (!f)
                 return -errno;
         /* Persistence: the broker-restart test needs the sessions and queued messages back.
-         * No message limit per client: the test's subscriber may lag behind a burst. As root,
-         * mosquitto would switch to its own user, which cannot write the test's directory. */
-        fprintf(f, "listener %d 127.0.0.1\nallow_anonymous true\npersistence true\n"
-                   "persistence_location %s/\nmax_queued_messages 0\n%s", b->port, dir,
-                geteuid() == 0 ? "user root\n" : "");
+         * No message limit per client: the test's subscriber may lag behind a burst.
+         * max_inflight_messages: large and finite, the deployment requirement in
+         * sharedlink-mqtt(8). mosquitto 2.0.11 keeps QoS 1/2 messages to one client in order
+         * only while that client's in-flight quota is not full (over it, messages are queued
+         * and a new one can overtake them when a QoS 1 PUBACK frees a slot; its count also
+         * lets more than the limit be in flight: 29 QoS 2 messages awaiting PUBCOMP at 20),
+         * and after its own restart it restores only max_inflight_messages in-flight messages
+         * per client with their state; "no maximum" (0, and 65535 behaves the same) restores
+         * none. The others, even a QoS 2 message whose PUBREL had gone out, are sent again as
+         * new PUBLISHes, which the subscriber delivers a second time
+         * (tests/tools/mosquitto_qos2_restore.py shows it). As root, mosquitto would switch to its own user, which cannot
+         * write the test's directory. MQTT_BROKER_LOG_ALL=1: every packet in broker.log. */
+        fprintf(f, "listener %d 127.0.0.1\n%s%spersistence true\npersistence_location %s/\n"
+                   "max_queued_messages 0\nmax_inflight_messages %d\n%s%s", b->port,
+                b->listener_conf ? b->listener_conf : "",
+                b->listener_conf && strstr(b->listener_conf, "allow_anonymous") ? "" :
+                "allow_anonymous true\n", dir, MQTT_BROKER_INFLIGHT,
+                geteuid() == 0 ? "user root\n" : "",
+                getenv("MQTT_BROKER_LOG_ALL") ? "log_type all\n" : "");
         if (fclose(f) != 0)
                 return -errno;
         b->pid = fork();
@@ -214,6 +228,8 @@ static int notify_ready(struct mqtt_bridge *br)
                 buf[n] = '\0';
                 if (strstr(buf, "READY=1"))
                         found = 1;
+                if (strstr(buf, "STATUS="))
+                        snprintf(br->status, sizeof(br->status), "%s", buf);
         }
         return found;
 }
@@ -232,6 +248,7 @@ int mqtt_bridge_start(struct mqtt_bridge *br, struct harness *h, const char *con
                 return r;
         snprintf(br->log_path, sizeof(br->log_path), "%s/bridge.log", h->dir);
         notify_ready(br);       /* forget an earlier run's datagrams */
+        br->status[0] = '\0';
         br->pid = fork();
         if (br->pid < 0)
                 return -errno;
@@ -304,6 +321,166 @@ int mqtt_bridge_log_contains(struct mqtt_bridge *br, const char *needle)
                 return -errno;
         buf[n] = '\0';
         return strstr(buf, needle) != NULL;
+}
+
+/* Occurrences of needle in the bridge's log (its first 1 MiB), or -errno. */
+static int log_count(struct mqtt_bridge *br, const char *needle)
+{
+        enum { LOG_READ_MAX = 1 << 20 };
+        char *buf = malloc(LOG_READ_MAX + 1);
+        int fd = open(br->log_path, O_RDONLY | O_CLOEXEC), n = 0;
+        ssize_t len;
+
+        if (!buf || fd < 0) {
+                n = fd < 0 ? -errno : -ENOMEM;
+                free(buf);
+                if (fd >= 0)
+                        close(fd);
+                return n;
+        }
+        len = read(fd, buf, LOG_READ_MAX);
+        close(fd);
+        if (len < 0) {
+                free(buf);
+                return -EIO;
+        }
+        buf[len] = '\0';
+        for (const char *p = buf; (p = strstr(p, needle)); p += strlen(needle))
+                n++;
+        free(buf);
+        return n;
+}
+
+int mqtt_bridge_wait_log(struct mqtt_bridge *br, const char *needle, unsigned n,
+                         int timeout_ms)
+{
+        uint64_t deadline = deadline_of(timeout_ms);
+
+        /* A file gives no event when it grows: look in short slices. */
+        while (log_count(br, needle) < (int)n) {
+                if (left_ms(deadline) == 0)
+                        return -ETIMEDOUT;
+                poll(NULL, 0, MQTT_SLICE_MS);
+        }
+        return 0;
+}
+
+int mqtt_bridge_wait_status(struct mqtt_bridge *br, const char *needle, int timeout_ms)
+{
+        uint64_t deadline = deadline_of(timeout_ms);
+
+        for (;;) {
+                struct pollfd p = { .fd = br->notify_fd, .events = POLLIN };
+
+                notify_ready(br);
+                if (strstr(br->status, needle))
+                        return 0;
+                if (left_ms(deadline) == 0)
+                        return -ETIMEDOUT;
+                poll(&p, 1, left_ms(deadline));
+        }
+}
+
+/* ---- a raw connection ------------------------------------------------------------------------ */
+
+#define RAW_CONNECT             0x10
+#define RAW_CONNACK             0x20
+#define RAW_PUBLISH             0x30
+#define RAW_PINGREQ             0xc0
+#define RAW_PINGRESP            0xd0
+#define RAW_HEAD_MAX            8       /* fixed header and topic length */
+#define RAW_REMAINING_MAX       (128u * 128u * 128u - 1u)       /* what 3 length bytes say */
+
+/* Appends the fixed header (type, remaining length) to out; the bytes written. */
+static size_t raw_header(unsigned char *out, unsigned type, size_t remaining)
+{
+        size_t n = 0;
+
+        out[n++] = (unsigned char)type;
+        do {
+                out[n] = (unsigned char)(remaining % 128u);
+                remaining /= 128u;
+                if (remaining)
+                        out[n] |= 0x80u;
+                n++;
+        } while (remaining);
+        return n;
+}
+
+static int raw_send(int fd, const void *buf, size_t len)
+{
+        const unsigned char *p = buf;
+
+        while (len) {
+                ssize_t w = send(fd, p, len, MSG_NOSIGNAL);
+
+                if (w < 0 && errno == EINTR)
+                        continue;
+                if (w < 0)
+                        return errno == EPIPE || errno == ECONNRESET ? 1 : -errno;
+                p += w;
+                len -= (size_t)w;
+        }
+        return 0;
+}
+
+/* The first byte of the next packet, -ECONNRESET at EOF, -ETIMEDOUT. */
+static int raw_next(int fd, uint64_t deadline)
+{
+        unsigned char b[4];
+        struct pollfd p = { .fd = fd, .events = POLLIN };
+        ssize_t n;
+
+        if (poll(&p, 1, left_ms(deadline)) <= 0)
+                return -ETIMEDOUT;
+        n = recv(fd, b, sizeof(b), 0);  /* CONNACK and PINGRESP are 4 and 2 bytes */
+        if (n <= 0)
+                return -ECONNRESET;
+        return b[0];
+}
+
+int mqtt_raw_publish(int port, const void *topic, size_t topic_len, const void *payload,
+                     size_t len, int timeout_ms)
+{
+        static const unsigned char connect_body[] = {
+                0, 4, 'M', 'Q', 'T', 'T', 4, 0x02 /* clean session */, 0, 10 /* keepalive */,
+                0, 7, 'r', 'a', 'w', 't', 'e', 's', 't' };
+        static const unsigned char ping[] = { RAW_PINGREQ, 0 };
+        struct sockaddr_in sa = { .sin_family = AF_INET, .sin_port = htons((uint16_t)port),
+                                  .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
+        uint64_t deadline = deadline_of(timeout_ms);
+        unsigned char head[RAW_HEAD_MAX + 2];
+        size_t remaining = 2 + topic_len + len, n;
+        int fd, r;
+
+        if (topic_len > UINT16_MAX || remaining > RAW_REMAINING_MAX)
+                return -EMSGSIZE;
+        fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+        if (fd < 0)
+                return -errno;
+        if (connect(fd, (struct sockaddr *)&sa, sizeof(sa)) < 0) {
+                r = -errno;
+                goto out;
+        }
+        n = raw_header(head, RAW_CONNECT, sizeof(connect_body));
+        if ((r = raw_send(fd, head, n)) != 0 ||
+            (r = raw_send(fd, connect_body, sizeof(connect_body))) != 0)
+                goto out;
+        if ((r = raw_next(fd, deadline)) != RAW_CONNACK) {
+                r = r < 0 ? r : -EPROTO;
+                goto out;
+        }
+        n = raw_header(head, RAW_PUBLISH, remaining);
+        head[n++] = (unsigned char)(topic_len >> 8);
+        head[n++] = (unsigned char)(topic_len & 0xffu);
+        if ((r = raw_send(fd, head, n)) != 0 || (r = raw_send(fd, topic, topic_len)) != 0 ||
+            (r = raw_send(fd, payload, len)) != 0 || (r = raw_send(fd, ping, sizeof(ping))) != 0)
+                goto out;
+        r = raw_next(fd, deadline);
+        r = r == RAW_PINGRESP ? 0 : r == -ECONNRESET ? 1 : r < 0 ? r : -EPROTO;
+out:
+        close(fd);
+        return r;
 }
 
 /* ---- a client -------------------------------------------------------------------------------- */
@@ -439,6 +616,13 @@ int mqtt_client_wait_connects(struct mqtt_client *c, uint64_t after, int timeout
 int mqtt_client_start(struct mqtt_client *c, int port, const char *id, bool clean,
                       const char *subscription, int qos, int timeout_ms)
 {
+        return mqtt_client_start_auth(c, port, id, clean, subscription, qos, NULL, timeout_ms);
+}
+
+int mqtt_client_start_auth(struct mqtt_client *c, int port, const char *id, bool clean,
+                           const char *subscription, int qos,
+                           const struct mqtt_client_auth *auth, int timeout_ms)
+{
         int r;
 
         memset(c, 0, sizeof(*c));
@@ -460,6 +644,12 @@ int mqtt_client_start(struct mqtt_client *c, int port, const char *id, bool clea
         mosquitto_reconnect_delay_set(c->m, 1, 1, false);
         /* QoS 1/2 messages from the broker are acknowledged as they arrive: no inflight cap. */
         mosquitto_max_inflight_messages_set(c->m, 0);
+        if (auth && auth->ca_file &&
+            mosquitto_tls_set(c->m, auth->ca_file, NULL, NULL, NULL, NULL) != MOSQ_ERR_SUCCESS)
+                return -EINVAL;
+        if (auth && auth->username &&
+            mosquitto_username_pw_set(c->m, auth->username, auth->password) != MOSQ_ERR_SUCCESS)
+                return -EINVAL;
         r = mosquitto_connect(c->m, "127.0.0.1", port, MQTT_KEEPALIVE_S);
         if (r != MOSQ_ERR_SUCCESS)
                 return -ECONNREFUSED;

@@ -19,6 +19,7 @@
 #define MQTT_TOPIC_MAX          256
 #define MQTT_PAYLOAD_MAX        1024
 #define MQTT_VALUES_MAX         4096    /* topics whose last payload a client keeps */
+#define MQTT_BROKER_INFLIGHT    1000    /* the broker's max_inflight_messages: see mqtt.c */
 
 struct mqtt_broker {
         char dir[HARNESS_PATH_MAX];
@@ -26,6 +27,9 @@ struct mqtt_broker {
         char log[HARNESS_PATH_MAX + 32];
         int port;
         pid_t pid;                      /* 0 when not running */
+        /* Lines for the listener (cafile/certfile/keyfile: TLS) and its security
+         * (password_file, allow_anonymous false); NULL: anonymous plain TCP. */
+        const char *listener_conf;
 };
 
 struct mqtt_bridge {
@@ -34,6 +38,7 @@ struct mqtt_bridge {
         char log_path[HARNESS_PATH_MAX + 32];
         int notify_fd;
         pid_t pid;
+        char status[1024];              /* the last STATUS= notification seen */
 };
 
 /* The last payload seen on one topic. */
@@ -80,7 +85,8 @@ const char *mqtt_bridge_path(void);
 int mqtt_broker_available(void);
 
 /* Writes a broker config into dir (listener 127.0.0.1:port, a free port when port is 0,
- * anonymous, persistence in dir) and starts mosquitto; 0 once it accepts connections. */
+ * b->listener_conf or anonymous, persistence in dir) and starts mosquitto; 0 once it accepts
+ * TCP connections. */
 int mqtt_broker_start(struct mqtt_broker *b, const char *dir, int port, int timeout_ms);
 
 /* SIGTERM (the broker saves its persistence file) and wait; 0 or -ETIMEDOUT. */
@@ -100,11 +106,37 @@ void mqtt_bridge_cleanup(struct mqtt_bridge *br);
 /* Whether the bridge's log contains needle: 1, 0 or -errno. */
 int mqtt_bridge_log_contains(struct mqtt_bridge *br, const char *needle);
 
+/* Waits until the bridge's log contains needle at least n times; 0 or -ETIMEDOUT. */
+int mqtt_bridge_wait_log(struct mqtt_bridge *br, const char *needle, unsigned n,
+                         int timeout_ms);
+
+/* Waits until the bridge's last STATUS= notification (sd_notify) contains needle, e.g.
+ * "STATUS=broker disconnected (refused"; 0 or -ETIMEDOUT. */
+int mqtt_bridge_wait_status(struct mqtt_bridge *br, const char *needle, int timeout_ms);
+
 /* Connects a client (id; clean: clean session) to 127.0.0.1:port, subscribes to subscription
  * (may be NULL) with qos, and runs it in its own thread (reconnecting by itself). 0 once
  * subscribed, or -errno. */
 int mqtt_client_start(struct mqtt_client *c, int port, const char *id, bool clean,
                       const char *subscription, int qos, int timeout_ms);
+
+/* TLS and credentials of a client (each NULL: not used). */
+struct mqtt_client_auth {
+        const char *ca_file;            /* TLS, the broker's certificate checked against it */
+        const char *username, *password;
+};
+
+/* mqtt_client_start with TLS and/or a username and password. */
+int mqtt_client_start_auth(struct mqtt_client *c, int port, const char *id, bool clean,
+                           const char *subscription, int qos,
+                           const struct mqtt_client_auth *auth, int timeout_ms);
+
+/* A raw MQTT 3.1.1 connection (no library between the test and the wire, so that it can send
+ * what libmosquitto refuses to): CONNECT, a QoS 0 PUBLISH of topic (topic_len bytes, any
+ * bytes) with payload, then PINGREQ. Returns 1 when the broker closed the connection instead
+ * of answering the ping (it refused the PUBLISH), 0 when it answered, or -errno. */
+int mqtt_raw_publish(int port, const void *topic, size_t topic_len, const void *payload,
+                     size_t len, int timeout_ms);
 
 /* Stops and frees (NULL-safe on a zeroed struct). */
 void mqtt_client_stop(struct mqtt_client *c);

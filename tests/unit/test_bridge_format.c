@@ -60,6 +60,16 @@ static void test_set_topics(void **state)
         assert_int_equal(bridge_format_set_topic(BASE, BASE "/a.Lat", name), -EINVAL);
         assert_int_equal(bridge_format_set_topic(BASE, "sharedlink/car2/set/a", name), -EINVAL);
         assert_int_equal(bridge_format_set_topic(BASE, BASE "/set/status", name), -EINVAL);
+        /* A broker never delivers these (MQTT forbids wildcards and non-UTF-8 in a published
+         * topic, and mosquitto drops the client that tries), but one that did gets no write. */
+        assert_int_equal(bridge_format_set_topic(BASE, BASE "/set/a+", name), -EINVAL);
+        assert_int_equal(bridge_format_set_topic(BASE, BASE "/set/+", name), -EINVAL);
+        assert_int_equal(bridge_format_set_topic(BASE, BASE "/set/#", name), -EINVAL);
+        assert_int_equal(bridge_format_set_topic(BASE, BASE "/set/a#", name), -EINVAL);
+        assert_int_equal(bridge_format_set_topic(BASE, BASE "/set/+/error", name), -EINVAL);
+        assert_int_equal(bridge_format_set_topic(BASE, BASE "/set/a.\xff", name), -EINVAL);
+        assert_int_equal(bridge_format_set_topic(BASE, BASE "/set/\xc0\xae", name), -EINVAL);
+        assert_int_equal(bridge_format_set_topic(BASE, BASE "/set/a\x01", name), -EINVAL);
         snprintf(longname, sizeof(longname), BASE "/set/%0*d", SL_NAME_SIZE, 0);
         assert_int_equal(bridge_format_set_topic(BASE, longname, name), -EINVAL);
         snprintf(longname, sizeof(longname), BASE "/set/%0*d", SL_NAME_SIZE - 1, 0);

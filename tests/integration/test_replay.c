@@ -713,6 +713,13 @@ static void test_record_replay_udp(void **state)
         assert_int_equal(harness_wait_log(&t->h, "end of recording", WAIT_MS), 0);
         snap(t, veh_inbound, rx_counters, &got);
         snap_equal(&rec, &got, veh_inbound, rx_counters, "udp replay");
+        /* Recorded in its turn, the replay says udp, not replay: that recording replays as
+         * datagrams too. */
+        snprintf(t->rec, sizeof(t->rec), "%s/again.rec", t->h.dir);
+        record_start(t, "veh", "--duration=1");
+        record_stop(t, 0, err, sizeof(err));
+        read_file(t->rec, t->buf, FILE_MAX);
+        assert_non_null(strstr(t->buf, "\n# transport: udp\n"));
         stop(t);
 }
 

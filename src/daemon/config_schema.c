@@ -192,7 +192,7 @@ static int parse_serial(struct ctx *c, const struct ynode *const *vals, struct c
 }
 
 /*
- * crlf (udp only) defaults to on when a peer is pronto4: the public C++ adapter aborts on a
+ * crlf (udp, and a replay: it may be of udp) defaults to on when a peer is pronto4: the public C++ adapter aborts on a
  * datagram without "]\r\n". A byte stream always ends frames with CR LF, so the one-frame checks
  * of pronto4 peers count it on every transport, and on udp unless crlf: false says otherwise.
  */
@@ -200,7 +200,7 @@ static int parse_link_sharedlink(struct ctx *c, const struct ynode *const *vals,
                                  const struct ynode *map, enum config_transport transport,
                                  struct config_sharedlink *sl)
 {
-        bool crlf_set = false;
+        bool crlf_set = false, datagrams;
         int r;
 
         if (!vals[LK_ADDRESS])
@@ -216,9 +216,11 @@ static int parse_link_sharedlink(struct ctx *c, const struct ynode *const *vals,
         }
         if (!vals[LK_PEERS])
                 return cfg_fail(c, map, "missing key \"peers\" in link");
-        r = cfg_parse_peers(c, vals[LK_PEERS], transport != CONFIG_TRANSPORT_UDP || !crlf_set ||
-                            sl->crlf, sl);
-        if (r < 0 || crlf_set || transport != CONFIG_TRANSPORT_UDP)
+        /* crlf matters where the engine takes datagrams: udp, and a replay, whose recording
+         * may be of a udp link (the replay then sends as the field link did). */
+        datagrams = transport == CONFIG_TRANSPORT_UDP || transport == CONFIG_TRANSPORT_REPLAY;
+        r = cfg_parse_peers(c, vals[LK_PEERS], !datagrams || !crlf_set || sl->crlf, sl);
+        if (r < 0 || crlf_set || !datagrams)
                 return r;
         for (unsigned i = 0; i < sl->n_peers; i++)
                 sl->crlf |= sl->peers[i].dialect == CONFIG_DIALECT_PRONTO4;

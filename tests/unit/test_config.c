@@ -1329,6 +1329,18 @@ static void test_names(void **state)
         "    peers:\n" \
         "      - address: B\n"
 
+/* A replay of the same link: crlf as on udp (the recording may be of udp). */
+#define P4_REPLAY_LINK(extra) \
+        "links:\n" \
+        "  - name: p4\n" \
+        "    protocol: sharedlink\n" \
+        "    transport: replay\n" \
+        "    file: /nonexistent/p4.rec\n" \
+        extra \
+        "    address: A\n" \
+        "    peers:\n" \
+        "      - address: B\n"
+
 struct pronto4_case {
         const char *name, *yaml;
         enum config_dialect dialect;
@@ -1365,6 +1377,12 @@ static const struct pronto4_case pronto4_cases[] = {
         { "one pronto4 peer among bulletin ones turns the link's crlf on",
           P4_LINK("") "      - {address: C, dialect: pronto4, inbound: learn}\n",
           CONFIG_DIALECT_BULLETIN, false, false, false, true, 0, 0, 0 },
+        { "a replay's crlf follows the dialect as on udp",
+          P4_REPLAY_LINK("") "        dialect: pronto4\n        inbound: learn\n",
+          CONFIG_DIALECT_PRONTO4, false, false, true, true, CONFIG_LEARN_MAX_DEFAULT, 0, 0 },
+        { "a replay with crlf: false",
+          P4_REPLAY_LINK("    crlf: false\n") "        dialect: pronto4\n        inbound: learn\n",
+          CONFIG_DIALECT_PRONTO4, false, false, true, false, CONFIG_LEARN_MAX_DEFAULT, 0, 0 },
 };
 
 static void test_pronto4(void **state)

@@ -166,11 +166,20 @@ static void on_connect(struct mosquitto *m, void *arg, int rc)
 static void on_disconnect(struct mosquitto *m, void *arg, int rc)
 {
         struct bridge_mqtt *bm = arg;
+        char why[BRIDGE_ERROR_TEXT_MAX];
 
         (void)m;
         if (bm->state == CONN_IDLE)
                 return;
-        connection_lost(bm, now_ns(), rc == 0 ? "disconnected" : "connection lost");
+        /* Some libmosquitto versions report a failed TLS handshake here (rc MOSQ_ERR_TLS)
+         * rather than as the result of the read: the reason is told the same way. */
+        if (rc == 0)
+                snprintf(why, sizeof(why), "disconnected");
+        else if (rc == MOSQ_ERR_CONN_LOST)
+                snprintf(why, sizeof(why), "connection lost");
+        else
+                error_text(bm, rc, why, sizeof(why));
+        connection_lost(bm, now_ns(), why);
 }
 
 static void on_publish(struct mosquitto *m, void *arg, int mid)

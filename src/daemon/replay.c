@@ -154,6 +154,32 @@ static int replay_take(void *arg, const struct rec_reader *r)
         return 0;
 }
 
+/* Whether the metadata of a recording's head (its first REPLAY_HEAD_MAX bytes, whole lines up
+ * to the first chunk) says udp. The one rule for the link's set-up (replay_file_datagram) and
+ * the load (replay_load), so the two never disagree about a file that did not change. */
+static bool head_datagram(const char *head, size_t len)
+{
+        struct rec_reader *reader = malloc(sizeof(*reader));
+        bool datagram;
+        size_t pos = 0;
+
+        if (!reader)
+                return false;
+        if (len > REPLAY_HEAD_MAX)
+                len = REPLAY_HEAD_MAX;
+        rec_reader_init(reader);
+        while (pos < len && !reader->chunk_seen) {
+                const char *nl = memchr(head + pos, '\n', len - pos);
+
+                if (!nl || rec_reader_line(reader, head + pos, (size_t)(nl - (head + pos))) < 0)
+                        break;
+                pos = (size_t)(nl - head) + 1;
+        }
+        datagram = rec_reader_datagram(reader);
+        free(reader);
+        return datagram;
+}
+
 /* Parses the file into rp (rp->blob NULL: only checks). 0 or -errno with the reason in err. */
 static int replay_load(struct replay *rp, const char *path, bool keep, char *err, size_t errsz)
 {
@@ -183,7 +209,7 @@ static int replay_load(struct replay *rp, const char *path, bool keep, char *err
                 r = -EBADMSG;
         } else {
                 rp->dropped = reader->dropped;
-                rp->datagram = rec_reader_datagram(reader);
+                rp->datagram = head_datagram(text, len);
         }
 out:
         free(text);
@@ -193,13 +219,12 @@ out:
 
 bool replay_file_datagram(const char *path)
 {
-        struct rec_reader *reader = malloc(sizeof(*reader));
         char *head = malloc(REPLAY_HEAD_MAX);
         bool datagram = false;
-        size_t len = 0, pos = 0;
+        size_t len = 0;
         int fd = open(path, O_RDONLY | O_CLOEXEC | O_NOCTTY | O_NONBLOCK);
 
-        if (fd < 0 || !reader || !head)
+        if (fd < 0 || !head)
                 goto out;
         while (len < REPLAY_HEAD_MAX) {
                 ssize_t n = read(fd, head + len, REPLAY_HEAD_MAX - len);
@@ -210,21 +235,11 @@ bool replay_file_datagram(const char *path)
                         break;
                 len += (size_t)n;
         }
-        rec_reader_init(reader);
-        /* Whole lines only, up to the first chunk: the metadata is over there. */
-        while (pos < len && !reader->chunk_seen) {
-                const char *nl = memchr(head + pos, '\n', len - pos);
-
-                if (!nl || rec_reader_line(reader, head + pos, (size_t)(nl - (head + pos))) < 0)
-                        break;
-                pos = (size_t)(nl - head) + 1;
-        }
-        datagram = rec_reader_datagram(reader);
+        datagram = head_datagram(head, len);
 out:
         if (fd >= 0)
                 close(fd);
         free(head);
-        free(reader);
         return datagram;
 }
 

@@ -692,6 +692,25 @@ static void test_replay_datagram(void **state)
         assert_int_equal(transport_open(&p, 0, &t, err, sizeof(err)), 0);
         assert_false(transport_is_datagram(t));
         transport_close(t);
+
+        /* A head of comments longer than REPLAY_HEAD_MAX before "# transport: udp": the set-up
+         * and the load judge the same bytes, so it is a stream for both, never refused as
+         * changed. */
+        {
+                static char text[REPLAY_HEAD_MAX + 256];
+                size_t n = (size_t)snprintf(text, sizeof(text), "%s\n", REC_HEADER);
+
+                while (n < REPLAY_HEAD_MAX)
+                        n += (size_t)snprintf(text + n, sizeof(text) - n, "# %060u\n", 0u);
+                snprintf(text + n, sizeof(text) - n, "# transport: udp\n0.000001 < AB\n");
+                write_in(f, "long.rec", text, late);
+        }
+        assert_false(replay_file_datagram(late));
+        transport_params_init(&p, TRANSPORT_REPLAY);
+        assert_int_equal(transport_params_add_device(&p, late), 0);
+        assert_int_equal(transport_open(&p, 0, &t, err, sizeof(err)), 0);
+        assert_false(transport_is_datagram(t));
+        transport_close(t);
 }
 
 int main(void)

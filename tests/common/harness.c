@@ -145,8 +145,10 @@ int harness_write_file(struct harness *h, const char *name, const char *text, ch
 int harness_start_config(struct harness *h, const char *name, const char *body, int timeout_ms,
                          char *why, size_t whysz)
 {
-        size_t size = strlen(body) + sizeof(h->instance) + sizeof(h->dir) + 64, n = 0;
-        char *text = malloc(size), path[HARNESS_PATH_MAX];
+        size_t size = strlen(body) + sizeof(h->instance) + sizeof(h->dir) + 64;
+        char *text = malloc(size), path[HARNESS_PATH_MAX], tail[HARNESS_WHY_MAX] = "";
+        struct stat sb;
+        off_t since;
         int st = 0, r, fd;
 
         if (whysz)
@@ -161,21 +163,23 @@ int harness_start_config(struct harness *h, const char *name, const char *body, 
                         snprintf(why, whysz, "cannot write %s: %s", name, strerror(-r));
                 return r;
         }
+        /* The log is appended across starts: what this start wrote begins at its size now. */
+        since = h->capture_log && stat(h->log_path, &sb) == 0 ? sb.st_size : 0;
         r = harness_start_daemon(h, path, timeout_ms, &st, NULL);
         if (r == 0)
                 return 0;
-        if (h->capture_log && harness_log_contains(h, "not available in this build") == 1)
-                return -ENOTSUP;
-        if (whysz)
-                n = (size_t)snprintf(why, whysz, "%s (status %d)%s", strerror(-r), st,
-                                     h->capture_log ? "; log: " : "");
-        fd = h->capture_log && n + 1 < whysz ? open(h->log_path, O_RDONLY | O_CLOEXEC) : -1;
+        fd = h->capture_log ? open(h->log_path, O_RDONLY | O_CLOEXEC) : -1;
         if (fd >= 0) {
-                ssize_t k = read(fd, why + n, whysz - n - 1);
+                ssize_t k = pread(fd, tail, sizeof(tail) - 1, since);
 
-                why[n + (k > 0 ? (size_t)k : 0)] = '\0';
+                tail[k > 0 ? (size_t)k : 0] = '\0';
                 close(fd);
         }
+        if (strstr(tail, "not available in this build"))
+                return -ENOTSUP;
+        if (whysz)
+                snprintf(why, whysz, "%s (status %d)%s%s", strerror(-r), st,
+                         h->capture_log ? "; log: " : "", tail);
         return r;
 }
 

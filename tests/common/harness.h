@@ -46,7 +46,7 @@ const char *harness_slctl_path(void);
 int harness_start_daemon(struct harness *h, const char *config, int timeout_ms, int *ret_status,
                          const char *const *extra_args);
 
-/* The message harness_start_config() leaves: the outcome and the head of the captured log. */
+/* The message harness_start_config() leaves: the outcome and what this start wrote to the log. */
 #define HARNESS_WHY_MAX 2048
 
 /* Writes "instance: <instance>\nruntime_dir: <dir>\n" and then body (e.g. a "links:" document)

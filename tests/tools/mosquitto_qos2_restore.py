@@ -27,16 +27,21 @@ def packet(ptype, flags, body):
         if not n: break
     return bytes([(ptype << 4) | flags]) + rl + body
 
+def recv_exact(s, n):
+    data = b""
+    while len(data) < n:
+        part = s.recv(n - len(data))
+        if not part: raise EOFError      # the broker closed the connection mid-packet
+        data += part
+    return data
+
 def read_packet(s):
-    h = s.recv(1)
-    if not h: raise EOFError
+    h = recv_exact(s, 1)
     mult, n = 1, 0
     while True:
-        d = s.recv(1)[0]; n += (d & 127) * mult; mult *= 128
+        d = recv_exact(s, 1)[0]; n += (d & 127) * mult; mult *= 128
         if not d & 128: break
-    body = b""
-    while len(body) < n: body += s.recv(n - len(body))
-    return h[0] >> 4, h[0] & 15, body
+    return h[0] >> 4, h[0] & 15, recv_exact(s, n)
 
 NAMES = {3: "PUBLISH", 4: "PUBACK", 5: "PUBREC", 6: "PUBREL", 7: "PUBCOMP", 9: "SUBACK", 2: "CONNACK"}
 
@@ -100,7 +105,7 @@ def run(restart, inflight, count):
             dup = (fl >> 3) & 1
             print(f"  after reconnect: {NAMES.get(t, t)} dup={dup} mid {struct.unpack('!H', body[-2:] if t != 3 else body[3:5])[0]}"
                   + (f" payload {body[5:]!r}  <-- a second delivery" if t == 3 else ""))
-    except socket.timeout:
+    except (socket.timeout, EOFError):
         pass
     sub.close(); b.terminate(); b.wait()
 

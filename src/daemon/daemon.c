@@ -563,15 +563,10 @@ static int link_start(struct daemon *d, unsigned i, struct daemon_config *dc,
 {
         struct daemon_link *dl = calloc(1, sizeof(*dl));
         const struct config_link *l = &dc->config->links[i];
-        /* A replay of a UDP recording hands its engine datagrams: recorded again, it must
-         * replay as datagrams too, so its recording says udp (the chunks' kind, as on the wire). */
-        bool datagrams = l->transport == CONFIG_TRANSPORT_REPLAY &&
-                         replay_file_datagram(l->replay_file);
         struct recorder_link_info info = {
                 .link = l->name,
                 .protocol = config_protocol_name(l->protocol),
-                .transport = datagrams ? config_transport_name(CONFIG_TRANSPORT_UDP) :
-                             config_transport_name(l->transport),
+                .transport = config_transport_name(l->transport),
                 .instance = dc->config->instance,
         };
         int r;

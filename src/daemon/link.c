@@ -108,8 +108,10 @@ int link_channel_new(const struct link_env *env, const struct channel_ops *ops, 
         if (r < 0)
                 return r;
         r = channel_new(env->loop, &params, NULL, ops, arg, ret_channel);
-        if (r == 0 && env->tap)
+        if (r == 0 && env->tap) {
                 channel_set_tap(*ret_channel, recorder_chunk, env->tap);
+                recorder_tap_set_datagram(env->tap, channel_datagram(*ret_channel));
+        }
         return r;
 }
 

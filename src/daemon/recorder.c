@@ -38,6 +38,7 @@ struct recorder {
 struct recorder_tap {
         char link[RECORDER_INFO_MAX], protocol[RECORDER_INFO_MAX];
         char transport[RECORDER_INFO_MAX], instance[RECORDER_INFO_MAX];
+        bool datagram;                  /* recorder_tap_set_datagram() */
         struct recorder_stats *stats;
         struct recorder_stats own;      /* when the caller gives none */
         struct recorder rec[RECORDER_PER_LINK_MAX];
@@ -59,6 +60,11 @@ struct recorder_tap *recorder_tap_new(const struct recorder_link_info *info,
         snprintf(tap->instance, sizeof(tap->instance), "%s", info->instance ? info->instance : "");
         tap->stats = stats ? stats : &tap->own;
         return tap;
+}
+
+void recorder_tap_set_datagram(struct recorder_tap *tap, bool datagram)
+{
+        tap->datagram = datagram;
 }
 
 /* Answers recorder i and takes it out of the tap. */
@@ -112,7 +118,8 @@ int recorder_add(struct recorder_tap *tap, struct control_request *req)
         control_reply_data(req, "%s", REC_HEADER);
         control_reply_data(req, "# link: %s", tap->link);
         control_reply_data(req, "# protocol: %s", tap->protocol);
-        control_reply_data(req, "# transport: %s", tap->transport);
+        control_reply_data(req, REC_TRANSPORT_PREFIX "%s",
+                           tap->datagram ? REC_TRANSPORT_DATAGRAM : tap->transport);
         control_reply_data(req, "# instance: %s", tap->instance);
         control_reply_data(req, "# start: %s", start);
         control_reply_data(req, "# time: CLOCK_MONOTONIC seconds since the start; < received, "

@@ -49,6 +49,11 @@ struct recorder_stats {
 struct recorder_tap *recorder_tap_new(const struct recorder_link_info *info,
                                       struct recorder_stats *stats);
 
+/* The link's channel takes whole datagrams (udp, a replay of a udp recording): recordings then
+ * say "# transport: udp", so that they replay as datagrams too, whatever the link's own transport
+ * (a replay of a udp recording, recorded again). */
+void recorder_tap_set_datagram(struct recorder_tap *tap, bool datagram);
+
 /* Ends every recorder of the tap ("OK <N> chunks, <why>") and frees it; returns NULL. NULL ok. */
 struct recorder_tap *recorder_tap_free(struct recorder_tap *tap, const char *why);
 

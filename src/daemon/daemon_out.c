@@ -17,15 +17,15 @@ const char *const daemon_out_stage_names[DAEMON_OUT_STAGES] = {
         "loop_to_sent",         /* -> out scan done and the frame handed to the link's channel */
 };
 
-/* Whether a link learns an outbound list at run time (a Pronto4 peer's outbound: learn). */
-static bool link_learns_outbound(const struct config_link *cfg)
+/* Whether a link learns outbound names at run time, as its engine says (link_ops.learning). */
+static bool link_learns_outbound(const struct daemon_link *dl)
 {
-        if (cfg->protocol != CONFIG_PROTOCOL_SHAREDLINK)
+        struct link_learning learning = { 0 };
+
+        if (!dl->ops->learning)
                 return false;
-        for (unsigned i = 0; i < cfg->sl.n_peers; i++)
-                if (cfg->sl.peers[i].outbound_learn)
-                        return true;
-        return false;
+        dl->ops->learning(dl->env.cfg, &learning);
+        return learning.outbound;
 }
 
 /* One outbound change handed to its link in a scan that answered a wake-up: its stages. */
@@ -49,13 +49,13 @@ static void daemon_on_out_change(void *userdata, const struct shm_out_change *ch
         struct daemon_link *dl;
         uint32_t link;
 
-        /* An outbound name added at run time was learned by a SharedLink link: each link that
-         * learns outbound lists gets it and ignores an id that is not one of its own. */
+        /* An outbound name added at run time was learned by a link: each link that learns
+         * outbound names gets it and ignores an id that is not one of its own. */
         if (change->id >= decl->nvars) {
                 for (unsigned i = 0; i < d->n_links; i++) {
                         dl = d->links[i];
                         if (dl && dl->engine && dl->ops->outbound &&
-                            link_learns_outbound(dl->env.cfg))
+                            link_learns_outbound(dl))
                                 dl->ops->outbound(dl->engine, change);
                 }
                 return;

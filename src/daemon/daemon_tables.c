@@ -13,25 +13,18 @@
 /* The socket path is published in the .in header (layout 1.2): the field must hold any path. */
 _Static_assert(CONFIG_SOCKET_PATH_MAX <= SHM_SOCKET_PATH_SIZE, "socket path field");
 
-/*
- * Room for what links learn at run time: each learned Pronto4 list may add learn_max names (in
- * ad hoc room), and a learned outbound one as many spare .out slots clients can write.
- */
-static void tables_learned_room(const struct config *cfg, uint32_t *adhoc, uint32_t *out_spare)
+/* Room for what links learn at run time, as their engines say (link_ops.learning). */
+static void tables_learned_room(const struct config *cfg, const struct daemon_plan *plan,
+                                uint32_t *adhoc, uint32_t *out_spare)
 {
         for (unsigned i = 0; i < cfg->n_links; i++) {
-                const struct config_link *l = &cfg->links[i];
+                struct link_learning learning = { 0 };
 
-                if (l->protocol != CONFIG_PROTOCOL_SHAREDLINK)
+                if (!plan->ops[i]->learning)
                         continue;
-                for (unsigned k = 0; k < l->sl.n_peers; k++) {
-                        const struct config_peer *p = &l->sl.peers[k];
-
-                        if (p->dialect != CONFIG_DIALECT_PRONTO4)
-                                continue;
-                        *adhoc += (p->outbound_learn + p->inbound_learn) * p->learn_max;
-                        *out_spare += p->outbound_learn * p->learn_max;
-                }
+                plan->ops[i]->learning(&cfg->links[i], &learning);
+                *adhoc += learning.adhoc;
+                *out_spare += learning.out_spare;
         }
 }
 
@@ -53,7 +46,7 @@ int daemon_tables_create(const struct config *cfg, const struct daemon_plan *pla
         };
         int r;
 
-        tables_learned_room(cfg, &tc.adhoc_capacity, &tc.out_spare);
+        tables_learned_room(cfg, plan, &tc.adhoc_capacity, &tc.out_spare);
         for (unsigned i = 0; i < cfg->n_links; i++) {
                 links[i].name = cfg->links[i].name;
                 links[i].protocol = config_protocol_name(cfg->links[i].protocol);

@@ -1,9 +1,9 @@
 /*
- * Links: the seam between the daemon core (daemon.c) and the protocol engines
+ * Links: the seam between the daemon core (daemon.c, daemon_*.c) and the protocol engines
  * (link_sharedlink.c, link_circe.c).
  *
- * The core owns one struct link per configured link. For each it asks the engine to declare its
- * variables (before the shm tables exist), then creates the engine with a struct link_env, tells it
+ * The core owns one struct daemon_link per configured link. For each it asks the engine to declare
+ * its variables and what it may learn at run time (before the shm tables exist), then creates the engine with a struct link_env, tells it
  * about client writes to its outbound variables, hands it control-socket commands, and destroys it
  * on reload or shutdown. An engine opens its own channel with link_channel_new(), which maps the
  * link's configuration onto transport parameters, so no engine deals with config-to-termios
@@ -43,6 +43,17 @@ struct link_env {
         const struct config *config;            /* the whole configuration in force */
         const struct config_link *cfg;          /* this link's settings (points into config) */
         struct recorder_tap *tap;               /* `record` listens here (NULL: nobody can) */
+};
+
+/*
+ * What a link may learn at run time beyond what it declared (link_ops.learning): the core makes
+ * room for it in the tables and routes client writes to learned outbound names to it.
+ */
+struct link_learning {
+        uint32_t adhoc;         /* names it may add at run time (ad hoc room, either direction) */
+        uint32_t out_spare;     /* outbound ones among them: spare .out slots clients may write */
+        bool outbound;          /* learns outbound names: gets client writes to names added at run
+                                 * time (and ignores the ids that are not its own) */
 };
 
 struct link_ops {
@@ -91,6 +102,10 @@ struct link_ops {
          * when no I/O burst happened (reopens while down, say). The core cannot do it itself:
          * the channel belongs to the engine. */
         void (*heartbeat)(void *engine);
+
+        /* Optional (NULL: learns nothing): what a link with settings cfg may learn at run time
+         * (a SharedLink link's Pronto4 peers with learned lists). ret is zeroed by the caller. */
+        void (*learning)(const struct config_link *cfg, struct link_learning *ret);
 };
 
 /* The engine of a protocol: &link_sharedlink_ops or &link_circe_ops. NULL for an unknown one. */

@@ -662,6 +662,22 @@ static const char *lsl_status(void *engine)
         return l->status;
 }
 
+/* A Pronto4 peer's learned list holds up to learn_max names; each learned outbound list as many
+ * spare .out slots. */
+static void lsl_learning(const struct config_link *cfg, struct link_learning *ret)
+{
+        for (unsigned k = 0; k < cfg->sl.n_peers; k++) {
+                const struct config_peer *p = &cfg->sl.peers[k];
+
+                if (p->outbound_learn)
+                        ret->outbound = true;
+                if (p->dialect != CONFIG_DIALECT_PRONTO4)
+                        continue;
+                ret->adhoc += (p->outbound_learn + p->inbound_learn) * p->learn_max;
+                ret->out_spare += p->outbound_learn * p->learn_max;
+        }
+}
+
 static const char *const sharedlink_words[] = { "query", "command", NULL };
 
 const struct link_ops link_sharedlink_ops = {
@@ -673,4 +689,5 @@ const struct link_ops link_sharedlink_ops = {
         .command = lsl_command,
         .status = lsl_status,
         .heartbeat = lsl_heartbeat,
+        .learning = lsl_learning,
 };

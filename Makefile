@@ -6,7 +6,7 @@
 #   src/lib/*.c + LIB_SHM_SRC      libsharedlink.so.1 / .a (exports: src/lib/libsharedlink.sym),
 #     + LIB_PROTO_SRC              with the client's src/shm files and the codecs it speaks
 #                                  (control, CIRCE, SharedLink); the .so keeps only used code
-#   src/cli/*.c                    slctl, linked against libsharedlink.a (all but slctl.c also
+#   src/cli/*.c                    slctl, linked against libsharedlink.a (all but main.c also
 #                                  archived for unit tests)
 #   src/mqtt/*.c                   sharedlink-mqtt (main.c holds main(), the rest is archived for
 #                                  tests), linked against libsharedlink.so and libmosquitto only
@@ -309,8 +309,8 @@ $(A_SHM): $(call obj,$(SHM_SRC))
 $(A_CLIENT): $(call obj,$(LIB_SRC))
 $(A_DAEMON): $(call obj,$(DAEMON_SRC))
 $(A_TCOMMON): $(call obj,$(TCOMMON_SRC))
-# slctl's modules for unit tests (slctl.c holds main()).
-$(A_CLI): $(call obj,$(filter-out src/cli/slctl.c,$(CLI_SRC)))
+# slctl's modules for unit tests (main.c holds main()).
+$(A_CLI): $(call obj,$(filter-out src/cli/main.c,$(CLI_SRC)))
 $(A_MQTT): $(call obj,$(MQTT_SRC))
 
 # An archive with no members still needs one object to be a valid archive.

@@ -27,7 +27,7 @@
 
 #include "daemon/control.h"
 #include "daemon/link.h"
-#include "daemon/log.h"
+#include "svc/log.h"
 #include "daemon/recorder.h"
 #include "daemon/replay.h"
 #include "daemon/stages.h"

@@ -31,7 +31,7 @@
 
 #include "daemon/config.h"
 #include "daemon/evloop.h"
-#include "daemon/notify.h"
+#include "svc/notify.h"
 
 #define DAEMON_HEARTBEAT_MS     1000    /* shm heartbeat, engine heartbeat, STATUS refresh */
 #define DAEMON_ADHOC_CAPACITY   2048    /* inbound names engines may add at run time */

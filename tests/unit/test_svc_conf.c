@@ -140,49 +140,71 @@ static void test_values_and_defaults(void **state)
         fails("\xEF\xBB\xBF" "count: 0\n", -EINVAL, NAME ":1:8: count 0 out of range (1..10)");
 }
 
+/* A table read that fails, and its message. */
+struct bad {
+        const char *text, *want;
+};
+
+static const struct bad table_errors[] = {
+        { "bogus: 1\n", NAME ":1:1: unknown key \"bogus\" at top level" },
+        { "on: true\ncount: 2\non: false\n", NAME ":3:1: duplicate key \"on\" (first at 1:1)" },
+        { "inner: {lo: 1, x: 2}\n", NAME ":1:16: unknown key \"x\" in inner" },
+        { "inner: {lo: 1, lo: 2}\n", NAME ":1:16: duplicate key \"lo\" (first at 1:9)" },
+        { "<<: {count: 2}\n", NAME ":1:1: merge keys (\"<<\") are not supported" },
+        { "[1]\n", NAME ":1:1: settings: expected a mapping, got a list" },
+        { "inner: 5\n", NAME ":1:8: inner: expected a mapping, got \"5\"" },
+        { "inner:\n", NAME ":1:7: inner: missing value" },
+        /* Ranges, at both ends and beyond 32 bits. */
+        { "count: 0\n", NAME ":1:8: count 0 out of range (1..10)" },
+        { "count: 11\n", NAME ":1:8: count 11 out of range (1..10)" },
+        { "count: -1\n", NAME ":1:8: count -1 out of range (1..10)" },
+        { "count: 99999999999999999999999999999\n",
+          NAME ":1:8: count 999999999999999999999999... out of range (1..10)" },
+        { "level: 4\n", NAME ":1:8: level 4 out of range (0..3)" },
+        { "count: 010\n", NAME ":1:8: count: leading zeros are not allowed in \"010\"" },
+        { "count: \"3\"\n", NAME ":1:8: count: expected an integer, got a quoted string" },
+        { "count: 3x\n", NAME ":1:8: count: expected an integer, got \"3x\"" },
+        { "count: ~\n", NAME ":1:8: count: missing value" },
+        /* Other types. */
+        { "on: yes\n", NAME ":1:5: on: expected true or false, got \"yes\"" },
+        { "color: green\n", NAME ":1:8: color: expected red or blue, got \"green\"" },
+        { "name: abcdefgh\n", NAME ":1:7: name: \"abcdefgh\" too long (8 bytes, at most 7)" },
+        { "name: \"a\\tb\"\n", NAME ":1:7: name: control character in \"a\\x09b\"" },
+        { "name: [a]\n", NAME ":1:7: name: expected a string, got a list" },
+        { "dir: rel\n", NAME ":1:6: dir: \"rel\" is not an absolute path" },
+        { "list: x\n", NAME ":1:7: list: expected a list, got \"x\"" },
+        /* Checks: of a key after its value, of a mapping after its keys, at its node. */
+        { "name: a/b\n", NAME ":1:7: name: no '/' here" },
+        { "inner:\n  lo: 9\n  hi: 8\n", NAME ":2:3: inner: lo (9) is more than hi (8)" },
+        /* File order: the first bad key in the file is the one reported. */
+        { "on: 1\ncount: 0\n", NAME ":1:5: on: expected true or false, got \"1\"" },
+        { "count: 0\non: 1\n", NAME ":1:8: count 0 out of range (1..10)" },
+};
+
+static void fails_all(const struct bad *b, size_t n)
+{
+        for (size_t i = 0; i < n; i++)
+                fails(b[i].text, -EINVAL, b[i].want);
+}
+
 static void test_table_errors(void **state)
 {
         (void)state;
-        fails("bogus: 1\n", -EINVAL, NAME ":1:1: unknown key \"bogus\" at top level");
-        fails("on: true\ncount: 2\non: false\n", -EINVAL,
-              NAME ":3:1: duplicate key \"on\" (first at 1:1)");
-        fails("inner: {lo: 1, x: 2}\n", -EINVAL, NAME ":1:16: unknown key \"x\" in inner");
-        fails("inner: {lo: 1, lo: 2}\n", -EINVAL,
-              NAME ":1:16: duplicate key \"lo\" (first at 1:9)");
-        fails("<<: {count: 2}\n", -EINVAL, NAME ":1:1: merge keys (\"<<\") are not supported");
-        fails("[1]\n", -EINVAL, NAME ":1:1: settings: expected a mapping, got a list");
-        fails("inner: 5\n", -EINVAL, NAME ":1:8: inner: expected a mapping, got \"5\"");
-        fails("inner:\n", -EINVAL, NAME ":1:7: inner: missing value");
-        /* Ranges, at both ends and beyond 32 bits. */
-        fails("count: 0\n", -EINVAL, NAME ":1:8: count 0 out of range (1..10)");
-        fails("count: 11\n", -EINVAL, NAME ":1:8: count 11 out of range (1..10)");
-        fails("count: -1\n", -EINVAL, NAME ":1:8: count -1 out of range (1..10)");
-        fails("count: 99999999999999999999999999999\n", -EINVAL,
-              NAME ":1:8: count 999999999999999999999999... out of range (1..10)");
-        fails("level: 4\n", -EINVAL, NAME ":1:8: level 4 out of range (0..3)");
-        fails("count: 010\n", -EINVAL,
-              NAME ":1:8: count: leading zeros are not allowed in \"010\"");
-        fails("count: \"3\"\n", -EINVAL,
-              NAME ":1:8: count: expected an integer, got a quoted string");
-        fails("count: 3x\n", -EINVAL, NAME ":1:8: count: expected an integer, got \"3x\"");
-        fails("count: ~\n", -EINVAL, NAME ":1:8: count: missing value");
-        /* Other types. */
-        fails("on: yes\n", -EINVAL, NAME ":1:5: on: expected true or false, got \"yes\"");
-        fails("color: green\n", -EINVAL, NAME ":1:8: color: expected red or blue, got \"green\"");
-        fails("name: abcdefgh\n", -EINVAL,
-              NAME ":1:7: name: \"abcdefgh\" too long (8 bytes, at most 7)");
-        fails("name: \"a\\tb\"\n", -EINVAL, NAME ":1:7: name: control character in \"a\\x09b\"");
-        fails("name: [a]\n", -EINVAL, NAME ":1:7: name: expected a string, got a list");
-        fails("dir: rel\n", -EINVAL, NAME ":1:6: dir: \"rel\" is not an absolute path");
-        fails("list: x\n", -EINVAL, NAME ":1:7: list: expected a list, got \"x\"");
-        /* Checks: of a key after its value, of a mapping after its keys, at its node. */
-        fails("name: a/b\n", -EINVAL, NAME ":1:7: name: no '/' here");
-        fails("inner:\n  lo: 9\n  hi: 8\n", -EINVAL,
-              NAME ":2:3: inner: lo (9) is more than hi (8)");
-        /* File order: the first bad key in the file is the one reported. */
-        fails("on: 1\ncount: 0\n", -EINVAL, NAME ":1:5: on: expected true or false, got \"1\"");
-        fails("count: 0\non: 1\n", -EINVAL, NAME ":1:8: count 0 out of range (1..10)");
+        fails_all(table_errors, sizeof(table_errors) / sizeof(table_errors[0]));
 }
+
+static const struct bad yaml_errors[] = {
+        { "count: &a 1\n", NAME ":1:8: anchors and aliases are not supported" },
+        { "count: !!int 1\n", NAME ":1:8: tags are not supported" },
+        { "a: &x 1\nb: *x\n", NAME ":1:4: anchors and aliases are not supported" },
+        { "on: true\n---\non: false\n", NAME ":2:1: only one YAML document is allowed" },
+        { "list: [a\n",
+          NAME ":2:1: did not find expected ',' or ']' (while parsing a flow sequence)" },
+        { "on: true\n  count: 1\n", NAME ":2:8: mapping values are not allowed in this context" },
+        { "name: \"\xff\"\n", NAME ":1:8: invalid leading UTF-8 octet (0xFF)" },
+        { "list: [[[[[[[[[[[[[[[[[1]]]]]]]]]]]]]]]]]\n",
+          NAME ":1:22: nested deeper than 16 levels" },
+};
 
 static void test_yaml_errors(void **state)
 {
@@ -192,24 +214,13 @@ static void test_yaml_errors(void **state)
         char big[INPUT_MAX + 2];
 
         (void)state;
-        fails("count: &a 1\n", -EINVAL, NAME ":1:8: anchors and aliases are not supported");
-        fails("count: !!int 1\n", -EINVAL, NAME ":1:8: tags are not supported");
-        fails("a: &x 1\nb: *x\n", -EINVAL, NAME ":1:4: anchors and aliases are not supported");
-        fails("on: true\n---\non: false\n", -EINVAL,
-              NAME ":2:1: only one YAML document is allowed");
-        fails("list: [a\n", -EINVAL,
-              NAME ":2:1: did not find expected ',' or ']' (while parsing a flow sequence)");
-        fails("on: true\n  count: 1\n", -EINVAL,
-              NAME ":2:8: mapping values are not allowed in this context");
-        fails("name: \"\xff\"\n", -EINVAL, NAME ":1:8: invalid leading UTF-8 octet (0xFF)");
+        fails_all(yaml_errors, sizeof(yaml_errors) / sizeof(yaml_errors[0]));
         assert_int_equal(read_text(nul, sizeof(nul) - 1, &s, err, sizeof(err)), -EINVAL);
         assert_string_equal(err, NAME ":2:1: control characters are not allowed (0x00)");
-        /* Bounds: the input size and the nesting. */
+        /* The input bound; no input at all. */
         memset(big, ' ', sizeof(big));
         assert_int_equal(read_text(big, INPUT_MAX + 1, &s, err, sizeof(err)), -EFBIG);
         assert_string_equal(err, NAME ": too large (4097 bytes, at most 4096)");
-        fails("list: [[[[[[[[[[[[[[[[[1]]]]]]]]]]]]]]]]]\n", -EINVAL,
-              NAME ":1:22: nested deeper than 16 levels");
         assert_int_equal(read_text(NULL, 1, &s, err, sizeof(err)), -EINVAL);
         assert_string_equal(err, NAME ": no input");
 }

@@ -2,6 +2,8 @@
 #
 # Conventions (add a file, not a rule):
 #   src/proto/*.c, src/shm/*.c     pure codecs / table layout, archived per directory
+#   src/svc/*.c                    the service toolkit every daemon shares (docs/services.md):
+#                                  archived, linked into sharedlinkd, sharedlink-mqtt and slctl
 #   src/daemon/*.c                 sharedlinkd (main.c holds main(), the rest is archived for tests)
 #   src/lib/*.c + LIB_SHM_SRC      libsharedlink.so.1 / .a (exports: src/lib/libsharedlink.sym),
 #     + LIB_PROTO_SRC              with the client's src/shm files and the codecs it speaks
@@ -166,6 +168,7 @@ LIB_PROTO_SRC := $(filter src/proto/control.c src/proto/circe.c src/proto/shared
 # so a file missing here fails the build rather than the first program that loads the library.
 LIB_SHM_SRC := $(filter src/shm/events.c src/shm/futex.c src/shm/layout.c src/shm/slot.c,$(SHM_SRC))
 LIB_OBJ      = $(call obj,$(LIB_SRC) $(LIB_PROTO_SRC) $(LIB_SHM_SRC))
+SVC_SRC    := $(wildcard src/svc/*.c)
 DAEMON_MAIN:= $(wildcard src/daemon/main.c)
 DAEMON_SRC := $(filter-out src/daemon/main.c,$(wildcard src/daemon/*.c))
 CLI_SRC    := $(wildcard src/cli/*.c)
@@ -192,7 +195,9 @@ A_DAEMON := $(O)/internal/libdaemon.a
 A_TCOMMON:= $(O)/internal/libtestcommon.a
 A_CLI    := $(O)/internal/libcli.a
 A_MQTT   := $(O)/internal/libmqtt.a
-INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_CLIENT) $(A_CLI) $(A_PROTO) $(A_SHM)
+A_SVC    := $(O)/internal/libsvc.a
+INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_CLIENT) $(A_CLI) $(A_SVC) $(A_PROTO) \
+                     $(A_SHM)
 SYS_LIBS := $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lutil -lm
 
 LIBSL_SO   := $(O)/libsharedlink.so.$(SOVERSION)
@@ -312,6 +317,7 @@ $(A_TCOMMON): $(call obj,$(TCOMMON_SRC))
 # slctl's modules for unit tests (main.c holds main()).
 $(A_CLI): $(call obj,$(filter-out src/cli/main.c,$(CLI_SRC)))
 $(A_MQTT): $(call obj,$(MQTT_SRC))
+$(A_SVC): $(call obj,$(SVC_SRC))
 
 # An archive with no members still needs one object to be a valid archive.
 $(INTERNAL_ARCHIVES): | $(O)/obj/empty.o
@@ -324,9 +330,9 @@ LINK_INTERNAL = -Wl,--start-group $(INTERNAL_ARCHIVES) -Wl,--end-group $(SYS_LIB
 # ---------------------------------------------------------------------------------------------
 # Programs and the library
 
-$(SHAREDLINKD): $(call obj,$(DAEMON_MAIN)) $(A_DAEMON) $(A_PROTO) $(A_SHM)
-	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) -Wl,--start-group $(A_DAEMON) $(A_PROTO) $(A_SHM) \
-	    -Wl,--end-group $(SYS_LIBS)
+$(SHAREDLINKD): $(call obj,$(DAEMON_MAIN)) $(A_DAEMON) $(A_SVC) $(A_PROTO) $(A_SHM)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) -Wl,--start-group $(A_DAEMON) $(A_SVC) \
+	    $(A_PROTO) $(A_SHM) -Wl,--end-group $(SYS_LIBS)
 
 $(LIBSL_SO): $(LIB_OBJ) $(LIBSL_SYM)
 	$(call quiet,LD)$(CC) $(LDFLAGS_ALL) -shared -Wl,-soname,libsharedlink.so.$(SOVERSION) \
@@ -374,14 +380,15 @@ $(PCFILE_UNINST): Makefile
 	    'Version: $(VERSION)' 'Libs: -L$${libdir} -Wl,-rpath,$${libdir} -lsharedlink' \
 	    'Libs.private: -lpthread' 'Cflags: -I$${includedir}' > $@
 
-$(SLCTL): $(call obj,$(CLI_SRC) src/proto/recording.c) $(LIBSL_A)
+# The toolkit (svc) is code, not data: slctl's data still comes only through the library.
+$(SLCTL): $(call obj,$(CLI_SRC) src/proto/recording.c) $(LIBSL_A) $(A_SVC)
 	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $^ -lpthread
 
 # The bridge links the shared library the installed way: only its exported (versioned) symbols
 # resolve, which proves the public API is enough. RUNPATH $ORIGIN finds the library next to the
 # binary in the build tree; installed, the system's library path finds it.
-$(MQTT_BRIDGE): $(call obj,$(MQTT_MAIN)) $(A_MQTT) $(LIBSL_SO)
-	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) $(A_MQTT) -L$(O) -lsharedlink \
+$(MQTT_BRIDGE): $(call obj,$(MQTT_MAIN)) $(A_MQTT) $(A_SVC) $(LIBSL_SO)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) $(A_MQTT) $(A_SVC) -L$(O) -lsharedlink \
 	    -Wl,-rpath,'$$ORIGIN' $(MOSQ_LIBS) $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread
 
 # ---------------------------------------------------------------------------------------------
@@ -524,7 +531,7 @@ $(O)/examples/%: examples/%.c $(LIBSL_A)
 
 FUZZ_CC    ?= clang
 FUZZ_O     := build/fuzz
-FUZZ_LIBSRC:= $(PROTO_SRC) $(SHM_SRC) $(DAEMON_SRC)
+FUZZ_LIBSRC:= $(PROTO_SRC) $(SHM_SRC) $(SVC_SRC) $(DAEMON_SRC)
 FUZZ_NAMES := $(patsubst tests/fuzz/fuzz_%.c,%,$(FUZZ_SRC))
 
 fuzz:

@@ -22,9 +22,9 @@
 #include "daemon/daemon_socket.h"
 #include "daemon/daemon_status.h"
 #include "daemon/daemon_tables.h"
-#include "daemon/log.h"
 #include "daemon/replay.h"
 #include "shm/table.h"
+#include "svc/log.h"
 
 int daemon_check_config(const struct config *config, char *err, size_t errsz)
 {

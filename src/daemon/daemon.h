@@ -32,7 +32,7 @@
 #include "daemon/config.h"
 #include "daemon/daemon_plan.h"        /* DAEMON_ERROR_MAX */
 #include "daemon/evloop.h"
-#include "daemon/notify.h"
+#include "svc/notify.h"
 
 struct daemon;
 

@@ -20,10 +20,10 @@
 #include "daemon/daemon_link.h"
 #include "daemon/daemon_plan.h"
 #include "daemon/evloop.h"
-#include "daemon/log.h"
-#include "daemon/notify.h"
 #include "daemon/recorder.h"
 #include "daemon/stages.h"
+#include "svc/log.h"
+#include "svc/notify.h"
 
 struct control;
 struct shm_table;

@@ -8,8 +8,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "daemon/log.h"
 #include "shm/table.h"
+#include "svc/log.h"
 
 #define DAEMON_LINK_FAILED      0u      /* shm link state of a link whose engine did not start */
 

@@ -7,7 +7,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#include "daemon/log.h"
+#include "svc/log.h"
 
 /* mkdir -p with mode for the directories it creates (not subject to the umask). */
 static int mkdir_parents(const char *path, mode_t mode)

@@ -7,8 +7,8 @@
 #include <inttypes.h>
 #include <string.h>
 
-#include "daemon/log.h"
 #include "shm/table.h"
+#include "svc/log.h"
 
 /* The socket path is published in the .in header (layout 1.2): the field must hold any path. */
 _Static_assert(CONFIG_SOCKET_PATH_MAX <= SHM_SOCKET_PATH_SIZE, "socket path field");

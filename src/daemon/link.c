@@ -10,7 +10,7 @@
 
 #include "daemon/control.h"
 
-#include "daemon/log.h"
+#include "svc/log.h"
 #include "daemon/recorder.h"
 #include "daemon/replay.h"
 #include "daemon/transport.h"

@@ -16,7 +16,7 @@
 #include "daemon/link_circe_controller.h"
 #include "daemon/link_circe_mediator.h"
 #include "daemon/link_circe_session.h"
-#include "daemon/log.h"
+#include "svc/log.h"
 #include "shm/table.h"
 
 #define NS_PER_MS               1000000ull

@@ -24,7 +24,7 @@
 #include <string.h>
 
 #include "daemon/control.h"
-#include "daemon/log.h"
+#include "svc/log.h"
 #include "proto/sharedlink.h"
 #include "shm/table.h"
 

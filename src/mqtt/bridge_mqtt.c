@@ -19,7 +19,7 @@
 #include <mosquitto.h>
 
 #include "mqtt/bridge_format.h"
-#include "mqtt/bridge_log.h"
+#include "svc/log.h"
 
 #define NS_PER_MS               1000000ull
 #define MISC_INTERVAL_MS        1000u   /* keepalive pings and retries: mosquitto_loop_misc */
@@ -96,9 +96,9 @@ static void connection_lost(struct bridge_mqtt *bm, uint64_t now_ns, const char 
         bm->refused = false;
         memcpy(bm->error, text, sizeof(text));
         bridge_broker_error(bm->b);
-        bridge_log(news ? BRIDGE_LOG_WARNING : BRIDGE_LOG_DEBUG,
-                   "broker %s:%d: %s; retrying in %u ms", bm->cfg->host, bm->cfg->port, text,
-                   bm->backoff_ms);
+        log_msg(news ? LOG_PRIO_WARNING : LOG_PRIO_DEBUG,
+                "broker %s:%d: %s; retrying in %u ms", bm->cfg->host, bm->cfg->port, text,
+                bm->backoff_ms);
         bm->state = CONN_IDLE;
         bm->next_ns = now_ns + (uint64_t)bm->backoff_ms * NS_PER_MS;
         bm->backoff_ms = bm->backoff_ms * 2u > bm->cfg->reconnect_max_ms ?
@@ -143,15 +143,15 @@ static void on_connect(struct mosquitto *m, void *arg, int rc)
                                      mosquitto_connack_string(rc));
                 if (n > 0 && n < sizeof(why) && why[n - 1] == '.')
                         why[n - 1] = '\0';
-                bridge_log(strcmp(why, bm->error) ? BRIDGE_LOG_ERR : BRIDGE_LOG_DEBUG,
-                           "broker %s:%d: %s", bm->cfg->host, bm->cfg->port, why);
+                log_msg(strcmp(why, bm->error) ? LOG_PRIO_ERR : LOG_PRIO_DEBUG,
+                        "broker %s:%d: %s", bm->cfg->host, bm->cfg->port, why);
                 memcpy(bm->refusal, why, sizeof(why));
                 bm->refused = true;
                 return;
         }
         bm->error[0] = '\0';
-        bridge_log(BRIDGE_LOG_INFO, "broker %s:%d: connected as %s", bm->cfg->host,
-                   bm->cfg->port, bm->client_id);
+        log_msg(LOG_PRIO_INFO, "broker %s:%d: connected as %s", bm->cfg->host,
+                bm->cfg->port, bm->client_id);
         bm->state = CONN_UP;
         bm->backoff_ms = bm->cfg->reconnect_min_ms;
         bm->fresh = true;
@@ -159,8 +159,8 @@ static void on_connect(struct mosquitto *m, void *arg, int rc)
                 return;
         r = mosquitto_subscribe(m, NULL, bm->set_topic, bm->cfg->set_qos);
         if (r != MOSQ_ERR_SUCCESS)
-                bridge_log(BRIDGE_LOG_ERR, "subscribe %s: %s", bm->set_topic,
-                           mosquitto_strerror(r));
+                log_msg(LOG_PRIO_ERR, "subscribe %s: %s", bm->set_topic,
+                        mosquitto_strerror(r));
 }
 
 static void on_disconnect(struct mosquitto *m, void *arg, int rc)

@@ -22,7 +22,7 @@
 #include "daemon/control.h"
 #include "daemon/evloop.h"
 #include "daemon/link.h"
-#include "daemon/log.h"
+#include "svc/log.h"
 
 #define T0              1000u           /* the queue's clock starts here (ms) */
 #define GUARD_MS        5000            /* a wait longer than this has failed */

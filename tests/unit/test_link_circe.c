@@ -43,7 +43,7 @@
 #include "daemon/control.h"
 #include "daemon/evloop.h"
 #include "daemon/link_circe.h"
-#include "daemon/log.h"
+#include "svc/log.h"
 #include "proto/circe.h"
 #include "shm/table.h"
 

@@ -1,7 +1,8 @@
 /*
- * Daemon logging, OpenBSD style: log_warn() appends strerror(errno), log_warnx() does not,
- * fatal()/fatalx() log and exit(1) (use them only before READY=1: afterwards a failing link
- * or a bad input must never stop the daemon).
+ * Service logging, the one logger of every daemon (sharedlinkd, sharedlink-mqtt), OpenBSD style:
+ * log_warn() appends strerror(errno), log_warnx() does not, fatal()/fatalx() log and exit(1)
+ * (use them only before READY=1: afterwards a failing link or a bad input must never stop the
+ * daemon).
  *
  * Every message is one line on the log fd (stderr by default) with an sd-daemon(3) priority
  * prefix, "<3>message\n", which journald turns into the syslog priority. One line is one
@@ -10,11 +11,11 @@
  * one journal line; a message longer than LOG_LINE_MAX is cut and ends with "...".
  *
  * The logger is process-wide state (the verbosity and the fd): it stands for the one stderr a
- * process has, and fatal() must work from anywhere without a handle. Everything else in the
+ * process has, and fatal() must work from anywhere without a handle. Everything else in a
  * daemon takes an instance handle; rate limiters below are per instance (e.g. per link).
  */
-#ifndef SHAREDLINK_DAEMON_LOG_H
-#define SHAREDLINK_DAEMON_LOG_H
+#ifndef SHAREDLINK_SVC_LOG_H
+#define SHAREDLINK_SVC_LOG_H
 
 #include <stdbool.h>
 #include <stdint.h>

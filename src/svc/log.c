@@ -1,7 +1,7 @@
 /*
- * Daemon logging (see log.h).
+ * Service logging (see log.h).
  */
-#include "daemon/log.h"
+#include "svc/log.h"
 
 #include <errno.h>
 #include <stdarg.h>

@@ -22,7 +22,7 @@
 
 #include <cmocka.h>
 
-#include "daemon/notify.h"
+#include "svc/notify.h"
 
 #define WAIT_MS 5000
 

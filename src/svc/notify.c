@@ -1,7 +1,7 @@
 /*
  * Service manager notifications (see notify.h).
  */
-#include "daemon/notify.h"
+#include "svc/notify.h"
 
 #include <errno.h>
 #include <stdarg.h>

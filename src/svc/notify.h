@@ -8,8 +8,8 @@
  *
  * Without $NOTIFY_SOCKET (started by hand, or by a test) every call is a no-op returning 0.
  */
-#ifndef SHAREDLINK_DAEMON_NOTIFY_H
-#define SHAREDLINK_DAEMON_NOTIFY_H
+#ifndef SHAREDLINK_SVC_NOTIFY_H
+#define SHAREDLINK_SVC_NOTIFY_H
 
 #include <stdbool.h>
 #include <stdint.h>

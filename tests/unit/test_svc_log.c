@@ -16,7 +16,7 @@
 
 #include <cmocka.h>
 
-#include "daemon/log.h"
+#include "svc/log.h"
 
 #define CAPTURE_MAX     (64 * 1024)
 #define MS              1000000ull      /* ns */

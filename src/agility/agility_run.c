@@ -777,6 +777,10 @@ void agility_run_sync_device(struct agility_run *run, uint64_t now_ms, uint32_t 
                 bool all = true;
 
                 run->gate_synced[g] = succeeded;
+                /* A gate may say it needs a sync (027:1) while the sync is on its way; its
+                 * success afterwards answers that. */
+                if (succeeded)
+                        run->gate_lost[g] = false;
                 for (unsigned i = 0; i < run->gate_count; i++)
                         all = all && run->gate_synced[i];
                 if (all) {

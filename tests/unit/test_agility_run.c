@@ -397,6 +397,17 @@ static void test_low_precision(void **state)
         assert_int_equal(v.precision, AGILITY_PRECISION_LOW);
         key(f, REMOTE, CIRCE_KEY_READY);
         assert_int_equal(f->res[1].finish_precision, AGILITY_PRECISION_LOW);
+        /* The next run: the finish gate asks for a sync while it is under way and then
+         * succeeds: synchronised again, high precision. */
+        key(f, REMOTE, CIRCE_KEY_READY);
+        agility_run_sync_lost(&f->run, f->now, FINISH, &f->acts);
+        sync_all(f);
+        gate(f, START, 5000);
+        f->now += 27040;
+        gate(f, FINISH, 32000);
+        agility_run_view(&f->run, f->now, &v);
+        assert_int_equal(v.elapsed_ms, 27000);
+        assert_int_equal(v.precision, AGILITY_PRECISION_HIGH);
 }
 
 /* A sensor time that disagrees with the received times by 4 s or more is not used. */

@@ -638,11 +638,14 @@ static void begin(struct agility_run *run, uint64_t now_ms, struct agility_actio
         check_timers(run, now_ms, acts);
 }
 
-/* Every entry point ends here: one DISPLAY action, last, when the displays should change. */
-static void end(struct agility_run *run, struct agility_actions *acts)
+/* Every entry point ends here: the timers again (the input may have moved the class into a
+ * state where one is already due, e.g. a reset into ReadyToStart with a sync 15 min old), then
+ * one DISPLAY action, last, when the displays should change. */
+static void end(struct agility_run *run, uint64_t now_ms, struct agility_actions *acts)
 {
         struct agility_display want;
 
+        check_timers(run, now_ms, acts);
         agility_run_display(run, &want);
         if (display_equal(&want, &run->shown))
                 return;
@@ -726,14 +729,14 @@ void agility_run_start_class(struct agility_run *run, uint64_t now_ms,
                 reset_run_data(run);
                 set_state(run, AGILITY_SETUP_COMPLETED, acts);
         }
-        end(run, acts);
+        end(run, now_ms, acts);
 }
 
 void agility_run_abort(struct agility_run *run, uint64_t now_ms, struct agility_actions *acts)
 {
         begin(run, now_ms, acts);
         go_offline(run, acts);
-        end(run, acts);
+        end(run, now_ms, acts);
 }
 
 void agility_run_action(struct agility_run *run, uint64_t now_ms, uint32_t device,
@@ -764,7 +767,7 @@ void agility_run_action(struct agility_run *run, uint64_t now_ms, uint32_t devic
                         key_event(run, now_ms, device, keypad, &ev[i], has_sensor, sensor_ms,
                                   acts);
         }
-        end(run, acts);
+        end(run, now_ms, acts);
 }
 
 void agility_run_sync_device(struct agility_run *run, uint64_t now_ms, uint32_t device,
@@ -790,7 +793,7 @@ void agility_run_sync_device(struct agility_run *run, uint64_t now_ms, uint32_t 
                         clear_or_show_existing(run, acts);
                 }
         }
-        end(run, acts);
+        end(run, now_ms, acts);
 }
 
 void agility_run_sync_done(struct agility_run *run, uint64_t now_ms,
@@ -808,7 +811,7 @@ void agility_run_sync_done(struct agility_run *run, uint64_t now_ms,
                 notice(acts, AGILITY_NOTICE_SYNC_FAILED, failed, 0);
                 set_state(run, AGILITY_SETUP_COMPLETED, acts);
         }
-        end(run, acts);
+        end(run, now_ms, acts);
 }
 
 void agility_run_sync_lost(struct agility_run *run, uint64_t now_ms, uint32_t device,
@@ -819,13 +822,13 @@ void agility_run_sync_lost(struct agility_run *run, uint64_t now_ms, uint32_t de
         begin(run, now_ms, acts);
         if (g >= 0)
                 run->gate_lost[g] = true;
-        end(run, acts);
+        end(run, now_ms, acts);
 }
 
 void agility_run_tick(struct agility_run *run, uint64_t now_ms, struct agility_actions *acts)
 {
         begin(run, now_ms, acts);
-        end(run, acts);
+        end(run, now_ms, acts);
 }
 
 void agility_run_view(const struct agility_run *run, uint64_t now_ms,

@@ -671,6 +671,25 @@ static void test_sync_age(void **state)
         assert_int_equal(agility_run_next_deadline(&f->run), UINT64_MAX);
 }
 
+/* A reset into ReadyToStart long after the sync: the old sync is caught at once, not at the
+ * next call (found by fuzz_agility_run: the deadline was already past). */
+static void test_sync_age_on_reset(void **state)
+{
+        struct agility_class cls = default_class();
+        struct fixture *f;
+
+        (void)state;
+        cls.max_course_time_ms = 0;
+        f = fixture_new(&cls);
+        reach(f, STA);
+        f->now += AGILITY_SYNC_REQUIRE_MS;
+        key(f, REMOTE, CIRCE_KEY_RESET_RUN);
+        assert_int_equal(st(f), SET);
+        assert_true(has_notice(f, AGILITY_NOTICE_SYNC_REQUIRED, 0));
+        assert_true(agility_run_next_deadline(&f->run) > f->now);
+        free(f);
+}
+
 /* Ready in ReadyToStart resyncs on demand. */
 static void test_resync_on_ready(void **state)
 {
@@ -955,6 +974,7 @@ int main(void)
                 T(test_max_course_time),
                 T(test_sync_failure),
                 T(test_sync_age),
+                T(test_sync_age_on_reset),
                 T(test_resync_on_ready),
                 T(test_entry),
                 T(test_resume),

@@ -529,7 +529,7 @@ $(O)/examples/%: examples/%.c $(LIBSL_A)
 
 FUZZ_CC    ?= clang
 FUZZ_O     := build/fuzz
-FUZZ_LIBSRC:= $(PROTO_SRC) $(SHM_SRC) $(DAEMON_SRC)
+FUZZ_LIBSRC:= $(PROTO_SRC) $(SHM_SRC) $(DAEMON_SRC) $(AGILITY_SRC)
 FUZZ_NAMES := $(patsubst tests/fuzz/fuzz_%.c,%,$(FUZZ_SRC))
 
 fuzz:

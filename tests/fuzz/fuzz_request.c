@@ -15,6 +15,7 @@
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "fuzz_input.h"
@@ -69,18 +70,46 @@ static void fuzz_line(const uint8_t *data, size_t size)
 
 /* ---- 2. requests the library builds -------------------------------------------------------- */
 
-/* A word of the input: up to WORD_MAX bytes, cut at a NUL. */
+/*
+ * A word of the input. Raw bytes alone would seldom make a request the encoder takes, so most of
+ * the time the word is shaped: an address (six hex digits, now and then lower case), a node
+ * letter, a name of letters and digits, a text of such words; else up to WORD_MAX raw bytes.
+ */
 static const char *take_word(struct input *in, char *buf)
 {
+        static const char alnum[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789";
+        uint8_t shape = take(in);
         size_t n = take(in) % (WORD_MAX + 1u), i;
 
-        for (i = 0; i < n && in->n > 0; i++) {
-                buf[i] = (char)take(in);
-                if (buf[i] == '\0')
-                        break;
+        switch (shape % 5u) {
+        case 0:
+                snprintf(buf, WORD_MAX + 1u, shape & 0x80u ? "%06x" : "%06X",
+                         (unsigned)take(in) << 16 | (unsigned)take(in) << 8 | take(in));
+                return buf;
+        case 1:
+                buf[0] = (char)('A' + take(in) % 17u);          /* 'Q' now and then */
+                buf[1] = '\0';
+                return buf;
+        case 2:
+        case 3:
+                for (i = 0; i < n && i < WORD_MAX; i++) {
+                        uint8_t b = take(in);
+
+                        /* Text gets a space now and then (a double or trailing one too). */
+                        buf[i] = shape % 5u == 3u && b % 7u == 0 ? ' ' :
+                                 alnum[b % (sizeof(alnum) - 1u)];
+                }
+                buf[i] = '\0';
+                return buf;
+        default:
+                for (i = 0; i < n && in->n > 0; i++) {
+                        buf[i] = (char)take(in);
+                        if (buf[i] == '\0')
+                                break;
+                }
+                buf[i] = '\0';
+                return buf;
         }
-        buf[i] = '\0';
-        return buf;
 }
 
 /* A number around the interesting ranges: small, near a limit, negative, huge. */

@@ -160,11 +160,11 @@ TEST_CFLAGS  := $(CMOCKA_CFLAGS) -Itests
 PROTO_SRC  := $(wildcard src/proto/*.c)
 SHM_SRC    := $(wildcard src/shm/*.c)
 LIB_SRC    := $(wildcard src/lib/*.c)
-# The library builds requests and parses replies with the control protocol and checks CIRCE
-# and SharedLink module-command arguments with the codecs' own rules; hidden symbols, so they are
-# not exported.
-LIB_PROTO_SRC := $(filter src/proto/control.c src/proto/circe.c src/proto/sharedlink.c,\
-                           $(PROTO_SRC))
+# The library builds requests with the command vocabulary (which checks CIRCE and SharedLink
+# arguments with the codecs' own rules) and parses replies with the control protocol; hidden
+# symbols, so they are not exported.
+LIB_PROTO_SRC := $(filter src/proto/control.c src/proto/request.c src/proto/circe.c \
+                           src/proto/sharedlink.c,$(PROTO_SRC))
 # The shared-memory files a client needs (reading and writing slots, events, futex waits, object
 # names); the table, guard and wake files are the daemon's side only. The .so links with -z defs,
 # so a file missing here fails the build rather than the first program that loads the library.

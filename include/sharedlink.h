@@ -239,7 +239,8 @@ int sl_wait_with(struct sl_client *c, uint32_t *cursor, int timeout_ms,
  * Reads up to ret_size events after *cursor (start with 0: the oldest retained; or with
  * sl_events_now) into ret[0..ret_size-1], each element's size set by the caller. Returns the
  * number read (0: none new) and advances *cursor. Events are never skipped silently: lost counts
- * the ones overwritten before they could be read.
+ * the ones overwritten before they could be read. After a daemon restart the first event read
+ * from the new daemon carries SL_EVENT_RESTARTED, once, however many calls found nothing before it.
  */
 int sl_events_read(struct sl_client *c, uint64_t *cursor, struct sl_event *ret, size_t ret_size);
 

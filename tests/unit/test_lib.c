@@ -888,6 +888,48 @@ static void test_restart_clean(void **state)
         assert_int_equal(sl_wait(f->c, &w.cursor, 0), 1);
 }
 
+/*
+ * A daemon restart is flagged on the first event of the new run, exactly once, whatever the
+ * reader found in between: here the first reads after the restart find the new ring empty, as
+ * they do when the reader polls faster than the new daemon logs (the flag used to be lost then).
+ */
+static void test_events_restart_empty_ring(void **state)
+{
+        struct fixture *f = *state;
+        struct sl_event ev[4];
+        uint64_t cursor = 0, tag;
+        unsigned flagged = 0;
+
+        event_init(ev, 4);
+        shm_table_event(f->tb.t, SHM_EVENT_LOG, SHM_LINK_NONE, "run=1");
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 1);
+        tag = cursor >> 48;
+        /* A new daemon whose cursor tag differs (16 bits of its epoch: retried on a clash). */
+        for (int i = 0; i < 8 && cursor >> 48 == tag; i++) {
+                f->tb.t = shm_table_destroy(f->tb.t);
+                assert_int_equal(shm_table_create(&f->tb.cfg, &f->tb.t), 0);
+                tag = shm_table_epoch(f->tb.t) >> 48;
+                tag = tag ? tag : 1u;                   /* as the library tags cursors */
+        }
+        assert_int_not_equal(cursor >> 48, tag);
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 0);     /* the new ring: empty */
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 0);
+        shm_table_event(f->tb.t, SHM_EVENT_DAEMON, SHM_LINK_NONE, "run=2");
+        shm_table_event(f->tb.t, SHM_EVENT_LOG, SHM_LINK_NONE, "n=2");
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 1), 1);
+        assert_int_equal(ev[0].seq, 1);
+        assert_int_equal(ev[0].flags & SL_EVENT_RESTARTED, SL_EVENT_RESTARTED);
+        flagged += (ev[0].flags & SL_EVENT_RESTARTED) != 0;
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 1);
+        assert_int_equal(ev[0].seq, 2);
+        flagged += (ev[0].flags & SL_EVENT_RESTARTED) != 0;
+        shm_table_event(f->tb.t, SHM_EVENT_LOG, SHM_LINK_NONE, "n=3");
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 1);
+        flagged += (ev[0].flags & SL_EVENT_RESTARTED) != 0;
+        assert_int_equal(flagged, 1);
+        assert_int_equal(cursor >> 48, tag);
+}
+
 struct crash_daemon {
         const struct shm_table_config *cfg;
         int ready[2];
@@ -1335,6 +1377,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_adhoc_visible, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_restart_clean, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_restart_after_crash, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_events_restart_empty_ring, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_recreated, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_age_coarse, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_waiter_flag, setup, teardown),

@@ -37,9 +37,12 @@
  * wire can carry).
  *
  * Trust: the daemon treats everything clients write as hostile and survives any of it. Writers
- * share one outbound table, so a member of the group that truncates it can make other writers'
- * processes fault (SIGBUS) until the daemon has recreated it; the library installs no signal
- * handlers. Readers only map the daemon's read-only table and are not exposed to this. The extensible structs below start with a `size` member that the caller sets
+ * share one outbound table, so a member of the group that truncates it can make other processes
+ * of the group that write (or read outbound variables) fault (SIGBUS) until the daemon has
+ * recreated it: at once when a client that opens the table finds it unusable (it wakes the
+ * daemon through the read-only table), else at the daemon's next heartbeat (a second). The
+ * library installs no signal handlers. Processes outside the group only map the daemon's
+ * read-only table and are not exposed to this. The extensible structs below start with a `size` member that the caller sets
  * to sizeof(the struct); the library fills only what fits, so newer fields never break old callers.
  *
  * Commands to the daemon (CIRCE operations, SharedLink queries) go through its control socket:

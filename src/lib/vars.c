@@ -383,8 +383,12 @@ static int write_locked(struct sl_client *c, int id, const char *value, size_t l
                 return -EPROTO;
         slot = &c->out_slots[e->out_slot];
         r = shm_slot_claim(slot, c->pid, &word);
-        if (r < 0)
+        if (r < 0) {
+                /* Held for every bounded attempt: perhaps by a writer that died in it, or a
+                 * scribbled word; the daemon's scan repairs that, so have it scan now. */
+                client_ring_daemon(c);
                 return r;
+        }
         shm_slot_store(slot, value, (uint32_t)len, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND,
                        client_now(CLOCK_MONOTONIC), client_now(CLOCK_REALTIME));
         r = shm_slot_publish(slot, word);

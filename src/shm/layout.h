@@ -43,6 +43,15 @@
  *        before), so clients find the socket with no environment. An older daemon leaves it
  *        empty: clients use $SHAREDLINK_RUNTIME_DIR or the default, as before. The path is
  *        written once at creation; a reload that moves the socket recreates the tables.
+ *   1.3  the .in header carries the outbound doorbell (out_doorbell, reserved bytes before): a
+ *        word no one ever changes, on which the daemon's wake thread also sleeps. A client that
+ *        finds .out unusable (truncated, scribbled, of another epoch) or a slot held for every
+ *        bounded attempt FUTEX_WAKEs it, so the daemon checks .out at once. It lives in .in
+ *        because .in is the daemon's own object, which no client can truncate or write: the
+ *        .out change word is gone with the object it is in, and waking needs only read access.
+ *        An older daemon sleeps on nothing there (the wake is lost: its .out is looked at when
+ *        a client wakes it through .out, as before); the daemon also checks .out at every
+ *        heartbeat whatever the layout.
  */
 #ifndef SHM_LAYOUT_H
 #define SHM_LAYOUT_H
@@ -53,9 +62,10 @@
 #include <stdint.h>
 
 #define SHM_LAYOUT_MAJOR        1u
-#define SHM_LAYOUT_MINOR        2u
+#define SHM_LAYOUT_MINOR        3u
 #define SHM_LAYOUT_MINOR_WAITER 1u      /* first minor with SHM_OUT_WAITING */
 #define SHM_LAYOUT_MINOR_SOCKET 2u      /* first minor with shm_in_header.control_socket */
+#define SHM_LAYOUT_MINOR_DOORBELL 3u    /* first minor with shm_in_header.out_doorbell */
 #define SHM_LAYOUT_VERSION      ((SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR)
 
 /* "SLNK.IN\0" and "SLNK.OUT" as little-endian words: recognisable in a hex dump. */
@@ -242,7 +252,9 @@ struct shm_in_header {
         uint8_t reserved0[32];
         /* Own cache line: the futex clients wait on, bumped once per committed batch. */
         _Atomic uint32_t change;
-        uint8_t reserved1[60];
+        /* 1.3: clients FUTEX_WAKE it when .out is unusable; never written (see the history) */
+        _Atomic uint32_t out_doorbell;
+        uint8_t reserved1[56];
         _Atomic uint64_t counters[SHM_COUNTERS_MAX];    /* daemon-wide (outbound object health) */
         /* 1.2: absolute path of the control socket, NUL-terminated and NUL-padded; "" if none */
         char control_socket[SHM_SOCKET_PATH_SIZE];
@@ -344,6 +356,7 @@ static_assert(offsetof(struct shm_in_header, heartbeat_ns) == 144, "heartbeat of
 static_assert(offsetof(struct shm_in_header, event_head) == 152, "event head offset");
 static_assert(offsetof(struct shm_in_header, change) == 192, "change word offset");
 static_assert(offsetof(struct shm_in_header, change) % SHM_CACHE_LINE == 0, "change word line");
+static_assert(offsetof(struct shm_in_header, out_doorbell) == 196, "doorbell offset");
 static_assert(offsetof(struct shm_in_header, counters) == 256, "counters offset");
 static_assert(offsetof(struct shm_in_header, control_socket) == 768, "control socket offset");
 static_assert(sizeof(struct shm_link) == 640, "link size");

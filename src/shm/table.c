@@ -1183,6 +1183,7 @@ int shm_table_out_wake_fd(struct shm_table *t)
                 if (r < 0)
                         return r;
                 shm_wake_watch_flagged(t->wake, &t->out->change, SHM_OUT_WAITING);
+                shm_wake_doorbell(t->wake, &t->in->out_doorbell);
         }
         return shm_wake_fd(t->wake);
 }

@@ -32,6 +32,7 @@
 #include "shm/layout.h"
 #include "shm/slot.h"
 #include "shm/table.h"
+#include "shm/wake.h"
 
 #define WAIT_LIMIT_MS   10000   /* a hang guard, not a timing assertion */
 #define ADHOC           4u
@@ -1263,6 +1264,115 @@ static void test_out_recreated(void **state)
         assert_string_equal(s.last.value, "b");
 }
 
+/*
+ * Waits (on the wake eventfd, the daemon's event) until a client rang the daemon, then scans as
+ * the daemon does; returns the scan's result.
+ */
+static int wait_rung_and_scan(struct fixture *f, int fd, struct seen *s)
+{
+        struct pollfd p = { .fd = fd, .events = POLLIN };
+
+        assert_int_equal(poll(&p, 1, WAIT_LIMIT_MS), 1);        /* a hang guard */
+        shm_table_out_wake_ack(f->tb.t);
+        return scan(f, s);
+}
+
+/*
+ * A client truncates .out and no writer is left to wake the daemon through it: a client that
+ * then finds .out unusable rings the doorbell in .in (layout 1.3), the daemon recreates .out,
+ * and the write goes through. Waits on events only (the eventfd, then sl_wait).
+ */
+static void test_out_truncated_rings_daemon(void **state)
+{
+        struct fixture *f = *state;
+        int wake = shm_table_out_wake_fd(f->tb.t);
+        struct sl_client *c;
+        uint32_t cursor = 0;
+        struct seen s;
+        int fd;
+
+        assert_true(wake >= 0);
+        /* The wake thread asleep on the .out word: only a wake-up can tell it anything now. */
+        assert_int_equal(shmtest_thread_wait_asleep(SHM_WAKE_THREAD_NAME, WAIT_LIMIT_MS), 0);
+        /* Everyone's mappings are left as they are (f->c's too: it must not touch .out now). */
+        fd = shm_open(f->tb.out_name, O_RDWR, 0);
+        assert_true(fd >= 0);
+        assert_int_equal(ftruncate(fd, 0), 0);
+        close(fd);
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        sl_wait(c, &cursor, 0);
+        assert_int_equal(sl_write(c, NOTE, "a"), -EAGAIN);     /* unusable: rings */
+        assert_int_equal(wait_rung_and_scan(f, wake, &s), -EBADMSG);    /* recreated */
+        assert_int_equal(sl_wait(c, &cursor, WAIT_LIMIT_MS), 1);       /* the new generation */
+        assert_int_equal(sl_write(c, NOTE, "b"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        assert_string_equal(s.last.value, "b");
+        assert_int_equal(shm_table_counter_get(f->tb.t, SHM_LINK_NONE, SHM_COUNTER_OUT_RECREATED),
+                         1);
+        sl_close(c);
+}
+
+/* Fills size bytes at p with bytes of a fixed pseudo-random sequence (no zero words). */
+static void scribble(void *p, size_t size, uint64_t seed)
+{
+        unsigned char *b = p;
+
+        for (size_t i = 0; i < size; i++) {
+                seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+                b[i] = (unsigned char)(seed >> 56) | 1u;
+        }
+}
+
+/*
+ * Random bytes over .out, its size kept. Over the header: a new client cannot use it and rings,
+ * the daemon recreates it. Over the slots only: the daemon repairs the words a writer could not
+ * claim (odd, pid of no process) when a client rings, and never takes the bytes for a value.
+ */
+static void test_out_scribbled_rings_daemon(void **state)
+{
+        struct fixture *f = *state;
+        int wake = shm_table_out_wake_fd(f->tb.t);
+        struct shm_out_header *h;
+        struct sl_client *c;
+        uint32_t cursor = 0;
+        struct seen s;
+        size_t size;
+        void *base;
+
+        assert_true(wake >= 0);
+        assert_int_equal(shmtest_thread_wait_asleep(SHM_WAKE_THREAD_NAME, WAIT_LIMIT_MS), 0);
+        out_change_map(f, &base, &size);
+        h = base;
+        scribble(base, sizeof(*h), 1);
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        sl_wait(c, &cursor, 0);
+        assert_true(sl_write(c, THROTTLE, "1") < 0);           /* unusable: rings */
+        assert_int_equal(wait_rung_and_scan(f, wake, &s), -EBADMSG);
+        munmap(base, size);
+        assert_int_equal(sl_wait(c, &cursor, WAIT_LIMIT_MS), 1);
+        assert_int_equal(sl_write(c, THROTTLE, "2"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        assert_string_equal(s.last.value, "2");
+
+        /* Now the slots: odd words with no live writer, garbage values. */
+        out_change_map(f, &base, &size);
+        h = base;
+        scribble((char *)base + h->slots_offset, size - h->slots_offset, 2);
+        for (int id = THROTTLE; id <= NOTE; id += (id == STEER ? NOTE - STEER : 1)) {
+                int r;
+
+                for (int tries = 0; (r = sl_write(c, id, "3")) == -EBUSY && tries < 4; tries++)
+                        wait_rung_and_scan(f, wake, &s);        /* repaired on the ring */
+                assert_int_equal(r, 0);
+        }
+        memset(&s, 0, sizeof(s));
+        assert_true(shm_table_out_scan(f->tb.t, on_change, &s) >= 0);
+        assert_string_equal(s.last.value, "3");
+        assert_int_equal(s.last.status, SHM_OUT_CHANGED);
+        munmap(base, size);
+        sl_close(c);
+}
+
 /* ---- permissions ------------------------------------------------------------------------------ */
 
 struct perm_probe {
@@ -1379,6 +1489,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_restart_after_crash, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_events_restart_empty_ring, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_recreated, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_truncated_rings_daemon, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_scribbled_rings_daemon, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_age_coarse, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_waiter_flag, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_outbound_mirror, setup, teardown),

@@ -182,10 +182,16 @@ int sl_info(struct sl_client *c, int id, struct sl_var_info *ret);
 /*
  * Copies the value of variable id (NUL-terminated) into buf; meta may be NULL. Returns its length
  * (0 and no SL_FLAG_VALID when it was never set), -ENOENT, -ENOBUFS (size < length + 1), or
- * -EAGAIN when a writer kept it busy for every bounded attempt (try again). An outbound variable
- * reads as what was last written to it. On failure buf holds nothing meaningful (a buffer of
- * SL_VALUE_SIZE bytes or more is used as scratch space by the read: the fastest path).
+ * -EAGAIN when its writer stayed in the middle of a write for every bounded attempt and then
+ * SL_READ_BUSY_MS of sleeping: a writer that is stopped, or was killed mid-write (the daemon
+ * repairs such a slot within a second); try again. A writer that was merely preempted mid-write
+ * costs the read a yield or a short sleep, not an error, so a read normally takes nanoseconds and
+ * only then up to about SL_READ_BUSY_MS. An outbound variable reads as what was last written to
+ * it. On failure buf holds nothing meaningful (a buffer of SL_VALUE_SIZE bytes or more is used as
+ * scratch space by the read: the fastest path).
  */
+#define SL_READ_BUSY_MS         20      /* sl_read's longest wait for a writer mid-write */
+
 int sl_read(struct sl_client *c, int id, char *buf, size_t size, struct sl_meta *meta);
 
 /* Reads a value as a double; -ENODATA when not valid or empty, -EDOM when not a number. */

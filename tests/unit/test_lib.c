@@ -3,6 +3,7 @@
  * a child process, plays the daemon): ids, reads and metadata, writes and their refusals, waiting,
  * events, links, ad hoc names, daemon restarts (clean and crashed), a recreated .out, permissions.
  */
+#define _GNU_SOURCE     /* pthread_setname_np */
 #include <errno.h>
 #include <fcntl.h>
 #include <locale.h>
@@ -1079,6 +1080,64 @@ static void test_read_outbound_mirror(void **state)
         munmap(base, size);
 }
 
+#define BUSY_READER_NAME        "test-reader"
+
+struct busy_reader {
+        struct sl_client *c;
+        _Atomic int done;
+        int result;
+        char buf[SL_VALUE_SIZE];
+};
+
+/* Reads THROTTLE until a read succeeds (a bounded number of calls). */
+static void *busy_reader_main(void *arg)
+{
+        struct busy_reader *b = arg;
+
+        pthread_setname_np(pthread_self(), BUSY_READER_NAME);
+        for (int i = 0; i < 1000; i++) {
+                b->result = sl_read(b->c, THROTTLE, b->buf, sizeof(b->buf), NULL);
+                if (b->result != -EAGAIN)
+                        break;
+        }
+        atomic_store(&b->done, 1);
+        return NULL;
+}
+
+/*
+ * A writer that is alive but off its CPU in the middle of a write (here: it holds the slot until
+ * the reader sleeps) costs a read a wait, not -EAGAIN: the library sleeps, and reads the value
+ * once the writer published it. Before, every call returned -EAGAIN at once and never slept.
+ */
+static void test_read_waits_out_writer(void **state)
+{
+        struct fixture *f = *state;
+        struct busy_reader b = { f->c, 0, 0, "" };
+        struct shm_slot *slot;
+        pthread_t th;
+        uint64_t word;
+        size_t size;
+        void *base;
+        int asleep = 0;
+
+        out_change_map(f, &base, &size);
+        slot = (struct shm_slot *)((char *)base + ((struct shm_out_header *)base)->slots_offset);
+        assert_int_equal(shm_slot_claim(slot, (uint32_t)getpid(), &word), 0);  /* THROTTLE's */
+        shm_slot_store(slot, "0.25", 4, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND, 1, 1);
+        assert_int_equal(pthread_create(&th, NULL, busy_reader_main, &b), 0);
+        /* Until the reader sleeps in its read, or gave up without ever sleeping. */
+        while (!atomic_load(&b.done) && !asleep) {
+                asleep = shmtest_thread_state(BUSY_READER_NAME) == 'S';
+                sched_yield();
+        }
+        assert_int_equal(shm_slot_publish(slot, word), 0);
+        pthread_join(th, NULL);
+        assert_true(asleep);
+        assert_int_equal(b.result, 4);
+        assert_string_equal(b.buf, "0.25");
+        munmap(base, size);
+}
+
 struct flag_waiter {
         _Atomic uint32_t *change;
         _Atomic int armed;
@@ -1479,6 +1538,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_write_refused, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_numbers, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_read_after_repair, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_read_waits_out_writer, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wait_thread, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wait_process, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wait_spin, setup, teardown),

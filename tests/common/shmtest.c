@@ -8,6 +8,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <grp.h>
+#include <inttypes.h>
 #include <sched.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -209,6 +210,33 @@ long shmtest_object_size(const char *name)
         r = fstat(fd, &st) < 0 ? -errno : (long)st.st_size;
         close(fd);
         return r;
+}
+
+size_t shmtest_value_make(unsigned writer, uint64_t n, char *buf)
+{
+        size_t len = (size_t)snprintf(buf, SHM_VALUE_SIZE, "w%un%" PRIu64 ":", writer, n);
+        size_t target = 24 + (size_t)(n % 36);
+        unsigned sum = 0;
+
+        while (len < target) {
+                buf[len] = (char)('a' + (n + len) % 26);
+                len++;
+        }
+        for (size_t i = 0; i < len; i++)
+                sum += (unsigned char)buf[i];
+        snprintf(buf + len, SHM_VALUE_SIZE - len, "%02X", sum & 0xffu);
+        return len + 2;
+}
+
+int shmtest_value_ok(const char *v, size_t len)
+{
+        char expect[SHM_VALUE_SIZE];
+        unsigned writer;
+        uint64_t n;
+
+        if (len >= SHM_VALUE_SIZE || sscanf(v, "w%un%" SCNu64 ":", &writer, &n) != 2)
+                return 0;
+        return shmtest_value_make(writer, n, expect) == len && memcmp(expect, v, len) == 0;
 }
 
 int shmtest_thread_state(const char *comm)

@@ -96,6 +96,16 @@ int shmtest_as_user(uid_t uid, gid_t gid, size_t ngroups, const gid_t *groups,
 long shmtest_object_size(const char *name);
 
 /*
+ * Self-checking values for the stress tests: "w<writer>n<n>:", filler, then two hex digits of the
+ * byte sum of what precedes (26..63 bytes, wire charset). Writes the value for (writer, n) into
+ * buf (SL_VALUE_SIZE bytes) and returns its length.
+ */
+size_t shmtest_value_make(unsigned writer, uint64_t n, char *buf);
+
+/* 1 when v[0..len) is exactly a value shmtest_value_make can produce, else 0. */
+int shmtest_value_ok(const char *v, size_t len);
+
+/*
  * State letter (proc(5): 'R' running, 'S' sleeping, ...) of the thread of this process named comm
  * (pthread_setname_np), or -1 when there is none: how a test learns that a thread is asleep.
  */

@@ -8,9 +8,9 @@
  * Phase 2: the same with threads in one process (what ThreadSanitizer can see), readers sharing
  *          one client handle and using another.
  * Phase 3: outbound values: writer processes write them with sl_write (several writers, the
- *          same slots), reader processes read them back through the library: no torn value,
- *          and (almost) no read that ended in -EAGAIN: a writer preempted mid-write costs the
- *          reader a short wait inside the library, not an error.
+ *          same slots), reader processes read them back through the library: no torn value;
+ *          the reads that still ended in -EAGAIN (a writer off its CPU mid-write for longer
+ *          than the library's backoff) are counted.
  * Bounded by work, not by seconds: each reader reads until it has made READS_MIN reads and seen
  * the values move CHANGES_MIN times (so it raced with the writer however slowly either ran);
  * the writers write until the readers are done. Each phase prints its counts.
@@ -30,15 +30,19 @@
 #include <sharedlink.h>
 
 #include "common/shmtest.h"
+#include "shm/seqlock.h"
 #include "shm/table.h"
 
 #define NVALUES                 8
 #define READER_PROCESSES        3
 #define READER_THREADS          3
+#if defined(SHM_SEQLOCK_TSAN)
+#define READS_MIN               50000u  /* per reader: ThreadSanitizer is ~10x slower */
+#else
 #define READS_MIN               200000u /* per reader */
+#endif
 #define CHANGES_MIN             1000u   /* newer values seen, per reader */
 #define OUT_WRITERS             2
-#define EAGAIN_PER_MILLE_MAX    1u      /* reads that may end in -EAGAIN, per thousand */
 #define COUNTER_DIGITS          20
 
 struct stats {
@@ -315,12 +319,12 @@ static int report(const char *phase, int r, const struct stats *s)
         printf("stress_seqlock %s: reads=%" PRIu64 " torn=%" PRIu64 " eagain=%" PRIu64
                " changes_seen=%" PRIu64 " writes=%" PRIu64 "\n", phase, reads, torn,
                atomic_load(&s->eagain), changes, writes);
-        /* Fails on any torn read; the readers' bounds make sure they raced with the writers. A
-         * read ends in -EAGAIN only when a writer held its slot through the library's backoff
-         * (SL_READ_BUSY_MS): without the backoff it was 2-5% of the outbound reads here (ASan,
-         * 2 vCPUs), with it none; more than one in EAGAIN_PER_MILLE_MAX thousand fails. */
-        return r == 0 && torn == 0 && reads > 0 && writes > 0 && changes > NVALUES &&
-               atomic_load(&s->eagain) * 1000u <= reads * EAGAIN_PER_MILLE_MAX ? 0 : 1;
+        /* Fails on any torn read; the readers' bounds make sure they raced with the writers.
+         * eagain is a figure, not a verdict: a read ends in -EAGAIN only when a writer stayed
+         * off its CPU mid-write through the library's backoff (SL_READ_BUSY_MS), which is the
+         * scheduler's doing (without the backoff it was 2-5% of the outbound reads on a 2-vCPU
+         * VM, with it none in the ASan build; test_lib checks the backoff itself). */
+        return r == 0 && torn == 0 && reads > 0 && writes > 0 && changes > NVALUES ? 0 : 1;
 }
 
 int main(void)

@@ -64,6 +64,7 @@ extern "C" {
 #define SL_LINK_NAME_SIZE       32
 #define SL_PROTOCOL_SIZE        16
 #define SL_STATE_NAME_SIZE      32
+#define SL_STATE_TEXT_SIZE      256     /* a link's whole state text + NUL (sl_link_info) */
 #define SL_TYPE_NAME_SIZE       24
 #define SL_EVENT_TEXT_SIZE      216     /* "key=value ..." + NUL */
 #define SL_COUNTERS_MAX         64      /* counters per link (named ones + spare room) */
@@ -134,6 +135,10 @@ struct sl_link_info {
         uint64_t state_age_ns;          /* time since the last state change */
         unsigned counter_count;         /* entries used in counters[] */
         struct sl_counter counters[SL_COUNTERS_MAX];
+        /* Added after 0.1.0 (an older caller's size stops before it): the whole state text,
+         * of which state_name holds the first 31 bytes, e.g. "down: /srv/rec/run.rec:12: bad
+         * line" (cut at SL_STATE_TEXT_SIZE - 1) */
+        char state_text[SL_STATE_TEXT_SIZE];
 };
 
 /* The daemon behind the tables (sl_daemon_info). */

@@ -95,6 +95,9 @@ static int map_open(const char *name, struct client_map **ret_map)
         m->in = h;
         m->size = (size_t)st.st_size;
         m->links = (const struct shm_link *)((const char *)base + h->links_offset);
+        if (shm_layout_has_link_texts(h, (uint64_t)st.st_size))
+                m->link_texts = (const struct shm_link_text *)((const char *)base +
+                                                               h->link_texts_offset);
         m->events = (const struct shm_event *)((const char *)base + h->events_offset);
         m->dir = (const struct shm_dir_entry *)((const char *)base + h->dir_offset);
         m->slots = (const struct shm_slot *)((const char *)base + h->slots_offset);

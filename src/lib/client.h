@@ -35,6 +35,7 @@ struct client_map {
         const struct shm_in_header *in;
         size_t size;
         const struct shm_link *links;
+        const struct shm_link_text *link_texts;         /* layout >= 1.4, else NULL */
         const struct shm_event *events;
         const struct shm_dir_entry *dir;
         const struct shm_slot *slots;

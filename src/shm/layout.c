@@ -36,6 +36,9 @@ void shm_layout_in_geometry(uint32_t capacity, uint32_t event_capacity,
         g.slots_offset = align_up(g.dir_offset + (uint64_t)capacity * sizeof(struct shm_dir_entry),
                                   SHM_CACHE_LINE);
         g.total_size = g.slots_offset + (uint64_t)capacity * sizeof(struct shm_slot);
+        g.link_texts_offset = align_up(g.total_size, SHM_CACHE_LINE);
+        g.object_size = g.link_texts_offset +
+                        (uint64_t)SHM_LINKS_MAX * sizeof(struct shm_link_text);
         *ret_geometry = g;
 }
 
@@ -75,6 +78,17 @@ int shm_layout_check_in(const struct shm_in_header *h, uint64_t object_size)
             h->total_size != g.total_size || g.total_size > object_size)
                 return -EPROTO;
         return 0;
+}
+
+int shm_layout_has_link_texts(const struct shm_in_header *h, uint64_t object_size)
+{
+        struct shm_in_geometry g;
+
+        if ((h->layout_version & 0xffffu) < SHM_LAYOUT_MINOR_LINK_TEXT ||
+            h->link_text_size != sizeof(struct shm_link_text))
+                return 0;
+        shm_layout_in_geometry(h->capacity, h->event_capacity, &g);
+        return h->link_texts_offset == g.link_texts_offset && g.object_size <= object_size;
 }
 
 int shm_layout_check_out(const struct shm_out_header *h, uint64_t object_size)

@@ -52,6 +52,14 @@
  *        An older daemon sleeps on nothing there (the wake is lost: its .out is looked at when
  *        a client wakes it through .out, as before); the daemon also checks .out at every
  *        heartbeat whatever the layout.
+ *   1.4  each link's whole state text (shm_link_text, SHM_LINK_TEXT_SIZE bytes, e.g. "down:
+ *        FILE:LINE: message" of a broken recording) in a region of its own after the slots,
+ *        under the link's seqlock; link_texts_offset and link_text_size in the header (reserved
+ *        bytes before) say where. shm_link.state_name keeps the text cut to 31 bytes, as before.
+ *        total_size keeps counting the regions up to the slots, which is what a 1.3 client
+ *        computes and compares it with, so the region lies past total_size: the object is
+ *        link_texts_offset + SHM_LINKS_MAX * link_text_size bytes, and a client checks that
+ *        against the object's size. An older daemon leaves both fields 0: no texts.
  */
 #ifndef SHM_LAYOUT_H
 #define SHM_LAYOUT_H
@@ -62,10 +70,11 @@
 #include <stdint.h>
 
 #define SHM_LAYOUT_MAJOR        1u
-#define SHM_LAYOUT_MINOR        3u
+#define SHM_LAYOUT_MINOR        4u
 #define SHM_LAYOUT_MINOR_WAITER 1u      /* first minor with SHM_OUT_WAITING */
 #define SHM_LAYOUT_MINOR_SOCKET 2u      /* first minor with shm_in_header.control_socket */
 #define SHM_LAYOUT_MINOR_DOORBELL 3u    /* first minor with shm_in_header.out_doorbell */
+#define SHM_LAYOUT_MINOR_LINK_TEXT 4u   /* first minor with the link texts region */
 #define SHM_LAYOUT_VERSION      ((SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR)
 
 /* "SLNK.IN\0" and "SLNK.OUT" as little-endian words: recognisable in a hex dump. */
@@ -83,6 +92,8 @@
 #define SHM_PROTOCOL_SIZE       16u
 #define SHM_STATE_NAME_SIZE     32u
 #define SHM_STATE_NAME_WORDS    (SHM_STATE_NAME_SIZE / 8u)
+#define SHM_LINK_TEXT_SIZE      256u    /* a link's whole state text + NUL (layout 1.4) */
+#define SHM_LINK_TEXT_WORDS     (SHM_LINK_TEXT_SIZE / 8u)
 #define SHM_LINKS_MAX           32u
 #define SHM_COUNTERS_MAX        64u     /* counter slots per link: named ones + spare room */
 #define SHM_EVENT_TEXT_SIZE     216u    /* "key=value ..." + NUL */
@@ -249,7 +260,9 @@ struct shm_in_header {
         uint64_t slots_offset;
         _Atomic uint64_t heartbeat_ns;          /* CLOCK_MONOTONIC, refreshed by the daemon */
         _Atomic uint64_t event_head;            /* number of the last event written (0: none) */
-        uint8_t reserved0[32];
+        uint64_t link_texts_offset;             /* 1.4: SHM_LINKS_MAX shm_link_text; 0: none */
+        uint32_t link_text_size;                /* 1.4: sizeof(struct shm_link_text) */
+        uint8_t reserved0[20];
         /* Own cache line: the futex clients wait on, bumped once per committed batch. */
         _Atomic uint32_t change;
         /* 1.3: clients FUTEX_WAKE it when .out is unusable; never written (see the history) */
@@ -272,6 +285,11 @@ struct shm_link {
         char protocol[SHM_PROTOCOL_SIZE];
         uint8_t reserved1[24];
         _Atomic uint64_t counters[SHM_COUNTERS_MAX];
+};
+
+/* A link's whole state text (1.4), written and read under its shm_link's seq. */
+struct shm_link_text {
+        _Atomic uint64_t text[SHM_LINK_TEXT_WORDS];     /* NUL-terminated, NUL-padded */
 };
 
 /*
@@ -359,7 +377,11 @@ static_assert(offsetof(struct shm_in_header, change) % SHM_CACHE_LINE == 0, "cha
 static_assert(offsetof(struct shm_in_header, out_doorbell) == 196, "doorbell offset");
 static_assert(offsetof(struct shm_in_header, counters) == 256, "counters offset");
 static_assert(offsetof(struct shm_in_header, control_socket) == 768, "control socket offset");
+static_assert(offsetof(struct shm_in_header, link_texts_offset) == 160, "link texts offset");
+static_assert(offsetof(struct shm_in_header, link_text_size) == 168, "link text size offset");
 static_assert(sizeof(struct shm_link) == 640, "link size");
+static_assert(sizeof(struct shm_link_text) == SHM_LINK_TEXT_SIZE, "link text size");
+static_assert(SHM_LINK_TEXT_SIZE % SHM_CACHE_LINE == 0, "link texts on whole cache lines");
 static_assert(offsetof(struct shm_link, name) == 56, "link name offset");
 static_assert(offsetof(struct shm_link, counters) == 128, "link counters offset");
 static_assert(sizeof(struct shm_event) == 256, "event size");
@@ -379,13 +401,15 @@ static_assert(SHM_COUNTER_COUNT <= SHM_COUNTERS_MAX, "too many counters");
 static_assert(SHM_VALUE_SIZE % 8 == 0 && SHM_EVENT_TEXT_SIZE % 8 == 0, "text in whole words");
 static_assert(SHM_STATE_NAME_SIZE % 8 == 0, "state name in whole words");
 
-/* The .in layout of a table with these capacities; returns the total size (for create and check). */
+/* The .in layout of a table with these capacities (for create and check). */
 struct shm_in_geometry {
         uint64_t links_offset;
         uint64_t events_offset;
         uint64_t dir_offset;
         uint64_t slots_offset;
-        uint64_t total_size;
+        uint64_t total_size;            /* the header's total_size: up to the end of the slots */
+        uint64_t link_texts_offset;     /* 1.4, past total_size */
+        uint64_t object_size;           /* the whole object, link texts included */
 };
 
 /* Computes where each region of .in lives for the given capacities. */
@@ -400,6 +424,9 @@ uint64_t shm_layout_out_size(uint32_t out_capacity);
  * Returns 0, -EAGAIN (magic not written yet) or -EPROTO (not a layout we understand).
  */
 int shm_layout_check_in(const struct shm_in_header *h, uint64_t object_size);
+
+/* 1 when a checked .in header has the link texts region (1.4) and it fits the object, else 0. */
+int shm_layout_has_link_texts(const struct shm_in_header *h, uint64_t object_size);
 
 /* Same for .out; returns 0, -EAGAIN or -EPROTO. Does not compare epoch/generation. */
 int shm_layout_check_out(const struct shm_out_header *h, uint64_t object_size);

@@ -146,7 +146,11 @@ int shm_table_add(struct shm_table *t, const struct shm_var *v);
 /* Adds a link; returns its index, -ENOSPC (SHM_LINKS_MAX) or -EINVAL. */
 int shm_table_link_add(struct shm_table *t, const struct shm_link_def *def);
 
-/* Sets a link's state (a small integer and its name) and publishes a change. 0 or -EINVAL. */
+/*
+ * Sets a link's state (a small integer and its text, e.g. "up" or "down: FILE:LINE: message", cut
+ * at SHM_LINK_TEXT_SIZE - 1 bytes; shm_link.state_name gets its first 31) and publishes a change.
+ * 0 or -EINVAL.
+ */
 int shm_table_link_state(struct shm_table *t, uint32_t link, uint32_t state, const char *name);
 
 /* Adds delta to counter c of a link (SHM_LINK_NONE: the daemon-wide counters). */

@@ -786,6 +786,34 @@ static void test_links(void **state)
         assert_int_equal(sl_link_info(f->c, 2, &li), -ENOENT);
         assert_int_equal(sl_link_info(f->c, -1, &li), -ENOENT);
 
+        /* A long state (layout 1.4): whole in state_text, its first 31 bytes in state_name; a
+         * caller of the first version (no state_text) is still served. */
+        {
+                static const char why[] = "down: /srv/rec/field-recording-today.rec:1234: "
+                                          "time: 6 digits after the point";
+                char text[SL_STATE_TEXT_SIZE + 8];
+                struct sl_link_info old;
+
+                assert_int_equal(shm_table_link_state(f->tb.t, 1, 4, why), 0);
+                assert_int_equal(sl_link_info(f->c, 1, &li), 0);
+                assert_string_equal(li.state_text, why);
+                assert_int_equal(strlen(li.state_name), SL_STATE_NAME_SIZE - 1);
+                assert_memory_equal(li.state_name, why, SL_STATE_NAME_SIZE - 1);
+                memset(&old, 0x55, sizeof(old));
+                old.size = offsetof(struct sl_link_info, state_text);
+                assert_int_equal(sl_link_info(f->c, 1, &old), 0);
+                assert_memory_equal(old.state_name, why, SL_STATE_NAME_SIZE - 1);
+                assert_int_equal((unsigned char)old.state_text[0], 0x55);      /* untouched */
+                old.size--;
+                assert_int_equal(sl_link_info(f->c, 1, &old), -EINVAL);
+                /* Longer than the field: cut, never refused. */
+                memset(text, 'x', sizeof(text) - 1);
+                text[sizeof(text) - 1] = '\0';
+                assert_int_equal(shm_table_link_state(f->tb.t, 1, 4, text), 0);
+                assert_int_equal(sl_link_info(f->c, 1, &li), 0);
+                assert_int_equal(strlen(li.state_text), SL_STATE_TEXT_SIZE - 1);
+        }
+
         /* A link added later shows up. */
         shm_table_link_add(f->tb.t, &(struct shm_link_def){ "arena", "circe" });
         assert_int_equal(sl_link_count(f->c), 3);

@@ -273,6 +273,22 @@ int sl_daemon_info(struct sl_client *c, struct sl_daemon_info *ret);
 /* 1 when the daemon is running (heartbeat recent, tables current), 0 when not, or -errno. */
 int sl_daemon_alive(struct sl_client *c);
 
+/* sl_counter_scope: where a counter is moved */
+#define SL_COUNTER_SHAREDLINK   0x1u    /* by SharedLink links */
+#define SL_COUNTER_CIRCE        0x2u    /* by CIRCE links */
+#define SL_COUNTER_DAEMON       0x4u    /* daemon-wide: the outbound table, the event ring */
+
+/*
+ * Where the counter called name is moved: SL_COUNTER_* bits (both link bits for one that every
+ * link moves), or 0 for a name this library does not know. A counter outside a link's protocol
+ * (or the daemon's) always reads 0 there: for showing only those that apply. Since SHAREDLINK_1.2.
+ */
+unsigned sl_counter_scope(const char *name);
+
+/* Name of counter i, in the order of the counters of sl_link_info and sl_daemon_info (0, 1, ...),
+ * or NULL past the last. Since SHAREDLINK_1.2. */
+const char *sl_counter_name(unsigned i);
+
 /* A static English message for a value returned by any sl_* function (negative or not). */
 const char *sl_strerror(int err);
 

@@ -34,6 +34,19 @@ static unsigned counters_fill(struct sl_counter *out, const _Atomic uint64_t *wo
         return n;
 }
 
+_Static_assert(SL_COUNTER_SHAREDLINK == SHM_SCOPE_SHAREDLINK && SL_COUNTER_CIRCE == SHM_SCOPE_CIRCE &&
+               SL_COUNTER_DAEMON == SHM_SCOPE_DAEMON, "counter scopes");
+
+SL_EXPORT unsigned sl_counter_scope(const char *name)
+{
+        return shm_layout_counter_scope(name);
+}
+
+SL_EXPORT const char *sl_counter_name(unsigned i)
+{
+        return shm_layout_counter_name(i);
+}
+
 SL_EXPORT int sl_link_count(struct sl_client *c)
 {
         uint32_t n;

@@ -8,9 +8,13 @@
 #include <stdio.h>
 #include <string.h>
 
-#define SHM_COUNTER_NAME(id, name) name,
+#define SHM_COUNTER_NAME(id, name, scope) name,
 static const char *const counter_names[] = { SHM_COUNTER_LIST(SHM_COUNTER_NAME) };
 #undef SHM_COUNTER_NAME
+
+#define SHM_COUNTER_SCOPE(id, name, scope) SHM_SCOPE_##scope,
+static const unsigned counter_scopes[] = { SHM_COUNTER_LIST(SHM_COUNTER_SCOPE) };
+#undef SHM_COUNTER_SCOPE
 
 #define SHM_EVENT_NAME(id, name) name,
 static const char *const event_names[] = { SHM_EVENT_LIST(SHM_EVENT_NAME) };
@@ -115,6 +119,14 @@ const char *shm_layout_counter_name(unsigned i)
         if (i >= SHM_COUNTER_COUNT)
                 return NULL;
         return counter_names[i];
+}
+
+unsigned shm_layout_counter_scope(const char *name)
+{
+        for (unsigned i = 0; name && i < SHM_COUNTER_COUNT; i++)
+                if (strcmp(counter_names[i], name) == 0)
+                        return counter_scopes[i];
+        return 0;
 }
 
 const char *shm_layout_event_name(unsigned t)

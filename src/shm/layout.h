@@ -141,65 +141,75 @@
 #define SHM_EVENT_TRUNCATED     0x1u    /* the text did not fit and was cut */
 
 /*
- * Counters: one fixed, named list shared by the daemon and the library. Per-link counters and the
- * daemon-wide counters (in the header) use the same indices; a counter that does not apply stays 0.
- * Append only: the index is part of the layout.
+ * Counters: one fixed, named list shared by the daemon, the library and (through the library's
+ * sl_counter_scope) slctl. Per-link counters and the daemon-wide counters (in the header) use the
+ * same indices; a counter that does not apply stays 0. Append only: the index is part of the
+ * layout. The third column is the counter's scope, where code moves it (SHM_SCOPE_*): SharedLink
+ * links (src/daemon/link_sharedlink*.c), CIRCE links (link_circe*.c), both (the transport,
+ * link.c), or the daemon (the outbound scan and the event ring, src/shm/table.c);
+ * tests/integration/test_slctl.c checks that the real daemon moves no counter outside it.
  */
-#define SHM_COUNTER_LIST(X) \
-        X(FRAMES_IN,            "frames_in") \
-        X(FRAMES_OUT,           "frames_out") \
-        X(BYTES_IN,             "bytes_in") \
-        X(BYTES_OUT,            "bytes_out") \
-        X(NOISE_BYTES,          "noise_bytes") \
-        X(BAD_CHECKSUM,         "bad_checksum") \
-        X(RESYNC,               "resync") \
-        X(OVERLONG,             "overlong") \
-        X(BAD_ADDRESS,          "bad_address") \
-        X(BAD_FIELD,            "bad_field") \
-        X(UNKNOWN_FIELD,        "unknown_field") \
-        X(EMPTY_FIELD,          "empty_field") \
-        X(LIST_MISMATCH,        "list_mismatch") \
-        X(UNKNOWN_PEER,         "unknown_peer") \
-        X(NOT_FOR_US,           "not_for_us") \
-        X(ADHOC_FULL,           "adhoc_full") \
-        X(QUERIES_IN,           "queries_in") \
-        X(ANSWERS_OUT,          "answers_out") \
-        X(REOPENS,              "reopens") \
-        X(IO_ERRORS,            "io_errors") \
-        X(BAD_HEADER,           "bad_header") \
-        X(UNKNOWN_OP,           "unknown_op") \
-        X(BAD_VALUE,            "bad_value") \
-        X(MISSING_PARAM,        "missing_param") \
-        X(SKIPPED_PARAM,        "skipped_param") \
-        X(REPEATED_PARAM,       "repeated_param") \
-        X(NONCOMPLIANT_STATUS,  "noncompliant_status") \
-        X(LOG_MESSAGES,         "log_messages") \
-        X(TX_DROPPED,           "tx_dropped") \
-        X(QUERIES_OUT,          "queries_out") \
-        X(ANSWERS_IN,           "answers_in") \
-        X(TIMEOUTS,             "timeouts") \
-        X(OUT_ACCEPTED,         "out_accepted") \
-        X(OUT_INVALID,          "out_invalid") \
-        X(OUT_BUSY,             "out_busy") \
-        X(OUT_REPAIRED,         "out_repaired") \
-        X(OUT_BAD_OBJECT,       "out_bad_object") \
-        X(OUT_RECREATED,        "out_recreated") \
-        X(EVENTS,               "events") \
-        X(DECLARATIONS_IN,      "declarations_in") \
-        X(DECLARATIONS_OUT,     "declarations_out") \
-        X(ACKS_IN,              "acks_in") \
-        X(LEARN_FULL,           "learn_full") \
-        X(LEARN_CONFLICT,       "learn_conflict") \
-        X(BAD_TYPE,             "bad_type") \
-        X(TYPE_MISMATCH,        "type_mismatch") \
-        X(UNDECLARED_DATA,      "undeclared_data") \
-        X(REDECLARED,           "redeclared") \
-        X(COMMANDS_IN,          "commands_in") \
-        X(COMMANDS_OUT,         "commands_out") \
-        X(BAD_COMMAND,          "bad_command") \
-        X(UDP_REFUSED,          "udp_refused")
+#define SHM_SCOPE_SHAREDLINK    0x1u
+#define SHM_SCOPE_CIRCE         0x2u
+#define SHM_SCOPE_LINKS         (SHM_SCOPE_SHAREDLINK | SHM_SCOPE_CIRCE)
+#define SHM_SCOPE_DAEMON        0x4u
+#define SHM_SCOPE_ALL           (SHM_SCOPE_LINKS | SHM_SCOPE_DAEMON)
 
-#define SHM_COUNTER_ENUM(id, name) SHM_COUNTER_##id,
+#define SHM_COUNTER_LIST(X) \
+        X(FRAMES_IN,            "frames_in",            LINKS) \
+        X(FRAMES_OUT,           "frames_out",           LINKS) \
+        X(BYTES_IN,             "bytes_in",             LINKS) \
+        X(BYTES_OUT,            "bytes_out",            LINKS) \
+        X(NOISE_BYTES,          "noise_bytes",          LINKS) \
+        X(BAD_CHECKSUM,         "bad_checksum",         LINKS) \
+        X(RESYNC,               "resync",               LINKS) \
+        X(OVERLONG,             "overlong",             LINKS) \
+        X(BAD_ADDRESS,          "bad_address",          SHAREDLINK) \
+        X(BAD_FIELD,            "bad_field",            LINKS) \
+        X(UNKNOWN_FIELD,        "unknown_field",        SHAREDLINK) \
+        X(EMPTY_FIELD,          "empty_field",          SHAREDLINK) \
+        X(LIST_MISMATCH,        "list_mismatch",        SHAREDLINK) \
+        X(UNKNOWN_PEER,         "unknown_peer",         SHAREDLINK) \
+        X(NOT_FOR_US,           "not_for_us",           SHAREDLINK) \
+        X(ADHOC_FULL,           "adhoc_full",           LINKS) \
+        X(QUERIES_IN,           "queries_in",           SHAREDLINK) \
+        X(ANSWERS_OUT,          "answers_out",          SHAREDLINK) \
+        X(REOPENS,              "reopens",              LINKS) \
+        X(IO_ERRORS,            "io_errors",            LINKS) \
+        X(BAD_HEADER,           "bad_header",           LINKS) \
+        X(UNKNOWN_OP,           "unknown_op",           CIRCE) \
+        X(BAD_VALUE,            "bad_value",            LINKS) \
+        X(MISSING_PARAM,        "missing_param",        CIRCE) \
+        X(SKIPPED_PARAM,        "skipped_param",        CIRCE) \
+        X(REPEATED_PARAM,       "repeated_param",       CIRCE) \
+        X(NONCOMPLIANT_STATUS,  "noncompliant_status",  CIRCE) \
+        X(LOG_MESSAGES,         "log_messages",         CIRCE) \
+        X(TX_DROPPED,           "tx_dropped",           LINKS) \
+        X(QUERIES_OUT,          "queries_out",          SHAREDLINK) \
+        X(ANSWERS_IN,           "answers_in",           SHAREDLINK) \
+        X(TIMEOUTS,             "timeouts",             LINKS) \
+        X(OUT_ACCEPTED,         "out_accepted",         DAEMON) \
+        X(OUT_INVALID,          "out_invalid",          DAEMON) \
+        X(OUT_BUSY,             "out_busy",             DAEMON) \
+        X(OUT_REPAIRED,         "out_repaired",         DAEMON) \
+        X(OUT_BAD_OBJECT,       "out_bad_object",       DAEMON) \
+        X(OUT_RECREATED,        "out_recreated",        DAEMON) \
+        X(EVENTS,               "events",               DAEMON) \
+        X(DECLARATIONS_IN,      "declarations_in",      SHAREDLINK) \
+        X(DECLARATIONS_OUT,     "declarations_out",     SHAREDLINK) \
+        X(ACKS_IN,              "acks_in",              SHAREDLINK) \
+        X(LEARN_FULL,           "learn_full",           SHAREDLINK) \
+        X(LEARN_CONFLICT,       "learn_conflict",       SHAREDLINK) \
+        X(BAD_TYPE,             "bad_type",             SHAREDLINK) \
+        X(TYPE_MISMATCH,        "type_mismatch",        SHAREDLINK) \
+        X(UNDECLARED_DATA,      "undeclared_data",      SHAREDLINK) \
+        X(REDECLARED,           "redeclared",           SHAREDLINK) \
+        X(COMMANDS_IN,          "commands_in",          SHAREDLINK) \
+        X(COMMANDS_OUT,         "commands_out",         SHAREDLINK) \
+        X(BAD_COMMAND,          "bad_command",          SHAREDLINK) \
+        X(UDP_REFUSED,          "udp_refused",          LINKS)
+
+#define SHM_COUNTER_ENUM(id, name, scope) SHM_COUNTER_##id,
 enum shm_counter {
         SHM_COUNTER_LIST(SHM_COUNTER_ENUM)
         SHM_COUNTER_COUNT
@@ -433,6 +443,9 @@ int shm_layout_check_out(const struct shm_out_header *h, uint64_t object_size);
 
 /* Name of counter i, or NULL beyond the named list. */
 const char *shm_layout_counter_name(unsigned i);
+
+/* Scope (SHM_SCOPE_*) of the counter called name, or 0 for a name not in the list. */
+unsigned shm_layout_counter_scope(const char *name);
 
 /* Name of event type t ("none" .. ), or "unknown". */
 const char *shm_layout_event_name(unsigned t);

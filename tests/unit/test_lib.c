@@ -1537,6 +1537,24 @@ static void test_permissions_group(void **state)
         assert_string_equal(s.last.value, "0.5");
 }
 
+/* The counter list through the public API (one list: shm/layout.h), as slctl reads it. */
+static void test_counter_names_scopes(void **state)
+{
+        (void)state;
+        assert_string_equal(sl_counter_name(0), "frames_in");
+        for (unsigned i = 0; i < SHM_COUNTER_COUNT; i++) {
+                assert_string_equal(sl_counter_name(i), shm_layout_counter_name(i));
+                assert_true(sl_counter_scope(sl_counter_name(i)) != 0);
+        }
+        assert_null(sl_counter_name(SHM_COUNTER_COUNT));
+        assert_int_equal(sl_counter_scope("frames_in"), SL_COUNTER_SHAREDLINK | SL_COUNTER_CIRCE);
+        assert_int_equal(sl_counter_scope("bad_address"), SL_COUNTER_SHAREDLINK);
+        assert_int_equal(sl_counter_scope("noncompliant_status"), SL_COUNTER_CIRCE);
+        assert_int_equal(sl_counter_scope("out_recreated"), SL_COUNTER_DAEMON);
+        assert_int_equal(sl_counter_scope("no_such_counter"), 0);
+        assert_int_equal(sl_counter_scope(NULL), 0);
+}
+
 static void test_strerror(void **state)
 {
         static const int codes[] = { ENOENT, EINVAL, EPERM, EACCES, EAGAIN, EBUSY, ECANCELED,
@@ -1586,6 +1604,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_read_stale_after_kill, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_permissions_no_group, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_permissions_group, setup_bare, teardown),
+                cmocka_unit_test(test_counter_names_scopes),
                 cmocka_unit_test(test_strerror),
         };
 

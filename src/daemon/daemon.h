@@ -31,7 +31,7 @@
 
 #include "daemon/config.h"
 #include "daemon/daemon_plan.h"        /* DAEMON_ERROR_MAX */
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "svc/notify.h"
 
 struct daemon;

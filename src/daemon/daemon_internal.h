@@ -19,7 +19,7 @@
 #include "daemon/daemon_config.h"
 #include "daemon/daemon_link.h"
 #include "daemon/daemon_plan.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "daemon/recorder.h"
 #include "daemon/stages.h"
 #include "svc/log.h"

@@ -14,7 +14,7 @@
 
 #include "daemon/config.h"
 #include "daemon/daemon.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "svc/log.h"
 #include "svc/notify.h"
 #include "svc/service.h"

@@ -20,7 +20,7 @@
 #include "common/harness.h"
 #include "common/words.h"
 #include "daemon/control.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "daemon/link.h"
 #include "svc/log.h"
 

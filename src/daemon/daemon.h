@@ -6,13 +6,14 @@
  *   config -> shm tables (every link's declared variables, group from the config)
  *          -> control socket <runtime_dir>/<instance>.sock (runtime_dir made 0755 if missing)
  *          -> links (ops->create for each; one that cannot start is reported, never fatal)
- *          -> outbound wake fd on the loop -> heartbeat (and watchdog) timers -> STATUS, READY=1
+ *          -> outbound wake fd on the loop -> heartbeat timer -> STATUS, READY=1 (the service
+ *          has the loop, the signals and the watchdog: svc/service.h)
  *
  * runtime_dir: the config's when the file sets it; otherwise $SHAREDLINK_RUNTIME_DIR when set
  * (absolute), else the default /run/sharedlink. Tests and unprivileged runs use the variable.
  *
- * Reload (SIGHUP, daemon_reload; the service sent RELOADING=1): the file is read and checked as at start; a
- * bad one keeps the running configuration untouched (an error is logged). Then:
+ * Reload (SIGHUP, daemon_reload; the service sent RELOADING=1): the file is read and checked
+ * as at start; a bad one keeps the running configuration untouched (an error is logged). Then:
  *   - the tables are kept when the variables every link declares (names, directions, types,
  *     peers, positions), the link names and protocols, the instance and the group are all
  *     unchanged: only the links whose settings changed (config_link_equal) are stopped and

@@ -1,7 +1,8 @@
 /*
- * The config module's mappings inside a link (config_peer.h; config_ctx.h lists the module's files): variables, SharedLink peers
- * (with the Pronto4 dialect's keys) and CIRCE emulated devices. Each mapping has its key table
- * (an enum of indices and their names) next to the function that reads it.
+ * The config module's mappings inside a link (config_peer.h; config_ctx.h lists the module's
+ * files): variables, SharedLink peers (with the Pronto4 dialect's keys) and CIRCE emulated
+ * devices. Each mapping has its key table (an enum of indices and their names) next to the
+ * function that reads it.
  */
 #include "daemon/config_peer.h"
 

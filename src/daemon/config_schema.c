@@ -1,6 +1,7 @@
 /*
- * The config module's top level and links (config_schema.h; config_ctx.h lists the module's files): their key tables, where each
- * link key applies (protocol, role, transport), and what each key sets.
+ * The config module's top level and links (config_schema.h; config_ctx.h lists the module's
+ * files): their key tables, where each link key applies (protocol, role, transport), and what
+ * each key sets.
  */
 #include "daemon/config_schema.h"
 

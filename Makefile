@@ -12,6 +12,8 @@
 #                                  archived for unit tests)
 #   src/mqtt/*.c                   sharedlink-mqtt (main.c holds main(), the rest is archived for
 #                                  tests), linked against libsharedlink.so and libmosquitto only
+#   src/agility/*.c                sharedlink-agility's pure core (run state machine, timing, keys,
+#                                  ranking, display model, competitor CSV), archived for tests
 #   tests/common/*.c               helpers linked into every test binary
 #   tests/unit/test_*.c            one cmocka binary per module, run by `make check`
 #   tests/integration/test_*.c     cmocka binaries that start the real daemon, run by `make check`
@@ -158,11 +160,11 @@ TEST_CFLAGS  := $(CMOCKA_CFLAGS) -Itests
 PROTO_SRC  := $(wildcard src/proto/*.c)
 SHM_SRC    := $(wildcard src/shm/*.c)
 LIB_SRC    := $(wildcard src/lib/*.c)
-# The library builds requests and parses replies with the control protocol and checks CIRCE
-# and SharedLink module-command arguments with the codecs' own rules; hidden symbols, so they are
-# not exported.
-LIB_PROTO_SRC := $(filter src/proto/control.c src/proto/circe.c src/proto/sharedlink.c,\
-                           $(PROTO_SRC))
+# The library builds requests with the command vocabulary (which checks CIRCE and SharedLink
+# arguments with the codecs' own rules) and parses replies with the control protocol; hidden
+# symbols, so they are not exported.
+LIB_PROTO_SRC := $(filter src/proto/control.c src/proto/request.c src/proto/circe.c \
+                           src/proto/sharedlink.c,$(PROTO_SRC))
 # The shared-memory files a client needs (reading and writing slots, events, futex waits, object
 # names); the table, guard and wake files are the daemon's side only. The .so links with -z defs,
 # so a file missing here fails the build rather than the first program that loads the library.
@@ -174,6 +176,7 @@ DAEMON_SRC := $(filter-out src/daemon/main.c,$(wildcard src/daemon/*.c))
 CLI_SRC    := $(wildcard src/cli/*.c)
 MQTT_MAIN  := $(wildcard src/mqtt/main.c)
 MQTT_SRC   := $(filter-out src/mqtt/main.c,$(wildcard src/mqtt/*.c))
+AGILITY_SRC:= $(wildcard src/agility/*.c)
 TCOMMON_SRC:= $(wildcard tests/common/*.c)
 UNIT_SRC   := $(wildcard tests/unit/test_*.c)
 INTEG_SRC  := $(wildcard tests/integration/test_*.c)
@@ -196,8 +199,9 @@ A_TCOMMON:= $(O)/internal/libtestcommon.a
 A_CLI    := $(O)/internal/libcli.a
 A_MQTT   := $(O)/internal/libmqtt.a
 A_SVC    := $(O)/internal/libsvc.a
-INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_CLIENT) $(A_CLI) $(A_SVC) $(A_PROTO) \
-                     $(A_SHM)
+A_AGILITY:= $(O)/internal/libagility.a
+INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_AGILITY) $(A_CLIENT) $(A_CLI) $(A_SVC) \
+                     $(A_PROTO) $(A_SHM)
 SYS_LIBS := $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lutil -lm
 
 LIBSL_SO   := $(O)/libsharedlink.so.$(SOVERSION)
@@ -318,6 +322,7 @@ $(A_TCOMMON): $(call obj,$(TCOMMON_SRC))
 $(A_CLI): $(call obj,$(filter-out src/cli/main.c,$(CLI_SRC)))
 $(A_MQTT): $(call obj,$(MQTT_SRC))
 $(A_SVC): $(call obj,$(SVC_SRC))
+$(A_AGILITY): $(call obj,$(AGILITY_SRC))
 
 # An archive with no members still needs one object to be a valid archive.
 $(INTERNAL_ARCHIVES): | $(O)/obj/empty.o
@@ -531,7 +536,7 @@ $(O)/examples/%: examples/%.c $(LIBSL_A)
 
 FUZZ_CC    ?= clang
 FUZZ_O     := build/fuzz
-FUZZ_LIBSRC:= $(PROTO_SRC) $(SHM_SRC) $(SVC_SRC) $(DAEMON_SRC)
+FUZZ_LIBSRC:= $(PROTO_SRC) $(SHM_SRC) $(SVC_SRC) $(DAEMON_SRC) $(AGILITY_SRC)
 FUZZ_NAMES := $(patsubst tests/fuzz/fuzz_%.c,%,$(FUZZ_SRC))
 
 fuzz:

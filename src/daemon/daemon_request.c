@@ -10,6 +10,7 @@
 
 #include "daemon/daemon_internal.h"
 #include "daemon/daemon_out.h"
+#include "proto/request.h"
 #include "shm/table.h"
 
 static void request_stats(struct daemon *d, struct control_request *req)
@@ -52,47 +53,40 @@ static struct daemon_link *link_by_name(struct daemon *d, const char *name)
 }
 
 /* "record LINK": answered by the link's recorders until the client leaves (recorder.h). */
-static void request_record(struct daemon *d, struct control_request *req, int argc, char **argv)
+static void request_record(struct daemon *d, struct control_request *req,
+                           const struct reqp_request *r)
 {
-        struct daemon_link *dl;
-        int r;
+        struct daemon_link *dl = link_by_name(d, r->link);
+        int rc;
 
-        if (argc != 2) {
-                control_reply_error(req, EINVAL, "usage: record LINK");
-                return;
-        }
-        dl = link_by_name(d, argv[1]);
         if (!dl) {
-                control_reply_error(req, ENOENT, "no link named \"%s\"", argv[1]);
+                control_reply_error(req, ENOENT, "no link named \"%s\"", r->link);
                 return;
         }
-        r = recorder_add(dl->tap, req);
-        if (r == -EBUSY)
-                control_reply_error(req, EBUSY, "link %s has %u recorders already", argv[1],
+        rc = recorder_add(dl->tap, req);
+        if (rc == -EBUSY)
+                control_reply_error(req, EBUSY, "link %s has %u recorders already", r->link,
                                     RECORDER_PER_LINK_MAX);
-        else if (r < 0)
-                control_reply_error(req, -r, "cannot record link %s: %s", argv[1], strerror(-r));
+        else if (rc < 0)
+                control_reply_error(req, -rc, "cannot record link %s: %s", r->link,
+                                    strerror(-rc));
 }
 
-/* "<command word> LINK ... [wait=MS]": the wait is parsed here, once, for every engine. */
-static void request_link(struct daemon *d, struct control_request *req, int argc, char **argv,
-                         enum config_protocol protocol)
+/* "<command word> LINK ... [wait=MS]", decoded: to the engine of LINK. */
+static void request_link(struct daemon *d, struct control_request *req,
+                         const struct reqp_request *r)
 {
-        char err[DAEMON_ERROR_MAX];
+        const char *verb = reqp_verb(r->kind);
+        enum config_protocol protocol;
         struct daemon_link *dl;
-        unsigned wait_ms;
 
-        if (argc < 3) {
-                control_reply_error(req, EINVAL, "usage: %s LINK ...", argv[0]);
+        if (link_protocol_for_command(verb, &protocol) < 0) {
+                control_reply_error(req, EINVAL, "unknown request \"%s\"", verb);
                 return;
         }
-        if (link_command_wait(&argc, argv, &wait_ms, err, sizeof(err)) < 0) {
-                control_reply_error(req, EINVAL, "%s", err);
-                return;
-        }
-        dl = link_by_name(d, argv[1]);
+        dl = link_by_name(d, r->link);
         if (!dl) {
-                control_reply_error(req, ENOENT, "no link named \"%s\"", argv[1]);
+                control_reply_error(req, ENOENT, "no link named \"%s\"", r->link);
                 return;
         }
         /* Well formed, for a link that exists: not a bad argument but an operation the link's
@@ -100,43 +94,46 @@ static void request_link(struct daemon *d, struct control_request *req, int argc
         if (dl->env.cfg->protocol != protocol) {
                 control_reply_error(req, EOPNOTSUPP, "link %s speaks %s: %s is for %s links "
                                     "(operation not supported on this link's protocol)",
-                                    argv[1], config_protocol_name(dl->env.cfg->protocol), argv[0],
+                                    r->link, config_protocol_name(dl->env.cfg->protocol), verb,
                                     config_protocol_name(protocol));
                 return;
         }
         if (!dl->engine) {
-                control_reply_error(req, ENOTCONN, "link %s is not running (%s)", argv[1],
+                control_reply_error(req, ENOTCONN, "link %s is not running (%s)", r->link,
                                     dl->failure);
                 return;
         }
         if (!dl->ops->command) {
-                control_reply_error(req, ENOSYS, "link %s takes no commands", argv[1]);
+                control_reply_error(req, ENOSYS, "link %s takes no commands", r->link);
                 return;
         }
-        dl->ops->command(dl->engine, req, argc, argv, wait_ms);
+        dl->ops->command(dl->engine, req, r);
 }
 
+/* Every request is decoded whole (proto/request.h) before a link is looked at. */
 void daemon_on_request(struct control_request *req, int argc, char **argv, void *arg)
 {
+        char err[REQP_ERR_MAX];
         struct daemon *d = arg;
-        enum config_protocol protocol;
+        struct reqp_request r;
 
-        if (strcmp(argv[0], "ping") == 0) {
-                if (argc != 1)
-                        control_reply_error(req, EINVAL, "usage: ping");
-                else
-                        control_reply_ok(req, "%ld %" PRIu64, (long)getpid(),
-                                         d->table ? shm_table_epoch(d->table) : 0);
-        } else if (strcmp(argv[0], "stats") == 0) {
-                if (argc != 1)
-                        control_reply_error(req, EINVAL, "usage: stats");
-                else
-                        request_stats(d, req);
-        } else if (strcmp(argv[0], "record") == 0) {
-                request_record(d, req, argc, argv);
-        } else if (link_protocol_for_command(argv[0], &protocol) == 0) {
-                request_link(d, req, argc, argv, protocol);
-        } else {
-                control_reply_error(req, EINVAL, "unknown request \"%s\"", argv[0]);
+        if (reqp_decode(argc, argv, &r, err, sizeof(err)) < 0) {
+                control_reply_error(req, EINVAL, "%s", err);
+                return;
+        }
+        switch (r.kind) {
+        case REQP_PING:
+                control_reply_ok(req, "%ld %" PRIu64, (long)getpid(),
+                                 d->table ? shm_table_epoch(d->table) : 0);
+                break;
+        case REQP_STATS:
+                request_stats(d, req);
+                break;
+        case REQP_RECORD:
+                request_record(d, req, &r);
+                break;
+        default:
+                request_link(d, req, &r);
+                break;
         }
 }

@@ -12,7 +12,7 @@
  * Data flows one way (DESIGN.md §1):
  *     channel input -> codec decode -> engine -> shm_table_set/commit, events, counters
  *     client write -> core (outbound scan) -> engine ->outbound() -> codec encode -> channel_send
- *     control command -> core -> engine ->command() -> ... -> control_reply_*()
+ *     control request -> core (reqp_decode) -> engine ->command() -> ... -> control_reply_*()
  *
  * Engines run on the core's event loop thread only; nothing here is thread-safe.
  */
@@ -26,7 +26,7 @@
 #include "daemon/channel.h"
 #include "daemon/config.h"
 #include "svc/evloop.h"
-#include "proto/control.h"
+#include "proto/request.h"
 #include "shm/layout.h"
 
 struct shm_table;
@@ -83,15 +83,15 @@ struct link_ops {
         const char *const *command_words;
 
         /*
-         * A control command addressed to this link (argv[0] one of command_words, argv[1] the link
-         * name). The core has already taken a trailing "wait=MS" off argv (link_command_wait()):
-         * wait_ms > 0 asks the engine to hold the request up to that long while the link is not
-         * ready (link_waitq_*), 0 to refuse it at once. The engine must eventually answer req
-         * exactly once with control_reply_ok() or control_reply_error() (it may send
+         * A control request addressed to this link (r->kind's verb one of command_words,
+         * r->link its name), decoded and checked by the core (proto/request.h). r->wait_ms > 0
+         * asks the engine to hold the request up to that long while the link is not ready
+         * (link_waitq_*), 0 to refuse it at once. The engine must eventually answer req exactly
+         * once with control_reply_ok() or control_reply_error() (it may send
          * control_reply_data() lines first), now or later, and always within a bounded time.
          */
-        void (*command)(void *engine, struct control_request *req, int argc, char **argv,
-                        unsigned wait_ms);
+        void (*command)(void *engine, struct control_request *req,
+                        const struct reqp_request *r);
 
         /* One line for `STATUS=` and logs: "up", "connecting", "down: hang-up" ... The core
          * counts a link as up when the first word of this text is "up". */
@@ -116,21 +116,6 @@ int link_protocol_for_command(const char *word, enum config_protocol *ret_protoc
 
 /* Whether word is one of ops' command_words. */
 bool link_ops_has_word(const struct link_ops *ops, const char *word);
-
-/* A number of milliseconds: decimal digits only, min..max; 0 or -EINVAL. */
-int link_parse_ms(const char *s, unsigned min, unsigned max, unsigned *ret);
-
-/* The wait=MS word belongs to the request grammar (proto/control.h). */
-#define LINK_WAIT_MAX_MS        CTLP_WAIT_MAX_MS
-#define LINK_WAIT_PREFIX        CTLP_WAIT_PREFIX
-
-/*
- * Takes a trailing "wait=MS" (MS decimal, 0..LINK_WAIT_MAX_MS) off a link command
- * ("WORD LINK ... wait=MS": only after the link name, only as the last word): 0 with *argc
- * reduced and *ret_wait_ms set (0 without one), or -EINVAL with a one-line reason in err.
- */
-int link_command_wait(int *argc, char *const *argv, unsigned *ret_wait_ms, char *err,
-                      size_t errsz);
 
 /*
  * Creates (stopped) the channel of env's link from its configuration (serial settings, devices,

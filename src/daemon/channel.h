@@ -28,7 +28,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "daemon/transport.h"
 
 #define CHANNEL_BACKOFF_MIN_MS  100     /* first retry delay */

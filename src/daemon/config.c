@@ -1,7 +1,7 @@
 /*
  * sharedlinkd configuration parser: the public entry points (config.h).
  *
- * The module is split along its stages (config_internal.h lists the files): the toolkit's reader
+ * The module is split along its stages (config_ctx.h lists the files): the toolkit's reader
  * (svc/conf.h) turns the file into a tree of nodes with positions, config_schema.c and
  * config_peer.c walk the tree mapping by mapping into struct config with the toolkit's and
  * config_value.c's scalar readers, and config_check.c checks what spans several keys or links.
@@ -16,17 +16,19 @@
  * parse_peer_plain() reads it. Any other key gets its index and name in its table, and is read
  * in that mapping's function with a cfg_get_*() (svc/conf.h or config_value.c: it gives the
  * type, range and message); its default goes where the others' are set. Then add its field to
- * config.h (and to config_link_equal() below if it is a link's setting, so that a reload sees
+ * config_types.h (and to config_link_equal() below if it is a link's setting, so that a reload sees
  * the change), document it in conf/sharedlinkd.yaml, and test it in tests/unit/test_config.c. A
  * check that involves other keys or links goes to config_check.c.
  */
-#include "daemon/config_internal.h"
+#include "daemon/config.h"
 
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "daemon/config_ctx.h"
+#include "daemon/config_schema.h"
 #include "svc/io.h"
 
 /* ---------------------------------------------------------------------------------------------

@@ -1,11 +1,12 @@
 /*
- * The config module's checks that need more than one key (config_internal.h): whether a pronto4
+ * The config module's checks that need more than one key (config_check.h): whether a pronto4
  * peer's lists fit one frame, and the checks across links once all are read.
  */
-#include "daemon/config_internal.h"
-#include "proto/sharedlink.h"
+#include "daemon/config_check.h"
 
 #include <string.h>
+
+#include "proto/sharedlink.h"
 
 #define SOCKET_SUFFIX           ".sock"
 

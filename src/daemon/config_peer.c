@@ -1,21 +1,26 @@
 /*
- * The config module's mappings inside a link (config_internal.h): variables, SharedLink peers
- * (with the Pronto4 dialect's keys) and CIRCE emulated devices. Each mapping has its key table
- * (an enum of indices and their names) next to the function that reads it.
+ * The config module's mappings inside a link (config_peer.h; config_ctx.h lists the module's
+ * files): variables, SharedLink peers (with the Pronto4 dialect's keys) and CIRCE emulated
+ * devices. Each mapping has its key table (an enum of indices and their names) next to the
+ * function that reads it.
  */
-    #include "daemon/config_internal.h"
+#include "daemon/config_peer.h"
 
-    #include <errno.h>
-    #include <stddef.h>
-    #include <stdlib.h>
-    #include <string.h>
+#include <errno.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "daemon/config_check.h"
+#include "daemon/config_names.h"
+#include "daemon/config_value.h"
 
 /* ---------------------------------------------------------------------------------------------
  * Variables */
 
-    static int var_name_check(struct ctx *c, const struct conf_node *n, const char *name)
-    {
-    for (size_t i = 0; name[i]; i++)
+static int var_name_check(struct ctx *c, const struct conf_node *n, const char *name)
+{
+        for (size_t i = 0; name[i]; i++)
                 if (!cfg_is_name_char(name[i], true))
                         return cfg_fail(c, n, "variable name %s: invalid character %s (allowed: "
                                         "letters, digits, _ . -)", cfg_quote_node(c, n),

@@ -1,11 +1,17 @@
 /*
- * The config module's top level and links (config_internal.h): their key tables, where each
- * link key applies (protocol, role, transport), and what each key sets.
+ * The config module's top level and links (config_schema.h; config_ctx.h lists the module's
+ * files): their key tables, where each link key applies (protocol, role, transport), and what
+ * each key sets.
  */
-#include "daemon/config_internal.h"
+#include "daemon/config_schema.h"
 
 #include <stdlib.h>
 #include <string.h>
+
+#include "daemon/config_check.h"
+#include "daemon/config_names.h"
+#include "daemon/config_peer.h"
+#include "daemon/config_value.h"
 
 /* ---------------------------------------------------------------------------------------------
  * Links */

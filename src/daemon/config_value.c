@@ -1,9 +1,9 @@
 /*
- * sharedlinkd's own scalar values (config_internal.h): each cfg_get_*() takes one node and the
+ * sharedlinkd's own scalar values (config_value.h): each cfg_get_*() takes one node and the
  * key it belongs to, and either stores the value or reports why not, on top of the toolkit's
  * generic readers (svc/conf.h: strings, integers, booleans, enums, paths).
  */
-#include "daemon/config_internal.h"
+#include "daemon/config_value.h"
 
 #include <arpa/inet.h>
 #include <errno.h>
@@ -11,49 +11,6 @@
 #include <string.h>
 
 #include "proto/sharedlink.h"
-
-#define ENUM_COUNT(t)           (sizeof(t) / sizeof((t)[0]))
-
-static const struct conf_enum_name protocol_names[] = {
-        { "sharedlink", CONFIG_PROTOCOL_SHAREDLINK },
-        { "circe", CONFIG_PROTOCOL_CIRCE },
-};
-const struct conf_enum cfg_protocols = { protocol_names, ENUM_COUNT(protocol_names) };
-static const struct conf_enum_name transport_names[] = {
-        { "serial", CONFIG_TRANSPORT_SERIAL },
-        { "udp", CONFIG_TRANSPORT_UDP },
-        { "pty", CONFIG_TRANSPORT_PTY },
-        { "replay", CONFIG_TRANSPORT_REPLAY },
-};
-const struct conf_enum cfg_transports = { transport_names, ENUM_COUNT(transport_names) };
-static const struct conf_enum_name role_names[] = {
-        { "controller", CONFIG_ROLE_CONTROLLER },
-        { "mediator", CONFIG_ROLE_MEDIATOR },
-};
-const struct conf_enum cfg_roles = { role_names, ENUM_COUNT(role_names) };
-static const struct conf_enum_name parity_names[] = {
-        { "none", CONFIG_PARITY_NONE },
-        { "even", CONFIG_PARITY_EVEN },
-        { "odd", CONFIG_PARITY_ODD },
-};
-const struct conf_enum cfg_parities = { parity_names, ENUM_COUNT(parity_names) };
-static const struct conf_enum_name flow_names[] = {
-        { "none", CONFIG_FLOW_NONE },
-        { "rtscts", CONFIG_FLOW_RTSCTS },
-        { "xonxoff", CONFIG_FLOW_XONXOFF },
-};
-const struct conf_enum cfg_flows = { flow_names, ENUM_COUNT(flow_names) };
-static const struct conf_enum_name dialect_names[] = {
-        { "bulletin", CONFIG_DIALECT_BULLETIN },
-        { "pronto4", CONFIG_DIALECT_PRONTO4 },
-};
-const struct conf_enum cfg_dialects = { dialect_names, ENUM_COUNT(dialect_names) };
-static const struct conf_enum_name var_type_names[] = {
-        { "string", CONFIG_VAR_STRING },
-        { "long", CONFIG_VAR_LONG },
-        { "double", CONFIG_VAR_DOUBLE },
-};
-const struct conf_enum cfg_var_types = { var_type_names, ENUM_COUNT(var_type_names) };
 
 bool cfg_is_name_char(char ch, bool dot)
 {
@@ -219,31 +176,4 @@ int cfg_get_endpoint(struct ctx *c, const char *key, const struct conf_node *n, 
 bad:
         return cfg_fail(c, n, "%s: bad address %s (expected IPV4:PORT, [IPV6]:PORT or "
                         "localhost:PORT)", key, cfg_quote_node(c, n));
-}
-
-const char *config_protocol_name(enum config_protocol protocol)
-{
-        return conf_enum_name(&cfg_protocols, (int)protocol);
-}
-
-const char *config_transport_name(enum config_transport transport)
-{
-        return conf_enum_name(&cfg_transports, (int)transport);
-}
-
-const char *config_role_name(enum config_role role)
-{
-        if (role == CONFIG_ROLE_NONE)
-                return "none";
-        return conf_enum_name(&cfg_roles, (int)role);
-}
-
-const char *config_var_type_name(enum config_var_type type)
-{
-        return conf_enum_name(&cfg_var_types, (int)type);
-}
-
-const char *config_dialect_name(enum config_dialect dialect)
-{
-        return conf_enum_name(&cfg_dialects, (int)dialect);
 }

@@ -41,7 +41,7 @@
 #include <stdint.h>
 #include <sys/types.h>
 
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "proto/control.h"
 
 #define CONTROL_CLIENTS_MAX     64      /* connections at once */

@@ -111,8 +111,8 @@ struct daemon *daemon_free(struct daemon *d)
         return NULL;
 }
 
-int daemon_new(struct evloop *loop, struct notify *notify, const char *config_path,
-               struct config *config, struct daemon **ret_daemon)
+int daemon_new(struct service *svc, const char *config_path, struct config *config,
+               struct daemon **ret_daemon)
 {
         char err[DAEMON_ERROR_MAX];
         struct daemon *d = calloc(1, sizeof(*d));
@@ -123,8 +123,8 @@ int daemon_new(struct evloop *loop, struct notify *notify, const char *config_pa
                 config_free(config);
                 return -ENOMEM;
         }
-        d->loop = loop;
-        d->notify = notify;
+        d->svc = svc;
+        d->loop = service_loop(svc);
         daemon_out_init(d);
         daemon_status_init(d);
         d->dc = daemon_config_new(config);
@@ -267,7 +267,6 @@ int daemon_reload(struct daemon *d)
         bool same_tables, same_socket;
         int r;
 
-        notify_reloading(d->notify);
         log_notice("reload: reading %s", d->config_path);
         memset(&np, 0, sizeof(np));
         r = config_load_file(d->config_path, &nc, &cerr);

@@ -6,13 +6,14 @@
  *   config -> shm tables (every link's declared variables, group from the config)
  *          -> control socket <runtime_dir>/<instance>.sock (runtime_dir made 0755 if missing)
  *          -> links (ops->create for each; one that cannot start is reported, never fatal)
- *          -> outbound wake fd on the loop -> heartbeat (and watchdog) timers -> STATUS, READY=1
+ *          -> outbound wake fd on the loop -> heartbeat timer -> STATUS, READY=1 (the service
+ *          has the loop, the signals and the watchdog: svc/service.h)
  *
  * runtime_dir: the config's when the file sets it; otherwise $SHAREDLINK_RUNTIME_DIR when set
  * (absolute), else the default /run/sharedlink. Tests and unprivileged runs use the variable.
  *
- * Reload (SIGHUP, daemon_reload): RELOADING=1, then the file is read and checked as at start; a
- * bad one keeps the running configuration untouched (an error is logged). Then:
+ * Reload (SIGHUP, daemon_reload; the service sent RELOADING=1): the file is read and checked
+ * as at start; a bad one keeps the running configuration untouched (an error is logged). Then:
  *   - the tables are kept when the variables every link declares (names, directions, types,
  *     peers, positions), the link names and protocols, the instance and the group are all
  *     unchanged: only the links whose settings changed (config_link_equal) are stopped and
@@ -31,8 +32,7 @@
 
 #include "daemon/config.h"
 #include "daemon/daemon_plan.h"        /* DAEMON_ERROR_MAX */
-#include "daemon/evloop.h"
-#include "svc/notify.h"
+#include "svc/service.h"
 
 struct daemon;
 
@@ -45,12 +45,12 @@ struct daemon;
 int daemon_check_config(const struct config *config, char *err, size_t errsz);
 
 /*
- * Starts an instance on loop from config (taken over: freed on failure too); config_path is
- * read again by daemon_reload(). Sends STATUS= and READY=1 through notify. 0 or -errno (logged).
- * The caller adds its signals to the loop first: this starts a thread (the outbound wake).
+ * Starts an instance on the service's loop from config (taken over: freed on failure too);
+ * config_path is read again by daemon_reload(). Sends STATUS= and READY=1 through the service.
+ * 0 or -errno (logged). It starts a thread (the outbound wake): the service blocked the signals.
  */
-int daemon_new(struct evloop *loop, struct notify *notify, const char *config_path,
-               struct config *config, struct daemon **ret_daemon);
+int daemon_new(struct service *svc, const char *config_path, struct config *config,
+               struct daemon **ret_daemon);
 
 /* Reloads the configuration file (see above). Never stops the daemon for a bad file; returns 0,
  * or -errno when the new configuration was refused or could not be applied. */

@@ -3,7 +3,7 @@
  *
  * daemon.c             start, stop and reload: the order of everything below (daemon.h)
  * daemon_out.c         outbound routing: client writes -> the engine of the variable's link
- * daemon_status.c      STATUS=, the heartbeat (shm, engines, recorders), the watchdog
+ * daemon_status.c      STATUS=, the heartbeat (shm, engines, recorders)
  * daemon_request.c     control requests the core answers, and routing to the engines
  *
  * They build on modules that know nothing of struct daemon: daemon_config.h (reference-counted
@@ -19,18 +19,19 @@
 #include "daemon/daemon_config.h"
 #include "daemon/daemon_link.h"
 #include "daemon/daemon_plan.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "daemon/recorder.h"
 #include "daemon/stages.h"
 #include "svc/log.h"
 #include "svc/notify.h"
+#include "svc/service.h"
 
 struct control;
 struct shm_table;
 
 struct daemon {
-        struct evloop *loop;
-        struct notify *notify;
+        struct service *svc;
+        struct evloop *loop;            /* the service's */
         char *config_path;
         struct daemon_config *dc;       /* in force */
         struct daemon_plan plan;        /* of dc */
@@ -45,10 +46,8 @@ struct daemon {
         struct stages out_stages;
         uint64_t wake_stamps[2];
         struct evloop_timer heartbeat;
-        struct evloop_timer watchdog;
         struct log_ratelimit out_rl;    /* outbound object trouble */
         struct recorder_stats rec_stats;        /* every link's recorders */
-        char status[NOTIFY_STATUS_MAX];
 };
 
 #endif

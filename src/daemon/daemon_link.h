@@ -11,7 +11,7 @@
 
 #include "daemon/daemon_config.h"
 #include "daemon/daemon_plan.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "daemon/link.h"
 #include "daemon/recorder.h"
 

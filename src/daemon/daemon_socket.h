@@ -7,7 +7,7 @@
 
 #include "daemon/control.h"
 #include "daemon/daemon_plan.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 
 #define DAEMON_RUNTIME_DIR_MODE 0755
 

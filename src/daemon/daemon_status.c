@@ -1,9 +1,8 @@
 /*
- * Status, heartbeat, watchdog (daemon_status.h).
+ * Status and heartbeat (daemon_status.h).
  */
 #include "daemon/daemon_status.h"
 
-#include <inttypes.h>
 #include <stdio.h>
 #include <string.h>
 
@@ -33,17 +32,8 @@ void daemon_status(struct daemon *d, bool ready)
         for (char *p = buf; *p; p++)
                 if (*p == '\n' || *p == '\r')
                         *p = ' ';
-        if (ready) {
-                char msg[NOTIFY_MESSAGE_MAX];
-
-                snprintf(msg, sizeof(msg), "READY=1\nSTATUS=%s", buf);
-                notify_send(d->notify, msg);
-        } else if (strcmp(buf, d->status) != 0) {
-                notify_status(d->notify, "%s", buf);
-        }
-        if (strcmp(buf, d->status) != 0)
+        if (ready ? service_ready(d->svc, buf) : service_status(d->svc, buf))
                 log_info("status: %s", buf);
-        snprintf(d->status, sizeof(d->status), "%s", buf);
 }
 
 static void daemon_on_heartbeat(struct evloop *loop, struct evloop_timer *t, void *arg)
@@ -70,41 +60,17 @@ static void daemon_on_heartbeat(struct evloop *loop, struct evloop_timer *t, voi
         daemon_status(d, false);
 }
 
-/* From the loop, so that a stuck loop stops the pings and systemd notices. */
-static void daemon_on_watchdog(struct evloop *loop, struct evloop_timer *t, void *arg)
-{
-        struct daemon *d = arg;
-
-        (void)loop;
-        (void)t;
-        notify_watchdog(d->notify);
-}
-
 void daemon_status_init(struct daemon *d)
 {
         evloop_timer_init(&d->heartbeat, d->loop, daemon_on_heartbeat, d);
-        evloop_timer_init(&d->watchdog, d->loop, daemon_on_watchdog, d);
 }
 
 int daemon_status_start(struct daemon *d)
 {
-        uint64_t wd = notify_watchdog_interval_ms(d->notify);
-        int r;
-
-        r = evloop_timer_arm(&d->heartbeat, DAEMON_HEARTBEAT_MS, DAEMON_HEARTBEAT_MS);
-        if (r < 0)
-                return r;
-        if (wd > 0) {
-                r = evloop_timer_arm(&d->watchdog, wd, wd);
-                if (r < 0)
-                        return r;
-                log_info("watchdog: WATCHDOG=1 every %" PRIu64 " ms", wd);
-        }
-        return 0;
+        return evloop_timer_arm(&d->heartbeat, DAEMON_HEARTBEAT_MS, DAEMON_HEARTBEAT_MS);
 }
 
 void daemon_status_stop(struct daemon *d)
 {
-        evloop_timer_cancel(&d->watchdog);
         evloop_timer_cancel(&d->heartbeat);
 }

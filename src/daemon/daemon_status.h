@@ -1,7 +1,7 @@
 /*
  * The instance's pulse: the heartbeat timer (the shm table's heartbeat, each engine's, the
- * recorders' sweep, then STATUS=) and, when systemd asks for one, the watchdog timer, both on
- * the loop, so that a stuck loop shows.
+ * recorders' sweep, then STATUS=) on the loop, so that a stuck loop shows. (The watchdog is the
+ * service's: svc/service.h.)
  */
 #ifndef SHAREDLINK_DAEMON_DAEMON_STATUS_H
 #define SHAREDLINK_DAEMON_DAEMON_STATUS_H
@@ -10,13 +10,13 @@
 
 struct daemon;
 
-/* Sets the timers up, not armed. */
+/* Sets the timer up, not armed. */
 void daemon_status_init(struct daemon *d);
 
-/* Arms the heartbeat and (when the service manager wants one) the watchdog. 0 or -errno. */
+/* Arms the heartbeat. 0 or -errno. */
 int daemon_status_start(struct daemon *d);
 
-/* Disarms both. */
+/* Disarms it. */
 void daemon_status_stop(struct daemon *d);
 
 /*

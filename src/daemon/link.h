@@ -25,7 +25,7 @@
 
 #include "daemon/channel.h"
 #include "daemon/config.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "proto/request.h"
 #include "shm/layout.h"
 

@@ -1,6 +1,7 @@
 /*
- * sharedlinkd: command line, then init in a fixed order (log, config, loop, notify, signals,
- * instance), run, teardown in exact reverse. See daemon.h for what the instance does.
+ * sharedlinkd: command line, then init in a fixed order (log, config, service: loop, notify,
+ * signals, watchdog; instance), run, teardown in exact reverse. See daemon.h for what the
+ * instance does, svc/service.h for the signals and the exit status.
  *
  *   sharedlinkd [-c FILE] [-n] [-v] [-V]
  *
@@ -8,40 +9,21 @@
  * status: 0 after a clean stop (SIGTERM, SIGINT) or a good -n check, 1 on a bad configuration or
  * a failed start, 2 on a usage error.
  */
-#include <signal.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "daemon/config.h"
 #include "daemon/daemon.h"
-#include "daemon/evloop.h"
 #include "svc/log.h"
-#include "svc/notify.h"
 #include "svc/service.h"
 
 #define MAIN_CONFIG_DEFAULT     "/etc/sharedlink/sharedlinkd.yaml"
 
-struct main_ctx {
-        struct daemon *daemon;
-        struct notify *notify;
-};
-
-static void on_stop(struct evloop *loop, int signo, void *arg)
+static void on_reload(void *arg)
 {
-        struct main_ctx *ctx = arg;
+        struct daemon **daemon = arg;
 
-        log_notice("%s: stopping", strsignal(signo));
-        notify_stopping(ctx->notify);
-        evloop_exit(loop, 0);
-}
-
-static void on_reload(struct evloop *loop, int signo, void *arg)
-{
-        struct main_ctx *ctx = arg;
-
-        (void)loop;
-        (void)signo;
-        daemon_reload(ctx->daemon);
+        daemon_reload(*daemon);
 }
 
 /* -n: what the parser and daemon_check_config() say; nothing is created. */
@@ -55,13 +37,13 @@ static int check_only(const char *path)
         r = config_load_file(path, &config, &cerr);
         if (r < 0) {
                 fprintf(stderr, "%s\n", cerr.message);
-                return 1;
+                return SERVICE_EXIT_FAILURE;
         }
         r = daemon_check_config(config, err, sizeof(err));
         config_free(config);
         if (r < 0) {
                 fprintf(stderr, "%s: %s\n", path, err);
-                return 1;
+                return SERVICE_EXIT_FAILURE;
         }
         return service_check_ok();
 }
@@ -72,60 +54,36 @@ int main(int argc, char **argv)
                 .name = "sharedlinkd", .version = SHAREDLINK_VERSION,
                 .config_default = MAIN_CONFIG_DEFAULT, .check = check_only,
         };
+        static const struct service_ops ops = { .reload = on_reload };
         struct service_args args;
-        struct main_ctx ctx = { 0 };
         struct config_error cerr;
         struct config *config;
-        struct evloop *loop = NULL;
-        const char *path;
-        int r, code = 1;
+        struct daemon *daemon = NULL;
+        struct service *svc;
+        int r;
 
         r = service_args(&desc, argc, argv, &args);
         if (r != SERVICE_CONTINUE)
                 return r;
-        path = args.config;
         service_start(&args);
-        r = config_load_file(path, &config, &cerr);
+        r = config_load_file(args.config, &config, &cerr);
         if (r < 0) {
                 log_msg(LOG_PRIO_ERR, "%s", cerr.message);
-                return 1;
+                return SERVICE_EXIT_FAILURE;
         }
-        log_notice("sharedlinkd %s starting, configuration %s", SHAREDLINK_VERSION, path);
-
-        r = evloop_new(&loop);
-        if (r < 0) {
-                log_msg(LOG_PRIO_ERR, "event loop: %s", strerror(-r));
+        log_notice("sharedlinkd %s starting, configuration %s", SHAREDLINK_VERSION, args.config);
+        if (service_new(&desc, &ops, &daemon, &svc) < 0) {
                 config_free(config);
-                return 1;
+                return SERVICE_EXIT_FAILURE;
         }
-        r = notify_new(&ctx.notify);
-        if (r < 0) {
-                config_free(config);
-                goto out_loop;
-        }
-        /* Signals before daemon_new(): it starts a thread, which must inherit the blocked mask. */
-        if ((r = evloop_add_signal(loop, SIGTERM, on_stop, &ctx)) < 0 ||
-            (r = evloop_add_signal(loop, SIGINT, on_stop, &ctx)) < 0 ||
-            (r = evloop_add_signal(loop, SIGHUP, on_reload, &ctx)) < 0) {
-                log_msg(LOG_PRIO_ERR, "signals: %s", strerror(-r));
-                config_free(config);
-                goto out_notify;
-        }
-        r = daemon_new(loop, ctx.notify, path, config, &ctx.daemon);
+        r = daemon_new(svc, args.config, config, &daemon);
         if (r < 0) {
                 log_msg(LOG_PRIO_ERR, "start failed: %s", strerror(-r));
-                goto out_notify;
+                service_free(svc);
+                return SERVICE_EXIT_FAILURE;
         }
-        r = evloop_run(loop);
-        if (r < 0)
-                log_msg(LOG_PRIO_ERR, "event loop: %s", strerror(-r));
-        code = r == 0 ? 0 : 1;
-        ctx.daemon = daemon_free(ctx.daemon);
-        if (code == 0)
-                log_notice("stopped");
-out_notify:
-        ctx.notify = notify_free(ctx.notify);
-out_loop:
-        loop = evloop_free(loop);
-        return code;
+        r = service_run(svc);
+        daemon = daemon_free(daemon);
+        service_free(svc);
+        return r;
 }

@@ -10,7 +10,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "svc/log.h"
 #include "proto/recording.h"
 

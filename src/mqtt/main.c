@@ -4,24 +4,22 @@
  *
  *   sharedlink-mqtt [-c FILE] [-n] [-v] [-V]
  *
- * One thread runs everything (the tables, libmosquitto, the cursor) from one poll loop. A
- * second, tiny thread only sleeps in sl_wait (a futex, which poll cannot watch) and rings an
- * eventfd when the tables changed. Always in the foreground, logging to stderr with <N>
- * priority prefixes. Exit status: 0 after a clean stop (SIGTERM, SIGINT) or a good -n check, 1 on
- * a bad configuration or a failed start, 2 on a usage error.
+ * One thread runs everything (the tables, libmosquitto, the cursor) on the service's event loop
+ * (svc/service.h, svc/evloop.h). A second, tiny thread only sleeps in sl_wait (a futex, which
+ * poll cannot watch) and rings an eventfd when the tables changed. Init: log, configuration,
+ * service (loop, notify, signals, watchdog), bridge, MQTT client, eventfd; teardown in reverse.
+ * A stop drains (drain_ms); SIGHUP has no reload here (logged). Always in the foreground,
+ * logging to stderr with <N> priority prefixes. Exit status: 0 after a clean stop (SIGTERM,
+ * SIGINT) or a good -n check, 1 on a bad configuration or a failed start, 2 on a usage error.
  */
 #include <errno.h>
-#include <inttypes.h>
 #include <poll.h>
 #include <pthread.h>
-#include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/eventfd.h>
-#include <sys/signalfd.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <mosquitto.h>
@@ -32,7 +30,6 @@
 #include "mqtt/bridge_format.h"
 #include "mqtt/bridge_mqtt.h"
 #include "svc/log.h"
-#include "svc/notify.h"
 #include "svc/service.h"
 
 #define NS_PER_MS               1000000ull
@@ -48,34 +45,27 @@
 
 struct main_ctx {
         struct bridge_config cfg;
+        struct service *svc;
+        struct evloop *loop;            /* the service's */
         struct bridge *b;
         struct bridge_mqtt *bm;
-        struct notify *notify;
-        int sig_fd, wake_fd;
+        int wake_fd;
+        int sock_fd;                    /* libmosquitto's socket as watched on the loop, or -1 */
+        struct evloop_timer step;       /* the next thing due (see turn()) */
         pthread_t waker;
         bool waker_running;
         atomic_bool stop_waker;
-        bool stopping;
+        bool ready;
         uint64_t stop_deadline_ns;
         unsigned attach_ms;
         uint64_t attach_ns;             /* next sl_open attempt */
         uint64_t tick_ns;
         uint64_t sync_ns;               /* next fsync of the cursor */
-        uint64_t watchdog_ns, watchdog_interval_ns;
         uint64_t stats_version;
         bool dirty;                     /* the tables changed since the last scan */
-        char status[STATUS_MAX];
 };
 
-static uint64_t now_ns(void)
-{
-        struct timespec ts;
-
-        clock_gettime(CLOCK_MONOTONIC, &ts);
-        return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
-
-/* Sleeps on the change word; every change rings the eventfd the poll loop watches. */
+/* Sleeps on the change word; every change rings the eventfd the loop watches. */
 static void *waker_main(void *arg)
 {
         struct main_ctx *ctx = arg;
@@ -119,23 +109,26 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
         ctx->dirty = true;
 }
 
+/* STATUS= (with READY=1 the first time): only states and reasons, no counts, since sd_notify
+ * blocks when nobody reads fast enough and a count would change with every event. */
 static void status_update(struct main_ctx *ctx)
 {
+        const char *why = bridge_mqtt_error(ctx->bm);
         char s[STATUS_MAX];
 
-        /* Only states and reasons, no counts: sd_notify blocks when nobody reads fast enough,
-         * and a count would change with every event. */
-        const char *why = bridge_mqtt_error(ctx->bm);
-
-        snprintf(s, sizeof(s), "STATUS=broker %s%s%s%s, sharedlinkd %s",
+        snprintf(s, sizeof(s), "broker %s%s%s%s, sharedlinkd %s",
                  bridge_mqtt_connected(ctx->bm) ? "connected" : "disconnected",
                  why[0] ? " (" : "", why, why[0] ? ")" : "",
                  !bridge_attached(ctx->b) ? "not found" :
                  !strcmp(bridge_status(ctx->b), "online") ? "running" : "not running");
-        if (strcmp(s, ctx->status) != 0) {
-                memcpy(ctx->status, s, sizeof(s));
-                notify_send(ctx->notify, s);
+        if (ctx->ready) {
+                service_status(ctx->svc, s);
+                return;
         }
+        /* Ready once the configuration is in and the first attempts were made: a broker or
+         * daemon that is down is retried, not fatal. */
+        service_ready(ctx->svc, s);
+        ctx->ready = true;
 }
 
 static void publish_stats(struct main_ctx *ctx)
@@ -169,7 +162,7 @@ static void work(struct main_ctx *ctx, uint64_t now)
                 if (bridge_scan(ctx->b, sink, fresh) >= 0)
                         ctx->dirty = false;
         }
-        if (!ctx->stopping)
+        if (!service_stopping(ctx->svc))
                 bridge_pump(ctx->b, sink);
         if (tick || fresh)
                 publish_stats(ctx);
@@ -186,19 +179,16 @@ static void cursor_work(struct main_ctx *ctx, uint64_t now)
                 bridge_cursor_flush(ctx->b, true);
 }
 
-static int timeout_ms(struct main_ctx *ctx, uint64_t now)
+static uint64_t timeout_ms(struct main_ctx *ctx, uint64_t now)
 {
-        uint64_t at = ctx->tick_ns;
-        int t, m;
+        uint64_t at = ctx->tick_ns, t, m;
 
         if (!bridge_attached(ctx->b) && ctx->attach_ns < at)
                 at = ctx->attach_ns;
-        if (ctx->watchdog_interval_ns && ctx->watchdog_ns < at)
-                at = ctx->watchdog_ns;
-        if (ctx->stopping && ctx->stop_deadline_ns < at)
+        if (service_stopping(ctx->svc) && ctx->stop_deadline_ns < at)
                 at = ctx->stop_deadline_ns;
-        t = at <= now ? 0 : (int)((at - now + NS_PER_MS - 1u) / NS_PER_MS);
-        m = bridge_mqtt_timeout_ms(ctx->bm, now);
+        t = at <= now ? 0 : (at - now + NS_PER_MS - 1u) / NS_PER_MS;
+        m = (uint64_t)bridge_mqtt_timeout_ms(ctx->bm, now);
         return m < t ? m : t;
 }
 
@@ -209,68 +199,108 @@ static bool drained(struct main_ctx *ctx, uint64_t now)
                !bridge_mqtt_connected(ctx->bm);
 }
 
-static void on_signal(struct main_ctx *ctx, uint64_t now)
-{
-        struct signalfd_siginfo si;
+static void on_socket(struct evloop *loop, int fd, unsigned revents, void *arg);
 
-        if (read(ctx->sig_fd, &si, sizeof(si)) != sizeof(si) || ctx->stopping)
-                return;
-        log_msg(LOG_PRIO_NOTICE, "%s: stopping (%u events to be acknowledged)",
-                strsignal((int)si.ssi_signo), bridge_unacked(ctx->b));
-        notify_stopping(ctx->notify);
-        ctx->stopping = true;
-        ctx->stop_deadline_ns = now + ctx->cfg.drain_ms * NS_PER_MS;
+/* Watches libmosquitto's socket as it is now: another one after a reconnection, POLLOUT only
+ * while output is queued. */
+static int watch_socket(struct main_ctx *ctx)
+{
+        unsigned events = POLLIN | (bridge_mqtt_want_write(ctx->bm) ? POLLOUT : 0u);
+        int fd = bridge_mqtt_fd(ctx->bm), r;
+
+        if (fd == ctx->sock_fd && fd >= 0) {
+                r = evloop_mod_fd(ctx->loop, fd, events);
+                if (r != -ENOENT)       /* -ENOENT: dropped by the loop after POLLNVAL */
+                        return r;
+        } else if (ctx->sock_fd >= 0) {
+                evloop_del_fd(ctx->loop, ctx->sock_fd);
+        }
+        ctx->sock_fd = -1;
+        if (fd < 0)
+                return 0;
+        r = evloop_add_fd(ctx->loop, fd, events, on_socket, ctx);
+        if (r == 0)
+                ctx->sock_fd = fd;
+        return r;
 }
 
-static int run(struct main_ctx *ctx)
+/*
+ * What the loop does between two waits, in this order: attach to sharedlinkd, connect to the
+ * broker, publish, flush the cursor, end a drained stop, report the status; then watch the
+ * socket and sleep until the next thing due (tick, attach retry, broker keepalive or backoff,
+ * drain deadline). It runs after every socket event (step()) and from the step timer; the
+ * eventfd and the stop signal only arm that timer, so the socket's readiness is never used
+ * after a turn that may have replaced the socket.
+ */
+static void turn(struct main_ctx *ctx)
 {
-        bool ready = false;
+        uint64_t now = evloop_clock_ns();
+        int r;
 
-        for (;;) {
-                uint64_t now = now_ns();
-                struct pollfd p[3];
-                int fd, n;
-
-                attach_due(ctx, now);
-                if (!ctx->stopping)
-                        bridge_mqtt_connect_due(ctx->bm, now);
-                work(ctx, now);
-                cursor_work(ctx, now);
-                if (ctx->stopping && drained(ctx, now))
-                        break;
-                status_update(ctx);
-                if (!ready) {
-                        /* Ready once the configuration is in and the first attempts were made:
-                         * a broker or daemon that is down is retried, not fatal. */
-                        notify_ready(ctx->notify);
-                        ready = true;
-                }
-                if (ctx->watchdog_interval_ns && now >= ctx->watchdog_ns) {
-                        notify_watchdog(ctx->notify);
-                        ctx->watchdog_ns = now + ctx->watchdog_interval_ns;
-                }
-                fd = bridge_mqtt_fd(ctx->bm);
-                p[0] = (struct pollfd){ .fd = ctx->sig_fd, .events = POLLIN };
-                p[1] = (struct pollfd){ .fd = ctx->wake_fd, .events = POLLIN };
-                p[2] = (struct pollfd){ .fd = fd, .events = (short)(POLLIN |
-                                        (bridge_mqtt_want_write(ctx->bm) ? POLLOUT : 0)) };
-                n = poll(p, fd >= 0 ? 3 : 2, timeout_ms(ctx, now));
-                if (n < 0 && errno != EINTR) {
-                        log_msg(LOG_PRIO_ERR, "poll: %s", strerror(errno));
-                        return 1;
-                }
-                now = now_ns();
-                if (n > 0 && p[0].revents)
-                        on_signal(ctx, now);
-                if (n > 0 && p[1].revents) {
-                        uint64_t v;
-
-                        if (read(ctx->wake_fd, &v, sizeof(v)) == sizeof(v))
-                                ctx->dirty = true;
-                }
-                bridge_mqtt_io(ctx->bm, n > 0 && fd >= 0 ? p[2].revents : 0, now);
+        attach_due(ctx, now);
+        if (!service_stopping(ctx->svc))
+                bridge_mqtt_connect_due(ctx->bm, now);
+        work(ctx, now);
+        cursor_work(ctx, now);
+        if (service_stopping(ctx->svc) && drained(ctx, now)) {
+                service_exit(ctx->svc, SERVICE_EXIT_OK);
+                return;
         }
-        return 0;
+        status_update(ctx);
+        r = watch_socket(ctx);
+        if (r == 0)
+                r = evloop_timer_arm(&ctx->step, timeout_ms(ctx, now), 0);
+        if (r < 0) {
+                log_msg(LOG_PRIO_ERR, "event loop: %s", strerror(-r));
+                service_exit(ctx->svc, SERVICE_EXIT_FAILURE);
+        }
+}
+
+/* The socket's poll result (or none) to libmosquitto, then a turn. */
+static void step(struct main_ctx *ctx, unsigned revents)
+{
+        if (evloop_exiting(ctx->loop))
+                return;
+        bridge_mqtt_io(ctx->bm, (short)revents, evloop_clock_ns());
+        turn(ctx);
+}
+
+static void on_socket(struct evloop *loop, int fd, unsigned revents, void *arg)
+{
+        (void)loop;
+        (void)fd;
+        step(arg, revents);
+}
+
+static void on_step(struct evloop *loop, struct evloop_timer *t, void *arg)
+{
+        (void)loop;
+        (void)t;
+        step(arg, 0);
+}
+
+/* The tables changed: a scan at the next turn (the next round). */
+static void on_wake(struct evloop *loop, int fd, unsigned revents, void *arg)
+{
+        struct main_ctx *ctx = arg;
+        uint64_t v;
+
+        (void)loop;
+        (void)revents;
+        if (read(fd, &v, sizeof(v)) == sizeof(v))
+                ctx->dirty = true;
+        evloop_timer_arm(&ctx->step, 0, 0);
+}
+
+/* SIGTERM/SIGINT: stop reading events, wait up to drain_ms for the acknowledgements. */
+static int on_stop(void *arg, char *note, size_t note_size)
+{
+        struct main_ctx *ctx = arg;
+
+        snprintf(note, note_size, " (%u events to be acknowledged)", bridge_unacked(ctx->b));
+        ctx->stop_deadline_ns = evloop_clock_ns() + ctx->cfg.drain_ms * NS_PER_MS;
+        evloop_timer_arm(&ctx->step, 0, 0);
+        return SERVICE_STOP_DRAIN;
 }
 
 static int check_only(const char *path)
@@ -280,21 +310,25 @@ static int check_only(const char *path)
 
         if (bridge_config_load(path, &cfg, err, sizeof(err)) < 0) {
                 fprintf(stderr, "%s\n", err);
-                return 1;
+                return SERVICE_EXIT_FAILURE;
         }
         return service_check_ok();
 }
 
-static int setup(struct main_ctx *ctx, const char *path)
+static int setup(struct main_ctx *ctx, const struct service_desc *desc, const char *path)
 {
+        static const struct service_ops ops = { .stop = on_stop };      /* no reload */
         char err[BRIDGE_ERROR_MAX];
-        sigset_t set;
         int r;
 
         if (bridge_config_load(path, &ctx->cfg, err, sizeof(err)) < 0) {
                 log_msg(LOG_PRIO_ERR, "%s", err);
                 return -EINVAL;
         }
+        r = service_new(desc, &ops, ctx, &ctx->svc);
+        if (r < 0)
+                return r;
+        ctx->loop = service_loop(ctx->svc);
         r = bridge_new(&ctx->cfg, &ctx->b);
         if (r < 0) {
                 log_msg(LOG_PRIO_ERR, "%s: %s", path, r == -EINVAL ?
@@ -306,25 +340,18 @@ static int setup(struct main_ctx *ctx, const char *path)
                 log_msg(LOG_PRIO_ERR, "%s: %s", path, err);
                 return r;
         }
-        sigemptyset(&set);
-        sigaddset(&set, SIGTERM);
-        sigaddset(&set, SIGINT);
-        sigaddset(&set, SIGHUP);        /* no reload: a restart; ignored, not fatal */
-        pthread_sigmask(SIG_BLOCK, &set, NULL);
-        sigdelset(&set, SIGHUP);
-        ctx->sig_fd = signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK);
         ctx->wake_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
-        if (ctx->sig_fd < 0 || ctx->wake_fd < 0) {
-                log_msg(LOG_PRIO_ERR, "signalfd/eventfd: %s", strerror(errno));
+        if (ctx->wake_fd < 0) {
+                log_msg(LOG_PRIO_ERR, "eventfd: %s", strerror(errno));
                 return -errno;
         }
-        ctx->attach_ms = ATTACH_MIN_MS;
-        r = notify_new(&ctx->notify);
+        r = evloop_add_fd(ctx->loop, ctx->wake_fd, POLLIN, on_wake, ctx);
         if (r < 0) {
-                log_msg(LOG_PRIO_ERR, "%s", strerror(-r));
+                log_msg(LOG_PRIO_ERR, "event loop: %s", strerror(-r));
                 return r;
         }
-        ctx->watchdog_interval_ns = notify_watchdog_interval_ms(ctx->notify) * NS_PER_MS;
+        evloop_timer_init(&ctx->step, ctx->loop, on_step, ctx);
+        ctx->attach_ms = ATTACH_MIN_MS;
         log_msg(LOG_PRIO_INFO, "sharedlink-mqtt %s: %s -> %s:%d, topics %s/...",
                 SHAREDLINK_VERSION, path, ctx->cfg.host, ctx->cfg.port, bridge_base(ctx->b));
         return 0;
@@ -332,9 +359,18 @@ static int setup(struct main_ctx *ctx, const char *path)
 
 static void teardown(struct main_ctx *ctx)
 {
+        if (ctx->loop) {
+                evloop_timer_cancel(&ctx->step);
+                if (ctx->sock_fd >= 0)
+                        evloop_del_fd(ctx->loop, ctx->sock_fd);
+        }
         if (ctx->waker_running) {
                 atomic_store(&ctx->stop_waker, true);
                 pthread_join(ctx->waker, NULL);
+        }
+        if (ctx->wake_fd >= 0) {
+                evloop_del_fd(ctx->loop, ctx->wake_fd);
+                close(ctx->wake_fd);
         }
         if (ctx->bm)
                 bridge_mqtt_disconnect(ctx->bm);
@@ -345,11 +381,7 @@ static void teardown(struct main_ctx *ctx)
                 bridge_cursor_flush(ctx->b, true);
         ctx->bm = bridge_mqtt_free(ctx->bm);
         ctx->b = bridge_free(ctx->b);
-        ctx->notify = notify_free(ctx->notify);
-        if (ctx->wake_fd >= 0)
-                close(ctx->wake_fd);
-        if (ctx->sig_fd >= 0)
-                close(ctx->sig_fd);
+        ctx->svc = service_free(ctx->svc);
 }
 
 int main(int argc, char **argv)
@@ -358,7 +390,7 @@ int main(int argc, char **argv)
                 .name = "sharedlink-mqtt", .version = SHAREDLINK_VERSION,
                 .config_default = BRIDGE_CONFIG_DEFAULT, .check = check_only,
         };
-        static struct main_ctx ctx = { .sig_fd = -1, .wake_fd = -1 };
+        static struct main_ctx ctx = { .wake_fd = -1, .sock_fd = -1 };
         struct service_args args;
         int r = service_args(&desc, argc, argv, &args);
 
@@ -366,7 +398,11 @@ int main(int argc, char **argv)
                 return r;
         service_start(&args);
         mosquitto_lib_init();
-        r = setup(&ctx, args.config) < 0 ? 1 : run(&ctx);
+        r = SERVICE_EXIT_FAILURE;
+        if (setup(&ctx, &desc, args.config) == 0) {
+                turn(&ctx);
+                r = service_run(ctx.svc);
+        }
         teardown(&ctx);
         mosquitto_lib_cleanup();
         return r;

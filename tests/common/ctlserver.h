@@ -9,7 +9,7 @@
 
 #include "common/harness.h"
 #include "daemon/control.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 
 struct ctlserver {
         struct harness h;               /* for its temp dir only */

@@ -27,7 +27,7 @@
 
 #include "common/harness.h"
 #include "daemon/channel.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 
 #define WAIT_MS         5000
 #define GUARD_MS        15000

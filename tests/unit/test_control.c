@@ -27,7 +27,7 @@
 #include "common/ctlserver.h"
 #include "common/harness.h"
 #include "daemon/control.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "svc/log.h"
 
 #define T_GUARD_MS      5000    /* a test that waits longer has failed */

@@ -22,7 +22,7 @@
 
 #include <cmocka.h>
 
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 
 #define GUARD_MS        10000
 #define EVENTS_MAX      64

@@ -19,7 +19,7 @@
 #include "common/ctlserver.h"
 #include "common/harness.h"
 #include "daemon/control.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "daemon/link.h"
 #include "svc/log.h"
 

@@ -41,7 +41,7 @@
 #include "common/wire.h"
 #include "daemon/config.h"
 #include "daemon/control.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "daemon/link_circe.h"
 #include "svc/log.h"
 #include "proto/circe.h"

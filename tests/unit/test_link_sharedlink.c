@@ -41,7 +41,7 @@
 #include "common/wire.h"
 #include "daemon/config.h"
 #include "daemon/control.h"
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 #include "daemon/link.h"
 #include "daemon/link_sharedlink.h"
 #include "proto/request.h"

@@ -9,7 +9,7 @@
  * Timers: a binary min-heap on (deadline, seq) of pointers to the owners' timers; each timer
  * knows its heap index, so cancel and re-arm are O(log n) anywhere, also mid-dispatch.
  */
-#include "daemon/evloop.h"
+#include "svc/evloop.h"
 
 #include <errno.h>
 #include <limits.h>

@@ -33,8 +33,8 @@
  *   reap with waitpid(WNOHANG) in a loop. A signal belongs to one loop per process.
  * - evloop_free() and evloop_run() must not be called from inside a callback.
  */
-#ifndef SHAREDLINK_DAEMON_EVLOOP_H
-#define SHAREDLINK_DAEMON_EVLOOP_H
+#ifndef SHAREDLINK_SVC_EVLOOP_H
+#define SHAREDLINK_SVC_EVLOOP_H
 
 #include <stdbool.h>
 #include <stddef.h>

@@ -14,6 +14,7 @@
 #include <sys/socket.h>
 
 #include "proto/circe.h"
+#include "shm/layout.h"
 
 /* Input bounds: a config file larger than this is refused before parsing. */
 #define CONFIG_INPUT_MAX        (1024u * 1024u)
@@ -22,7 +23,7 @@
 
 /* Names. A variable name is what the shm directory holds (DESIGN.md §2.4: <= 47 bytes). */
 #define CONFIG_VAR_NAME_MAX     47u
-#define CONFIG_INSTANCE_MAX     32u     /* becomes part of an shm name and a socket file name */
+#define CONFIG_INSTANCE_MAX     SHM_INSTANCE_MAX  /* part of an shm name and a socket file name */
 #define CONFIG_GROUP_MAX        32u
 /*
  * A CIRCE link publishes "<link>.device.<ADDR>.current_competitor" (DESIGN.md §2.8), the longest

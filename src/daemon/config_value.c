@@ -11,6 +11,7 @@
 #include <string.h>
 
 #include "proto/sharedlink.h"
+#include "shm/layout.h"
 
 bool cfg_is_name_char(char ch, bool dot)
 {
@@ -18,23 +19,20 @@ bool cfg_is_name_char(char ch, bool dot)
                ch == '_' || ch == '-' || (dot && ch == '.');
 }
 
-/*
- * Instance and link names: letters, digits, '_' and '-', not starting with '-' (they appear on
- * slctl's command line, in shm names and in socket and variable names; no '.', so the prefix
- * "<link>." of one CIRCE link can never be the start of another's).
- */
+/* Instance and link names: the one rule of shm_layout_ident_bad. */
 int cfg_get_ident(struct ctx *c, const char *key, const struct conf_node *n, char *out, size_t size)
 {
         int r = cfg_get_string(c, key, n, out, size);
+        long bad;
 
         if (r < 0)
                 return r;
-        if (out[0] == '-')
+        bad = shm_layout_ident_bad(out);
+        if (bad == 0 && out[0] == '-')
                 return cfg_fail(c, n, "%s %s must not start with '-'", key, cfg_quote_node(c, n));
-        for (size_t i = 0; out[i]; i++)
-                if (!cfg_is_name_char(out[i], false))
-                        return cfg_fail(c, n, "%s %s: invalid character '%c' (allowed: letters, "
-                                        "digits, _ -)", key, cfg_quote_node(c, n), out[i]);
+        if (bad >= 0)
+                return cfg_fail(c, n, "%s %s: invalid character '%c' (allowed: letters, "
+                                "digits, _ -)", key, cfg_quote_node(c, n), out[bad]);
         return 0;
 }
 

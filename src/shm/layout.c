@@ -261,6 +261,20 @@ int shm_layout_name_check(const char *name)
         return 0;
 }
 
+long shm_layout_ident_bad(const char *name)
+{
+        if (name[0] == '-')
+                return 0;
+        for (long i = 0; name[i]; i++) {
+                char c = name[i];
+
+                if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                      c == '_' || c == '-'))
+                        return i;
+        }
+        return -1;
+}
+
 int shm_layout_instance_check(const char *instance)
 {
         size_t len;
@@ -268,15 +282,8 @@ int shm_layout_instance_check(const char *instance)
         if (!instance)
                 return -EINVAL;
         len = strnlen(instance, SHM_INSTANCE_MAX + 1u);
-        if (len == 0 || len > SHM_INSTANCE_MAX || instance[0] == '.')
+        if (len == 0 || len > SHM_INSTANCE_MAX || shm_layout_ident_bad(instance) >= 0)
                 return -EINVAL;
-        for (size_t i = 0; i < len; i++) {
-                char c = instance[i];
-
-                if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-                      c == '_' || c == '-' || c == '.'))
-                        return -EINVAL;
-        }
         return 0;
 }
 

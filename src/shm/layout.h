@@ -102,7 +102,7 @@
 #define SHM_EVENTS_MIN          16u
 #define SHM_EVENTS_MAX          65536u
 #define SHM_CAPACITY_MAX        65536u  /* directory entries (configured + ad hoc) */
-#define SHM_INSTANCE_MAX        64u     /* instance name length, without NUL */
+#define SHM_INSTANCE_MAX        32u     /* instance name length, without NUL (shm_layout_instance_check) */
 #define SHM_OBJECT_NAME_SIZE    (SHM_INSTANCE_MAX + 32u)
 #define SHM_SOCKET_PATH_SIZE    108u    /* sizeof(sockaddr_un.sun_path): path + NUL */
 
@@ -465,7 +465,15 @@ int shm_layout_value_check_field(const char *v, size_t len);
 /* 0 if name is a valid variable name (1..47 bytes, wire charset without space), else -EINVAL. */
 int shm_layout_name_check(const char *name);
 
-/* 0 if instance is a valid instance name (1..64 bytes of [A-Za-z0-9_.-], no leading '.'). */
+/*
+ * The one rule for instance names (and, in the daemon's configuration, link names): letters,
+ * digits, '_' and '-', not starting with '-'. They appear on slctl's command line, in shm object
+ * and socket file names and, for links, before the '.' of variable names, so no '.' and no '/'.
+ * Returns the index of the first byte that breaks the rule (0 for a leading '-'), or -1 if none.
+ */
+long shm_layout_ident_bad(const char *name);
+
+/* 0 if instance is a valid instance name (1..SHM_INSTANCE_MAX bytes, shm_layout_ident_bad). */
 int shm_layout_instance_check(const char *instance);
 
 /* Writes "/sharedlink.<instance>.<suffix>" into buf; returns 0, -EINVAL or -ENAMETOOLONG. */

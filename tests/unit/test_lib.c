@@ -130,6 +130,10 @@ static void test_open_errors(void **state)
         assert_int_equal(sl_open(other, &c), -ENOENT);
         assert_null(c);
         assert_int_equal(sl_open("bad/name", &c), -EINVAL);
+        /* The daemon's configuration rule (shm_layout_ident_bad): no name it refuses is opened. */
+        assert_int_equal(sl_open("a.b", &c), -EINVAL);
+        assert_int_equal(sl_open("-x", &c), -EINVAL);
+        assert_int_equal(sl_open("abcdefghijabcdefghijabcdefghijabc", &c), -EINVAL);   /* 33 */
         assert_int_equal(sl_open(f->tb.instance, NULL), -EINVAL);
         /* NULL: the environment names the instance. */
         setenv("SHAREDLINK_INSTANCE", f->tb.instance, 1);

@@ -31,7 +31,9 @@
  * Ids: sl_find and sl_info give ids 0..sl_count()-1. An id keeps naming the same variable for the
  * life of the handle, also across a daemon restart: the library notices the new table (new epoch),
  * remaps it and re-resolves its ids by name. A variable that the new daemon no longer has reads as
- * -ENOENT; names that are new get new ids.
+ * -ENOENT; names that are new get new ids. The same holds for a name the daemon retired while it
+ * runs (a Pronto4 peer's learned name its new declaration dropped, docs/pronto4.md §4): its id
+ * reads as -ENOENT, never as the variable that took its place in the table.
  *
  * Values are text: printable ASCII 0x20-0x7E except '|', '[' and ']', at most 63 bytes (what the
  * wire can carry).

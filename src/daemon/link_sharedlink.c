@@ -151,6 +151,13 @@ static int hook_add(void *arg, const char *name, unsigned type, char peer, bool 
         return shm_table_add(l->env.table, &v);
 }
 
+static int hook_retire(void *arg, uint32_t id)
+{
+        struct lsl *l = arg;
+
+        return shm_table_retire(l->env.table, id);
+}
+
 static int hook_get(void *arg, uint32_t id, char *buf, size_t size)
 {
         struct lsl *l = arg;
@@ -253,6 +260,7 @@ static const struct link_sharedlink_hooks session_hooks = {
         .send = hook_send,
         .find = hook_find,
         .add = hook_add,
+        .retire = hook_retire,
         .get = hook_get,
         .publish = hook_publish,
         .stale = hook_stale,

@@ -393,8 +393,8 @@ static void send_acknowledgement(struct link_sharedlink_session *s, struct sls_p
 }
 
 /* Reads the entries of a declaration into the scratch from position `n`; returns the count. */
-static size_t declaration_read(struct link_sharedlink_session *s, struct sls_peer *p,
-                               const struct sls_list *l, const struct slp_frame *f, size_t n)
+static size_t declaration_read(struct link_sharedlink_session *s, const struct sls_list *l,
+                               const struct slp_frame *f, size_t n)
 {
         struct sls_scratch *sc = &s->scratch;
         struct slp_entry e;
@@ -424,17 +424,54 @@ static size_t declaration_read(struct link_sharedlink_session *s, struct sls_pee
                 sc->ids[n] = SLS_UNMAPPED;
                 sc->types[n] = SLP_TYPE_DOUBLE;
                 sc->names[n][0] = '\0';
+                sc->named[n] = named;
                 /* A bad type keeps its (valid) name, so answers and acknowledgements list it. */
                 if (bad && slp_name_check(bad->value, bad->len) == 0)
                         name_copy(sc->names[n], bad->value, bad->len);
                 if (named) {
                         name_copy(sc->names[n], e.name, e.name_len);
                         sc->types[n] = e.type;
-                        sc->ids[n] = declared_id(s, p, l, sc->names[n], &sc->types[n], n);
                 }
                 n++;
         }
         return n;
+}
+
+/* Whether the declaration in the scratch (n positions) names `name`. */
+static bool scratch_names(const struct sls_scratch *sc, size_t n, const char *name)
+{
+        for (size_t k = 0; k < n; k++)
+                if (strcmp(sc->names[k], name) == 0)
+                        return true;
+        return false;
+}
+
+/*
+ * Decision (§4): a learned variable the new declaration of its list no longer names is retired
+ * before the new names are made, so a link's learned variables never outnumber its current
+ * lists and a peer re-declaring new names never fills the table. Its old position is unmapped:
+ * the table may give its id to one of the new names, whose value must not be the old one's.
+ */
+static void learned_retire(struct link_sharedlink_session *s, struct sls_peer *p,
+                           struct sls_list *l, const struct sls_scratch *sc, size_t n)
+{
+        for (size_t k = 0; k < l->n; k++) {
+                if (l->ids[k] == SLS_UNMAPPED || scratch_names(sc, n, l->names[k]))
+                        continue;
+                sls_retire_learned(s, p, l->ids[k]);
+                l->ids[k] = SLS_UNMAPPED;
+        }
+}
+
+/* The variables of the entries read into the scratch from position `from`. */
+static void declaration_resolve(struct link_sharedlink_session *s, struct sls_peer *p,
+                                const struct sls_list *l, size_t from, size_t n)
+{
+        struct sls_scratch *sc = &s->scratch;
+
+        for (size_t k = from; k < n; k++)
+                if (sc->named[k])
+                        sc->ids[k] = declared_id(s, p, l, sc->names[k], &sc->types[k], k);
 }
 
 /* N0|T|Q... (what p sends: our inbound list) or L0|T|Q... (what it wants: our outbound list). */
@@ -444,7 +481,7 @@ static void declaration_in(struct link_sharedlink_session *s, struct sls_peer *p
         const struct slp_field *head = &f->fields[0];
         struct sls_list *l = head->letter == 'L' ? &p->out : &p->in;
         struct sls_scratch *sc = &s->scratch;
-        size_t n = 0;
+        size_t n = 0, from;
 
         sls_count(s, SHM_COUNTER_DECLARATIONS_IN, 1);
         if (head->index > 0) {
@@ -462,7 +499,11 @@ static void declaration_in(struct link_sharedlink_session *s, struct sls_peer *p
                         sc->names[k][0] = '\0';
                 }
         }
-        n = declaration_read(s, p, l, f, n);
+        from = n;
+        n = declaration_read(s, l, f, n);
+        if (l->learn)
+                learned_retire(s, p, l, sc, n);
+        declaration_resolve(s, p, l, from, n);
         /* Decision (§4): a re-declaration replaces the list whole, counted when it differs. */
         if (declaration_differs(p, l, sc, n)) {
                 sls_count(s, SHM_COUNTER_REDECLARED, 1);

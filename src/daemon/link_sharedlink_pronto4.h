@@ -112,6 +112,7 @@ struct sls_scratch {
         uint32_t ids[SLS_LIST_MAX];
         enum slp_type types[SLS_LIST_MAX];
         char names[SLS_LIST_MAX][SLS_NAME_SIZE];
+        bool named[SLS_LIST_MAX];               /* a good [T] Q entry: its variable to find */
         char values[SLS_LIST_MAX][SHM_VALUE_SIZE];
         const char *ptrs[SLS_LIST_MAX];
 };
@@ -165,6 +166,9 @@ bool sls_reply_add(struct link_sharedlink_session *s, const struct slp_field *fi
 int sls_made_id(struct link_sharedlink_session *s, struct sls_peer *p, const char *name,
                 size_t len, enum sls_made made, unsigned type, int32_t pos,
                 enum shm_counter full_counter, enum shm_counter conflict_counter);
+/* Retires variable id if this link learned it for p (a list position, not an ad hoc name):
+ * its name is gone and its table entry free for the next one. */
+void sls_retire_learned(struct link_sharedlink_session *s, const struct sls_peer *p, uint32_t id);
 /* Rebuilds the id -> (peer, position) map of every outbound list. */
 void sls_outrefs_build(struct link_sharedlink_session *s);
 /* Sends the whole outbound list of p now (full: no compression); 0 or -errno. */

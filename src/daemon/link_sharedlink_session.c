@@ -509,6 +509,20 @@ int sls_made_id(struct link_sharedlink_session *s, struct sls_peer *p, const cha
         return id;
 }
 
+void sls_retire_learned(struct link_sharedlink_session *s, const struct sls_peer *p, uint32_t id)
+{
+        for (size_t i = 0; i < s->n_adhoc; i++) {
+                const struct sls_adhoc *a = &s->adhoc[i];
+
+                if (a->id != id || a->peer != p->index || a->made == SLS_MADE_ADHOC)
+                        continue;
+                if (!s->h->retire || s->h->retire(s->arg, id) < 0)
+                        return;
+                s->adhoc[i] = s->adhoc[--s->n_adhoc];
+                return;
+        }
+}
+
 /* The ad hoc variable "<link>.<peer>.<name>" of p: its id (created if needed), or -1. */
 static int adhoc_id(struct link_sharedlink_session *s, struct sls_peer *p, const char *name)
 {

@@ -58,6 +58,9 @@ struct link_sharedlink_hooks {
          * (-ENOSPC: no room). NULL: ad hoc names are full, nothing is learned. */
         int (*add)(void *arg, const char *name, unsigned type, char peer, bool outbound,
                    int32_t position);
+        /* Retires a variable add() made (its name is gone for clients; the table may give its
+         * entry to a later name); 0 or -errno. NULL: learned names stay for the table's life. */
+        int (*retire)(void *arg, uint32_t id);
         /* The value of variable id as published (NUL-terminated in buf[size]): its length, or
          * -errno when it holds no valid value. NULL: every Q is answered empty. */
         int (*get)(void *arg, uint32_t id, char *buf, size_t size);

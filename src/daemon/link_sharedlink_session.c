@@ -418,9 +418,9 @@ int link_sharedlink_session_query(struct link_sharedlink_session *s, uint64_t no
 
 int link_sharedlink_session_peer(const struct link_sharedlink_session *s, const char *address)
 {
-        if (strlen(address) != 1 || address[0] < 'A' || address[0] >= 'A' + SLP_ADDR_COUNT)
+        if (!slp_address_text_valid(address, strnlen(address, 2)))
                 return -1;
-        return s->peer_of_addr[address[0] - 'A'];
+        return s->peer_of_addr[slp_address_index(address[0])];
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -1001,7 +1001,7 @@ static int peer_init(struct link_sharedlink_session *s, unsigned index)
         p->refresh_every = c->period_ms > 0 ? c->refresh_ms / c->period_ms : 1;
         if (p->refresh_every == 0)
                 p->refresh_every = 1;
-        s->peer_of_addr[c->address - 'A'] = (int)index;
+        s->peer_of_addr[slp_address_index(c->address)] = (int)index;
         return 0;
 }
 
@@ -1049,12 +1049,9 @@ static bool config_valid(const struct config_link *cfg)
 {
         if (cfg->protocol != CONFIG_PROTOCOL_SHAREDLINK || cfg->sl.n_peers > CONFIG_PEERS_MAX)
                 return false;
-        for (unsigned i = 0; i < cfg->sl.n_peers; i++) {
-                char a = cfg->sl.peers[i].address;
-
-                if (a < 'A' || a >= 'A' + SLP_ADDR_COUNT)
+        for (unsigned i = 0; i < cfg->sl.n_peers; i++)
+                if (!slp_address_valid(cfg->sl.peers[i].address))
                         return false;
-        }
         return true;
 }
 

@@ -482,7 +482,7 @@ const char *shm_layout_event_name(unsigned t);
 /* Name of variable type t ("string", "long", "double"), or "unknown". */
 const char *shm_layout_type_name(unsigned t);
 
-/* 1 if c may appear in a value on the wire: printable ASCII 0x20-0x7E except | [ ]. */
+/* 1 if c may appear in a value on the wire (slp_value_byte(): 0x20-0x7E except | [ ]). */
 int shm_layout_value_char(int c);
 
 /* 0 if v[0..len) is a valid value (length <= SHM_VALUE_MAX, wire charset), else -EINVAL. */
@@ -491,7 +491,8 @@ int shm_layout_value_check(const char *v, size_t len);
 /* shm_layout_value_check of v[0..len) where v is a whole value field (SHM_VALUE_SIZE bytes). */
 int shm_layout_value_check_field(const char *v, size_t len);
 
-/* 0 if name is a valid variable name (1..47 bytes, wire charset without space), else -EINVAL. */
+/* 0 if name is a valid variable name (1..47 bytes of slp_name_byte(): letters, digits, _ . -),
+ * else -EINVAL. */
 int shm_layout_name_check(const char *name);
 
 /*

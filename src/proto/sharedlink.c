@@ -44,8 +44,8 @@
 
 #define SL_HEADER_LEN   4       /* ":" dst src "|" in the body, "[:AB" on the wire */
 #define SL_TRAILER_LEN  5       /* "|C" hh "]" */
-#define SL_CRLF_LEN     2
 
+_Static_assert(SL_HEADER_LEN + SL_TRAILER_LEN == SLP_FRAME_OVERHEAD, "frame overhead");
 _Static_assert(SLP_FRAME_MIN <= SLP_FRAME_DEFAULT && SLP_FRAME_DEFAULT <= SLP_FRAME_MAX,
                "frame limits out of order");
 _Static_assert(SLP_FRAME_MAX <= UINT16_MAX, "slp_field.len is 16 bits");
@@ -603,7 +603,7 @@ int slp_frame_encode(char *buf, size_t size, char dst, char src,
                      const struct slp_field *fields, size_t nfields, unsigned flags)
 {
         bool crlf = flags & SLP_ENCODE_CRLF;
-        size_t total = SL_HEADER_LEN + SL_TRAILER_LEN + (crlf ? SL_CRLF_LEN : 0);
+        size_t total = SL_HEADER_LEN + SL_TRAILER_LEN + (crlf ? SLP_CRLF_LEN : 0);
         size_t at;
 
         if (!slp_address_valid(dst) || !slp_address_valid(src) || nfields == 0)
@@ -682,7 +682,7 @@ static int put_list_head(char *buf, size_t limit, size_t max_frame, char dst, ch
 {
         char digits[24];
         size_t ndigits = format_index(start, digits), at;
-        size_t total = SL_HEADER_LEN + 2 + ndigits + SL_TRAILER_LEN + (crlf ? SL_CRLF_LEN : 0);
+        size_t total = SL_HEADER_LEN + 2 + ndigits + SL_TRAILER_LEN + (crlf ? SLP_CRLF_LEN : 0);
 
         if (total > limit)
                 return total > max_frame ? -EMSGSIZE : -ENOSPC;
@@ -1128,7 +1128,7 @@ int slp_encode_command(char *buf, size_t size, char dst, char src, const char *m
 
 size_t slp_list_frame_len(size_t fields_len, bool crlf)
 {
-        return SL_HEADER_LEN + 3 + fields_len + SL_TRAILER_LEN + (crlf ? SL_CRLF_LEN : 0);
+        return SL_HEADER_LEN + 3 + fields_len + SL_TRAILER_LEN + (crlf ? SLP_CRLF_LEN : 0);
 }
 
 int slp_encode_list_whole(const struct slp_list *list, char *buf, size_t size)

@@ -43,6 +43,9 @@
 #define SLP_ADDR_COUNT           16     /* node addresses 'A'..'P' */
 #define SLP_CHECKSUM_FIELD_MAX   3      /* 'C' and two hex digits */
 #define SLP_NOISE_RUN_MAX        1024   /* a noise run is reported at least every this many bytes */
+/* What a frame takes besides its fields: "[:AB" and "|C" hh "]"; and the CR LF after it. */
+#define SLP_FRAME_OVERHEAD       9
+#define SLP_CRLF_LEN             2
 /* Every stored field takes at least 2 bytes ("|X"), so a frame never holds more than this. */
 #define SLP_FIELDS_MAX           (SLP_FRAME_MAX / 2)
 /* slp_field.index for "N?" and "L?" (ask the peer for its lists, Pronto4 dialect). */

@@ -383,7 +383,8 @@ int sl_request(struct sl_client *c, const char *line, int timeout_ms, sl_data_fn
                void *arg, char *reply, size_t reply_size);
 
 /*
- * SharedLink query: asks peer (a node address, "A".."P") on link for its variable name, waiting at
+ * SharedLink query: asks peer (a node address, "A".."P") on link for its variable name (1 to 47
+ * bytes of letters, digits, '_', '.' and '-', as every variable name), waiting at
  * most timeout_ms for the answer (0: the daemon's default; at most SL_QUERY_TIMEOUT_MAX_MS).
  * Returns the value's length with the value in reply, -ENOBUFS when it does not fit, -ETIMEDOUT
  * when the peer did not answer, or another negative errno (above).

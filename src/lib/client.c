@@ -307,7 +307,7 @@ static int ids_reserve(struct sl_client *c, uint32_t need)
 
 /*
  * Gives ids to the directory entries published since the last sync (write lock held); with
- * `all`, to every entry again (layout 1.3: entries below count were rewritten). The view is the
+ * `all`, to every entry again (layout 1.5: entries below count were rewritten). The view is the
  * one of the dir_rewrites read first: a rewrite during the walk leaves the two different, so
  * the next lock refreshes again and no read or write trusts what the walk may have torn.
  */

@@ -93,7 +93,7 @@ struct sl_client {
         int32_t *id_index;              /* id -> directory index in the current map, or -1 */
         int32_t *index_id;              /* directory index -> id, map->capacity entries */
         uint32_t synced;                /* directory entries of the current map given ids */
-        uint32_t synced_rewrites;       /* dir_rewrites the ids were resolved under (1.3) */
+        uint32_t synced_rewrites;       /* dir_rewrites the ids were resolved under (1.5) */
         int32_t *name_hash;             /* open addressing: name -> id */
         uint32_t name_hash_size;
         uint32_t pid;                   /* written into .out lock words */
@@ -142,7 +142,7 @@ static inline int client_needs_refresh(const struct sl_client *c)
 }
 
 /*
- * 1 when a directory entry was rewritten (layout 1.3: a name retired or given to its entry)
+ * 1 when a directory entry was rewritten (layout 1.5: a name retired or given to its entry)
  * since the ids were resolved (read lock held). Asked after copying a slot: the copy may then
  * hold the value of the entry's next name, and the read goes again on a refreshed view.
  */

@@ -23,7 +23,7 @@
 /* The read path is a handful of small steps: inline them into sl_read whatever the heuristics. */
 #define VARS_HOT                inline __attribute__((always_inline))
 /* Reads that found a directory entry rewritten under them before one gives up -EAGAIN: each
- * refreshes the view first, and a rewrite is one daemon step (layout 1.3). */
+ * refreshes the view first, and a rewrite is one daemon step (layout 1.5). */
 #define VARS_MOVED_TRIES        8
 
 /* The library's flag bits are the table's: a value read is handed out without translation. */
@@ -70,7 +70,7 @@ SL_EXPORT int sl_count(struct sl_client *c)
         return n;
 }
 
-/* The read lock and id's directory index (try `attempt` after a rewrite: layout 1.3), or -errno
+/* The read lock and id's directory index (try `attempt` after a rewrite: layout 1.5), or -errno
  * with no lock held. */
 static VARS_HOT int lock_index(struct sl_client *c, int id, int attempt)
 {
@@ -106,7 +106,7 @@ SL_EXPORT int sl_info(struct sl_client *c, int id, struct sl_var_info *ret)
                 info.link = e->link == SHM_LINK_NONE ? -1 : (int)e->link;
                 info.position = e->position;
                 info.flags = e->flags;
-                /* Rewritten meanwhile (layout 1.3): maybe torn, or another name's. */
+                /* Rewritten meanwhile (layout 1.5): maybe torn, or another name's. */
                 if (!client_dir_moved(c))
                         break;
                 client_unlock(c);
@@ -171,7 +171,7 @@ static int read_out_slot(const struct sl_client *c, const struct shm_dir_entry *
         r = shm_slot_read_to(&c->out_slots[e->out_slot], head, value);
         if (r < 0)
                 return r;
-        /* A value written for the entry's retired name (layout 1.3) is none of this one's. */
+        /* A value written for the entry's retired name (layout 1.5) is none of this one's. */
         if (shm_slot_head_check(head, value) < 0 ||
             shm_layout_stamp_before(head->dir_stamp, e->born))
                 return 0;

@@ -25,7 +25,7 @@ struct shm_slot_copy {
         uint32_t length;
         char value[SHM_VALUE_SIZE];     /* raw bytes as found: validate before trusting */
         uint64_t source;                /* shm_slot.source */
-        uint32_t dir_stamp;             /* shm_slot.dir_stamp (.out, layout 1.3) */
+        uint32_t dir_stamp;             /* shm_slot.dir_stamp (.out, layout 1.5) */
 };
 
 /*
@@ -46,7 +46,7 @@ struct shm_slot_head {
         uint32_t flags;
         uint32_t length;
         uint64_t source;                /* shm_slot.source (a .in mirror), else 0 */
-        uint32_t dir_stamp;             /* shm_slot.dir_stamp (.out, layout 1.3), else 0 */
+        uint32_t dir_stamp;             /* shm_slot.dir_stamp (.out, layout 1.5), else 0 */
 };
 
 /*
@@ -116,7 +116,7 @@ void shm_slot_write_flags(struct shm_slot *slot, uint32_t flags);
  */
 int shm_slot_claim(struct shm_slot *slot, uint32_t pid, uint64_t *ret_word);
 
-/* Step 2 (with shm_slot_store): the dir_rewrites of the writer's view (layout 1.3). */
+/* Step 2 (with shm_slot_store): the dir_rewrites of the writer's view (layout 1.5). */
 void shm_slot_store_stamp(struct shm_slot *slot, uint32_t dir_stamp);
 
 /* Step 2: stores the payload into a claimed slot (any number of times, in any order). */

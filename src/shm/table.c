@@ -846,7 +846,7 @@ int shm_table_set_link_stale(struct shm_table *t, uint32_t link, int stale)
 }
 
 /*
- * Entries below count are rewritten under dir_rewrites, a seqlock (layout.h, 1.3): odd, then
+ * Entries below count are rewritten under dir_rewrites, a seqlock (layout.h, 1.5): odd, then
  * the entry, then even. A client that read the directory across it reads it again.
  */
 static void dir_rewrite_begin(struct shm_table *t)
@@ -1215,7 +1215,7 @@ static int scan_report(struct shm_table *t, uint32_t i, shm_table_out_fn fn, voi
                         return 0;       /* our own repair, reported when we made it */
                 if (t->vars[ch.id].retired ||
                     shm_layout_stamp_before(c->dir_stamp, t->dir[ch.id].born)) {
-                        /* Meant for a retired name (layout.h, 1.3): never the new one's. */
+                        /* Meant for a retired name (layout.h, 1.5): never the new one's. */
                         shm_table_counter_add(t, SHM_LINK_NONE, SHM_COUNTER_OUT_INVALID, 1);
                         return 0;
                 }

@@ -146,7 +146,7 @@ int shm_table_add(struct shm_table *t, const struct shm_var *v);
 
 /*
  * Retires a variable added at run time (shm_table_add): its name is gone (find, set and clients
- * no longer know it: layout.h, 1.3) and its entry, with its .out slot, goes to the next name
+ * no longer know it: layout.h, 1.5) and its entry, with its .out slot, goes to the next name
  * added in its direction. 0, -ENOENT (no such variable, or retired already) or -EPERM (a
  * configured variable: those stay for the table's life).
  */

@@ -860,7 +860,7 @@ static void test_adhoc_visible(void **state)
 }
 
 /*
- * Layout 1.3 (issue 19.6): a retired name reads as gone, and its entry, given to another name,
+ * Layout 1.5 (issue 19.6): a retired name reads as gone, and its entry, given to another name,
  * never hands that name's value to an id of the old one; a write meant for the old name (made
  * before it was retired, scanned after) never becomes the new one's.
  */

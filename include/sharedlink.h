@@ -31,7 +31,9 @@
  * Ids: sl_find and sl_info give ids 0..sl_count()-1. An id keeps naming the same variable for the
  * life of the handle, also across a daemon restart: the library notices the new table (new epoch),
  * remaps it and re-resolves its ids by name. A variable that the new daemon no longer has reads as
- * -ENOENT; names that are new get new ids.
+ * -ENOENT; names that are new get new ids. The same holds for a name the daemon retired while it
+ * runs (a Pronto4 peer's learned name its new declaration dropped, docs/pronto4.md §4): its id
+ * reads as -ENOENT, never as the variable that took its place in the table.
  *
  * Values are text: printable ASCII 0x20-0x7E except '|', '[' and ']', at most 63 bytes (what the
  * wire can carry).
@@ -381,7 +383,8 @@ int sl_request(struct sl_client *c, const char *line, int timeout_ms, sl_data_fn
                void *arg, char *reply, size_t reply_size);
 
 /*
- * SharedLink query: asks peer (a node address, "A".."P") on link for its variable name, waiting at
+ * SharedLink query: asks peer (a node address, "A".."P") on link for its variable name (1 to 47
+ * bytes of letters, digits, '_', '.' and '-', as every variable name), waiting at
  * most timeout_ms for the answer (0: the daemon's default; at most SL_QUERY_TIMEOUT_MAX_MS).
  * Returns the value's length with the value in reply, -ENOBUFS when it does not fit, -ETIMEDOUT
  * when the peer did not answer, or another negative errno (above).

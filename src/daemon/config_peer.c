@@ -14,6 +14,7 @@
 #include "daemon/config_check.h"
 #include "daemon/config_names.h"
 #include "daemon/config_value.h"
+#include "proto/sharedlink.h"
 
 /* ---------------------------------------------------------------------------------------------
  * Variables */
@@ -21,7 +22,7 @@
 static int var_name_check(struct ctx *c, const struct conf_node *n, const char *name)
 {
         for (size_t i = 0; name[i]; i++)
-                if (!cfg_is_name_char(name[i], true))
+                if (!slp_name_byte(name[i]))
                         return cfg_fail(c, n, "variable name %s: invalid character %s (allowed: "
                                         "letters, digits, _ . -)", cfg_quote_node(c, n),
                                         cfg_quote(c, name + i, 1));

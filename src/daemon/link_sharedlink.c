@@ -31,11 +31,6 @@
 #define NS_PER_MS               1000000ull
 #define STATUS_MAX              (CHANNEL_REASON_MAX + 16)
 
-/* Node address letters as strings, for the directory's peer field (must outlive the config). */
-static const char *const addr_names[SLP_ADDR_COUNT] = {
-        "A", "B", "C", "D", "E", "F", "G", "H", "I", "J", "K", "L", "M", "N", "O", "P",
-};
-
 /* A query or a command waiting for the link to come up. */
 struct lsl_wait {
         bool command;
@@ -144,11 +139,18 @@ static int hook_add(void *arg, const char *name, unsigned type, char peer, bool 
                 .direction = outbound ? SHM_DIR_OUT : SHM_DIR_IN,
                 .type = type,
                 .link = l->env.shm_link,
-                .peer = addr_names[peer - 'A'],
+                .peer = slp_address_text(peer),
                 .position = position,
         };
 
         return shm_table_add(l->env.table, &v);
+}
+
+static int hook_retire(void *arg, uint32_t id)
+{
+        struct lsl *l = arg;
+
+        return shm_table_retire(l->env.table, id);
 }
 
 static int hook_get(void *arg, uint32_t id, char *buf, size_t size)
@@ -253,6 +255,7 @@ static const struct link_sharedlink_hooks session_hooks = {
         .send = hook_send,
         .find = hook_find,
         .add = hook_add,
+        .retire = hook_retire,
         .get = hook_get,
         .publish = hook_publish,
         .stale = hook_stale,
@@ -486,16 +489,14 @@ static int lsl_declare(const struct config_link *cfg, uint32_t link_index, struc
         const struct config_sharedlink *sl = &cfg->sl;
         size_t need = 0, at = *n;
 
-        /* Names point into cfg and peers into addr_names: nothing goes to names_buf. */
+        /* Names point into cfg and peers to slp_address_text(): nothing goes to names_buf. */
         (void)names_buf;
         (void)names_size;
         (void)names_used;
         if (cfg->protocol != CONFIG_PROTOCOL_SHAREDLINK)
                 return -EINVAL;
         for (unsigned i = 0; i < sl->n_peers; i++) {
-                char a = sl->peers[i].address;
-
-                if (a < 'A' || a >= 'A' + SLP_ADDR_COUNT)
+                if (!slp_address_valid(sl->peers[i].address))
                         return -EINVAL;
                 need += (size_t)sl->peers[i].n_outbound + sl->peers[i].n_inbound;
         }
@@ -503,7 +504,7 @@ static int lsl_declare(const struct config_link *cfg, uint32_t link_index, struc
                 return -ENOSPC;
         for (unsigned i = 0; i < sl->n_peers; i++) {
                 const struct config_peer *p = &sl->peers[i];
-                const char *peer = addr_names[p->address - 'A'];
+                const char *peer = slp_address_text(p->address);
 
                 for (unsigned k = 0; k < p->n_outbound; k++)
                         vars[at++] = (struct shm_var){

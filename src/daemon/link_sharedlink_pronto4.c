@@ -2,7 +2,7 @@
  * The Pronto4 dialect of a SharedLink session (link_sharedlink_pronto4.h says where the seam
  * is; docs/pronto4.md is the contract, its Decisions are quoted where they apply).
  *
- *     frame from a pronto4 peer -> sls_p4_frame() -> by slp_p4_kind_of():
+ *     frame from a pronto4 peer -> sls_p4_frame() -> p4_decode() (src/proto/pronto4.c), by kind:
  *         declaration  -> the list replaced whole (learned: variables made), acknowledgement
  *         acknowledgement -> counted, names compared, nothing stored
  *         self-describing -> each T/Q/D by name (type-checked)
@@ -10,7 +10,7 @@
  *         E, MU*       -> a command event
  *         data         -> undeclared: counted; else the session's positional walk
  *     up / silence -> sls_p4_connect(): E SetIP, outbound on, inbound on, N0 and L0
- *     every data frame -> sls_p4_send_list(): the whole list, one N0 frame
+ *     a client's value -> sls_p4_outbound_value(): checked against its T, doubles shortened
  */
 #include "daemon/link_sharedlink_pronto4.h"
 
@@ -19,9 +19,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* "0, SetIP, <ip>:<port>, <port>": a command's text is a value. */
-#define P4_ADDRESS_MAX          64
-#define P4_SETIP_TEXT_MAX       (P4_ADDRESS_MAX + 32)   /* the encoder refuses over 63 */
 /* Round-trip precision of a double: %.17g always gives back the same double. */
 #define P4_DOUBLE_DIGITS_MAX    17
 
@@ -100,38 +97,6 @@ bool sls_p4_outbound_value(struct link_sharedlink_session *s, const struct sls_p
 /* ---------------------------------------------------------------------------------------------
  * Sending */
 
-int sls_p4_send_list(struct link_sharedlink_session *s, struct sls_peer *p, bool full)
-{
-        struct slp_list list = {
-                .dst = p->cfg->address,
-                .src = s->addr,
-                .values = p->out_ptrs,
-                .changed = p->out_dirty,
-                .count = p->out.n,
-                .max_frame = p->cfg->max_frame,
-                .compress = p->cfg->compression,
-                .full = full,
-                .crlf = s->crlf,
-        };
-        int n, r;
-
-        if (p->out.n == 0)
-                return 0;
-        n = slp_encode_list_whole(&list, s->txbuf, sizeof(s->txbuf));
-        if (n < 0) {
-                /* Only a learned list can be too long (-n checks a configured one). */
-                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
-                sls_diagf(s, LOG_PRIO_WARNING, "peer %c: the list of %zu values does not fit "
-                          "max_frame %u", p->cfg->address, p->out.n, p->cfg->max_frame);
-                memset(p->out_dirty, 0, p->out.n * sizeof(*p->out_dirty));
-                return n;
-        }
-        r = sls_send_frame(s, s->txbuf, (size_t)n);
-        if (r == 0)
-                memset(p->out_dirty, 0, p->out.n * sizeof(*p->out_dirty));
-        return r;
-}
-
 /* Our declaration of list l to p, "N0|T|Q..." (head 'N', what we send) or "L0|T|Q..." (what we
  * receive), in one frame; nothing for an empty list. 0 or -errno. */
 static int send_declaration(struct link_sharedlink_session *s, struct sls_peer *p, char head,
@@ -194,7 +159,7 @@ static int send_command(struct link_sharedlink_session *s, const struct sls_peer
 static void connect_command(struct link_sharedlink_session *s, const struct sls_peer *p,
                             const char *text)
 {
-        if (send_command(s, p, "Link", text) == -EINVAL) {
+        if (send_command(s, p, P4_CONNECT_MODULE, text) == -EINVAL) {
                 sls_count(s, SHM_COUNTER_BAD_COMMAND, 1);
                 sls_diagf(s, LOG_PRIO_WARNING, "peer %c: \"%s\" does not fit a value or "
                           "max_frame %u", p->cfg->address, text, p->cfg->max_frame);
@@ -214,23 +179,21 @@ void sls_p4_connect(struct link_sharedlink_session *s, struct sls_peer *p, uint6
         if (p->cfg->stale_ms > 0)
                 p->connect_at = now + p->cfg->stale_ms;
         if (s->h->local_address &&
-            s->h->local_address(s->arg, addr, sizeof(addr), &remote_port) > 0) {
-                snprintf(text, sizeof(text), "0, SetIP, %s, %u", addr, remote_port);
+            s->h->local_address(s->arg, addr, sizeof(addr), &remote_port) > 0 &&
+            p4_setip_text(text, sizeof(text), addr, remote_port) > 0)
                 connect_command(s, p, text);
-        }
-        connect_command(s, p, "0, outbound, on");
-        connect_command(s, p, "0, inbound, on");
+        connect_command(s, p, P4_TEXT_OUTBOUND_ON);
+        connect_command(s, p, P4_TEXT_INBOUND_ON);
         send_declaration(s, p, 'N', &p->out);
         send_declaration(s, p, 'L', &p->in);
 }
 
-int link_sharedlink_session_command(struct link_sharedlink_session *s, uint64_t now_ms, int peer,
-                                    const char *module, const char *text)
+int sls_p4_command(struct link_sharedlink_session *s, int peer, const char *module,
+                   const char *text)
 {
         const struct sls_peer *first = NULL;
         int r;
 
-        (void)now_ms;
         if (peer < -1 || peer >= (int)s->n_peers)
                 return -EINVAL;
         for (unsigned i = 0; i < s->n_peers && !first; i++)
@@ -291,17 +254,6 @@ static uint32_t declared_id(struct link_sharedlink_session *s, struct sls_peer *
                          shm_type_of(*type), (int32_t)pos, SHM_COUNTER_LEARN_FULL,
                          SHM_COUNTER_LEARN_CONFLICT);
         return id < 0 ? SLS_UNMAPPED : (uint32_t)id;
-}
-
-/* The Q field of a bad entry between fields [from, to) (a T/Q or Q with a bad type or name), or
- * NULL: such an entry keeps its place, unmapped, so the positions after it stay right. */
-static const struct slp_field *entry_name_field(const struct slp_frame *f, size_t from,
-                                                size_t to)
-{
-        for (size_t i = from; i < to && i < f->nfields; i++)
-                if (f->fields[i].letter == 'Q')
-                        return &f->fields[i];
-        return NULL;
 }
 
 /* Whether the declaration in the scratch (n positions) differs from what it is compared to: a
@@ -392,67 +344,88 @@ static void send_acknowledgement(struct link_sharedlink_session *s, struct sls_p
         }
 }
 
-/* Reads the entries of a declaration into the scratch from position `n`; returns the count. */
-static size_t declaration_read(struct link_sharedlink_session *s, struct sls_peer *p,
-                               const struct sls_list *l, const struct slp_frame *f, size_t n)
+/* Puts the entries of the declaration m into the scratch from position `n`; returns the count.
+ * Decision (§4): a bad entry with a Q keeps its place, unmapped; a stray field takes none. */
+static size_t declaration_read(struct link_sharedlink_session *s, const struct sls_list *l,
+                               const struct p4_message *m, size_t n)
 {
         struct sls_scratch *sc = &s->scratch;
-        struct slp_entry e;
-        size_t at = 1;
 
-        for (;;) {
-                size_t before = at;
-                int r = slp_entry_next(f, &at, &e);
-                const struct slp_field *bad = NULL;
-                bool named;
+        sls_count(s, SHM_COUNTER_BAD_TYPE, m->bad_entries);
+        for (size_t k = 0; k < m->n_entries; k++) {
+                const struct p4_entry *e = &m->entries[k];
 
-                if (r == 0)
-                        break;
-                named = r > 0 && e.letter == 'Q';
-                if (r < 0) {
-                        sls_count(s, SHM_COUNTER_BAD_TYPE, 1);
-                        bad = entry_name_field(f, before, at);
-                } else if (!named) {
-                        sls_count(s, SHM_COUNTER_BAD_FIELD, 1);         /* an R in it */
-                }
-                if (!named && !bad)
+                if (!e->positional) {
+                        if (e->status == P4_ENTRY_OK)
+                                sls_count(s, SHM_COUNTER_BAD_FIELD, 1);     /* an R in it */
                         continue;
+                }
                 if (n >= l->cap) {
                         sls_count(s, SHM_COUNTER_LEARN_FULL, 1);
                         continue;
                 }
                 sc->ids[n] = SLS_UNMAPPED;
-                sc->types[n] = SLP_TYPE_DOUBLE;
-                sc->names[n][0] = '\0';
+                sc->types[n] = e->type;
+                sc->named[n] = e->status == P4_ENTRY_OK;
                 /* A bad type keeps its (valid) name, so answers and acknowledgements list it. */
-                if (bad && slp_name_check(bad->value, bad->len) == 0)
-                        name_copy(sc->names[n], bad->value, bad->len);
-                if (named) {
-                        name_copy(sc->names[n], e.name, e.name_len);
-                        sc->types[n] = e.type;
-                        sc->ids[n] = declared_id(s, p, l, sc->names[n], &sc->types[n], n);
-                }
+                name_copy(sc->names[n], e->name ? e->name : "", e->name_len);
                 n++;
         }
         return n;
 }
 
+/* Whether the declaration in the scratch (n positions) names `name`. */
+static bool scratch_names(const struct sls_scratch *sc, size_t n, const char *name)
+{
+        for (size_t k = 0; k < n; k++)
+                if (strcmp(sc->names[k], name) == 0)
+                        return true;
+        return false;
+}
+
+/*
+ * Decision (§4): a learned variable the new declaration of its list no longer names is retired
+ * before the new names are made, so a link's learned variables never outnumber its current
+ * lists and a peer re-declaring new names never fills the table. Its old position is unmapped:
+ * the table may give its id to one of the new names, whose value must not be the old one's.
+ */
+static void learned_retire(struct link_sharedlink_session *s, struct sls_peer *p,
+                           struct sls_list *l, const struct sls_scratch *sc, size_t n)
+{
+        for (size_t k = 0; k < l->n; k++) {
+                if (l->ids[k] == SLS_UNMAPPED || scratch_names(sc, n, l->names[k]))
+                        continue;
+                sls_retire_learned(s, p, l->ids[k]);
+                l->ids[k] = SLS_UNMAPPED;
+        }
+}
+
+/* The variables of the entries read into the scratch from position `from`. */
+static void declaration_resolve(struct link_sharedlink_session *s, struct sls_peer *p,
+                                const struct sls_list *l, size_t from, size_t n)
+{
+        struct sls_scratch *sc = &s->scratch;
+
+        for (size_t k = from; k < n; k++)
+                if (sc->named[k])
+                        sc->ids[k] = declared_id(s, p, l, sc->names[k], &sc->types[k], k);
+}
+
 /* N0|T|Q... (what p sends: our inbound list) or L0|T|Q... (what it wants: our outbound list). */
 static void declaration_in(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now,
-                           const struct slp_frame *f)
+                           const struct p4_message *m)
 {
-        const struct slp_field *head = &f->fields[0];
-        struct sls_list *l = head->letter == 'L' ? &p->out : &p->in;
+        struct sls_list *l = m->head == 'L' ? &p->out : &p->in;
         struct sls_scratch *sc = &s->scratch;
-        size_t n = 0;
+        size_t n = 0, from;
 
         sls_count(s, SHM_COUNTER_DECLARATIONS_IN, 1);
-        if (head->index > 0) {
+        if (m->index > 0) {
                 /* N<k>: the declaration goes on at position k (we never send one); what is
                  * before k stays, a gap is unmapped. */
-                size_t keep = head->index < l->n ? head->index : l->n;
+                size_t keep = m->index < l->n ? m->index : l->n;
 
-                n = head->index < l->cap ? head->index : l->cap;
+                n = m->index < l->cap ? m->index : l->cap;
                 memcpy(sc->ids, l->ids, keep * sizeof(*sc->ids));
                 memcpy(sc->types, l->types, keep * sizeof(*sc->types));
                 memcpy(sc->names, l->names, keep * sizeof(*sc->names));
@@ -462,12 +435,16 @@ static void declaration_in(struct link_sharedlink_session *s, struct sls_peer *p
                         sc->names[k][0] = '\0';
                 }
         }
-        n = declaration_read(s, p, l, f, n);
+        from = n;
+        n = declaration_read(s, l, m, n);
+        if (l->learn)
+                learned_retire(s, p, l, sc, n);
+        declaration_resolve(s, p, l, from, n);
         /* Decision (§4): a re-declaration replaces the list whole, counted when it differs. */
         if (declaration_differs(p, l, sc, n)) {
                 sls_count(s, SHM_COUNTER_REDECLARED, 1);
                 sls_diagf(s, LOG_PRIO_INFO, "peer %c declared another %c list (%zu entries)",
-                          p->cfg->address, head->letter, n);
+                          p->cfg->address, m->head, n);
         }
         list_commit(p, l, sc, n);
         if (l == &p->out) {
@@ -485,25 +462,22 @@ static void declaration_in(struct link_sharedlink_session *s, struct sls_peer *p
 /* N0|R|D...: the answer to our N declaration. Decision (§5): counted, names compared, nothing
  * stored (we own those values). */
 static void acknowledgement_in(struct link_sharedlink_session *s, struct sls_peer *p,
-                               const struct slp_frame *f)
+                               const struct p4_message *m)
 {
-        struct slp_entry e;
-        size_t at = 1, k = 0;
-        bool same = true;
-        int r;
+        bool same = m->n_entries == p->out.n;
 
         sls_count(s, SHM_COUNTER_ACKS_IN, 1);
-        while ((r = slp_entry_next(f, &at, &e)) != 0) {
-                if (r < 0 || k >= p->out.n || e.name_len != strlen(p->out.names[k]) ||
-                    memcmp(e.name, p->out.names[k], e.name_len) != 0)
-                        same = false;
-                k++;
+        for (size_t k = 0; same && k < m->n_entries; k++) {
+                const struct p4_entry *e = &m->entries[k];
+
+                same = e->status == P4_ENTRY_OK && e->name_len == strlen(p->out.names[k]) &&
+                       memcmp(e->name, p->out.names[k], e->name_len) == 0;
         }
-        if (same && k == p->out.n)
+        if (same)
                 return;
         sls_count(s, SHM_COUNTER_REDECLARED, 1);
         sls_diagf(s, LOG_PRIO_INFO, "peer %c acknowledged %zu names, not the %zu we declared",
-                  p->cfg->address, k, p->out.n);
+                  p->cfg->address, m->n_entries, p->out.n);
 }
 
 /* An inbound variable of p called name (its current list, then its configured one), or
@@ -523,48 +497,45 @@ static uint32_t inbound_by_name(const struct sls_peer *p, const char *name, size
 
 /* N0|T|Q|D...: each triple sets that variable by name (§7); a name we lack is ad hoc. */
 static void described_in(struct link_sharedlink_session *s, struct sls_peer *p,
-                         const struct slp_frame *f)
+                         const struct p4_message *m)
 {
-        struct slp_entry e;
-        size_t at = 1;
-        int r;
-
-        while ((r = slp_entry_next(f, &at, &e)) != 0) {
+        for (size_t k = 0; k < m->n_entries; k++) {
+                const struct p4_entry *e = &m->entries[k];
                 uint32_t id;
                 int made;
 
-                if (r < 0) {
+                if (e->status != P4_ENTRY_OK) {
                         sls_count(s, SHM_COUNTER_BAD_TYPE, 1);
                         continue;
                 }
-                if (!e.has_value) {
+                if (!e->has_value) {
                         sls_count(s, SHM_COUNTER_BAD_FIELD, 1);
                         continue;
                 }
-                if (e.value_len == 0)
+                if (e->value_len == 0)
                         continue;               /* unchanged */
-                if (slp_value_check(e.type, e.value, e.value_len) < 0) {
+                if (slp_value_check(e->type, e->value, e->value_len) < 0) {
                         sls_count(s, SHM_COUNTER_TYPE_MISMATCH, 1);
                         continue;
                 }
-                id = inbound_by_name(p, e.name, e.name_len);
+                id = inbound_by_name(p, e->name, e->name_len);
                 if (id == SLS_UNMAPPED) {
-                        made = sls_made_id(s, p, e.name, e.name_len, SLS_MADE_ADHOC,
-                                           shm_type_of(e.type), SHM_POSITION_NONE,
+                        made = sls_made_id(s, p, e->name, e->name_len, SLS_MADE_ADHOC,
+                                           shm_type_of(e->type), SHM_POSITION_NONE,
                                            SHM_COUNTER_ADHOC_FULL, SHM_COUNTER_ADHOC_FULL);
                         if (made < 0)
                                 continue;
                         id = (uint32_t)made;
                 }
-                sls_publish(s, id, e.value, e.value_len);
+                sls_publish(s, id, e->value, e->value_len);
         }
 }
 
 /* L? asks for what we send (answered N0|T|Q...), N? for what we receive (L0|T|Q...), §6. */
 static void list_query_in(struct link_sharedlink_session *s, struct sls_peer *p,
-                          const struct slp_frame *f)
+                          const struct p4_message *m)
 {
-        if (f->fields[0].letter == 'L')
+        if (m->head == 'L')
                 send_declaration(s, p, 'N', &p->out);
         else
                 send_declaration(s, p, 'L', &p->in);
@@ -584,47 +555,48 @@ static void quote(char *dst, size_t size, const char *src, size_t len)
 }
 
 /* E<module>|D<text> (§9): an event "module=ServoPod text="0,TELEOP START"". */
-static void command_in(struct link_sharedlink_session *s, const struct slp_frame *f)
+static void command_in(struct link_sharedlink_session *s, const struct p4_message *m)
 {
-        const struct slp_field *m = &f->fields[0];
-        const struct slp_field *t = f->nfields > 1 && f->fields[1].letter == 'D' ? &f->fields[1]
-                                                                                 : NULL;
         char text[2 * SLP_VALUE_MAX + 1];
 
-        if (slp_name_check(m->value, m->len) < 0 || (t && t->len > SLP_VALUE_MAX)) {
+        if (!m->command_ok) {
                 sls_count(s, SHM_COUNTER_BAD_COMMAND, 1);
                 return;
         }
         sls_count(s, SHM_COUNTER_COMMANDS_IN, 1);
-        sls_count(s, SHM_COUNTER_UNKNOWN_FIELD, f->nfields - (t ? 2 : 1));
-        quote(text, sizeof(text), t ? t->value : "", t ? t->len : 0);
-        sls_eventf(s, SHM_EVENT_COMMAND, "module=%.*s text=\"%s\"", (int)m->len, m->value, text);
+        sls_count(s, SHM_COUNTER_UNKNOWN_FIELD, m->extra_fields);
+        quote(text, sizeof(text), m->text, m->text_len);
+        sls_eventf(s, SHM_EVENT_COMMAND, "module=%.*s text=\"%s\"", (int)m->module_len,
+                   m->module, text);
 }
 
 bool sls_p4_frame(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now,
                   const struct slp_frame *f)
 {
-        switch (slp_p4_kind_of(f)) {
+        const struct p4_message *m = &s->p4;
+
+        p4_decode(f, &s->p4);
+        switch (m->kind) {
         case SLP_P4_DECLARATION:
-                declaration_in(s, p, now, f);
+                declaration_in(s, p, now, m);
                 return true;
         case SLP_P4_ACKNOWLEDGEMENT:
-                acknowledgement_in(s, p, f);
+                acknowledgement_in(s, p, m);
                 return true;
         case SLP_P4_SELF_DESCRIBING:
-                described_in(s, p, f);
+                described_in(s, p, m);
                 return true;
         case SLP_P4_LIST_QUERY:
-                list_query_in(s, p, f);
+                list_query_in(s, p, m);
                 return true;
         case SLP_P4_COMMAND:
-                command_in(s, f);
+                command_in(s, m);
                 return true;
         case SLP_P4_MU:
                 /* MUI, MUO, ML, MW: the same event, no text (§9). */
                 sls_count(s, SHM_COUNTER_COMMANDS_IN, 1);
-                sls_eventf(s, SHM_EVENT_COMMAND, "module=%c%.*s", f->fields[0].letter,
-                           (int)f->fields[0].len, f->fields[0].value);
+                sls_eventf(s, SHM_EVENT_COMMAND, "module=%c%.*s", m->head, (int)m->module_len,
+                           m->module);
                 return true;
         case SLP_P4_DATA:
                 if (p->in.learn && !p->in.declared) {

@@ -1,13 +1,12 @@
 /*
- * The Pronto4 dialect of a SharedLink link session (docs/pronto4.md): a private header shared by
- * link_sharedlink_session.c (the session: lists, schedules, the bulletin) and
- * link_sharedlink_pronto4.c (what a pronto4 peer adds: declarations and their learning, the
- * acknowledgement, list queries, self-describing frames, commands, the host's connect sequence,
- * the whole-list data frame and the type checks). Nothing outside these two files includes it.
+ * The Pronto4 dialect of a SharedLink link session (docs/pronto4.md), a private header: what a
+ * pronto4 peer adds to the session (declarations and their learning, the acknowledgement, list
+ * queries, self-describing frames, commands, the host's connect sequence and the type checks).
  *
- * The seam: the session owns the structures below and calls sls_p4_*() at four points (a frame
- * from a pronto4 peer, the link coming up, a deadline, a client write); the dialect acts through
- * the session's sls_*() helpers, so both share one set of hooks, counters and reply packing.
+ * The seam: link_sharedlink_session.c calls sls_p4_*() at five points (a frame from a pronto4
+ * peer, the link coming up, a deadline, a client write, a command to send); the dialect reads
+ * each frame once through p4_decode() (src/proto/pronto4.c) and acts through the helpers of
+ * link_sharedlink_peers.h. It never calls the session back.
  */
 #ifndef SHAREDLINK_DAEMON_LINK_SHAREDLINK_PRONTO4_H
 #define SHAREDLINK_DAEMON_LINK_SHAREDLINK_PRONTO4_H
@@ -16,161 +15,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "daemon/config.h"
-#include "daemon/link_sharedlink_session.h"
-#include "proto/sharedlink.h"
-
-/* A list position nothing of ours fills (a declared name we do not have, a conflict). */
-#define SLS_UNMAPPED            UINT32_MAX
-/* A declared name as it goes on the wire (slp_name_check(): at most SLP_VALUE_MAX bytes). */
-#define SLS_NAME_SIZE           (SLP_VALUE_MAX + 1)
-/* Positions of any list: configured lists and learn_max are both bounded by it. */
-#define SLS_LIST_MAX            CONFIG_LIST_MAX
-#define SLS_CRLF_LEN            2
-/* "[:AB" + "|C" + two hex digits + "]": a frame without fields. */
-#define SLS_FRAME_OVERHEAD      9
-#define SLS_REPLY_FIELDS_MAX    (SLP_FRAME_MAX / 2)
-
-/* One list of a peer, position 0 first: what we send it (out) or what it sends us (in). */
-struct sls_list {
-        size_t n, cap;                          /* positions now, most ever (cap >= n) */
-        uint32_t *ids;                          /* variable of each position, or SLS_UNMAPPED */
-        enum slp_type *types;                   /* pronto4: the type each position carries */
-        char (*names)[SLS_NAME_SIZE];           /* pronto4: the name each position declares */
-        const char **name_ptrs;                 /* names[k], for struct slp_named_list */
-        bool learn;                             /* learned from the peer's declarations */
-        bool declared;                          /* the peer declared it at least once */
-        size_t n_cfg;                           /* the configured list: its ids, in cfg order */
-        uint32_t *cfg_ids;
-};
-
-/* One peer of the link. */
-struct sls_peer {
-        const struct config_peer *cfg;
-        unsigned index;
-        bool p4;                                /* dialect: pronto4 */
-
-        struct sls_list out, in;
-        char (*out_values)[SHM_VALUE_SIZE];     /* last value a client wrote, "" before */
-        const char **out_ptrs;                  /* out_values[k], for struct slp_list */
-        bool *out_dirty;                        /* written (or never sent) since last sent */
-
-        unsigned refresh_every;                 /* periods between full lists (>= 1) */
-        unsigned since_full;                    /* periods since the last full list */
-        bool change_sent;                       /* an on-change frame went out already */
-        uint64_t last_change_ms;
-        bool went_stale;                        /* pronto4 host: silent for stale_ms */
-
-        uint64_t period_at;                     /* next periodic list */
-        uint64_t change_at;                     /* on-change frame held by the rate limit */
-        uint64_t stale_at;                      /* silence long enough to mark stale */
-        uint64_t connect_at;                    /* pronto4 host: the connect sequence again */
-};
-
-/* Where an outbound variable id lives, for outbound(); sorted by id. */
-struct sls_outref {
-        uint32_t id;
-        uint16_t peer;
-        uint16_t pos;
-};
-
-/* What a variable this link created at run time is. */
-enum sls_made {
-        SLS_MADE_ADHOC,                         /* a name it answered (R|D) or described */
-        SLS_MADE_LEARNED_IN,                    /* a position of a learned inbound list */
-        SLS_MADE_LEARNED_OUT,                   /* a position of a learned outbound list */
-};
-
-/* A variable this link created, "<link>.<peer>.<name>". */
-struct sls_adhoc {
-        uint32_t id;
-        unsigned peer;
-        enum sls_made made;
-};
-
-/* A query sent, waiting for its answer. */
-struct sls_query {
-        void *token;                            /* NULL: free slot */
-        unsigned peer;
-        char name[SHM_NAME_SIZE];
-        unsigned timeout_ms;
-        uint64_t deadline;
-};
-
-/* Answers and pongs to one received frame, packed into frames of the peer's max_frame. */
-struct sls_reply {
-        struct sls_peer *peer;
-        struct slp_field fields[SLS_REPLY_FIELDS_MAX];
-        size_t nfields;
-        char text[SLP_FRAME_MAX];               /* copies of the field values */
-        size_t text_used;
-        size_t frame_len;                       /* encoded length of fields[0..nfields) */
-};
-
-/* What a declaration is rebuilt into before it replaces a list whole. */
-struct sls_scratch {
-        uint32_t ids[SLS_LIST_MAX];
-        enum slp_type types[SLS_LIST_MAX];
-        char names[SLS_LIST_MAX][SLS_NAME_SIZE];
-        char values[SLS_LIST_MAX][SHM_VALUE_SIZE];
-        const char *ptrs[SLS_LIST_MAX];
-};
-
-struct link_sharedlink_session {
-        const struct link_sharedlink_hooks *h;
-        void *arg;
-        const struct config_link *cfg;
-        char addr;
-        bool crlf;                              /* end frames with CR LF */
-        bool datagram;
-        bool up;
-
-        struct sls_peer peers[CONFIG_PEERS_MAX];
-        unsigned n_peers;
-        int peer_of_addr[SLP_ADDR_COUNT];       /* peer index, -1 when not a peer */
-
-        struct sls_outref *outrefs;
-        size_t n_outrefs, cap_outrefs;
-
-        struct sls_adhoc *adhoc;
-        size_t n_adhoc, cap_adhoc;
-
-        struct sls_query queries[LINK_SHAREDLINK_QUERIES_MAX];
-
-        struct sls_reply reply;
-        struct sls_scratch scratch;
-        char txbuf[SLP_FRAME_MAX];
-        struct slp_decoder dec;                 /* about 40 KiB: the session lives on the heap */
-};
-
-/* ---- the session's helpers (link_sharedlink_session.c) ------------------------------------- */
-
-void sls_count(struct link_sharedlink_session *s, enum shm_counter c, uint64_t n);
-void sls_eventf(struct link_sharedlink_session *s, enum shm_event_type type, const char *fmt, ...)
-        __attribute__((format(printf, 3, 4)));
-void sls_diagf(struct link_sharedlink_session *s, enum log_prio prio, const char *fmt, ...)
-        __attribute__((format(printf, 3, 4)));
-/* Sends one encoded frame, counting frames_out; 0 or the send hook's error. */
-int sls_send_frame(struct link_sharedlink_session *s, const char *buf, size_t len);
-unsigned sls_encode_flags(const struct link_sharedlink_session *s);
-/* Publishes a received value, counting bad_value when the table refuses it. */
-void sls_publish(struct link_sharedlink_session *s, uint32_t id, const char *value, size_t len);
-/* Adds fields that travel in one reply frame (R and its D, a G); false if they never fit. */
-bool sls_reply_add(struct link_sharedlink_session *s, const struct slp_field *fields, size_t n);
-/*
- * The variable "<link>.<peer>.<name>" this link made for p as `made` (found or created with shm
- * type `type`, list position `pos` or SHM_POSITION_NONE): its id, or -1 with the reason counted
- * (full: full_counter; a name taken by anything else: conflict_counter).
- */
-int sls_made_id(struct link_sharedlink_session *s, struct sls_peer *p, const char *name,
-                size_t len, enum sls_made made, unsigned type, int32_t pos,
-                enum shm_counter full_counter, enum shm_counter conflict_counter);
-/* Rebuilds the id -> (peer, position) map of every outbound list. */
-void sls_outrefs_build(struct link_sharedlink_session *s);
-/* Sends the whole outbound list of p now (full: no compression); 0 or -errno. */
-int sls_send_full(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now);
-
-/* ---- the dialect (link_sharedlink_pronto4.c) ----------------------------------------------- */
+#include "daemon/link_sharedlink_peers.h"
 
 /* Handles a frame from pronto4 peer p; false when it is bulletin traffic (data, ping, R|D ...)
  * for the session's field walk (which then checks types through sls_p4_value_ok()). */
@@ -181,8 +26,10 @@ bool sls_p4_frame(struct link_sharedlink_session *s, struct sls_peer *p, uint64_
  * declarations), each frame its own datagram. */
 void sls_p4_connect(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now);
 
-/* The whole outbound list of p in one N0 frame (slp_encode_list_whole()); 0 or -errno. */
-int sls_p4_send_list(struct link_sharedlink_session *s, struct sls_peer *p, bool full);
+/* link_sharedlink_session_command(): E<module>|D<text> to pronto4 peer `peer`, or to every one
+ * (-1); the same returns. */
+int sls_p4_command(struct link_sharedlink_session *s, int peer, const char *module,
+                   const char *text);
 
 /* Whether a received value fits the type of position pos of p's inbound list (counted
  * type_mismatch when not). */

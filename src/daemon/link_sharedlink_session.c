@@ -19,22 +19,13 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "daemon/link_sharedlink_peers.h"
 #include "daemon/link_sharedlink_pronto4.h"
 #include "proto/sharedlink.h"
 
-#define ADHOC_NAME_SIZE         (SLP_VALUE_MAX + SHM_LINK_NAME_SIZE + 8)
-#define EVENT_TEXT_MAX          SHM_EVENT_TEXT_SIZE
-/* A value the codec emits must fit a slot, and a slot's value must be sendable. */
-static_assert(SLP_VALUE_MAX == SHM_VALUE_MAX, "codec and shm agree on the longest value");
 
 /* ---------------------------------------------------------------------------------------------
  * Hooks */
-
-void sls_count(struct link_sharedlink_session *s, enum shm_counter c, uint64_t n)
-{
-        if (s->h->count && n)
-                s->h->count(s->arg, c, n);
-}
 
 static void batch(struct link_sharedlink_session *s, bool begin)
 {
@@ -46,46 +37,6 @@ static void stale(struct link_sharedlink_session *s, uint32_t id)
 {
         if (s->h->stale)
                 s->h->stale(s->arg, id);
-}
-
-void sls_eventf(struct link_sharedlink_session *s, enum shm_event_type type, const char *fmt, ...)
-{
-        char text[EVENT_TEXT_MAX];
-        va_list ap;
-
-        if (!s->h->event)
-                return;
-        va_start(ap, fmt);
-        vsnprintf(text, sizeof(text), fmt, ap);
-        va_end(ap);
-        s->h->event(s->arg, type, text);
-}
-
-void sls_diagf(struct link_sharedlink_session *s, enum log_prio prio, const char *fmt, ...)
-{
-        char text[LINK_SHAREDLINK_DIAG_MAX];
-        va_list ap;
-
-        if (!s->h->diag)
-                return;
-        va_start(ap, fmt);
-        vsnprintf(text, sizeof(text), fmt, ap);
-        va_end(ap);
-        s->h->diag(s->arg, prio, text);
-}
-
-int sls_send_frame(struct link_sharedlink_session *s, const char *buf, size_t len)
-{
-        int r = s->h->send(s->arg, buf, len);
-
-        if (r == 0)
-                sls_count(s, SHM_COUNTER_FRAMES_OUT, 1);
-        return r;
-}
-
-unsigned sls_encode_flags(const struct link_sharedlink_session *s)
-{
-        return s->crlf ? SLP_ENCODE_CRLF : 0;
 }
 
 static uint64_t min_deadline(uint64_t a, uint64_t b)
@@ -105,69 +56,6 @@ static void copy_cut(char *dst, size_t size, const char *src)
 /* ---------------------------------------------------------------------------------------------
  * Sending */
 
-/*
- * Sends positions [first, end) of a peer's outbound list (full: every value; else written ones,
- * the others empty when compressing), split into frames. Positions of frames that went out are
- * no longer dirty. Returns 0, or the first error (positions not sent stay dirty).
- */
-static int peer_send_range(struct link_sharedlink_session *s, struct sls_peer *p, size_t first,
-                           size_t end, bool full)
-{
-        struct slp_list list = {
-                .dst = p->cfg->address,
-                .src = s->addr,
-                .values = p->out_ptrs,
-                .changed = p->out_dirty,
-                .count = end,
-                .max_frame = p->cfg->max_frame,
-                .compress = p->cfg->compression,
-                .full = full,
-                .crlf = s->crlf,
-        };
-        size_t cursor = first;
-        int err = 0;
-
-        /* Pronto4: every data frame is the whole list, starting N0 (docs/pronto4.md §7). */
-        if (p->p4)
-                return sls_p4_send_list(s, p, full);
-        while (cursor < end) {
-                size_t start = cursor;
-                int n = slp_encode_list(&list, &cursor, s->txbuf, sizeof(s->txbuf));
-
-                if (n == 0)
-                        break;
-                if (n < 0) {
-                        /* Only a value too long for max_frame can fail (the table validated the
-                         * rest): it can never go to this peer. Counted, then skipped. */
-                        sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
-                        sls_diagf(s, LOG_PRIO_WARNING, "peer %c: position %zu does not fit "
-                              "max_frame %u", p->cfg->address, start, p->cfg->max_frame);
-                        p->out_dirty[start] = false;
-                        cursor = start + 1;
-                        err = n;
-                        continue;
-                }
-                int r = sls_send_frame(s, s->txbuf, (size_t)n);
-                if (r < 0)
-                        return r;
-                for (size_t k = start; k < cursor; k++)
-                        p->out_dirty[k] = false;
-        }
-        return err;
-}
-
-int sls_send_full(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now)
-{
-        int r = peer_send_range(s, p, 0, p->out.n, true);
-
-        if (r == 0)
-                p->since_full = 0;
-        p->change_sent = false;
-        if (p->cfg->period_ms > 0 && p->period_at == LINK_SHAREDLINK_NEVER)
-                p->period_at = now + p->cfg->period_ms;
-        return r;
-}
-
 /* The on-change frame: the written positions, first to last. */
 static void peer_send_changes(struct link_sharedlink_session *s, struct sls_peer *p,
                               uint64_t now)
@@ -186,7 +74,7 @@ static void peer_send_changes(struct link_sharedlink_session *s, struct sls_peer
                 }
         if (first == p->out.n)
                 return;         /* a periodic frame took them already */
-        r = peer_send_range(s, p, first, last + 1, false);
+        r = sls_send_range(s, p, first, last + 1, false);
         p->change_sent = true;
         p->last_change_ms = now;
         if (r == -ENOBUFS || r == -EAGAIN) {
@@ -224,7 +112,7 @@ static void peer_period(struct link_sharedlink_session *s, struct sls_peer *p, u
                 p->period_at = now + period;
         p->since_full++;
         full = !p->cfg->compression || p->since_full >= p->refresh_every;
-        if (peer_send_range(s, p, 0, p->out.n, full) == 0 && full)
+        if (sls_send_range(s, p, 0, p->out.n, full) == 0 && full)
                 p->since_full = 0;
 }
 
@@ -271,7 +159,7 @@ static void reply_begin(struct link_sharedlink_session *s, struct sls_peer *p)
         s->reply.peer = p;
         s->reply.nfields = 0;
         s->reply.text_used = 0;
-        s->reply.frame_len = SLS_FRAME_OVERHEAD + (s->crlf ? SLS_CRLF_LEN : 0);
+        s->reply.frame_len = SLP_FRAME_OVERHEAD + (s->crlf ? SLP_CRLF_LEN : 0);
 }
 
 static void reply_flush(struct link_sharedlink_session *s)
@@ -291,11 +179,11 @@ static void reply_flush(struct link_sharedlink_session *s)
 }
 
 /* Adds fields that must travel in one frame (R and its D); false if they can never fit. */
-bool sls_reply_add(struct link_sharedlink_session *s, const struct slp_field *fields, size_t n)
+static bool reply_add(struct link_sharedlink_session *s, const struct slp_field *fields, size_t n)
 {
         struct sls_reply *rp = &s->reply;
         size_t max = rp->peer->cfg->max_frame;
-        size_t base = SLS_FRAME_OVERHEAD + (s->crlf ? SLS_CRLF_LEN : 0);
+        size_t base = SLP_FRAME_OVERHEAD + (s->crlf ? SLP_CRLF_LEN : 0);
         size_t need = 0;
 
         /* The decoder passes values over SLP_VALUE_MAX (a ping's) that the encoder refuses:
@@ -416,11 +304,18 @@ int link_sharedlink_session_query(struct link_sharedlink_session *s, uint64_t no
         return 0;
 }
 
+int link_sharedlink_session_command(struct link_sharedlink_session *s, uint64_t now_ms, int peer,
+                                    const char *module, const char *text)
+{
+        (void)now_ms;
+        return sls_p4_command(s, peer, module, text);
+}
+
 int link_sharedlink_session_peer(const struct link_sharedlink_session *s, const char *address)
 {
-        if (strlen(address) != 1 || address[0] < 'A' || address[0] >= 'A' + SLP_ADDR_COUNT)
+        if (!slp_address_text_valid(address, strnlen(address, 2)))
                 return -1;
-        return s->peer_of_addr[address[0] - 'A'];
+        return s->peer_of_addr[slp_address_index(address[0])];
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -434,92 +329,11 @@ static bool peer_has_inbound(const struct sls_peer *p, uint32_t id)
         return false;
 }
 
-static bool adhoc_reserve(struct link_sharedlink_session *s)
-{
-        size_t cap;
-        struct sls_adhoc *a;
-
-        if (s->n_adhoc < s->cap_adhoc)
-                return true;
-        cap = s->cap_adhoc ? 2 * s->cap_adhoc : 16;
-        a = realloc(s->adhoc, cap * sizeof(*a));
-        if (!a)
-                return false;
-        s->adhoc = a;
-        s->cap_adhoc = cap;
-        return true;
-}
-
-static const char *made_word(enum sls_made made)
-{
-        switch (made) {
-        case SLS_MADE_LEARNED_IN:
-                return " learned=inbound";
-        case SLS_MADE_LEARNED_OUT:
-                return " learned=outbound";
-        case SLS_MADE_ADHOC:
-        default:
-                return "";
-        }
-}
-
-/* Whether a variable made as `had` serves as `want`: an ad hoc name may become a learned inbound
- * position and back (both are values the peer sends); an outbound one never changes side. */
-static bool made_compatible(enum sls_made had, enum sls_made want)
-{
-        return (had == SLS_MADE_LEARNED_OUT) == (want == SLS_MADE_LEARNED_OUT);
-}
-
-int sls_made_id(struct link_sharedlink_session *s, struct sls_peer *p, const char *name,
-                size_t len, enum sls_made made, unsigned type, int32_t pos,
-                enum shm_counter full_counter, enum shm_counter conflict_counter)
-{
-        char full[ADHOC_NAME_SIZE];
-        int id;
-
-        snprintf(full, sizeof(full), "%s.%c.%.*s", s->cfg->name, p->cfg->address, (int)len,
-                 name);
-        if (len > SLP_VALUE_MAX || shm_layout_name_check(full) < 0) {
-                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
-                return -1;
-        }
-        id = s->h->find(s->arg, full);
-        if (id >= 0) {
-                for (size_t i = 0; i < s->n_adhoc; i++)
-                        if (s->adhoc[i].id == (uint32_t)id && s->adhoc[i].peer == p->index &&
-                            made_compatible(s->adhoc[i].made, made))
-                                return id;
-                /* Taken by a configured variable (or another link's): never overwrite it. */
-                sls_count(s, conflict_counter, 1);
-                return -1;
-        }
-        if (!s->h->add || s->n_adhoc >= LINK_SHAREDLINK_ADHOC_MAX || !adhoc_reserve(s)) {
-                sls_count(s, full_counter, 1);
-                return -1;
-        }
-        id = s->h->add(s->arg, full, type, p->cfg->address, made == SLS_MADE_LEARNED_OUT, pos);
-        if (id < 0) {
-                sls_count(s, id == -ENOSPC ? full_counter : SHM_COUNTER_BAD_VALUE, 1);
-                return -1;
-        }
-        s->adhoc[s->n_adhoc++] = (struct sls_adhoc){ .id = (uint32_t)id, .peer = p->index,
-                                                     .made = made };
-        sls_eventf(s, SHM_EVENT_ADHOC_VARIABLE, "name=%s peer=%c%s", full, p->cfg->address,
-                   made_word(made));
-        return id;
-}
-
 /* The ad hoc variable "<link>.<peer>.<name>" of p: its id (created if needed), or -1. */
 static int adhoc_id(struct link_sharedlink_session *s, struct sls_peer *p, const char *name)
 {
         return sls_made_id(s, p, name, strlen(name), SLS_MADE_ADHOC, SHM_TYPE_STRING,
                            SHM_POSITION_NONE, SHM_COUNTER_ADHOC_FULL, SHM_COUNTER_ADHOC_FULL);
-}
-
-void sls_publish(struct link_sharedlink_session *s, uint32_t id, const char *value, size_t len)
-{
-        if (s->h->publish(s->arg, id, value, len) < 0)
-                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
 }
 
 /* R<name>|D<value> from p. */
@@ -571,7 +385,7 @@ static void query_in(struct link_sharedlink_session *s, const struct slp_field *
         value[n] = '\0';
         pair[0] = (struct slp_field){ .letter = 'R', .value = q->value, .len = q->len };
         pair[1] = (struct slp_field){ .letter = 'D', .value = value, .len = (uint16_t)n };
-        if (sls_reply_add(s, pair, 2))
+        if (reply_add(s, pair, 2))
                 sls_count(s, SHM_COUNTER_ANSWERS_OUT, 1);
         else
                 sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
@@ -660,7 +474,7 @@ static void fields_apply(struct link_sharedlink_session *s, struct sls_peer *p,
                         struct slp_field pong = { .letter = 'G', .value = fl->value,
                                                   .len = fl->len };
 
-                        if (!sls_reply_add(s, &pong, 1))
+                        if (!reply_add(s, &pong, 1))
                                 sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
                         break;
                 }
@@ -863,13 +677,6 @@ uint64_t link_sharedlink_session_deadline(const struct link_sharedlink_session *
 /* ---------------------------------------------------------------------------------------------
  * Set-up and tear-down */
 
-static int outref_cmp(const void *a, const void *b)
-{
-        const struct sls_outref *x = a, *y = b;
-
-        return (x->id > y->id) - (x->id < y->id);
-}
-
 void link_sharedlink_session_outbound(struct link_sharedlink_session *s, uint64_t now_ms,
                                       uint32_t id, const char *value)
 {
@@ -877,7 +684,7 @@ void link_sharedlink_session_outbound(struct link_sharedlink_session *s, uint64_
         const struct sls_outref *ref;
         struct sls_peer *p;
 
-        ref = bsearch(&key, s->outrefs, s->n_outrefs, sizeof(*s->outrefs), outref_cmp);
+        ref = bsearch(&key, s->outrefs, s->n_outrefs, sizeof(*s->outrefs), sls_outref_cmp);
         if (!ref)
                 return;
         p = &s->peers[ref->peer];
@@ -987,23 +794,8 @@ static int peer_init(struct link_sharedlink_session *s, unsigned index)
         p->refresh_every = c->period_ms > 0 ? c->refresh_ms / c->period_ms : 1;
         if (p->refresh_every == 0)
                 p->refresh_every = 1;
-        s->peer_of_addr[c->address - 'A'] = (int)index;
+        s->peer_of_addr[slp_address_index(c->address)] = (int)index;
         return 0;
-}
-
-void sls_outrefs_build(struct link_sharedlink_session *s)
-{
-        s->n_outrefs = 0;
-        for (unsigned i = 0; i < s->n_peers; i++)
-                for (size_t k = 0; k < s->peers[i].out.n; k++)
-                        if (s->peers[i].out.ids[k] != SLS_UNMAPPED &&
-                            s->n_outrefs < s->cap_outrefs)
-                                s->outrefs[s->n_outrefs++] = (struct sls_outref){
-                                        .id = s->peers[i].out.ids[k],
-                                        .peer = (uint16_t)i,
-                                        .pos = (uint16_t)k,
-                                };
-        qsort(s->outrefs, s->n_outrefs, sizeof(*s->outrefs), outref_cmp);
 }
 
 static int outrefs_init(struct link_sharedlink_session *s)
@@ -1035,12 +827,9 @@ static bool config_valid(const struct config_link *cfg)
 {
         if (cfg->protocol != CONFIG_PROTOCOL_SHAREDLINK || cfg->sl.n_peers > CONFIG_PEERS_MAX)
                 return false;
-        for (unsigned i = 0; i < cfg->sl.n_peers; i++) {
-                char a = cfg->sl.peers[i].address;
-
-                if (a < 'A' || a >= 'A' + SLP_ADDR_COUNT)
+        for (unsigned i = 0; i < cfg->sl.n_peers; i++)
+                if (!slp_address_valid(cfg->sl.peers[i].address))
                         return false;
-        }
         return true;
 }
 

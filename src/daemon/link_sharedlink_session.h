@@ -13,7 +13,8 @@
  * per-peer schedule as a deadline (period, full refresh under compression, the on-change rate
  * limit and its retry, stale after silence), the pending queries with their timeouts, inbound
  * apply (N, D, R, Q, P, G), ad hoc variables, reply packing and every counter, by reason; and,
- * for a peer with dialect pronto4 (docs/pronto4.md, in link_sharedlink_pronto4.c): declarations
+ * for a peer with dialect pronto4 (docs/pronto4.md, in link_sharedlink_pronto4.c, which reads
+ * frames through src/proto/pronto4.c; both share link_sharedlink_peers.c): declarations
  * (sent, or learned into variables), acknowledgements, list queries, self-describing frames, E
  * and MU commands as events, type checks, whole-list data and the host's connect sequence.
  *
@@ -27,62 +28,7 @@
 #include <stdint.h>
 
 #include "daemon/config.h"
-#include "svc/log.h"
-#include "shm/layout.h"
-
-#define LINK_SHAREDLINK_QUERIES_MAX     16      /* pending control queries per link */
-#define LINK_SHAREDLINK_ADHOC_MAX       1024    /* ad hoc variables one link creates */
-#define LINK_SHAREDLINK_RETRY_MS        10      /* a refused on-change frame: retry */
-#define LINK_SHAREDLINK_NEVER           UINT64_MAX
-/* Longest one-line diagnostic the session hands to the diag hook. */
-#define LINK_SHAREDLINK_DIAG_MAX        160u
-/* Longest reason text the answer hook gets with an error. */
-#define LINK_SHAREDLINK_WHY_MAX         96u
-
-struct link_sharedlink_session;
-
-/*
- * How a session acts. Every hook gets the arg given to new(); each may be NULL except send,
- * find and publish. Hooks are called synchronously from the session's own functions and must
- * not call back into the session.
- */
-struct link_sharedlink_hooks {
-        /* Send one encoded frame; 0 or -errno (-ENOBUFS, -EAGAIN: the queue is full, the
-         * session retries). The session counts frames_out itself. */
-        int (*send)(void *arg, const char *buf, size_t len);
-        /* The id of the variable called name, or -ENOENT. */
-        int (*find)(void *arg, const char *name);
-        /* Creates a variable of shm type `type` for peer address `peer`: inbound (an ad hoc name,
-         * a learned inbound position) or outbound (a learned outbound position, which clients may
-         * then write), at list position `position` or SHM_POSITION_NONE; its id or -errno
-         * (-ENOSPC: no room). NULL: ad hoc names are full, nothing is learned. */
-        int (*add)(void *arg, const char *name, unsigned type, char peer, bool outbound,
-                   int32_t position);
-        /* The value of variable id as published (NUL-terminated in buf[size]): its length, or
-         * -errno when it holds no valid value. NULL: every Q is answered empty. */
-        int (*get)(void *arg, uint32_t id, char *buf, size_t size);
-        /* Publishes value[0..len) to variable id (valid, fresh); 0 or -errno. */
-        int (*publish)(void *arg, uint32_t id, const char *value, size_t len);
-        /* Marks variable id stale. */
-        void (*stale)(void *arg, uint32_t id);
-        /* Brackets publish/stale calls that clients must see at once (begin true, then false). */
-        void (*batch)(void *arg, bool begin);
-        /* An event for the table's ring ("key=value ..." text). */
-        void (*event)(void *arg, enum shm_event_type type, const char *text);
-        /* Adds n to a link counter. */
-        void (*count)(void *arg, enum shm_counter counter, uint64_t n);
-        /* A query given to link_sharedlink_session_query() ended: err 0 and the value, or a
-         * positive errno and a reason. Called exactly once per query accepted. */
-        void (*answer)(void *arg, void *token, int err, const char *text);
-        /* Whether the client behind a query's token is still there (NULL: always). */
-        bool (*alive)(void *arg, void *token);
-        /* A one-line diagnostic worth a rate-limited log line. */
-        void (*diag)(void *arg, enum log_prio prio, const char *text);
-        /* Where the peer reaches us, "<ip>:<port>" (NUL-terminated in buf[size]), and the remote
-         * port we send to: the text's length, or -errno when the link has no such address (not
-         * UDP). For a pronto4 host's "SetIP" command. NULL: no address. */
-        int (*local_address)(void *arg, char *buf, size_t size, unsigned *ret_remote_port);
-};
+#include "daemon/link_sharedlink_hooks.h"
 
 /*
  * Creates the session of a SharedLink link (cfg must outlive it), resolving each configured

@@ -305,19 +305,34 @@ static int ids_reserve(struct sl_client *c, uint32_t need)
         return 0;
 }
 
-/* Gives ids to the directory entries published since the last sync (write lock held). */
-static void ids_sync(struct sl_client *c)
+/*
+ * Gives ids to the directory entries published since the last sync (write lock held); with
+ * `all`, to every entry again (layout 1.5: entries below count were rewritten). The view is the
+ * one of the dir_rewrites read first: a rewrite during the walk leaves the two different, so
+ * the next lock refreshes again and no read or write trusts what the walk may have torn.
+ */
+static void ids_sync_view(struct sl_client *c, int all)
 {
         const struct client_map *m = c->map;
+        uint32_t rewrites = atomic_load_explicit(&m->in->dir_rewrites, memory_order_acquire);
         uint32_t count = atomic_load_explicit(&m->in->count, memory_order_acquire);
 
         if (count > m->capacity)
                 count = m->capacity;
+        if (all) {
+                for (uint32_t id = 0; id < c->nids; id++)
+                        c->id_index[id] = -1;
+                c->synced = 0;
+        }
+        c->synced_rewrites = rewrites;
         for (; c->synced < count; c->synced++) {
                 const struct shm_dir_entry *e = &m->dir[c->synced];
                 char name[SHM_NAME_SIZE];
                 int id;
 
+                c->index_id[c->synced] = -1;
+                if (e->flags & SHM_DIR_RETIRED)
+                        continue;               /* a name that is gone */
                 client_copy_field(name, sizeof(name), e->name, sizeof(e->name));
                 id = client_id_lookup(c, name);
                 if (id < 0) {
@@ -332,6 +347,14 @@ static void ids_sync(struct sl_client *c)
         }
 }
 
+static void ids_sync(struct sl_client *c)
+{
+        uint32_t rewrites = atomic_load_explicit(&c->map->in->dir_rewrites,
+                                                 memory_order_acquire);
+
+        ids_sync_view(c, rewrites != c->synced_rewrites);
+}
+
 /* Installs a freshly opened map in place of the current one and re-resolves every id. */
 static int map_install(struct sl_client *c, struct client_map *m)
 {
@@ -343,10 +366,7 @@ static int map_install(struct sl_client *c, struct client_map *m)
         c->map = m;
         free(c->index_id);
         c->index_id = index_id;
-        for (uint32_t id = 0; id < c->nids; id++)
-                c->id_index[id] = -1;
-        c->synced = 0;
-        ids_sync(c);
+        ids_sync_view(c, 1);
         out_open(c);
         return 0;
 }

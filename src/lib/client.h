@@ -93,6 +93,7 @@ struct sl_client {
         int32_t *id_index;              /* id -> directory index in the current map, or -1 */
         int32_t *index_id;              /* directory index -> id, map->capacity entries */
         uint32_t synced;                /* directory entries of the current map given ids */
+        uint32_t synced_rewrites;       /* dir_rewrites the ids were resolved under (1.5) */
         int32_t *name_hash;             /* open addressing: name -> id */
         uint32_t name_hash_size;
         uint32_t pid;                   /* written into .out lock words */
@@ -135,7 +136,20 @@ static inline int client_needs_refresh(const struct sl_client *c)
 
         return atomic_load_explicit(&h->state, memory_order_acquire) != SHM_STATE_LIVE ||
                atomic_load_explicit(&h->count, memory_order_acquire) != c->synced ||
+               atomic_load_explicit(&h->dir_rewrites, memory_order_acquire) !=
+                       c->synced_rewrites ||
                out_generation != c->out_generation || (!c->out && c->out_error == -EAGAIN);
+}
+
+/*
+ * 1 when a directory entry was rewritten (layout 1.5: a name retired or given to its entry)
+ * since the ids were resolved (read lock held). Asked after copying a slot: the copy may then
+ * hold the value of the entry's next name, and the read goes again on a refreshed view.
+ */
+static inline int client_dir_moved(const struct sl_client *c)
+{
+        return atomic_load_explicit(&c->map->in->dir_rewrites, memory_order_acquire) !=
+               c->synced_rewrites;
 }
 
 /*

@@ -22,6 +22,9 @@
 #define VARS_NUMBER_BUF         (SHM_VALUE_SIZE + 64)
 /* The read path is a handful of small steps: inline them into sl_read whatever the heuristics. */
 #define VARS_HOT                inline __attribute__((always_inline))
+/* Reads that found a directory entry rewritten under them before one gives up -EAGAIN: each
+ * refreshes the view first, and a rewrite is one daemon step (layout 1.5). */
+#define VARS_MOVED_TRIES        8
 
 /* The library's flag bits are the table's: a value read is handed out without translation. */
 _Static_assert(SL_FLAG_VALID == SHM_SLOT_VALID && SL_FLAG_STALE == SHM_SLOT_STALE &&
@@ -67,6 +70,21 @@ SL_EXPORT int sl_count(struct sl_client *c)
         return n;
 }
 
+/* The read lock and id's directory index (try `attempt` after a rewrite: layout 1.5), or -errno
+ * with no lock held. */
+static VARS_HOT int lock_index(struct sl_client *c, int id, int attempt)
+{
+        int index;
+
+        if (attempt == VARS_MOVED_TRIES)
+                return -EAGAIN;
+        client_rdlock(c);
+        index = client_index(c, id);
+        if (index < 0)
+                client_unlock(c);
+        return index;
+}
+
 SL_EXPORT int sl_info(struct sl_client *c, int id, struct sl_var_info *ret)
 {
         const struct shm_dir_entry *e;
@@ -75,21 +93,24 @@ SL_EXPORT int sl_info(struct sl_client *c, int id, struct sl_var_info *ret)
 
         if (!c || !ret || ret->size < SL_VAR_INFO_SIZE_V1)
                 return -EINVAL;
-        client_rdlock(c);
-        index = client_index(c, id);
-        if (index < 0) {
+        for (int attempt = 0;; attempt++) {
+                index = lock_index(c, id, attempt);
+                if (index < 0)
+                        return index;
+                e = &c->map->dir[index];
+                memset(&info, 0, sizeof(info));
+                client_copy_field(info.name, sizeof(info.name), e->name, sizeof(e->name));
+                client_copy_field(info.peer, sizeof(info.peer), e->peer, sizeof(e->peer));
+                info.direction = e->direction;
+                info.type = e->type;
+                info.link = e->link == SHM_LINK_NONE ? -1 : (int)e->link;
+                info.position = e->position;
+                info.flags = e->flags;
+                /* Rewritten meanwhile (layout 1.5): maybe torn, or another name's. */
+                if (!client_dir_moved(c))
+                        break;
                 client_unlock(c);
-                return index;
         }
-        e = &c->map->dir[index];
-        memset(&info, 0, sizeof(info));
-        client_copy_field(info.name, sizeof(info.name), e->name, sizeof(e->name));
-        client_copy_field(info.peer, sizeof(info.peer), e->peer, sizeof(e->peer));
-        info.direction = e->direction;
-        info.type = e->type;
-        info.link = e->link == SHM_LINK_NONE ? -1 : (int)e->link;
-        info.position = e->position;
-        info.flags = e->flags;
         client_unlock(c);
         client_struct_out(ret, &info, sizeof(info));
         return 0;
@@ -150,7 +171,9 @@ static int read_out_slot(const struct sl_client *c, const struct shm_dir_entry *
         r = shm_slot_read_to(&c->out_slots[e->out_slot], head, value);
         if (r < 0)
                 return r;
-        if (shm_slot_head_check(head, value) < 0)
+        /* A value written for the entry's retired name (layout 1.5) is none of this one's. */
+        if (shm_slot_head_check(head, value) < 0 ||
+            shm_layout_stamp_before(head->dir_stamp, e->born))
                 return 0;
         head->flags |= SHM_SLOT_OUTBOUND;
         *ret_sequence = shm_seqlock_sequence(head->word) / 2u;
@@ -195,23 +218,29 @@ static VARS_HOT int read_value(struct sl_client *c, int id, struct shm_slot_head
         uint64_t sequence = 0;
         int index, r = 0;
 
-        client_rdlock(c);
-        index = client_index(c, id);
-        if (index < 0) {
-                client_unlock(c);
-                return index;
-        }
-        e = &c->map->dir[index];
-        if (e->direction == SHM_DIR_OUT)
-                r = read_outbound(c, e, index, head, value, &sequence);
-        if (r == 0) {
-                /* .in: the daemon's own value, or its mirror of the last accepted outbound one */
-                r = shm_slot_read_to(&c->map->slots[index], head, value);
+        for (int attempt = 0;; attempt++) {
+                index = lock_index(c, id, attempt);
+                if (index < 0)
+                        return index;
+                e = &c->map->dir[index];
+                r = 0;
+                if (e->direction == SHM_DIR_OUT)
+                        r = read_outbound(c, e, index, head, value, &sequence);
                 if (r == 0) {
-                        sequence = head->word / 2u;
-                        if (head->length > SHM_VALUE_MAX || !(head->flags & SHM_SLOT_VALID))
-                                head->length = 0;
+                        /* .in: the daemon's own value, or its mirror of the last accepted
+                         * outbound one */
+                        r = shm_slot_read_to(&c->map->slots[index], head, value);
+                        if (r == 0) {
+                                sequence = head->word / 2u;
+                                if (head->length > SHM_VALUE_MAX ||
+                                    !(head->flags & SHM_SLOT_VALID))
+                                        head->length = 0;
+                        }
                 }
+                /* The entry was given to another name meanwhile: the copy may be its value. */
+                if (!client_dir_moved(c))
+                        break;
+                client_unlock(c);
         }
         if (ret_now) {
                 /* Age and liveness from the coarse clock: see client_now_coarse. */
@@ -435,6 +464,8 @@ static int write_locked(struct sl_client *c, int id, const char *value, size_t l
         }
         shm_slot_store(slot, value, (uint32_t)len, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND,
                        client_now(CLOCK_MONOTONIC), client_now(CLOCK_REALTIME));
+        /* The view's stamp: the daemon drops the write if the entry changed name since. */
+        shm_slot_store_stamp(slot, c->synced_rewrites);
         r = shm_slot_publish(slot, word);
         if (r < 0)
                 return r;

@@ -44,10 +44,8 @@
 
 #define SL_HEADER_LEN   4       /* ":" dst src "|" in the body, "[:AB" on the wire */
 #define SL_TRAILER_LEN  5       /* "|C" hh "]" */
-#define SL_CRLF_LEN     2
-#define SL_PRINT_MIN    0x20
-#define SL_PRINT_MAX    0x7e
 
+_Static_assert(SL_HEADER_LEN + SL_TRAILER_LEN == SLP_FRAME_OVERHEAD, "frame overhead");
 _Static_assert(SLP_FRAME_MIN <= SLP_FRAME_DEFAULT && SLP_FRAME_DEFAULT <= SLP_FRAME_MAX,
                "frame limits out of order");
 _Static_assert(SLP_FRAME_MAX <= UINT16_MAX, "slp_field.len is 16 bits");
@@ -70,10 +68,13 @@ static int hex_value(char c)
         return -1;
 }
 
-/* A value byte: printable ASCII except the three framing characters. */
-static bool is_value_byte(unsigned char c)
+const char *slp_address_text(char c)
 {
-        return c >= SL_PRINT_MIN && c <= SL_PRINT_MAX && c != '|' && c != '[' && c != ']';
+        static const char texts[SLP_ADDR_COUNT][2] = {
+                "A", "B", "C", "D", "E", "F", "G", "H", "I", "J", "K", "L", "M", "N", "O", "P",
+        };
+
+        return slp_address_valid(c) ? texts[slp_address_index(c)] : NULL;
 }
 
 enum slp_field_type slp_field_type_of(char letter)
@@ -270,14 +271,14 @@ static unsigned scan_body(uint64_t *bars, const char *b, size_t n, bool *ret_pri
 
                         even += w & SWAR_LANES;
                         odd += (w >> 8) & SWAR_LANES;
-                        bad |= swar_lt(w, SL_PRINT_MIN) | swar_gt(w, SL_PRINT_MAX);
+                        bad |= swar_lt(w, SLP_VALUE_BYTE_MIN) | swar_gt(w, SLP_VALUE_BYTE_MAX);
                         bits |= swar_movemask(swar_eq(w, '|')) << j;
                 }
                 for (; j < len; j++) {
                         unsigned char c = (unsigned char)p[j];
 
                         sum += c;
-                        tail_bad |= c < SL_PRINT_MIN || c > SL_PRINT_MAX;
+                        tail_bad |= c < SLP_VALUE_BYTE_MIN || c > SLP_VALUE_BYTE_MAX;
                         bits |= (uint64_t)(c == '|') << j;
                 }
                 even &= SWAR_LANES;
@@ -380,8 +381,8 @@ static enum slp_decode_reason frame_parse(struct slp_decoder *d)
 
         f->dst = b[1];
         f->src = b[2];
-        f->dst_index = (uint8_t)(b[1] - 'A');
-        f->src_index = (uint8_t)(b[2] - 'A');
+        f->dst_index = (uint8_t)slp_address_index(b[1]);
+        f->src_index = (uint8_t)slp_address_index(b[2]);
         f->nfields = 0;
         f->fields = d->fields;
         f->unknown_fields = 0;
@@ -512,7 +513,7 @@ static int check_value(char letter, const char *v, size_t len)
         if (len > SLP_VALUE_MAX)
                 return -EMSGSIZE;
         for (size_t i = 0; i < len; i++)
-                if (!is_value_byte((unsigned char)v[i]))
+                if (!slp_value_byte((unsigned char)v[i]))
                         return -EINVAL;
         if ((letter == 'N' || letter == 'L') && !parse_index(v, len, &index))
                 return -EINVAL;
@@ -538,7 +539,7 @@ static int list_value_check(const char *v, size_t *ret_len)
         if (!v)
                 return -EINVAL;
         for (; n <= SLP_VALUE_MAX && v[n] != '\0'; n++)
-                bad |= !is_value_byte((unsigned char)v[n]);
+                bad |= !slp_value_byte((unsigned char)v[n]);
         *ret_len = n;
         return n > SLP_VALUE_MAX ? -EMSGSIZE : bad ? -EINVAL : 0;
 }
@@ -602,7 +603,7 @@ int slp_frame_encode(char *buf, size_t size, char dst, char src,
                      const struct slp_field *fields, size_t nfields, unsigned flags)
 {
         bool crlf = flags & SLP_ENCODE_CRLF;
-        size_t total = SL_HEADER_LEN + SL_TRAILER_LEN + (crlf ? SL_CRLF_LEN : 0);
+        size_t total = SL_HEADER_LEN + SL_TRAILER_LEN + (crlf ? SLP_CRLF_LEN : 0);
         size_t at;
 
         if (!slp_address_valid(dst) || !slp_address_valid(src) || nfields == 0)
@@ -681,7 +682,7 @@ static int put_list_head(char *buf, size_t limit, size_t max_frame, char dst, ch
 {
         char digits[24];
         size_t ndigits = format_index(start, digits), at;
-        size_t total = SL_HEADER_LEN + 2 + ndigits + SL_TRAILER_LEN + (crlf ? SL_CRLF_LEN : 0);
+        size_t total = SL_HEADER_LEN + 2 + ndigits + SL_TRAILER_LEN + (crlf ? SLP_CRLF_LEN : 0);
 
         if (total > limit)
                 return total > max_frame ? -EMSGSIZE : -ENOSPC;
@@ -911,13 +912,9 @@ int slp_name_check(const char *name, size_t len)
                 return -EINVAL;
         if (len > SLP_VALUE_MAX)
                 return -EMSGSIZE;
-        for (size_t i = 0; i < len; i++) {
-                char c = name[i];
-
-                if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || is_digit(c) ||
-                      c == '_' || c == '.' || c == '-'))
+        for (size_t i = 0; i < len; i++)
+                if (!slp_name_byte(name[i]))
                         return -EINVAL;
-        }
         return 0;
 }
 
@@ -1131,7 +1128,7 @@ int slp_encode_command(char *buf, size_t size, char dst, char src, const char *m
 
 size_t slp_list_frame_len(size_t fields_len, bool crlf)
 {
-        return SL_HEADER_LEN + 3 + fields_len + SL_TRAILER_LEN + (crlf ? SL_CRLF_LEN : 0);
+        return SL_HEADER_LEN + 3 + fields_len + SL_TRAILER_LEN + (crlf ? SLP_CRLF_LEN : 0);
 }
 
 int slp_encode_list_whole(const struct slp_list *list, char *buf, size_t size)

@@ -43,6 +43,9 @@
 #define SLP_ADDR_COUNT           16     /* node addresses 'A'..'P' */
 #define SLP_CHECKSUM_FIELD_MAX   3      /* 'C' and two hex digits */
 #define SLP_NOISE_RUN_MAX        1024   /* a noise run is reported at least every this many bytes */
+/* What a frame takes besides its fields: "[:AB" and "|C" hh "]"; and the CR LF after it. */
+#define SLP_FRAME_OVERHEAD       9
+#define SLP_CRLF_LEN             2
 /* Every stored field takes at least 2 bytes ("|X"), so a frame never holds more than this. */
 #define SLP_FIELDS_MAX           (SLP_FRAME_MAX / 2)
 /* slp_field.index for "N?" and "L?" (ask the peer for its lists, Pronto4 dialect). */
@@ -64,6 +67,38 @@ static inline bool slp_address_valid(char c)
 static inline bool slp_address_text_valid(const char *text, size_t len)
 {
         return len == 1 && slp_address_valid(text[0]);
+}
+
+/* The index 0..SLP_ADDR_COUNT-1 of a valid node address (slp_address_valid()). */
+static inline unsigned slp_address_index(char c)
+{
+        return (unsigned)(c - 'A');
+}
+
+/* A valid node address as a NUL-terminated string of static storage ("A".."P"), or NULL. */
+const char *slp_address_text(char c);
+
+/* ---------------------------------------------------------------------------------------------
+ * Value bytes and name bytes: the one statement of each rule, for the codec, the table, the
+ * config and the library */
+
+#define SLP_VALUE_BYTE_MIN       0x20   /* printable ASCII, space included ... */
+#define SLP_VALUE_BYTE_MAX       0x7e   /* ... up to '~' */
+
+/* Whether c may appear in a value on the wire: printable ASCII 0x20-0x7E except the framing
+ * characters '|' '[' ']' (PROTOCOLS.md 1.2). */
+static inline bool slp_value_byte(unsigned char c)
+{
+        return c >= SLP_VALUE_BYTE_MIN && c <= SLP_VALUE_BYTE_MAX && c != '|' && c != '[' &&
+               c != ']';
+}
+
+/* Whether c may appear in a name: a variable name (sharedlinkd.yaml(5): "letters, digits, _ .
+ * and -"), a name a Pronto4 peer declares, a module of a command. */
+static inline bool slp_name_byte(char c)
+{
+        return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+               c == '_' || c == '.' || c == '-';
 }
 
 /* ---------------------------------------------------------------------------------------------

@@ -5,8 +5,11 @@
 #include "shm/layout.h"
 
 #include <errno.h>
+#include <limits.h>
 #include <stdio.h>
 #include <string.h>
+
+#include "proto/sharedlink.h"           /* the value and name bytes (inline: no link to it) */
 
 #define SHM_COUNTER_NAME(id, name, scope) name,
 static const char *const counter_names[] = { SHM_COUNTER_LIST(SHM_COUNTER_NAME) };
@@ -145,7 +148,7 @@ const char *shm_layout_type_name(unsigned t)
 
 int shm_layout_value_char(int c)
 {
-        return c >= 0x20 && c <= 0x7e && c != '|' && c != '[' && c != ']';
+        return c >= 0 && c <= UCHAR_MAX && slp_value_byte((unsigned char)c);
 }
 
 /*
@@ -166,11 +169,11 @@ static uint64_t swar_zero(uint64_t x)
         return (x - LAYOUT_ONES) & ~x & LAYOUT_HIGHS;
 }
 
-/* Nonzero when a byte of x is outside 0x20..0x7e or is one of | [ ]. */
+/* Nonzero when a byte of x is no slp_value_byte(): outside 0x20..0x7e or one of | [ ]. */
 static uint64_t swar_bad(uint64_t x)
 {
-        uint64_t below = (x - LAYOUT_ONES * 0x20u) & ~x & LAYOUT_HIGHS;        /* < 0x20 */
-        uint64_t above = ((x + LAYOUT_ONES * (127u - 0x7eu)) | x) & LAYOUT_HIGHS; /* > 0x7e */
+        uint64_t below = (x - LAYOUT_ONES * SLP_VALUE_BYTE_MIN) & ~x & LAYOUT_HIGHS;
+        uint64_t above = ((x + LAYOUT_ONES * (127u - SLP_VALUE_BYTE_MAX)) | x) & LAYOUT_HIGHS;
 
         return below | above | swar_zero(x ^ (LAYOUT_ONES * (uint64_t)'|')) |
                swar_zero(x ^ (LAYOUT_ONES * (uint64_t)'[')) |
@@ -220,7 +223,8 @@ int shm_layout_value_check(const char *v, size_t len)
  */
 int shm_layout_value_check_field(const char *v, size_t len)
 {
-        const __m128i space = _mm_set1_epi8(0x20), del = _mm_set1_epi8(0x7f);
+        const __m128i space = _mm_set1_epi8(SLP_VALUE_BYTE_MIN),
+                      del = _mm_set1_epi8(SLP_VALUE_BYTE_MAX + 1);
         const __m128i bar = _mm_set1_epi8('|'), open = _mm_set1_epi8('['),
                       close = _mm_set1_epi8(']');
         uint64_t bad = 0;
@@ -256,7 +260,7 @@ int shm_layout_name_check(const char *name)
         if (len == 0 || len > SHM_NAME_MAX)
                 return -EINVAL;
         for (size_t i = 0; i < len; i++)
-                if (name[i] == ' ' || !shm_layout_value_char((unsigned char)name[i]))
+                if (!slp_name_byte(name[i]))
                         return -EINVAL;
         return 0;
 }

@@ -60,6 +60,17 @@
  *        computes and compares it with, so the region lies past total_size: the object is
  *        link_texts_offset + SHM_LINKS_MAX * link_text_size bytes, and a client checks that
  *        against the object's size. An older daemon leaves both fields 0: no texts.
+ *   1.5  names added at run time can be retired and their entries given to new names, so a peer
+ *        that declares new names again and again never fills the directory (docs/pronto4.md §4).
+ *        A retired entry carries SHM_DIR_RETIRED; dir_rewrites (reserved bytes before) counts
+ *        the rewrites of entries below `count` as a seqlock: odd while the daemon rewrites one,
+ *        then even again. A client re-reads the whole directory when it changed, and after
+ *        copying a slot checks that it did not change since its view was taken (else the copy
+ *        may hold the value of the entry's next name): a retired name reads as gone, never as
+ *        another variable. A client writing to .out puts the dir_rewrites of its view in the
+ *        slot's dir_stamp; the daemon drops a write whose stamp is older than the last rewrite
+ *        of the entry owning the slot (a write meant for the retired name). A client before
+ *        1.5 never re-reads a rewritten entry and stamps 0: its writes to a reused entry drop.
  */
 #ifndef SHM_LAYOUT_H
 #define SHM_LAYOUT_H
@@ -70,11 +81,12 @@
 #include <stdint.h>
 
 #define SHM_LAYOUT_MAJOR        1u
-#define SHM_LAYOUT_MINOR        4u
+#define SHM_LAYOUT_MINOR        5u
 #define SHM_LAYOUT_MINOR_WAITER 1u      /* first minor with SHM_OUT_WAITING */
 #define SHM_LAYOUT_MINOR_SOCKET 2u      /* first minor with shm_in_header.control_socket */
 #define SHM_LAYOUT_MINOR_DOORBELL 3u    /* first minor with shm_in_header.out_doorbell */
 #define SHM_LAYOUT_MINOR_LINK_TEXT 4u   /* first minor with the link texts region */
+#define SHM_LAYOUT_MINOR_RETIRE 5u      /* first minor with dir_rewrites and retired entries */
 #define SHM_LAYOUT_VERSION      ((SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR)
 
 /* "SLNK.IN\0" and "SLNK.OUT" as little-endian words: recognisable in a hex dump. */
@@ -126,6 +138,7 @@
 
 /* shm_dir_entry.flags */
 #define SHM_DIR_ADHOC           0x1u    /* added at run time (e.g. an R frame for an unknown name) */
+#define SHM_DIR_RETIRED         0x2u    /* 1.5: the name is gone; the entry may get another */
 
 /* shm_slot.flags (the library's SL_FLAG_* use the same bits) */
 #define SHM_SLOT_VALID          0x1u    /* the value was written completely */
@@ -254,7 +267,7 @@ struct shm_in_header {
         _Atomic uint32_t out_generation;        /* bumped when .out is recreated */
         uint32_t capacity;                      /* directory entries = inbound slots */
         _Atomic uint32_t count;                 /* published entries; grows with ad hoc names */
-        _Atomic uint32_t dir_generation;        /* bumped whenever names are added */
+        _Atomic uint32_t dir_generation;        /* bumped whenever names are added or retired */
         uint32_t slot_size;
         uint32_t dir_entry_size;
         uint32_t link_max;
@@ -272,7 +285,9 @@ struct shm_in_header {
         _Atomic uint64_t event_head;            /* number of the last event written (0: none) */
         uint64_t link_texts_offset;             /* 1.4: SHM_LINKS_MAX shm_link_text; 0: none */
         uint32_t link_text_size;                /* 1.4: sizeof(struct shm_link_text) */
-        uint8_t reserved0[20];
+        /* 1.5: rewrites of entries below count, a seqlock (odd while one is rewritten) */
+        _Atomic uint32_t dir_rewrites;
+        uint8_t reserved0[16];
         /* Own cache line: the futex clients wait on, bumped once per committed batch. */
         _Atomic uint32_t change;
         /* 1.3: clients FUTEX_WAKE it when .out is unusable; never written (see the history) */
@@ -327,7 +342,10 @@ struct shm_dir_entry {
         uint8_t direction;                      /* SHM_DIR_* */
         uint8_t type;                           /* SHM_TYPE_* */
         uint16_t flags;                         /* SHM_DIR_* flags */
-        uint8_t reserved[16];
+        /* 1.5: dir_rewrites when the entry got this name (0: when the table was made or the
+         * name appended); a .out write stamped earlier was meant for a retired name */
+        uint32_t born;
+        uint8_t reserved[12];
 };
 
 /*
@@ -345,7 +363,9 @@ struct shm_slot {
         /* .in mirror of an outbound variable (1.1): the .out lock word whose value it holds, 0
          * for none; in .out and for inbound variables 0 */
         _Atomic uint64_t source;
-        uint8_t reserved[24];
+        /* 1.5, .out only: the dir_rewrites of the writer's view; 0 elsewhere */
+        _Atomic uint32_t dir_stamp;
+        uint8_t reserved[20];
 } __attribute__((aligned(64)));
 
 /* Header of the .out object: written once by the daemon, but clients can scribble over it. */
@@ -365,6 +385,12 @@ struct shm_out_header {
         uint8_t reserved1[60];
 };
 
+/* Whether a dir_rewrites value `stamp` is older than `born` (serial arithmetic: it wraps). */
+static inline int shm_layout_stamp_before(uint32_t stamp, uint32_t born)
+{
+        return (int32_t)(stamp - born) < 0;
+}
+
 /* Lock-free 4- and 8-byte atomics are address-free, so they work across processes. */
 static_assert(ATOMIC_INT_LOCK_FREE == 2, "32-bit atomics must be lock-free for shared memory");
 static_assert(ATOMIC_LLONG_LOCK_FREE == 2, "64-bit atomics must be lock-free for shared memory");
@@ -382,6 +408,7 @@ static_assert(offsetof(struct shm_in_header, out_capacity) == 108, "out capacity
 static_assert(offsetof(struct shm_in_header, links_offset) == 112, "links offset offset");
 static_assert(offsetof(struct shm_in_header, heartbeat_ns) == 144, "heartbeat offset");
 static_assert(offsetof(struct shm_in_header, event_head) == 152, "event head offset");
+static_assert(offsetof(struct shm_in_header, dir_rewrites) == 172, "dir rewrites offset");
 static_assert(offsetof(struct shm_in_header, change) == 192, "change word offset");
 static_assert(offsetof(struct shm_in_header, change) % SHM_CACHE_LINE == 0, "change word line");
 static_assert(offsetof(struct shm_in_header, out_doorbell) == 196, "doorbell offset");
@@ -399,11 +426,13 @@ static_assert(offsetof(struct shm_event, text) == 40, "event text offset");
 static_assert(sizeof(struct shm_dir_entry) == 96, "directory entry size");
 static_assert(offsetof(struct shm_dir_entry, link) == 64, "directory link offset");
 static_assert(offsetof(struct shm_dir_entry, direction) == 76, "directory direction offset");
+static_assert(offsetof(struct shm_dir_entry, born) == 80, "directory born offset");
 static_assert(sizeof(struct shm_slot) == 128, "slot size");
 static_assert(offsetof(struct shm_slot, flags) == 24, "slot flags offset");
 static_assert(offsetof(struct shm_slot, length) == 28, "slot length offset");
 static_assert(offsetof(struct shm_slot, value) == 32, "slot value offset");
 static_assert(offsetof(struct shm_slot, source) == 96, "slot source offset");
+static_assert(offsetof(struct shm_slot, dir_stamp) == 104, "slot dir stamp offset");
 static_assert(sizeof(struct shm_out_header) == 128, "out header size");
 static_assert(offsetof(struct shm_out_header, generation) == 48, "out generation offset");
 static_assert(offsetof(struct shm_out_header, change) == 64, "out change word offset");
@@ -453,7 +482,7 @@ const char *shm_layout_event_name(unsigned t);
 /* Name of variable type t ("string", "long", "double"), or "unknown". */
 const char *shm_layout_type_name(unsigned t);
 
-/* 1 if c may appear in a value on the wire: printable ASCII 0x20-0x7E except | [ ]. */
+/* 1 if c may appear in a value on the wire (slp_value_byte(): 0x20-0x7E except | [ ]). */
 int shm_layout_value_char(int c);
 
 /* 0 if v[0..len) is a valid value (length <= SHM_VALUE_MAX, wire charset), else -EINVAL. */
@@ -462,7 +491,8 @@ int shm_layout_value_check(const char *v, size_t len);
 /* shm_layout_value_check of v[0..len) where v is a whole value field (SHM_VALUE_SIZE bytes). */
 int shm_layout_value_check_field(const char *v, size_t len);
 
-/* 0 if name is a valid variable name (1..47 bytes, wire charset without space), else -EINVAL. */
+/* 0 if name is a valid variable name (1..47 bytes of slp_name_byte(): letters, digits, _ . -),
+ * else -EINVAL. */
 int shm_layout_name_check(const char *name);
 
 /*

@@ -22,6 +22,7 @@ int shm_slot_read(const struct shm_slot *slot, struct shm_slot_copy *copy)
         copy->flags = head.flags;
         copy->length = head.length;
         copy->source = head.source;
+        copy->dir_stamp = head.dir_stamp;
         return 0;
 }
 
@@ -49,6 +50,11 @@ void shm_slot_store(struct shm_slot *slot, const char *value, uint32_t len, uint
         atomic_store_explicit(&slot->length, len, SHM_SEQLOCK_PAYLOAD_STORE);
         slot_store_value(slot, value, len);
         atomic_store_explicit(&slot->flags, flags, SHM_SEQLOCK_PAYLOAD_STORE);
+}
+
+void shm_slot_store_stamp(struct shm_slot *slot, uint32_t dir_stamp)
+{
+        atomic_store_explicit(&slot->dir_stamp, dir_stamp, SHM_SEQLOCK_PAYLOAD_STORE);
 }
 
 void shm_slot_store_word(struct shm_slot *slot, unsigned i, uint64_t w)

@@ -25,6 +25,7 @@ struct shm_slot_copy {
         uint32_t length;
         char value[SHM_VALUE_SIZE];     /* raw bytes as found: validate before trusting */
         uint64_t source;                /* shm_slot.source */
+        uint32_t dir_stamp;             /* shm_slot.dir_stamp (.out, layout 1.5) */
 };
 
 /*
@@ -45,6 +46,7 @@ struct shm_slot_head {
         uint32_t flags;
         uint32_t length;
         uint64_t source;                /* shm_slot.source (a .in mirror), else 0 */
+        uint32_t dir_stamp;             /* shm_slot.dir_stamp (.out, layout 1.5), else 0 */
 };
 
 /*
@@ -70,6 +72,8 @@ static inline int shm_slot_read_to(const struct shm_slot *slot, struct shm_slot_
                 head->flags = atomic_load_explicit(&slot->flags, SHM_SEQLOCK_PAYLOAD_LOAD);
                 head->length = atomic_load_explicit(&slot->length, SHM_SEQLOCK_PAYLOAD_LOAD);
                 head->source = atomic_load_explicit(&slot->source, SHM_SEQLOCK_PAYLOAD_LOAD);
+                head->dir_stamp = atomic_load_explicit(&slot->dir_stamp,
+                                                       SHM_SEQLOCK_PAYLOAD_LOAD);
                 /* Unrolled: the loop's own counting was a fifth of an sl_read. */
 #pragma GCC unroll 8
                 for (unsigned i = 0; i < SHM_VALUE_WORDS; i++) {
@@ -111,6 +115,9 @@ void shm_slot_write_flags(struct shm_slot *slot, uint32_t flags);
  * Returns 0 with the odd word in *ret_word, or -EBUSY when another writer keeps it.
  */
 int shm_slot_claim(struct shm_slot *slot, uint32_t pid, uint64_t *ret_word);
+
+/* Step 2 (with shm_slot_store): the dir_rewrites of the writer's view (layout 1.5). */
+void shm_slot_store_stamp(struct shm_slot *slot, uint32_t dir_stamp);
 
 /* Step 2: stores the payload into a claimed slot (any number of times, in any order). */
 void shm_slot_store(struct shm_slot *slot, const char *value, uint32_t len, uint32_t flags,

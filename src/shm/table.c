@@ -51,6 +51,7 @@ struct table_var {
         uint32_t link;
         uint32_t out_slot;
         uint32_t flags;                 /* current SHM_SLOT_* flags of its .in slot */
+        uint32_t retired;               /* 1: its name is gone, the entry awaits another */
 };
 
 /* Scan state of one .out slot. */
@@ -90,6 +91,7 @@ struct shm_table {
         uint32_t event_capacity;
         uint32_t link_count;
         uint32_t out_generation;
+        uint32_t dir_rewrites;          /* what shm_in_header.dir_rewrites holds */
         uint64_t epoch;
         pid_t pid;
         int has_group;
@@ -161,6 +163,16 @@ static void hash_insert(struct shm_table *t, const char *name, int32_t id)
         while (t->hash[i] != TABLE_HASH_EMPTY)
                 i = (i + 1u) & mask;
         t->hash[i] = id;
+}
+
+/* The index without retired names (open addressing has no cheap delete; retiring is rare). */
+static void hash_rebuild(struct shm_table *t)
+{
+        for (uint32_t i = 0; i < t->hash_size; i++)
+                t->hash[i] = TABLE_HASH_EMPTY;
+        for (uint32_t id = 0; id < t->count; id++)
+                if (!t->vars[id].retired)
+                        hash_insert(t, t->vars[id].name, (int32_t)id);
 }
 
 /* Start time of a process (clock ticks after boot), so a recycled pid is not taken for ours. */
@@ -697,7 +709,7 @@ int shm_table_find(const struct shm_table *t, const char *name)
 
 int shm_table_direction(const struct shm_table *t, uint32_t id)
 {
-        if (id >= t->count)
+        if (id >= t->count || t->vars[id].retired)
                 return -ENOENT;
         return (int)t->vars[id].direction;
 }
@@ -746,7 +758,7 @@ static int table_set(struct shm_table *t, uint32_t id, const char *value, size_t
         struct table_var *v;
         int implicit = !t->in_batch;
 
-        if (id >= t->count)
+        if (id >= t->count || t->vars[id].retired)
                 return -ENOENT;
         if (!value || shm_layout_value_check(value, len) < 0)
                 return -EINVAL;
@@ -811,7 +823,7 @@ static int set_stale_one(struct shm_table *t, uint32_t id, int stale)
 
 int shm_table_set_stale(struct shm_table *t, uint32_t id, int stale)
 {
-        if (id >= t->count)
+        if (id >= t->count || t->vars[id].retired)
                 return -ENOENT;
         if (set_stale_one(t, id, stale))
                 publish(t);
@@ -825,17 +837,86 @@ int shm_table_set_link_stale(struct shm_table *t, uint32_t link, int stale)
         if (link >= t->link_count)
                 return -EINVAL;
         for (uint32_t id = 0; id < t->count; id++)
-                if (t->vars[id].link == link && t->vars[id].direction == SHM_DIR_IN)
+                if (t->vars[id].link == link && t->vars[id].direction == SHM_DIR_IN &&
+                    !t->vars[id].retired)
                         changed += set_stale_one(t, id, stale);
         if (changed)
                 publish(t);
         return changed;
 }
 
+/*
+ * Entries below count are rewritten under dir_rewrites, a seqlock (layout.h, 1.5): odd, then
+ * the entry, then even. A client that read the directory across it reads it again.
+ */
+static void dir_rewrite_begin(struct shm_table *t)
+{
+        t->dir_rewrites++;
+        atomic_store_explicit(&t->in->dir_rewrites, t->dir_rewrites, memory_order_relaxed);
+        atomic_thread_fence(memory_order_release);
+}
+
+static void dir_rewrite_end(struct shm_table *t)
+{
+        t->dir_rewrites++;
+        atomic_store_explicit(&t->in->dir_rewrites, t->dir_rewrites, memory_order_release);
+        atomic_fetch_add_explicit(&t->in->dir_generation, 1u, memory_order_release);
+}
+
+/* A retired entry of that direction (an outbound one keeps its .out slot), or -ENOENT. */
+static int retired_entry(const struct shm_table *t, unsigned direction)
+{
+        for (uint32_t id = 0; id < t->count; id++)
+                if (t->vars[id].retired && t->vars[id].direction == direction)
+                        return (int)id;
+        return -ENOENT;
+}
+
+int shm_table_retire(struct shm_table *t, uint32_t id)
+{
+        struct table_var *tv;
+
+        if (id >= t->count || t->vars[id].retired)
+                return -ENOENT;
+        if (!(t->dir[id].flags & SHM_DIR_ADHOC))
+                return -EPERM;
+        tv = &t->vars[id];
+        tv->retired = 1;
+        tv->flags = 0;
+        /* No value first: a client that still reads the name finds none, then finds it gone. */
+        shm_slot_write(&t->slots[id], "", 0, 0, clock_ns(CLOCK_MONOTONIC),
+                       clock_ns(CLOCK_REALTIME));
+        dir_rewrite_begin(t);
+        t->dir[id].flags |= SHM_DIR_RETIRED;
+        dir_rewrite_end(t);
+        hash_rebuild(t);
+        publish(t);
+        return 0;
+}
+
+/* Gives retired entry id to v (same direction, so an outbound one keeps its .out slot): the
+ * .out writes stamped before it were meant for the old name and are dropped (scan_report). */
+static void entry_reuse(struct shm_table *t, uint32_t id, const struct shm_var *v)
+{
+        struct table_var *tv = &t->vars[id];
+
+        copy_field(tv->name, sizeof(tv->name), v->name);
+        tv->link = v->link;
+        tv->flags = 0;
+        tv->retired = 0;
+        hash_insert(t, tv->name, (int32_t)id);
+        dir_rewrite_begin(t);
+        dir_fill(&t->dir[id], v, tv->out_slot, SHM_DIR_ADHOC);
+        t->dir[id].born = t->dir_rewrites + 1u;        /* the even value that ends it */
+        dir_rewrite_end(t);
+        publish(t);
+}
+
 int shm_table_add(struct shm_table *t, const struct shm_var *v)
 {
         uint32_t id = t->count;
         struct table_var *tv;
+        int reuse;
 
         uint32_t slot = SHM_OUT_NONE;
 
@@ -843,6 +924,11 @@ int shm_table_add(struct shm_table *t, const struct shm_var *v)
                 return -EINVAL;
         if (hash_lookup(t, v->name) >= 0)
                 return -EEXIST;
+        reuse = retired_entry(t, v->direction);
+        if (reuse >= 0) {
+                entry_reuse(t, (uint32_t)reuse, v);
+                return reuse;
+        }
         if (id >= t->capacity)
                 return -ENOSPC;
         if (v->direction == SHM_DIR_OUT) {
@@ -859,6 +945,7 @@ int shm_table_add(struct shm_table *t, const struct shm_var *v)
         tv->link = v->link;
         tv->out_slot = slot;
         tv->flags = 0;
+        tv->retired = 0;
         hash_insert(t, tv->name, (int32_t)id);
         /* Entry and slot first, then the count (release): readers acquire the count, so an entry
          * below it is complete when they read it. */
@@ -1126,6 +1213,12 @@ static int scan_report(struct shm_table *t, uint32_t i, shm_table_out_fn fn, voi
                 t->out_seen[i] = s->word;
                 if (c->flags & SHM_SLOT_REPAIRED)
                         return 0;       /* our own repair, reported when we made it */
+                if (t->vars[ch.id].retired ||
+                    shm_layout_stamp_before(c->dir_stamp, t->dir[ch.id].born)) {
+                        /* Meant for a retired name (layout.h, 1.5): never the new one's. */
+                        shm_table_counter_add(t, SHM_LINK_NONE, SHM_COUNTER_OUT_INVALID, 1);
+                        return 0;
+                }
                 if (shm_slot_copy_check(c) < 0) {
                         shm_table_counter_add(t, SHM_LINK_NONE, SHM_COUNTER_OUT_INVALID, 1);
                         ch.status = SHM_OUT_INVALID;

@@ -138,10 +138,19 @@ int shm_table_commit(struct shm_table *t);
 /*
  * Adds a variable at run time: bumps the directory generation and publishes a change. An outbound
  * one takes a spare .out slot (shm_table_config.out_spare) that clients may write from then on.
+ * A retired entry of the same direction is given to the name first (shm_table_retire).
  * Returns the new id, -ENOSPC when the ad hoc room (or, outbound, the spare slots) is used up,
  * -EEXIST or -EINVAL.
  */
 int shm_table_add(struct shm_table *t, const struct shm_var *v);
+
+/*
+ * Retires a variable added at run time (shm_table_add): its name is gone (find, set and clients
+ * no longer know it: layout.h, 1.5) and its entry, with its .out slot, goes to the next name
+ * added in its direction. 0, -ENOENT (no such variable, or retired already) or -EPERM (a
+ * configured variable: those stay for the table's life).
+ */
+int shm_table_retire(struct shm_table *t, uint32_t id);
 
 /* Adds a link; returns its index, -ENOSPC (SHM_LINKS_MAX) or -EINVAL. */
 int shm_table_link_add(struct shm_table *t, const struct shm_link_def *def);

@@ -16,6 +16,7 @@
 #include <arpa/inet.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <inttypes.h>
 #include <netinet/in.h>
 #include <poll.h>
 #include <setjmp.h>
@@ -35,7 +36,9 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/shmtest.h"
 #include "common/slwait.h"
+#include "shm/layout.h"
 
 #define START_MS        20000
 #define WAIT_MS         10000
@@ -1107,15 +1110,16 @@ static void bad_input(struct it *t)
         wire_sendf(t, ":BA|N0|D77|Dhello|D5");
         wait_value(t, "veh.A.beta", "hello");
         assert_value(t, "veh.A.alpha", "77");
-        assert_value(t, "veh.A.video_mux1", "1");
-        assert_value(t, "veh.A.veh_start", "12");
+        /* Issue 19.6: the learned names the new list no longer has are gone. */
+        assert_int_equal(sl_find(t->c, "veh.A.video_mux1"), -ENOENT);
+        assert_int_equal(sl_find(t->c, "veh.A.veh_start"), -ENOENT);
         assert_value(t, "veh.A.taken", "");
         wait_counter(t, 0, "list_mismatch", 3);
         /* The fourth position of the old list is beyond the new one. */
         wire_sendf(t, ":BA|N0|D78|Dworld|D|D3");
         wait_value(t, "veh.A.beta", "world");
         wait_counter(t, 0, "list_mismatch", 4);
-        assert_value(t, "veh.A.veh_motion", "4");
+        assert_int_equal(sl_find(t->c, "veh.A.veh_motion"), -ENOENT);
 
         /* A command text longer than a value, a module that is not a name: counted, no event;
          * the daemon goes on (the next command is an event). */
@@ -1128,6 +1132,96 @@ static void bad_input(struct it *t)
         assert_no_event_before(t, "command", "command", "module=Physics text=\"0,Stop\"");
         wire_send(t, host_ping);
         expect(t, vehicle_pong);
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Issue 19.6: a peer that declares new names again and again */
+
+#define REDECLARE_ROUNDS        400
+#define REDECLARE_NAMES         20      /* names per declaration, and the link's learn_max */
+
+/* ":BA|<head>0|T0|Q<p><round>_0|..." or, ack, ":AB|N0|R<p><round>_0|D|...". */
+static void redeclaration(char *text, size_t size, char head, char prefix, unsigned round,
+                          bool ack)
+{
+        size_t len = (size_t)snprintf(text, size, ack ? ":AB|N0" : ":BA|%c0", head);
+
+        for (unsigned k = 0; k < REDECLARE_NAMES; k++)
+                len += (size_t)snprintf(text + len, size - len,
+                                        ack ? "|R%c%u_%u|D" : "|T0|Q%c%u_%u", prefix, round, k);
+        assert_true(len < size);
+}
+
+/* Entries of the instance's directory (retired ones included), from its header. */
+static uint32_t directory_size(struct it *t)
+{
+        char name[SHM_OBJECT_NAME_SIZE];
+        struct shmtest_view v;
+        uint32_t n;
+
+        assert_int_equal(shm_layout_object_name(t->h.instance, "in", name, sizeof(name)), 0);
+        v = shmtest_view_open(name, false);
+        assert_non_null(v.base);
+        n = atomic_load(&shmtest_in_header(&v)->count);
+        shmtest_view_close(&v);
+        return n;
+}
+
+/*
+ * 400 rounds of an N0 and an L0 declaration of 20 new names each (16,000 names): every
+ * declaration retires the learned names of the one it replaces, so the directory stays at the
+ * configured names plus one learn_max per learned list and a new name is still made at the end;
+ * a client's id of a retired name reads as gone, never as the value of the entry's next name.
+ */
+static void test_redeclaring_peer(void **state)
+{
+        struct it *t = on_wire(state, WIRE_PTY);
+        char text[FRAME_MAX_T], name[SL_NAME_SIZE], value[SL_VALUE_SIZE];
+        struct sl_client *fresh;
+        uint32_t before;
+        int old_id;
+
+        start_vehicle(t, REDECLARE_NAMES);
+        wait_state_name(t, 0, "up");
+        before = directory_size(t);
+        for (unsigned round = 0; round < REDECLARE_ROUNDS; round++) {
+                redeclaration(text, sizeof(text), 'N', 'n', round, false);
+                wire_sendf(t, "%s", text);
+                redeclaration(text, sizeof(text), 'N', 'n', round, true);
+                expectf(t, "%s", text);
+                redeclaration(text, sizeof(text), 'L', 'o', round, false);
+                wire_sendf(t, "%s", text);
+                if (round == 0) {
+                        wait_var(t, "veh.A.n0_0", SL_DIR_IN, SL_VAR_LONG, 0);
+                        wire_sendf(t, ":BA|N0|D41");
+                        wait_value(t, "veh.A.n0_0", "41");
+                        old_id = sl_find(t->c, "veh.A.n0_0");
+                        assert_true(old_id >= 0);
+                }
+        }
+        wire_send(t, host_ping);
+        expect(t, vehicle_pong);
+        print_message("directory: %u entries before, %u after %u declarations; learn_full %"
+                      PRIu64 "\n", before, directory_size(t), 2 * REDECLARE_ROUNDS,
+                      counter(t, 0, "learn_full"));
+        snprintf(name, sizeof(name), "veh.A.o%u_%u", REDECLARE_ROUNDS - 1, REDECLARE_NAMES - 1);
+        wait_var(t, name, SL_DIR_OUT, SL_VAR_LONG, REDECLARE_NAMES - 1);
+        assert_int_equal(sl_find(t->c, "veh.A.n0_0"), -ENOENT);
+        assert_int_equal(sl_find(t->c, "veh.A.o0_0"), -ENOENT);
+        assert_int_equal(sl_read(t->c, old_id, value, sizeof(value), NULL), -ENOENT);
+        assert_int_equal(counter(t, 0, "learn_full"), 0);
+        /* The current lists, and room for the next: the real host's new name is made. */
+        wire_sendf(t, ":BA|N0|T4|Qreal_host_name");
+        wait_var(t, "veh.A.real_host_name", SL_DIR_IN, SL_VAR_STRING, 0);
+        wire_sendf(t, ":BA|N0|Dhello");
+        wait_value(t, "veh.A.real_host_name", "hello");
+        assert_int_equal(counter(t, 0, "learn_full"), 0);
+        /* The bound (docs/pronto4.md §4): one learn_max per learned list over what was there. */
+        assert_true(directory_size(t) <= before + 2 * REDECLARE_NAMES);
+        /* A new handle knows the live names only: the N list of one, the last L list. */
+        assert_int_equal(sl_open(t->h.instance, &fresh), 0);
+        assert_true(sl_count(fresh) <= (int)before + 1 + REDECLARE_NAMES);
+        sl_close(fresh);
 }
 
 static void test_bad_input_pty(void **state)
@@ -1477,7 +1571,7 @@ static void test_peer_host(void **state)
         wait_event(t, "command", "module=ServoPod text=\"0,TELEOP START\"");
 
         /* The host restarts and declares other names: the mapping starts over; the old names
-         * keep their values, no position of the old list reaches them. */
+         * are retired (issue 19.6), no position of the old list reaches anything. */
         peer_stop(p);
         {
                 const char *const again[] = {
@@ -1491,7 +1585,7 @@ static void test_peer_host(void **state)
         PEER_EXPECT(p, "\"event\": \"ack\"", "\"name\": \"alpha\"");
         wait_value(t, "veh.A.alpha", "7");
         wait_var(t, "veh.A.beta", SL_DIR_IN, SL_VAR_STRING, 1);
-        assert_value(t, "veh.A.veh_start", "1");
+        assert_int_equal(sl_find(t->c, "veh.A.veh_start"), -ENOENT);
         assert_true(counter(t, 0, "redeclared") >= 1);
         /* A client write on the learned outbound list (now VehicleName alone): a whole N0
          * list of one goes to the host (which checks it is full-length). */
@@ -1618,6 +1712,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_peer_host, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_back_to_back, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_command_link_down, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_redeclaring_peer, setup, teardown),
         };
 
         signal(SIGPIPE, SIG_IGN);

@@ -55,8 +55,9 @@ static const struct shm_var vars[NVARS] = {
         [LON] = { "AutoGpsLon", SHM_DIR_IN, SHM_TYPE_DOUBLE, 0, "A", 1 },
         [THROTTLE] = { "CmdThrottle", SHM_DIR_OUT, SHM_TYPE_DOUBLE, 0, "A", 0 },
         [STATE] = { "agility.state", SHM_DIR_IN, SHM_TYPE_STRING, 1, NULL, SHM_POSITION_NONE },
-        /* JSON must escape what names and values may hold: quotes and backslashes. */
-        [QUOTE] = { "Quote\"Back\\slash", SHM_DIR_IN, SHM_TYPE_STRING, SHM_LINK_NONE, NULL,
+        /* JSON must escape what values may hold: quotes and backslashes (a name is letters,
+         * digits, _ . -: slp_name_byte(), one rule for the config, the table and the codec). */
+        [QUOTE] = { "Quote.Back-slash", SHM_DIR_IN, SHM_TYPE_STRING, SHM_LINK_NONE, NULL,
                     SHM_POSITION_NONE },
         [NEVER] = { "NeverSet", SHM_DIR_IN, SHM_TYPE_LONG, SHM_LINK_NONE, NULL, SHM_POSITION_NONE },
 };
@@ -495,7 +496,7 @@ static void test_list(void **state)
 
         assert_int_equal(RUN(f, "list", "--json"), 0);
         assert_json(f, f->out);
-        assert_non_null(strstr(f->out, "\"name\":\"Quote\\\"Back\\\\slash\""));
+        assert_non_null(strstr(f->out, "\"name\":\"Quote.Back-slash\""));
         assert_non_null(strstr(f->out, "\"value\":\"say \\\"hi\\\" \\\\o/\""));
         assert_non_null(strstr(f->out, "\"name\":\"NeverSet\",\"direction\":\"in\",\"link\":null,"
                                "\"peer\":null,\"type\":\"long\",\"position\":null,\"value\":\"\","

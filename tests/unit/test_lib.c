@@ -859,6 +859,71 @@ static void test_adhoc_visible(void **state)
         assert_string_equal(buf, "21.5");
 }
 
+/*
+ * Layout 1.5 (issue 19.6): a retired name reads as gone, and its entry, given to another name,
+ * never hands that name's value to an id of the old one; a write meant for the old name (made
+ * before it was retired, scanned after) never becomes the new one's.
+ */
+static void test_retired_names(void **state)
+{
+        struct fixture *f = *state;
+        const struct shm_var in_a = { "veh.A.a", SHM_DIR_IN, SHM_TYPE_STRING, 0, "A", 0 };
+        const struct shm_var in_b = { "veh.A.b", SHM_DIR_IN, SHM_TYPE_STRING, 0, "A", 0 };
+        const struct shm_var out_a = { "veh.A.oa", SHM_DIR_OUT, SHM_TYPE_STRING, 0, "A", 0 };
+        const struct shm_var out_b = { "veh.A.ob", SHM_DIR_OUT, SHM_TYPE_STRING, 0, "A", 0 };
+        char buf[SL_VALUE_SIZE];
+        int a, old_in, old_out, id;
+        struct seen s;
+
+        f->tb.cfg.out_spare = 1;
+        assert_int_equal(shmtest_table_create(&f->tb), 0);
+        assert_int_equal(sl_open(f->tb.instance, &f->c), 0);
+
+        a = shm_table_add(f->tb.t, &in_a);
+        assert_int_equal(a, NVARS);
+        assert_int_equal(shm_table_set_str(f->tb.t, (uint32_t)a, "old"), 0);
+        old_in = sl_find(f->c, "veh.A.a");
+        assert_true(old_in >= 0);
+        assert_int_equal(sl_read(f->c, old_in, buf, sizeof(buf), NULL), 3);
+        /* Only a name added at run time retires, once. */
+        assert_int_equal(shm_table_retire(f->tb.t, LAT), -EPERM);
+        assert_int_equal(shm_table_retire(f->tb.t, (uint32_t)a), 0);
+        assert_int_equal(shm_table_retire(f->tb.t, (uint32_t)a), -ENOENT);
+        assert_int_equal(shm_table_find(f->tb.t, "veh.A.a"), -ENOENT);
+        assert_int_equal(shm_table_set_str(f->tb.t, (uint32_t)a, "x"), -ENOENT);
+        assert_int_equal(sl_find(f->c, "veh.A.a"), -ENOENT);
+        assert_int_equal(sl_read(f->c, old_in, buf, sizeof(buf), NULL), -ENOENT);
+        /* The next name takes the entry: the directory does not grow. */
+        assert_int_equal(shm_table_add(f->tb.t, &in_b), a);
+        assert_int_equal(shm_table_count(f->tb.t), NVARS + 1);
+        assert_int_equal(shm_table_set_str(f->tb.t, (uint32_t)a, "new"), 0);
+        assert_int_equal(sl_read(f->c, old_in, buf, sizeof(buf), NULL), -ENOENT);
+        id = sl_find(f->c, "veh.A.b");
+        assert_true(id >= 0 && id != old_in);
+        assert_int_equal(sl_read(f->c, id, buf, sizeof(buf), NULL), 3);
+        assert_string_equal(buf, "new");
+
+        /* Outbound: the entry keeps its .out slot for the next outbound name. */
+        a = shm_table_add(f->tb.t, &out_a);
+        old_out = sl_find(f->c, "veh.A.oa");
+        assert_int_equal(sl_write(f->c, old_out, "scanned"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        assert_int_equal(s.last.id, a);
+        assert_int_equal(sl_write(f->c, old_out, "late"), 0);         /* not scanned yet */
+        assert_int_equal(shm_table_retire(f->tb.t, (uint32_t)a), 0);
+        assert_int_equal(shm_table_add(f->tb.t, &out_b), a);
+        assert_int_equal(scan(f, &s), 0);                               /* "late" dropped */
+        assert_int_equal(sl_write(f->c, old_out, "gone"), -ENOENT);
+        id = sl_find(f->c, "veh.A.ob");
+        assert_true(id >= 0 && id != old_out);
+        assert_int_equal(sl_read(f->c, id, buf, sizeof(buf), NULL), 0); /* never "late" */
+        assert_int_equal(sl_write(f->c, id, "fresh"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        assert_int_equal(s.last.id, a);
+        assert_string_equal(s.last.value, "fresh");
+        assert_int_equal(sl_read(f->c, id, buf, sizeof(buf), NULL), 5);
+}
+
 /* ---- daemon restarts --------------------------------------------------------------------------- */
 
 static void test_restart_clean(void **state)
@@ -1595,6 +1660,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_events, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_links, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_adhoc_visible, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_retired_names, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_restart_clean, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_restart_after_crash, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_events_restart_empty_ring, setup, teardown),

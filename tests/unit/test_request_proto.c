@@ -491,7 +491,8 @@ static void test_encode_refused(void **state)
 
 /*
  * A last word that reads as wait=MS is followed by an explicit one, so that the daemon takes
- * the argument as the argument: a query of the variable "wait=5", a command text ending so.
+ * the argument as the argument: a command text ending so. A variable name never reads so (it is
+ * letters, digits, _ . -: slp_name_byte()), so a query of "wait=5" is refused.
  */
 static void test_wait_escape(void **state)
 {
@@ -502,15 +503,8 @@ static void test_wait_escape(void **state)
         reqp_init(&r, REQP_QUERY);
         assert_int_equal(reqp_set_link(&r, "veh", err, sizeof(err)), 0);
         assert_int_equal(reqp_set_text(&r, "peer", "A", err, sizeof(err)), 0);
-        assert_int_equal(reqp_set_text(&r, "variable name", "wait=5", err, sizeof(err)), 0);
-        assert_true(reqp_encode(&r, line, sizeof(line), err, sizeof(err)) > 0);
-        assert_string_equal(line, "query veh A wait=5 wait=0");
-        assert_int_equal(decode_line(line, buf, &back, err, sizeof(err)), 0);
-        assert_string_equal(back.u.query.name, "wait=5");
-        assert_int_equal(back.wait_ms, 0);
-        r.wait_ms = 70;
-        assert_true(reqp_encode(&r, line, sizeof(line), err, sizeof(err)) > 0);
-        assert_string_equal(line, "query veh A wait=5 wait=70");
+        assert_int_equal(reqp_set_text(&r, "variable name", "wait=5", err, sizeof(err)),
+                         -EINVAL);
 
         reqp_init(&r, REQP_COMMAND);
         assert_int_equal(reqp_set_link(&r, "v", err, sizeof(err)), 0);

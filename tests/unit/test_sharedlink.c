@@ -21,6 +21,7 @@
 
 #include "common/wire.h"
 #include "proto/sharedlink.h"
+#include "shm/layout.h"
 
 #define OUT_MAX         16384
 #define PIECES_MAX      4
@@ -1106,6 +1107,15 @@ static void test_address_valid(void **state)
                 if (slp_address_valid(c) != want)
                         print_error("address byte 0x%02x: got %d\n", (unsigned char)c, !want);
                 assert_int_equal(slp_address_valid(c), want);
+                /* The index and the text of an address follow the same rule. */
+                if (want) {
+                        assert_int_equal(slp_address_index(c), (unsigned)(c - 'A'));
+                        assert_non_null(slp_address_text(c));
+                        assert_int_equal(slp_address_text(c)[0], c);
+                        assert_int_equal(slp_address_text(c)[1], '\0');
+                } else {
+                        assert_null(slp_address_text(c));
+                }
                 valid += want;
         }
         assert_int_equal(valid, SLP_ADDR_COUNT);
@@ -1119,6 +1129,37 @@ static void test_address_valid(void **state)
         /* The length is the caller's: "A" with its NUL is two bytes, not an address. */
         assert_false(slp_address_text_valid("A", 2));
         assert_true(slp_address_text_valid("AB", 1));
+}
+
+/*
+ * Issue 18.5: one rule for the bytes of a value and one for the bytes of a name, whoever asks:
+ * the codec (slp_value_check, slp_name_check), the table and the library (shm_layout_*). A name
+ * is letters, digits, _ . - (sharedlinkd.yaml(5)); the table used to take any value byte but
+ * space, so "a:b" was a variable name for it and for nothing else.
+ */
+static void test_one_rule(void **state)
+{
+        unsigned names = 0, values = 0;
+
+        (void)state;
+        for (int b = 1; b <= UCHAR_MAX; b++) {
+                char one[2] = { (char)b, '\0' };
+                bool name = slp_name_byte((char)b), value = slp_value_byte((unsigned char)b);
+
+                assert_int_equal(shm_layout_name_check(one) == 0, name);
+                assert_int_equal(slp_name_check(one, 1) == 0, name);
+                assert_int_equal(shm_layout_value_char(b) != 0, value);
+                assert_int_equal(shm_layout_value_check(one, 1) == 0, value);
+                assert_int_equal(slp_value_check(SLP_TYPE_STRING, one, 1) == 0, value);
+                /* Every name byte is a value byte: a name can travel in a Q, R or E field. */
+                assert_true(!name || value);
+                names += name;
+                values += value;
+        }
+        assert_int_equal(names, 26 + 26 + 10 + 3);
+        assert_int_equal(values, SLP_VALUE_BYTE_MAX - SLP_VALUE_BYTE_MIN + 1 - 3);
+        assert_int_equal(shm_layout_name_check("a:b"), -EINVAL);
+        assert_int_equal(shm_layout_name_check("veh.A.joy_steer-2"), 0);
 }
 
 static void test_value_check(void **state)
@@ -1642,6 +1683,7 @@ int main(void)
                 cmocka_unit_test(test_roundtrip_vectors),
                 cmocka_unit_test(test_type_parse),
                 cmocka_unit_test(test_address_valid),
+                cmocka_unit_test(test_one_rule),
                 cmocka_unit_test(test_value_check),
                 cmocka_unit_test(test_name_check),
                 cmocka_unit_test(test_declaration_encode),

@@ -11,7 +11,11 @@
 #include "daemon/daemon_internal.h"
 #include "daemon/daemon_out.h"
 #include "proto/request.h"
+#include "shm/layout.h"
 #include "shm/table.h"
+
+_Static_assert(REQP_LINK_SIZE == SHM_LINK_NAME_SIZE, "a request's link name is a table's");
+_Static_assert(REQP_NAME_SIZE == SHM_NAME_SIZE, "a request's variable name is a table's");
 
 static void request_stats(struct daemon *d, struct control_request *req)
 {

@@ -29,7 +29,7 @@ enum field_type {
         T_ADDRESS,                      /* a CIRCE address (circe_address_parse) */
         T_ADDRESSES,                    /* CIRCE addresses separated by commas, 1..max */
         T_PEER,                         /* a SharedLink node, "A".."P" */
-        T_NAME,                         /* a variable name (shm_layout_name_check) */
+        T_NAME,                         /* a variable name (slp_name_check, < REQP_NAME_SIZE) */
         T_MODULE,                       /* a Pronto4 module (slp_name_check) */
         T_TEXT,                         /* the rest of the words: a module command's text */
 };
@@ -446,10 +446,9 @@ static int field_set_text(struct reqp_request *r, const struct field *f, const c
                                     "expected", text);
                 break;
         case T_NAME:
-                if (shm_layout_name_check(text) < 0)
-                        return fail(err, errsz, "bad %s \"%.48s\": 1..%d bytes of printable "
-                                    "ASCII without space, |, [ or ]", f->name, text,
-                                    (int)REQP_NAME_SIZE - 1);
+                if (len >= REQP_NAME_SIZE || slp_name_check(text, len) < 0)
+                        return fail(err, errsz, "bad %s \"%.48s\": 1..%d bytes of letters, "
+                                    "digits, _ . -", f->name, text, (int)REQP_NAME_SIZE - 1);
                 break;
         case T_MODULE:
                 if (slp_name_check(text, len) < 0)

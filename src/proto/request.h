@@ -46,12 +46,13 @@
 #include "proto/circe.h"
 #include "proto/control.h"
 #include "proto/sharedlink.h"
-#include "shm/layout.h"
 
 /* ---- Limits ------------------------------------------------------------------------------- */
 
-#define REQP_LINK_SIZE          SHM_LINK_NAME_SIZE      /* a link name + NUL */
-#define REQP_NAME_SIZE          SHM_NAME_SIZE           /* query: a variable name + NUL */
+/* The table's sizes (shm/layout.h), pinned equal where both meet: lib/request.c and
+ * daemon/daemon_request.c. Spelled here so the grammar needs nothing above src/proto/. */
+#define REQP_LINK_SIZE          32      /* a link name + NUL (SHM_LINK_NAME_SIZE) */
+#define REQP_NAME_SIZE          48      /* query: a variable name + NUL (SHM_NAME_SIZE) */
 #define REQP_MODULE_SIZE        (SLP_VALUE_MAX + 1)     /* command: E<module> + NUL */
 #define REQP_TEXT_SIZE          (SLP_VALUE_MAX + 1)     /* command: D<text> + NUL */
 #define REQP_PEER_SIZE          2                       /* query: "A".."P" + NUL */

@@ -1,7 +1,8 @@
 /*
  * sharedlink-mqtt: the bridge between a sharedlinkd instance (through the public libsharedlink
- * only) and an MQTT broker (through a sink: bridge_mqtt.c in the program). The logic lives here,
- * independent of libmosquitto; it is driven from one thread by main.c:
+ * only) and an MQTT broker (through a sink: one per connection of bridge_mqtt.c in the program,
+ * a fake one in tests/unit/test_bridge.c). The logic lives here, independent of libmosquitto;
+ * it is driven from one thread by main.c:
  *
  *   bridge_attach     opens the instance (retried while no daemon runs)
  *   bridge_scan       publishes what changed: values (+ meta), link states, status

@@ -1,0 +1,290 @@
+/*
+ * Unit tests of the MQTT bridge's logic (src/mqtt/bridge.c) with a fake sink in place of
+ * libmosquitto and real tables made by the daemon-side module (tests/common/shmtest.h): what a
+ * set/ message does (written, or refused with its reply on base/set/<name>/error, and never
+ * written when it was retained or waited in the broker), and what a scan publishes.
+ */
+#include <errno.h>
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cmocka.h>
+
+#include <sharedlink.h>
+
+#include "common/shmtest.h"
+#include "mqtt/bridge.h"
+#include "mqtt/bridge_config.h"
+#include "mqtt/bridge_format.h"
+
+#define SINK_MAX        64      /* messages a test looks at */
+#define PAYLOAD_MAX     BRIDGE_JSON_MAX
+
+enum { LAT, THROTTLE, STEER, NVARS };
+
+static const struct shm_var vars[NVARS] = {
+        { "AutoGpsLat", SHM_DIR_IN, SHM_TYPE_DOUBLE, 0, "A", 0 },
+        { "CmdThrottle", SHM_DIR_OUT, SHM_TYPE_DOUBLE, 0, "A", 0 },
+        { "CmdSteer", SHM_DIR_OUT, SHM_TYPE_LONG, 0, "A", 1 },
+};
+
+/* One message the bridge handed to the sink. */
+struct message {
+        char topic[BRIDGE_TOPIC_MAX];
+        char payload[PAYLOAD_MAX];
+        size_t len;
+        int qos;
+        bool retain;
+};
+
+/* The fake sink: records what is published, or refuses it (a broker that is gone). */
+struct fake_sink {
+        struct message msg[SINK_MAX];
+        unsigned n;
+        bool down;
+        int next_mid;
+};
+
+struct fixture {
+        struct shmtest_table tb;        /* the daemon's side */
+        struct bridge_config cfg;
+        struct bridge *b;
+        struct fake_sink fs;
+        struct bridge_sink sink;
+        struct sl_client *c;            /* another client, to look at the values */
+        char base[BRIDGE_BASE_MAX];
+};
+
+static int sink_publish(void *arg, const char *topic, const void *payload, size_t len, int qos,
+                        bool retain, int *ret_mid)
+{
+        struct fake_sink *fs = arg;
+        struct message *m;
+
+        if (fs->down)
+                return -ENOTCONN;
+        if (fs->n < SINK_MAX) {
+                m = &fs->msg[fs->n];
+                snprintf(m->topic, sizeof(m->topic), "%s", topic);
+                m->len = len < sizeof(m->payload) ? len : sizeof(m->payload) - 1;
+                memcpy(m->payload, payload, m->len);
+                m->payload[m->len] = '\0';
+                m->qos = qos;
+                m->retain = retain;
+        }
+        fs->n++;
+        *ret_mid = ++fs->next_mid;
+        return 0;
+}
+
+static int setup(void **state)
+{
+        struct fixture *f = calloc(1, sizeof(*f));
+
+        if (!f)
+                return -1;
+        *state = f;
+        shmtest_table_init(&f->tb, "bridge");
+        shmtest_table_config(&f->tb, vars, NVARS, 0);
+        if (shmtest_table_create(&f->tb) < 0 || sl_open(f->tb.instance, &f->c) < 0)
+                return -1;
+        bridge_config_defaults(&f->cfg);
+        snprintf(f->cfg.instance, sizeof(f->cfg.instance), "%s", f->tb.instance);
+        f->cfg.events = false;                  /* no cursor file */
+        f->cfg.writable.count = 1;
+        snprintf(f->cfg.writable.glob[0], sizeof(f->cfg.writable.glob[0]), "CmdThrottle");
+        f->sink = (struct bridge_sink){ .publish = sink_publish, .arg = &f->fs };
+        snprintf(f->base, sizeof(f->base), "%s/%s", f->cfg.prefix, f->tb.instance);
+        if (bridge_new(&f->cfg, &f->b) < 0 || bridge_attach(f->b) < 0)
+                return -1;
+        return 0;
+}
+
+static int teardown(void **state)
+{
+        struct fixture *f = *state;
+
+        bridge_free(f->b);
+        sl_close(f->c);
+        shmtest_table_destroy(&f->tb);
+        free(f);
+        return 0;
+}
+
+/* "<base>/<a>[/<b>]" */
+static const char *topic(struct fixture *f, const char *a, const char *b)
+{
+        static char t[BRIDGE_TOPIC_MAX];
+
+        assert_int_equal(bridge_format_topic(t, sizeof(t), f->base, a, b), 0);
+        return t;
+}
+
+static int set(struct fixture *f, const char *name, const char *payload,
+               enum bridge_set_via via)
+{
+        char t[BRIDGE_TOPIC_MAX];
+
+        snprintf(t, sizeof(t), "%s", topic(f, BRIDGE_TOPIC_SET, name));
+        return bridge_set(f->b, &f->sink, t, payload, strlen(payload), via);
+}
+
+static void assert_value(struct fixture *f, int id, const char *want)
+{
+        char v[SL_VALUE_SIZE];
+        struct sl_meta meta = { .size = sizeof(meta) };
+
+        assert_true(sl_read(f->c, id, v, sizeof(v), &meta) >= 0);
+        assert_string_equal(v, want);
+}
+
+/* The last message is the refusal of name with code; it is not retained. */
+static void assert_refusal(struct fixture *f, const char *name, const char *code)
+{
+        char t[BRIDGE_TOPIC_MAX], want[64];
+        const struct message *m;
+
+        assert_true(f->fs.n > 0);
+        m = &f->fs.msg[f->fs.n - 1];
+        snprintf(t, sizeof(t), "%s/" BRIDGE_TOPIC_ERROR, topic(f, BRIDGE_TOPIC_SET, name));
+        assert_string_equal(m->topic, t);
+        snprintf(want, sizeof(want), "\"code\":\"%s\"", code);
+        assert_non_null(strstr(m->payload, want));
+        assert_int_equal(m->qos, f->cfg.set_qos);
+        assert_false(m->retain);
+}
+
+/* The index of the message on t, or -1. */
+static int find(struct fixture *f, const char *t)
+{
+        for (unsigned i = 0; i < f->fs.n && i < SINK_MAX; i++)
+                if (!strcmp(f->fs.msg[i].topic, t))
+                        return (int)i;
+        return -1;
+}
+
+/* A live write is written, and only that: nothing is published. */
+static void test_set_live(void **state)
+{
+        struct fixture *f = *state;
+
+        assert_int_equal(set(f, "CmdThrottle", "0.25", BRIDGE_SET_LIVE), 1);
+        assert_value(f, THROTTLE, "0.25");
+        assert_int_equal(f->fs.n, 0);
+        assert_int_equal(bridge_counters(f->b)->set_written, 1);
+        assert_int_equal(bridge_counters(f->b)->set_refused, 0);
+}
+
+/* A retained or queued write is never written, whatever it says: refused with its reason. An
+ * empty retained message (clearing one) is ignored; so are the bridge's own replies. */
+static void test_set_old(void **state)
+{
+        struct fixture *f = *state;
+        char t[BRIDGE_TOPIC_MAX];
+
+        assert_int_equal(set(f, "CmdThrottle", "0.25", BRIDGE_SET_LIVE), 1);
+        assert_int_equal(set(f, "CmdThrottle", "0.75", BRIDGE_SET_RETAINED), -EPERM);
+        assert_refusal(f, "CmdThrottle", "retained");
+        assert_int_equal(set(f, "CmdThrottle", "0.5", BRIDGE_SET_QUEUED), -EPERM);
+        assert_refusal(f, "CmdThrottle", "queued");
+        /* Also for a name that would be refused anyway: old is said first. */
+        assert_int_equal(set(f, "AutoGpsLat", "1", BRIDGE_SET_QUEUED), -EPERM);
+        assert_refusal(f, "AutoGpsLat", "queued");
+        assert_value(f, THROTTLE, "0.25");
+        assert_int_equal(bridge_counters(f->b)->set_refused, 3);
+
+        assert_int_equal(set(f, "CmdThrottle", "", BRIDGE_SET_RETAINED), 0);
+        snprintf(t, sizeof(t), "%s/" BRIDGE_TOPIC_ERROR, topic(f, BRIDGE_TOPIC_SET,
+                                                               "CmdThrottle"));
+        assert_int_equal(bridge_set(f->b, &f->sink, t, "{}", 2, BRIDGE_SET_LIVE), 0);
+        assert_int_equal(f->fs.n, 3);
+        assert_int_equal(bridge_counters(f->b)->set_refused, 3);
+        assert_value(f, THROTTLE, "0.25");
+}
+
+/* The other refusals, each with its reply; a topic of more levels has no name to answer on. */
+static void test_set_refused(void **state)
+{
+        struct fixture *f = *state;
+        char t[BRIDGE_TOPIC_MAX];
+
+        assert_int_equal(set(f, "AutoGpsLat", "1", BRIDGE_SET_LIVE), -EPERM);
+        assert_refusal(f, "AutoGpsLat", "inbound");
+        assert_int_equal(set(f, "CmdSteer", "1", BRIDGE_SET_LIVE), -EPERM);
+        assert_refusal(f, "CmdSteer", "not-writable");
+        assert_int_equal(set(f, "CmdNope", "1", BRIDGE_SET_LIVE), -EINVAL);
+        assert_refusal(f, "CmdNope", "unknown");
+        assert_int_equal(set(f, "CmdThrottle", "1|2", BRIDGE_SET_LIVE), -EINVAL);
+        assert_refusal(f, "CmdThrottle", "bad-value");
+        assert_int_equal(bridge_set(f->b, &f->sink, topic(f, BRIDGE_TOPIC_SET, "a/b"), "1", 1,
+                                    BRIDGE_SET_LIVE), -EINVAL);
+        snprintf(t, sizeof(t), "%s", topic(f, BRIDGE_TOPIC_EVENTS, "CmdThrottle"));
+        assert_int_equal(bridge_set(f->b, &f->sink, t, "1", 1, BRIDGE_SET_LIVE), -EINVAL);
+        assert_int_equal(f->fs.n, 4);
+        assert_int_equal(bridge_counters(f->b)->set_refused, 6);
+        assert_int_equal(bridge_counters(f->b)->set_written, 0);
+}
+
+/* A full scan publishes every variable (value and meta), the links and the status; a later
+ * scan only what changed. base/status says offline while writes are not taken. */
+static void test_scan(void **state)
+{
+        struct fixture *f = *state;
+        int i;
+
+        assert_true(bridge_scan(f->b, &f->sink, true) > 0);
+        for (unsigned id = 0; id < NVARS; id++) {
+                assert_true(find(f, topic(f, vars[id].name, NULL)) >= 0);
+                assert_true(find(f, topic(f, vars[id].name, BRIDGE_TOPIC_META)) >= 0);
+        }
+        assert_true(find(f, topic(f, BRIDGE_TOPIC_LINKS, shmtest_links[0].name)) >= 0);
+        i = find(f, topic(f, BRIDGE_TOPIC_STATUS, NULL));
+        assert_true(i >= 0);
+        assert_string_equal(f->fs.msg[i].payload, BRIDGE_STATUS_OFFLINE);
+        assert_true(f->fs.msg[i].retain);
+
+        f->fs.n = 0;
+        assert_int_equal(set(f, "CmdThrottle", "0.5", BRIDGE_SET_LIVE), 1);
+        assert_int_equal(bridge_scan(f->b, &f->sink, false), 1);
+        i = find(f, topic(f, "CmdThrottle", NULL));
+        assert_true(i >= 0);
+        assert_string_equal(f->fs.msg[i].payload, "0.5");
+        assert_true(find(f, topic(f, "CmdThrottle", BRIDGE_TOPIC_META)) >= 0);
+        assert_int_equal(f->fs.n, 2);
+}
+
+/* A sink that refuses (the broker is gone): the scan fails and counts it, and publishes what
+ * it could not once the sink takes messages again. */
+static void test_scan_sink_down(void **state)
+{
+        struct fixture *f = *state;
+
+        assert_true(bridge_scan(f->b, &f->sink, true) > 0);
+        assert_int_equal(set(f, "CmdThrottle", "0.5", BRIDGE_SET_LIVE), 1);
+        f->fs.down = true;
+        assert_true(bridge_scan(f->b, &f->sink, false) < 0);
+        assert_true(bridge_counters(f->b)->publish_errors > 0);
+        f->fs.down = false;
+        f->fs.n = 0;
+        assert_int_equal(bridge_scan(f->b, &f->sink, false), 1);
+        assert_true(find(f, topic(f, "CmdThrottle", NULL)) >= 0);
+}
+
+int main(void)
+{
+        const struct CMUnitTest tests[] = {
+                cmocka_unit_test_setup_teardown(test_set_live, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_set_old, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_set_refused, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_scan, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_scan_sink_down, setup, teardown),
+        };
+
+        return cmocka_run_group_tests(tests, NULL, NULL);
+}

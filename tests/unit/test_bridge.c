@@ -214,14 +214,22 @@ static void test_set_refused(void **state)
         struct fixture *f = *state;
         char t[BRIDGE_TOPIC_MAX];
 
-        assert_int_equal(set(f, "AutoGpsLat", "1", BRIDGE_SET_LIVE), -EPERM);
-        assert_refusal(f, "AutoGpsLat", "inbound");
-        assert_int_equal(set(f, "CmdSteer", "1", BRIDGE_SET_LIVE), -EPERM);
-        assert_refusal(f, "CmdSteer", "not-writable");
-        assert_int_equal(set(f, "CmdNope", "1", BRIDGE_SET_LIVE), -EINVAL);
-        assert_refusal(f, "CmdNope", "unknown");
-        assert_int_equal(set(f, "CmdThrottle", "1|2", BRIDGE_SET_LIVE), -EINVAL);
-        assert_refusal(f, "CmdThrottle", "bad-value");
+        static const struct {
+                const char *name, *payload;
+                int r;
+                const char *code;
+        } cases[] = {
+                { "AutoGpsLat", "1", -EPERM, "inbound" },
+                { "CmdSteer", "1", -EPERM, "not-writable" },
+                { "CmdNope", "1", -EINVAL, "unknown" },
+                { "CmdThrottle", "1|2", -EINVAL, "bad-value" },
+        };
+
+        for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+                assert_int_equal(set(f, cases[i].name, cases[i].payload, BRIDGE_SET_LIVE),
+                                 cases[i].r);
+                assert_refusal(f, cases[i].name, cases[i].code);
+        }
         assert_int_equal(bridge_set(f->b, &f->sink, topic(f, BRIDGE_TOPIC_SET, "a/b"), "1", 1,
                                     BRIDGE_SET_LIVE), -EINVAL);
         snprintf(t, sizeof(t), "%s", topic(f, BRIDGE_TOPIC_EVENTS, "CmdThrottle"));

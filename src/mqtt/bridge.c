@@ -355,12 +355,23 @@ const char *bridge_status(struct bridge *b)
 
 static int status_scan(struct bridge *b, const struct bridge_sink *sink, bool full)
 {
-        /* online promises that writes are taken too, when there are any to take. */
-        const char *s = b->cfg->writable.count > 0 && !b->writes_ready ? BRIDGE_STATUS_OFFLINE :
-                        bridge_status(b);
+        const char *s = bridge_status(b);
+        bool waiting = b->cfg->writable.count > 0 && !b->writes_ready &&
+                       !strcmp(s, BRIDGE_STATUS_ONLINE);
         char topic[BRIDGE_TOPIC_MAX];
-        bool news = !b->status || strcmp(b->status, s) != 0;
+        bool news;
 
+        /* online promises that writes are taken too, when there are any to take. Right after
+         * a connection the writes' subscription is a moment behind: the broker holds offline
+         * then (the will, or the last clean stop), so nothing is said until it is online;
+         * writes that stop being taken later make it offline. */
+        if (waiting && (full || !b->status)) {
+                b->status = NULL;
+                return 0;
+        }
+        if (waiting)
+                s = BRIDGE_STATUS_OFFLINE;
+        news = !b->status || strcmp(b->status, s) != 0;
         if (!full && !news)
                 return 0;
         bridge_format_topic(topic, sizeof(topic), b->base, BRIDGE_TOPIC_STATUS, NULL);

@@ -2,7 +2,8 @@
  * Unit tests of the MQTT bridge's logic (src/mqtt/bridge.c) with a fake sink in place of
  * libmosquitto and real tables made by the daemon-side module (tests/common/shmtest.h): what a
  * set/ message does (written, or refused with its reply on base/set/<name>/error, and never
- * written when it was retained or waited in the broker), and what a scan publishes.
+ * written when it was retained or waited in the broker), what a scan publishes, and when
+ * base/status says online.
  */
 #include <errno.h>
 #include <setjmp.h>
@@ -239,8 +240,26 @@ static void test_set_refused(void **state)
         assert_int_equal(bridge_counters(f->b)->set_written, 0);
 }
 
-/* A full scan publishes every variable (value and meta), the links and the status; a later
- * scan only what changed. base/status says offline while writes are not taken. */
+/* The status the last scan published, or NULL. */
+static const char *status_sent(struct fixture *f)
+{
+        int i = find(f, topic(f, BRIDGE_TOPIC_STATUS, NULL));
+
+        if (i < 0)
+                return NULL;
+        assert_true(f->fs.msg[i].retain);
+        assert_int_equal(f->fs.msg[i].qos, BRIDGE_STATUS_QOS);
+        return f->fs.msg[i].payload;
+}
+
+static void scan(struct fixture *f, bool full)
+{
+        f->fs.n = 0;
+        assert_true(bridge_scan(f->b, &f->sink, full) >= 0);
+}
+
+/* A full scan publishes every variable (value and meta) and the links; a later scan only what
+ * changed. */
 static void test_scan(void **state)
 {
         struct fixture *f = *state;
@@ -252,10 +271,6 @@ static void test_scan(void **state)
                 assert_true(find(f, topic(f, vars[id].name, BRIDGE_TOPIC_META)) >= 0);
         }
         assert_true(find(f, topic(f, BRIDGE_TOPIC_LINKS, shmtest_links[0].name)) >= 0);
-        i = find(f, topic(f, BRIDGE_TOPIC_STATUS, NULL));
-        assert_true(i >= 0);
-        assert_string_equal(f->fs.msg[i].payload, BRIDGE_STATUS_OFFLINE);
-        assert_true(f->fs.msg[i].retain);
 
         f->fs.n = 0;
         assert_int_equal(set(f, "CmdThrottle", "0.5", BRIDGE_SET_LIVE), 1);
@@ -265,6 +280,39 @@ static void test_scan(void **state)
         assert_string_equal(f->fs.msg[i].payload, "0.5");
         assert_true(find(f, topic(f, "CmdThrottle", BRIDGE_TOPIC_META)) >= 0);
         assert_int_equal(f->fs.n, 2);
+}
+
+/* base/status is online only while writes are taken (the daemon, this process, runs): nothing
+ * while the writes' subscription is pending after a connection (the broker holds offline),
+ * online once it stands, offline when it is lost, and nothing again after a new connection
+ * until it stands again. Without writable:, the writes do not count. */
+static void test_status(void **state)
+{
+        struct fixture *f = *state;
+
+        scan(f, true);
+        assert_null(status_sent(f));
+        bridge_writes_ready(f->b, true);
+        scan(f, false);
+        assert_string_equal(status_sent(f), BRIDGE_STATUS_ONLINE);
+        scan(f, false);
+        assert_null(status_sent(f));
+        scan(f, true);
+        assert_string_equal(status_sent(f), BRIDGE_STATUS_ONLINE);
+
+        bridge_writes_ready(f->b, false);
+        scan(f, false);
+        assert_string_equal(status_sent(f), BRIDGE_STATUS_OFFLINE);
+        scan(f, true);
+        assert_null(status_sent(f));
+        bridge_writes_ready(f->b, true);
+        scan(f, false);
+        assert_string_equal(status_sent(f), BRIDGE_STATUS_ONLINE);
+
+        f->cfg.writable.count = 0;
+        bridge_writes_ready(f->b, false);
+        scan(f, true);
+        assert_string_equal(status_sent(f), BRIDGE_STATUS_ONLINE);
 }
 
 /* A sink that refuses (the broker is gone): the scan fails and counts it, and publishes what
@@ -291,6 +339,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_set_old, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_set_refused, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_scan, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_status, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_scan_sink_down, setup, teardown),
         };
 

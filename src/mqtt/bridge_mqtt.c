@@ -144,7 +144,8 @@ static void poll_update(struct conn *c)
         if (epoll_ctl(bm->epoll_fd, c->polled_fd == fd ? EPOLL_CTL_MOD : EPOLL_CTL_ADD, fd,
                       &ev) < 0 &&
             (errno != EEXIST || epoll_ctl(bm->epoll_fd, EPOLL_CTL_MOD, fd, &ev) < 0)) {
-                bridge_log(BRIDGE_LOG_ERR, "broker%s: epoll: %s", c->label, strerror(errno));
+                bridge_log(BRIDGE_LOG_ERR, "broker %s:%d: %sepoll: %s", bm->cfg->host,
+                           bm->cfg->port, c->label, strerror(errno));
                 return;
         }
         c->polled_fd = fd;
@@ -230,8 +231,9 @@ static void connected(struct conn *c)
                                            WRITES_SUB_OPTIONS, NULL);
         }
         if (r != MOSQ_ERR_SUCCESS)
-                bridge_log(BRIDGE_LOG_ERR, "broker%s: %ssubscribe %s: %s", c->label,
-                           c == &bm->own ? "un" : "", bm->set_topic, mosquitto_strerror(r));
+                bridge_log(BRIDGE_LOG_ERR, "broker %s:%d: %s%ssubscribe %s: %s",
+                           bm->cfg->host, bm->cfg->port, c->label, c == &bm->own ? "un" : "",
+                           bm->set_topic, mosquitto_strerror(r));
 }
 
 static void on_connect(struct mosquitto *m, void *arg, int rc)
@@ -275,9 +277,9 @@ static void on_subscribe(struct mosquitto *m, void *arg, int mid, int n, const i
         if (c != &c->bm->writes)
                 return;
         if (n < 1 || granted[0] >= REASON_FAILURE_MIN) {
-                bridge_log(BRIDGE_LOG_ERR, "broker%s: the broker refused the subscription to %s "
-                           "(its access rules?): writes are not taken", c->label,
-                           c->bm->set_topic);
+                bridge_log(BRIDGE_LOG_ERR, "broker %s:%d: %sthe subscription to %s was "
+                           "refused (the broker's access rules?): writes are not taken",
+                           c->bm->cfg->host, c->bm->cfg->port, c->label, c->bm->set_topic);
                 return;
         }
         bridge_writes_ready(c->bm->b, true);

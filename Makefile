@@ -2,14 +2,18 @@
 #
 # Conventions (add a file, not a rule):
 #   src/proto/*.c, src/shm/*.c     pure codecs / table layout, archived per directory
+#   src/svc/*.c                    the service toolkit every daemon shares (docs/services.md):
+#                                  archived, linked into sharedlinkd, sharedlink-mqtt and slctl
 #   src/daemon/*.c                 sharedlinkd (main.c holds main(), the rest is archived for tests)
 #   src/lib/*.c + LIB_SHM_SRC      libsharedlink.so.1 / .a (exports: src/lib/libsharedlink.sym),
 #     + LIB_PROTO_SRC              with the client's src/shm files and the codecs it speaks
 #                                  (control, CIRCE, SharedLink); the .so keeps only used code
-#   src/cli/*.c                    slctl, linked against libsharedlink.a (all but slctl.c also
+#   src/cli/*.c                    slctl, linked against libsharedlink.a (all but main.c also
 #                                  archived for unit tests)
 #   src/mqtt/*.c                   sharedlink-mqtt (main.c holds main(), the rest is archived for
 #                                  tests), linked against libsharedlink.so and libmosquitto only
+#   src/agility/*.c                sharedlink-agility's pure core (run state machine, timing, keys,
+#                                  ranking, display model, competitor CSV), archived for tests
 #   tests/common/*.c               helpers linked into every test binary
 #   tests/unit/test_*.c            one cmocka binary per module, run by `make check`
 #   tests/integration/test_*.c     cmocka binaries that start the real daemon, run by `make check`
@@ -156,21 +160,23 @@ TEST_CFLAGS  := $(CMOCKA_CFLAGS) -Itests
 PROTO_SRC  := $(wildcard src/proto/*.c)
 SHM_SRC    := $(wildcard src/shm/*.c)
 LIB_SRC    := $(wildcard src/lib/*.c)
-# The library builds requests and parses replies with the control protocol and checks CIRCE
-# and SharedLink module-command arguments with the codecs' own rules; hidden symbols, so they are
-# not exported.
-LIB_PROTO_SRC := $(filter src/proto/control.c src/proto/circe.c src/proto/sharedlink.c,\
-                           $(PROTO_SRC))
+# The library builds requests with the command vocabulary (which checks CIRCE and SharedLink
+# arguments with the codecs' own rules) and parses replies with the control protocol; hidden
+# symbols, so they are not exported.
+LIB_PROTO_SRC := $(filter src/proto/control.c src/proto/request.c src/proto/circe.c \
+                           src/proto/sharedlink.c,$(PROTO_SRC))
 # The shared-memory files a client needs (reading and writing slots, events, futex waits, object
 # names); the table, guard and wake files are the daemon's side only. The .so links with -z defs,
 # so a file missing here fails the build rather than the first program that loads the library.
 LIB_SHM_SRC := $(filter src/shm/events.c src/shm/futex.c src/shm/layout.c src/shm/slot.c,$(SHM_SRC))
 LIB_OBJ      = $(call obj,$(LIB_SRC) $(LIB_PROTO_SRC) $(LIB_SHM_SRC))
+SVC_SRC    := $(wildcard src/svc/*.c)
 DAEMON_MAIN:= $(wildcard src/daemon/main.c)
 DAEMON_SRC := $(filter-out src/daemon/main.c,$(wildcard src/daemon/*.c))
 CLI_SRC    := $(wildcard src/cli/*.c)
 MQTT_MAIN  := $(wildcard src/mqtt/main.c)
 MQTT_SRC   := $(filter-out src/mqtt/main.c,$(wildcard src/mqtt/*.c))
+AGILITY_SRC:= $(wildcard src/agility/*.c)
 TCOMMON_SRC:= $(wildcard tests/common/*.c)
 UNIT_SRC   := $(wildcard tests/unit/test_*.c)
 INTEG_SRC  := $(wildcard tests/integration/test_*.c)
@@ -192,7 +198,10 @@ A_DAEMON := $(O)/internal/libdaemon.a
 A_TCOMMON:= $(O)/internal/libtestcommon.a
 A_CLI    := $(O)/internal/libcli.a
 A_MQTT   := $(O)/internal/libmqtt.a
-INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_CLIENT) $(A_CLI) $(A_PROTO) $(A_SHM)
+A_SVC    := $(O)/internal/libsvc.a
+A_AGILITY:= $(O)/internal/libagility.a
+INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_AGILITY) $(A_CLIENT) $(A_CLI) $(A_SVC) \
+                     $(A_PROTO) $(A_SHM)
 SYS_LIBS := $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lutil -lm
 
 LIBSL_SO   := $(O)/libsharedlink.so.$(SOVERSION)
@@ -309,9 +318,11 @@ $(A_SHM): $(call obj,$(SHM_SRC))
 $(A_CLIENT): $(call obj,$(LIB_SRC))
 $(A_DAEMON): $(call obj,$(DAEMON_SRC))
 $(A_TCOMMON): $(call obj,$(TCOMMON_SRC))
-# slctl's modules for unit tests (slctl.c holds main()).
-$(A_CLI): $(call obj,$(filter-out src/cli/slctl.c,$(CLI_SRC)))
+# slctl's modules for unit tests (main.c holds main()).
+$(A_CLI): $(call obj,$(filter-out src/cli/main.c,$(CLI_SRC)))
 $(A_MQTT): $(call obj,$(MQTT_SRC))
+$(A_SVC): $(call obj,$(SVC_SRC))
+$(A_AGILITY): $(call obj,$(AGILITY_SRC))
 
 # An archive with no members still needs one object to be a valid archive.
 $(INTERNAL_ARCHIVES): | $(O)/obj/empty.o
@@ -324,9 +335,9 @@ LINK_INTERNAL = -Wl,--start-group $(INTERNAL_ARCHIVES) -Wl,--end-group $(SYS_LIB
 # ---------------------------------------------------------------------------------------------
 # Programs and the library
 
-$(SHAREDLINKD): $(call obj,$(DAEMON_MAIN)) $(A_DAEMON) $(A_PROTO) $(A_SHM)
-	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) -Wl,--start-group $(A_DAEMON) $(A_PROTO) $(A_SHM) \
-	    -Wl,--end-group $(SYS_LIBS)
+$(SHAREDLINKD): $(call obj,$(DAEMON_MAIN)) $(A_DAEMON) $(A_SVC) $(A_PROTO) $(A_SHM)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) -Wl,--start-group $(A_DAEMON) $(A_SVC) \
+	    $(A_PROTO) $(A_SHM) -Wl,--end-group $(SYS_LIBS)
 
 $(LIBSL_SO): $(LIB_OBJ) $(LIBSL_SYM)
 	$(call quiet,LD)$(CC) $(LDFLAGS_ALL) -shared -Wl,-soname,libsharedlink.so.$(SOVERSION) \
@@ -374,14 +385,15 @@ $(PCFILE_UNINST): Makefile
 	    'Version: $(VERSION)' 'Libs: -L$${libdir} -Wl,-rpath,$${libdir} -lsharedlink' \
 	    'Libs.private: -lpthread' 'Cflags: -I$${includedir}' > $@
 
-$(SLCTL): $(call obj,$(CLI_SRC) src/proto/recording.c) $(LIBSL_A)
+# The toolkit (svc) is code, not data: slctl's data still comes only through the library.
+$(SLCTL): $(call obj,$(CLI_SRC) src/proto/recording.c) $(LIBSL_A) $(A_SVC)
 	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $^ -lpthread
 
 # The bridge links the shared library the installed way: only its exported (versioned) symbols
 # resolve, which proves the public API is enough. RUNPATH $ORIGIN finds the library next to the
 # binary in the build tree; installed, the system's library path finds it.
-$(MQTT_BRIDGE): $(call obj,$(MQTT_MAIN)) $(A_MQTT) $(LIBSL_SO)
-	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) $(A_MQTT) -L$(O) -lsharedlink \
+$(MQTT_BRIDGE): $(call obj,$(MQTT_MAIN)) $(A_MQTT) $(A_SVC) $(LIBSL_SO)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) $(A_MQTT) $(A_SVC) -L$(O) -lsharedlink \
 	    -Wl,-rpath,'$$ORIGIN' $(MOSQ_LIBS) $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread
 
 # ---------------------------------------------------------------------------------------------
@@ -524,10 +536,10 @@ $(O)/examples/%: examples/%.c $(LIBSL_A)
 
 FUZZ_CC    ?= clang
 FUZZ_O     := build/fuzz
-FUZZ_LIBSRC:= $(PROTO_SRC) $(SHM_SRC) $(DAEMON_SRC)
+FUZZ_LIBSRC:= $(PROTO_SRC) $(SHM_SRC) $(SVC_SRC) $(DAEMON_SRC) $(AGILITY_SRC)
 # The MQTT targets (fuzz_mqtt_*) run the bridge's logic on the client library and real tables
 # (tests/common/shmtest.c); libmosquitto's side and main() stay out.
-FUZZ_MQTT_LIBSRC := $(PROTO_SRC) $(SHM_SRC) $(LIB_SRC) tests/common/shmtest.c \
+FUZZ_MQTT_LIBSRC := $(PROTO_SRC) $(SHM_SRC) $(SVC_SRC) $(LIB_SRC) tests/common/shmtest.c \
 	$(filter-out src/mqtt/bridge_mqtt.c,$(MQTT_SRC))
 FUZZ_NAMES := $(patsubst tests/fuzz/fuzz_%.c,%,$(FUZZ_SRC))
 

@@ -21,6 +21,7 @@
 
 #include "cli/slctl.h"
 #include "proto/recording.h"
+#include "svc/io.h"
 
 #define REPLY_SIZE              (SL_REPLY_LINE_MAX + 1)
 #define RECORD_FILE_MODE        0644
@@ -131,21 +132,6 @@ static void catch_stop_signals(void)
         sigaction(SIGALRM, &sa, NULL);
 }
 
-static int write_all(int fd, const char *p, size_t len)
-{
-        while (len > 0) {
-                ssize_t n = write(fd, p, len);
-
-                if (n < 0 && errno == EINTR)
-                        continue;
-                if (n < 0)
-                        return -errno;
-                p += n;
-                len -= (size_t)n;
-        }
-        return 0;
-}
-
 /* Counts a line with the format's own reader: a chunk, its bytes, and "# dropped N chunks".
  * A line it refuses is still written (the file says what the daemon sent) but not counted. */
 static void count_line(const char *text, size_t len)
@@ -184,7 +170,7 @@ static int on_line(const char *text, void *arg)
         memcpy(line, text, len);
         line[len++] = '\n';
         block_stop_signals(SIG_BLOCK);
-        r = write_all(rec.fd, line, len);
+        r = io_write_all(rec.fd, line, len);
         if (r == 0)
                 count_line(text, len - 1);
         else

@@ -11,7 +11,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "cli/json.h"
+#include "svc/json.h"
 #include "cli/slctl.h"
 
 #define NS_PER_S                1000000000ull

@@ -1,7 +1,8 @@
 /*
  * slctl: what every command shares. Commands live in cmd_vars.c (list, get, set, watch),
- * cmd_info.c (events, stats), cmd_daemon.c (query, circe) and cmd_record.c (record); slctl.c parses the global options,
- * dispatches, and holds the help texts. Built only on <sharedlink.h>.
+ * cmd_info.c (events, stats), cmd_daemon.c (query, command, circe) and cmd_record.c (record);
+ * main.c parses the global options, dispatches, and holds the command table and help texts.
+ * Built only on <sharedlink.h>.
  *
  * A command is `int cmd(struct slctl *s, int argc, char **argv)` with argv[0] its own name, and
  * returns the process exit code (DESIGN.md 2.7).
@@ -23,6 +24,7 @@
 struct slctl {
         const char *instance;           /* -i, $SHAREDLINK_INSTANCE, or "default" */
         const char *command;            /* argv[0] of the command, for messages */
+        const char *help;               /* the command's help text, for --help */
         struct sl_client *c;            /* after slctl_open */
 };
 
@@ -35,8 +37,8 @@ int slctl_usage(struct slctl *s, const char *fmt, ...) __attribute__((format(pri
 /* Prints that the daemon is not running (why) on stderr; returns SLCTL_EXIT_NOT_RUNNING. */
 int slctl_not_running(struct slctl *s, const char *why);
 
-/* Prints the help of a command (NULL: the overview) on stdout; returns SLCTL_EXIT_OK. */
-int slctl_help(const char *command);
+/* Prints the running command's help text on stdout; returns SLCTL_EXIT_OK. */
+int slctl_print_help(struct slctl *s);
 
 /*
  * Parses the command's options (argv[1..]) into *ret. Returns -1 when the command should go on,

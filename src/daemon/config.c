@@ -1,91 +1,72 @@
 /*
  * sharedlinkd configuration parser: the public entry points (config.h).
  *
- * The module is split along its stages (config_internal.h lists the files): config_yaml.c turns
- * libyaml events into a tree of nodes with positions, config_schema.c and config_peer.c walk the
- * tree mapping by mapping into struct config with config_value.c's scalar readers, and
- * config_check.c checks what spans several keys or links. Every problem is reported as
- * "FILE:LINE:COL: text", the first one only.
- *
- * Decisions (documented for users in conf/sharedlinkd.yaml):
- * - Numbers and booleans must be plain (unquoted) scalars; strings may be plain or quoted.
- *   Integers are decimal digits only; leading zeros are refused (YAML 1.1 reads them as octal).
- * - Booleans are true/false (also True/TRUE/False/FALSE, the YAML 1.2 core schema); yes/no/on/off
- *   are refused, not guessed.
- * - A plain empty value, "~" or "null" is a missing value, never a default.
- * - Anchors, aliases, merge keys ("<<") and tags are refused; so is a second document.
- * - Strings may not contain control characters (double-quoted escapes could produce them).
+ * The module is split along its stages (config_internal.h lists the files): the toolkit's reader
+ * (svc/conf.h) turns the file into a tree of nodes with positions, config_schema.c and
+ * config_peer.c walk the tree mapping by mapping into struct config with the toolkit's and
+ * config_value.c's scalar readers, and config_check.c checks what spans several keys or links.
+ * Every problem is reported as "FILE:LINE:COL: text", the first one only. The rules of the file
+ * (plain numbers and booleans, no leading zeros, no yes/no, no anchors, tags or merge keys) are
+ * the toolkit's, shared by every daemon: see svc/conf.h.
  *
  * Adding a key. Each mapping has one key table, next to the function that reads it: top_keys
  * (top level) and link_keys (a link, with where the key applies: protocol, role, transport) in
  * config_schema.c; var_keys, peer_keys and emulate_keys in config_peer.c. A peer's plain integer
  * or boolean key is one row of peer_keys (name, range, default, field) under a new PK_ index:
  * parse_peer_plain() reads it. Any other key gets its index and name in its table, and is read
- * in that mapping's function with a cfg_get_*() of config_value.c (which gives the type, range
- * and message); its default goes where the others' are set. Then add its field to config.h (and
- * to config_link_equal() below if it is a link's setting, so that a reload sees the change),
- * document it in conf/sharedlinkd.yaml, and test it in tests/unit/test_config.c. A check that
- * involves other keys or links goes to config_check.c.
+ * in that mapping's function with a cfg_get_*() (svc/conf.h or config_value.c: it gives the
+ * type, range and message); its default goes where the others' are set. Then add its field to
+ * config.h (and to config_link_equal() below if it is a link's setting, so that a reload sees
+ * the change), document it in conf/sharedlinkd.yaml, and test it in tests/unit/test_config.c. A
+ * check that involves other keys or links goes to config_check.c.
  */
 #include "daemon/config_internal.h"
 
 #include <errno.h>
-#include <fcntl.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
+
+#include "svc/io.h"
 
 /* ---------------------------------------------------------------------------------------------
  * API */
 
+/* The reader's error is the config's: the same fields, copied out. */
+static void error_copy(struct config_error *dst, const struct conf_error *src)
+{
+        _Static_assert(sizeof(dst->message) == sizeof(src->message), "config_error message");
+        dst->line = src->line;
+        dst->column = src->column;
+        memcpy(dst->message, src->message, sizeof(dst->message));
+}
+
 int config_parse(const char *text, size_t len, const char *filename, struct config **ret_config,
                  struct config_error *ret_error)
 {
-        static const char bom[] = "\xEF\xBB\xBF";
-        struct config_error err = { 0 };
         struct ctx *c;
-        uint32_t root = YNONE;
+        uint32_t root = CONF_NONE;
         int r;
 
-        if (!filename)
-                filename = "<config>";
-        if (!text && len == 0)
-                text = "";      /* libyaml asserts on a NULL input, even an empty one */
         /* The context holds a few tens of kilobytes of bookkeeping: heap, not stack. */
         c = calloc(1, sizeof(*c));
         if (!c) {
-                snprintf(err.message, sizeof(err.message), "%s: out of memory", filename);
-                r = -ENOMEM;
+                if (ret_error) {
+                        memset(ret_error, 0, sizeof(*ret_error));
+                        snprintf(ret_error->message, sizeof(ret_error->message),
+                                 "%s: out of memory", filename ? filename : "<config>");
+                }
+                return -ENOMEM;
+        }
+        r = conf_init(&c->conf, filename, text, len, CONFIG_INPUT_MAX);
+        if (r < 0)
                 goto out;
-        }
-        c->filename = filename;
-        c->err = &err;
-        if (!text) {
-                r = cfg_fail_at(c, 0, 0, "no input");
-                goto out;
-        }
-        if (len > CONFIG_INPUT_MAX) {
-                cfg_fail_at(c, 0, 0, "too large (%zu bytes, at most %u)", len, CONFIG_INPUT_MAX);
-                r = -EFBIG;
-                goto out;
-        }
-        /*
-         * With the encoding forced to UTF-8 libyaml would count a BOM as a column of the first
-         * line; dropping it here keeps positions what an editor shows.
-         */
-        if (len >= sizeof(bom) - 1 && memcmp(text, bom, sizeof(bom) - 1) == 0) {
-                text += sizeof(bom) - 1;
-                len -= sizeof(bom) - 1;
-        }
-        c->text = text;
-        c->text_len = len;
         c->cfg = calloc(1, sizeof(*c->cfg));
         if (!c->cfg) {
                 r = cfg_fail_nomem(c);
                 goto out;
         }
-        r = cfg_tree_build(c, &root);
+        r = conf_tree_build(&c->conf, &root);
         if (r == 0)
                 r = cfg_parse_root(c, root);
         if (r == 0) {
@@ -93,59 +74,36 @@ int config_parse(const char *text, size_t len, const char *filename, struct conf
                 c->cfg = NULL;
         }
 out:
-        if (c) {
-                config_free(c->cfg);
-                cfg_nodes_free(c);
-                free(c);
-        }
         if (r < 0 && ret_error)
-                *ret_error = err;
+                error_copy(ret_error, &c->conf.err);
+        config_free(c->cfg);
+        conf_free(&c->conf);
+        free(c);
         return r;
 }
 
 int config_load_file(const char *path, struct config **ret_config, struct config_error *ret_error)
 {
-        char *buf;
-        size_t n = 0;
-        int fd, r;
+        char *text;
+        size_t len;
+        int r = io_read_file(path, CONFIG_INPUT_MAX, &text, &len);
 
-        buf = malloc(CONFIG_INPUT_MAX + 1);
-        if (!buf) {
-                r = -ENOMEM;
-                goto io_error;
-        }
-        fd = open(path, O_RDONLY | O_CLOEXEC | O_NOCTTY);
-        if (fd < 0) {
-                r = -errno;
-                goto io_error;
-        }
-        /* One byte more than allowed, so an oversized file is told apart from a full one. */
-        while (n < CONFIG_INPUT_MAX + 1) {
-                ssize_t k = read(fd, buf + n, CONFIG_INPUT_MAX + 1 - n);
-
-                if (k < 0 && errno == EINTR)
-                        continue;
-                if (k < 0) {
-                        r = -errno;
-                        close(fd);
-                        goto io_error;
+        if (r < 0) {
+                if (ret_error) {
+                        memset(ret_error, 0, sizeof(*ret_error));
+                        /* io_read_file() stops one byte past the limit: that is all we know. */
+                        if (r == -EFBIG)
+                                snprintf(ret_error->message, sizeof(ret_error->message),
+                                         "%s: too large (%u bytes, at most %u)", path,
+                                         CONFIG_INPUT_MAX + 1, CONFIG_INPUT_MAX);
+                        else
+                                snprintf(ret_error->message, sizeof(ret_error->message),
+                                         "%s: %s", path, strerror(-r));
                 }
-                if (k == 0)
-                        break;
-                n += (size_t)k;
+                return r;
         }
-        close(fd);
-        r = config_parse(buf, n, path, ret_config, ret_error);
-        free(buf);
-        return r;
-
-io_error:
-        free(buf);
-        if (ret_error) {
-                memset(ret_error, 0, sizeof(*ret_error));
-                snprintf(ret_error->message, sizeof(ret_error->message), "%s: %s", path,
-                         strerror(-r));
-        }
+        r = config_parse(text, len, path, ret_config, ret_error);
+        free(text);
         return r;
 }
 

@@ -46,7 +46,7 @@ static size_t declaration_fields_len(const struct config_var *vars, unsigned n)
  * each: the worst case of each must fit max_frame, or the link could never talk to them.
  */
 int cfg_check_pronto4_frames(struct ctx *c, const struct config_peer *p, bool crlf,
-                             const struct ynode *out_node, const struct ynode *in_node)
+                             const struct conf_node *out_node, const struct conf_node *in_node)
 {
         size_t data = 0, len;
 

@@ -3,19 +3,19 @@
  * (with the Pronto4 dialect's keys) and CIRCE emulated devices. Each mapping has its key table
  * (an enum of indices and their names) next to the function that reads it.
  */
-#include "daemon/config_internal.h"
+    #include "daemon/config_internal.h"
 
-#include <errno.h>
-#include <stddef.h>
-#include <stdlib.h>
-#include <string.h>
+    #include <errno.h>
+    #include <stddef.h>
+    #include <stdlib.h>
+    #include <string.h>
 
 /* ---------------------------------------------------------------------------------------------
  * Variables */
 
-static int var_name_check(struct ctx *c, const struct ynode *n, const char *name)
-{
-        for (size_t i = 0; name[i]; i++)
+    static int var_name_check(struct ctx *c, const struct conf_node *n, const char *name)
+    {
+    for (size_t i = 0; name[i]; i++)
                 if (!cfg_is_name_char(name[i], true))
                         return cfg_fail(c, n, "variable name %s: invalid character %s (allowed: "
                                         "letters, digits, _ . -)", cfg_quote_node(c, n),
@@ -24,7 +24,7 @@ static int var_name_check(struct ctx *c, const struct ynode *n, const char *name
 }
 
 /* Names are unique per instance. Quadratic, but bounded by CONFIG_VARS_MAX. */
-static int var_register(struct ctx *c, const struct ynode *n, const char *name)
+static int var_register(struct ctx *c, const struct conf_node *n, const char *name)
 {
         for (unsigned i = 0; i < c->cfg->n_vars; i++)
                 if (strcmp(c->vars[i].name, name) == 0)
@@ -43,14 +43,14 @@ static int var_register(struct ctx *c, const struct ynode *n, const char *name)
 enum { VK_NAME, VK_TYPE, VK_COUNT };
 static const char *const var_keys[VK_COUNT] = { [VK_NAME] = "name", [VK_TYPE] = "type" };
 
-static int parse_var(struct ctx *c, const struct ynode *n, struct config_var *ret)
+static int parse_var(struct ctx *c, const struct conf_node *n, struct config_var *ret)
 {
-        const struct ynode *keys[VK_COUNT], *vals[VK_COUNT];
-        const struct ynode *name_node = n;
+        const struct conf_node *keys[VK_COUNT], *vals[VK_COUNT];
+        const struct conf_node *name_node = n;
         int type = CONFIG_VAR_STRING;
         int r;
 
-        if (n->kind == YNODE_MAPPING) {
+        if (n->kind == CONF_NODE_MAPPING) {
                 r = cfg_map_read(c, n, "in variable", CFG_KEYS(var_keys), keys, vals);
                 if (r < 0)
                         return r;
@@ -62,7 +62,7 @@ static int parse_var(struct ctx *c, const struct ynode *n, struct config_var *re
                         if (r < 0)
                                 return r;
                 }
-        } else if (n->kind != YNODE_SCALAR) {
+        } else if (n->kind != CONF_NODE_SCALAR) {
                 return cfg_fail(c, n, "variable: expected a name or {name, type}, got a list");
         }
         r = cfg_get_string(c, "variable name", name_node, ret->name, sizeof(ret->name));
@@ -75,12 +75,12 @@ static int parse_var(struct ctx *c, const struct ynode *n, struct config_var *re
         return var_register(c, name_node, ret->name);
 }
 
-static int parse_var_list(struct ctx *c, const char *key, const struct ynode *n,
+static int parse_var_list(struct ctx *c, const char *key, const struct conf_node *n,
                           struct config_var **ret_vars, unsigned *ret_count)
 {
         struct config_var *vars;
         unsigned i = 0;
-        int r = cfg_need_kind(c, key, n, YNODE_SEQUENCE);
+        int r = cfg_need_kind(c, key, n, CONF_NODE_SEQUENCE);
 
         if (r < 0)
                 return r;
@@ -94,7 +94,8 @@ static int parse_var_list(struct ctx *c, const char *key, const struct ynode *n,
                 return cfg_fail_nomem(c);
         /* Owned by the config from here on, so config_free() releases it on any later error. */
         *ret_vars = vars;
-        for (const struct ynode *item = cfg_child(c, n->first); item; item = cfg_next(c, item)) {
+        for (const struct conf_node *item = cfg_child(c, n->first); item;
+             item = cfg_next(c, item)) {
                 r = parse_var(c, item, &vars[i]);
                 if (r < 0)
                         return r;
@@ -152,10 +153,10 @@ static const struct peer_key {
 };
 
 /* An outbound or inbound list, or the word "learn" (the list comes from the peer). */
-static int parse_peer_list(struct ctx *c, const char *key, const struct ynode *n,
+static int parse_peer_list(struct ctx *c, const char *key, const struct conf_node *n,
                            struct config_var **ret_vars, unsigned *ret_count, bool *ret_learn)
 {
-        if (n->kind == YNODE_SCALAR && cfg_scalar_is(n, "learn")) {
+        if (n->kind == CONF_NODE_SCALAR && cfg_scalar_is(n, "learn")) {
                 *ret_learn = true;
                 return 0;
         }
@@ -163,8 +164,8 @@ static int parse_peer_list(struct ctx *c, const char *key, const struct ynode *n
 }
 
 /* The keys that only a pronto4 peer may have: refused, by name, on a bulletin peer. */
-static int check_bulletin_peer(struct ctx *c, const struct ynode *const *keys,
-                               const struct ynode *const *vals, const struct config_peer *p)
+static int check_bulletin_peer(struct ctx *c, const struct conf_node *const *keys,
+                               const struct conf_node *const *vals, const struct config_peer *p)
 {
         static const unsigned only_pronto4[] = { PK_DECLARE, PK_LEARN_MAX };
 
@@ -186,8 +187,8 @@ static int check_bulletin_peer(struct ctx *c, const struct ynode *const *keys,
  * and nothing learned is the host side and declares by default; a peer that learns is the
  * vehicle side, which answers declarations and never sends its own.
  */
-static int parse_peer_dialect(struct ctx *c, const struct ynode *const *keys,
-                              const struct ynode *const *vals, struct config_peer *p, bool crlf)
+static int parse_peer_dialect(struct ctx *c, const struct conf_node *const *keys,
+                              const struct conf_node *const *vals, struct config_peer *p, bool crlf)
 {
         bool learned = p->outbound_learn || p->inbound_learn;
         bool listed = p->n_outbound + p->n_inbound > 0;
@@ -226,7 +227,8 @@ static int parse_peer_dialect(struct ctx *c, const struct ynode *const *keys,
 }
 
 /* The rows PEER_KEY_UINT and PEER_KEY_BOOL of peer_keys: their defaults, then the values given. */
-static int parse_peer_plain(struct ctx *c, const struct ynode *const *vals, struct config_peer *p)
+static int parse_peer_plain(struct ctx *c, const struct conf_node *const *vals,
+                            struct config_peer *p)
 {
         for (size_t i = 0; i < PK_COUNT; i++) {
                 const struct peer_key *k = &peer_keys[i];
@@ -249,11 +251,11 @@ static int parse_peer_plain(struct ctx *c, const struct ynode *const *vals, stru
         return 0;
 }
 
-static int parse_peer(struct ctx *c, const struct ynode *n, char own_address, bool crlf,
-                      struct config_peer *p, const struct ynode **ret_address_node)
+static int parse_peer(struct ctx *c, const struct conf_node *n, char own_address, bool crlf,
+                      struct config_peer *p, const struct conf_node **ret_address_node)
 {
-        const struct ynode *keys[PK_COUNT], *vals[PK_COUNT];
-        int r = cfg_need_kind(c, "peer", n, YNODE_MAPPING);
+        const struct conf_node *keys[PK_COUNT], *vals[PK_COUNT];
+        int r = cfg_need_kind(c, "peer", n, CONF_NODE_MAPPING);
 
         if (r < 0)
                 return r;
@@ -285,17 +287,18 @@ static int parse_peer(struct ctx *c, const struct ynode *n, char own_address, bo
         return parse_peer_dialect(c, keys, vals, p, crlf);
 }
 
-int cfg_parse_peers(struct ctx *c, const struct ynode *n, bool crlf,
+int cfg_parse_peers(struct ctx *c, const struct conf_node *n, bool crlf,
                     struct config_sharedlink *sl)
 {
-        const struct ynode *address_nodes[CONFIG_PEERS_MAX];
-        int r = cfg_need_kind(c, "peers", n, YNODE_SEQUENCE);
+        const struct conf_node *address_nodes[CONFIG_PEERS_MAX];
+        int r = cfg_need_kind(c, "peers", n, CONF_NODE_SEQUENCE);
 
         if (r < 0)
                 return r;
         if (n->count == 0)
                 return cfg_fail(c, n, "peers: at least one peer is needed");
-        for (const struct ynode *item = cfg_child(c, n->first); item; item = cfg_next(c, item)) {
+        for (const struct conf_node *item = cfg_child(c, n->first); item;
+             item = cfg_next(c, item)) {
                 struct config_peer *p;
 
                 if (sl->n_peers >= CONFIG_PEERS_MAX)
@@ -324,12 +327,13 @@ static const char *const emulate_keys[EK_COUNT] = {
         [EK_BATTERY] = "battery", [EK_ROLES] = "roles", [EK_MEMBERSHIP] = "membership",
 };
 
-static int parse_emulated(struct ctx *c, const struct ynode *n, struct config_emulated_device *d,
-                          const struct ynode **ret_address_node)
+static int parse_emulated(struct ctx *c, const struct conf_node *n,
+                          struct config_emulated_device *d,
+                          const struct conf_node **ret_address_node)
 {
-        const struct ynode *keys[EK_COUNT], *vals[EK_COUNT];
+        const struct conf_node *keys[EK_COUNT], *vals[EK_COUNT];
         uint32_t v;
-        int r = cfg_need_kind(c, "emulated device", n, YNODE_MAPPING);
+        int r = cfg_need_kind(c, "emulated device", n, CONF_NODE_MAPPING);
 
         if (r < 0)
                 return r;
@@ -372,14 +376,15 @@ static int parse_emulated(struct ctx *c, const struct ynode *n, struct config_em
         return 0;
 }
 
-int cfg_parse_emulate(struct ctx *c, const struct ynode *n, struct config_circe *ci)
+int cfg_parse_emulate(struct ctx *c, const struct conf_node *n, struct config_circe *ci)
 {
-        const struct ynode *address_nodes[CONFIG_EMULATE_MAX];
-        int r = cfg_need_kind(c, "emulate", n, YNODE_SEQUENCE);
+        const struct conf_node *address_nodes[CONFIG_EMULATE_MAX];
+        int r = cfg_need_kind(c, "emulate", n, CONF_NODE_SEQUENCE);
 
         if (r < 0)
                 return r;
-        for (const struct ynode *item = cfg_child(c, n->first); item; item = cfg_next(c, item)) {
+        for (const struct conf_node *item = cfg_child(c, n->first); item;
+             item = cfg_next(c, item)) {
                 struct config_emulated_device *d;
 
                 if (ci->n_emulate >= CONFIG_EMULATE_MAX)

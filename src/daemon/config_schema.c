@@ -91,11 +91,12 @@ static unsigned link_scope(const struct config_link *l)
 }
 
 /* Every key present must apply to this protocol, role and transport; checked in file order. */
-static int link_check_scope(struct ctx *c, const struct ynode *map, const struct config_link *l)
+static int link_check_scope(struct ctx *c, const struct conf_node *map, const struct config_link *l)
 {
         unsigned scope = link_scope(l);
 
-        for (const struct ynode *k = cfg_child(c, map->first); k; k = cfg_next(c, cfg_next(c, k))) {
+        for (const struct conf_node *k = cfg_child(c, map->first); k;
+             k = cfg_next(c, cfg_next(c, k))) {
                 const struct link_key *lk = &link_keys[0];
 
                 /* cfg_map_read() has accepted every key, so each is in the table. */
@@ -116,11 +117,11 @@ static int link_check_scope(struct ctx *c, const struct ynode *map, const struct
         return 0;
 }
 
-static int parse_devices(struct ctx *c, const struct ynode *const *keys,
-                         const struct ynode *const *vals, const struct ynode *map,
+static int parse_devices(struct ctx *c, const struct conf_node *const *keys,
+                         const struct conf_node *const *vals, const struct conf_node *map,
                          struct config_link *l, unsigned link_index)
 {
-        const struct ynode **nodes = c->device_nodes[link_index];
+        const struct conf_node **nodes = c->device_nodes[link_index];
         int r;
 
         if (vals[LK_DEVICE] && vals[LK_DEVICES])
@@ -134,14 +135,14 @@ static int parse_devices(struct ctx *c, const struct ynode *const *keys,
         }
         if (!vals[LK_DEVICES])
                 return cfg_fail(c, map, l->transport == CONFIG_TRANSPORT_PTY
-                                    ? "missing key \"device\" in link"
-                                    : "missing key \"device\" (or \"devices\") in link");
-        r = cfg_need_kind(c, "devices", vals[LK_DEVICES], YNODE_SEQUENCE);
+                                ? "missing key \"device\" in link"
+                                : "missing key \"device\" (or \"devices\") in link");
+        r = cfg_need_kind(c, "devices", vals[LK_DEVICES], CONF_NODE_SEQUENCE);
         if (r < 0)
                 return r;
         if (vals[LK_DEVICES]->count == 0)
                 return cfg_fail(c, vals[LK_DEVICES], "devices: at least one device is needed");
-        for (const struct ynode *item = cfg_child(c, vals[LK_DEVICES]->first); item;
+        for (const struct conf_node *item = cfg_child(c, vals[LK_DEVICES]->first); item;
              item = cfg_next(c, item)) {
                 if (l->n_devices >= CONFIG_DEVICES_MAX)
                         return cfg_fail(c, item, "too many devices (at most %u)",
@@ -156,7 +157,7 @@ static int parse_devices(struct ctx *c, const struct ynode *const *keys,
         return 0;
 }
 
-static int parse_serial(struct ctx *c, const struct ynode *const *vals, struct config_serial *s)
+static int parse_serial(struct ctx *c, const struct conf_node *const *vals, struct config_serial *s)
 {
         uint32_t v;
         int e, r;
@@ -196,8 +197,8 @@ static int parse_serial(struct ctx *c, const struct ynode *const *vals, struct c
  * datagram without "]\r\n". A byte stream always ends frames with CR LF, so the one-frame checks
  * of pronto4 peers count it on every transport, and on udp unless crlf: false says otherwise.
  */
-static int parse_link_sharedlink(struct ctx *c, const struct ynode *const *vals,
-                                 const struct ynode *map, enum config_transport transport,
+static int parse_link_sharedlink(struct ctx *c, const struct conf_node *const *vals,
+                                 const struct conf_node *map, enum config_transport transport,
                                  struct config_sharedlink *sl)
 {
         bool crlf_set = false, datagrams;
@@ -227,7 +228,7 @@ static int parse_link_sharedlink(struct ctx *c, const struct ynode *const *vals,
         return 0;
 }
 
-static int parse_link_circe(struct ctx *c, const struct ynode *const *vals,
+static int parse_link_circe(struct ctx *c, const struct conf_node *const *vals,
                             struct config_circe *ci)
 {
         uint32_t v;
@@ -279,8 +280,8 @@ static int parse_link_circe(struct ctx *c, const struct ynode *const *vals,
         return 0;
 }
 
-static int parse_link_name(struct ctx *c, const struct ynode *map,
-                           const struct ynode *const *vals, unsigned index)
+static int parse_link_name(struct ctx *c, const struct conf_node *map,
+                           const struct conf_node *const *vals, unsigned index)
 {
         struct config_link *l = &c->cfg->links[index];
         int r;
@@ -300,8 +301,8 @@ static int parse_link_name(struct ctx *c, const struct ynode *map,
         return 0;
 }
 
-static int get_required_enum(struct ctx *c, const struct ynode *map, const char *key,
-                             const struct ynode *n, const struct cfg_enum *e, int *ret)
+static int get_required_enum(struct ctx *c, const struct conf_node *map, const char *key,
+                             const struct conf_node *n, const struct conf_enum *e, int *ret)
 {
         if (!n)
                 return cfg_fail(c, map, "missing key \"%s\" in link", key);
@@ -309,8 +310,8 @@ static int get_required_enum(struct ctx *c, const struct ynode *map, const char 
 }
 
 /* Protocol, transport and role: what every other key of the link is checked against. */
-static int parse_link_kind(struct ctx *c, const struct ynode *map,
-                           const struct ynode *const *vals, struct config_link *l)
+static int parse_link_kind(struct ctx *c, const struct conf_node *map,
+                           const struct conf_node *const *vals, struct config_link *l)
 {
         int e, r;
 
@@ -333,7 +334,7 @@ static int parse_link_kind(struct ctx *c, const struct ynode *map,
 }
 
 /* "max" (0: no pacing), or a plain decimal number (digits, at most one point) in range. */
-static int parse_speed(struct ctx *c, const struct ynode *n, double *ret)
+static int parse_speed(struct ctx *c, const struct conf_node *n, double *ret)
 {
         char text[CONFIG_REPLAY_SPEED_TEXT_MAX];
         bool point = false, digit = false;
@@ -367,8 +368,8 @@ static int parse_speed(struct ctx *c, const struct ynode *n, double *ret)
 }
 
 /* file, speed (default 1.0), loop (default false); the recorded transport's keys are ignored. */
-static int parse_replay(struct ctx *c, const struct ynode *map, const struct ynode *const *vals,
-                        struct config_link *l)
+static int parse_replay(struct ctx *c, const struct conf_node *map,
+                        const struct conf_node *const *vals, struct config_link *l)
 {
         int r;
 
@@ -385,9 +386,9 @@ static int parse_replay(struct ctx *c, const struct ynode *map, const struct yno
         return 0;
 }
 
-static int parse_link_transport(struct ctx *c, const struct ynode *map,
-                                const struct ynode *const *keys, const struct ynode *const *vals,
-                                unsigned index)
+static int parse_link_transport(struct ctx *c, const struct conf_node *map,
+                                const struct conf_node *const *keys,
+                                const struct conf_node *const *vals, unsigned index)
 {
         struct config_link *l = &c->cfg->links[index];
         int r;
@@ -416,13 +417,13 @@ static int parse_link_transport(struct ctx *c, const struct ynode *map,
         return 0;
 }
 
-static int parse_link(struct ctx *c, const struct ynode *map, unsigned index)
+static int parse_link(struct ctx *c, const struct conf_node *map, unsigned index)
 {
-        const struct ynode *keys[LK_COUNT], *vals[LK_COUNT];
+        const struct conf_node *keys[LK_COUNT], *vals[LK_COUNT];
         struct config_link *l = &c->cfg->links[index];
         int r;
 
-        r = cfg_need_kind(c, "link", map, YNODE_MAPPING);
+        r = cfg_need_kind(c, "link", map, CONF_NODE_MAPPING);
         if (r < 0)
                 return r;
         r = cfg_map_read(c, map, "in link", CFG_KEYS(link_keys), keys, vals);
@@ -442,16 +443,16 @@ static int parse_link(struct ctx *c, const struct ynode *map, unsigned index)
         return parse_link_circe(c, vals, &l->circe);
 }
 
-static int parse_links(struct ctx *c, const struct ynode *n)
+static int parse_links(struct ctx *c, const struct conf_node *n)
 {
         unsigned i = 0;
-        int r = cfg_need_kind(c, "links", n, YNODE_SEQUENCE);
+        int r = cfg_need_kind(c, "links", n, CONF_NODE_SEQUENCE);
 
         if (r < 0)
                 return r;
         if (n->count == 0)
                 return cfg_fail(c, n, "links: at least one link is needed");
-        for (const struct ynode *item = cfg_child(c, n->first); item;
+        for (const struct conf_node *item = cfg_child(c, n->first); item;
              item = cfg_next(c, item), i++) {
                 if (i >= CONFIG_LINKS_MAX)
                         return cfg_fail(c, item, "too many links (at most %u)", CONFIG_LINKS_MAX);
@@ -474,14 +475,14 @@ static const char *const top_keys[TK_COUNT] = {
 
 int cfg_parse_root(struct ctx *c, uint32_t root_index)
 {
-        const struct ynode *keys[TK_COUNT], *vals[TK_COUNT];
-        const struct ynode *root = cfg_child(c, root_index);
+        const struct conf_node *keys[TK_COUNT], *vals[TK_COUNT];
+        const struct conf_node *root = cfg_child(c, root_index);
         struct config *cfg = c->cfg;
         int r;
 
         if (!root || cfg_is_null(root))
                 return cfg_fail_at(c, 1, 1, "empty configuration");
-        if (root->kind != YNODE_MAPPING)
+        if (root->kind != CONF_NODE_MAPPING)
                 return cfg_fail(c, root, "the configuration must be a mapping, not %s",
                                 cfg_describe(c, root));
         r = cfg_map_read(c, root, "at top level", CFG_KEYS(top_keys), keys, vals);

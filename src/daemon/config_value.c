@@ -1,7 +1,7 @@
 /*
- * The config module's scalar values (config_internal.h): each cfg_get_*() takes one node and the
- * key it belongs to, and either stores the value or reports why not. See config.c for the rules
- * (plain numbers and booleans, no leading zeros, no yes/no).
+ * sharedlinkd's own scalar values (config_internal.h): each cfg_get_*() takes one node and the
+ * key it belongs to, and either stores the value or reports why not, on top of the toolkit's
+ * generic readers (svc/conf.h: strings, integers, booleans, enums, paths).
  */
 #include "daemon/config_internal.h"
 
@@ -12,173 +12,48 @@
 
 #include "proto/sharedlink.h"
 
-/* A scalar holding a value of some kind: not a list or mapping, not null. */
-static int need_scalar(struct ctx *c, const char *key, const struct ynode *n, const char *expected)
-{
-        if (n->kind != YNODE_SCALAR)
-                return cfg_fail(c, n, "%s: expected %s, got %s", key, expected, cfg_describe(c, n));
-        if (cfg_is_null(n))
-                return cfg_fail(c, n, "%s: missing value", key);
-        return 0;
-}
-
-int cfg_get_string(struct ctx *c, const char *key, const struct ynode *n, char *out,
-                   size_t size)
-{
-        int r = need_scalar(c, key, n, "a string");
-
-        if (r < 0)
-                return r;
-        if (n->len == 0)
-                return cfg_fail(c, n, "%s: empty string", key);
-        for (size_t i = 0; i < n->len; i++) {
-                unsigned char ch = (unsigned char)n->text[i];
-
-                if (ch < 0x20 || ch == 0x7f)
-                        return cfg_fail(c, n, "%s: control character in %s", key,
-                                        cfg_quote_node(c, n));
-        }
-        if (n->len >= size)
-                return cfg_fail(c, n, "%s: %s too long (%zu bytes, at most %zu)", key,
-                                cfg_quote_node(c, n), n->len, size - 1);
-        memcpy(out, n->text, n->len + 1);
-        return 0;
-}
-
-/* Plain decimal integer in [min, max]. */
-int cfg_get_uint(struct ctx *c, const char *key, const struct ynode *n, uint32_t min,
-                 uint32_t max, uint32_t *ret)
-{
-        const char *s;
-        bool negative;
-        uint64_t v = 0;
-        bool overflow = false;
-        size_t i;
-        int r = need_scalar(c, key, n, "an integer");
-
-        if (r < 0)
-                return r;
-        if (!n->plain)
-                return cfg_fail(c, n, "%s: expected an integer, got a quoted string", key);
-        s = n->text;
-        negative = s[0] == '-';
-        i = (s[0] == '-' || s[0] == '+') ? 1 : 0;
-        if (i >= n->len)
-                return cfg_fail(c, n, "%s: expected an integer, got %s", key, cfg_quote_node(c, n));
-        for (size_t j = i; j < n->len; j++) {
-                if (s[j] < '0' || s[j] > '9')
-                        return cfg_fail(c, n, "%s: expected an integer, got %s", key,
-                                        cfg_quote_node(c, n));
-                if (v > UINT32_MAX)
-                        overflow = true;
-                else
-                        v = v * 10 + (uint64_t)(s[j] - '0');
-        }
-        if (s[i] == '0' && n->len - i > 1)
-                return cfg_fail(c, n, "%s: leading zeros are not allowed in %s", key,
-                                cfg_quote_node(c, n));
-        if (overflow || (negative && v) || v < min || v > max)
-                return cfg_fail(c, n, "%s %s out of range (%u..%u)", key,
-                                cfg_number_text(c, n->text, n->len), min, max);
-        *ret = (uint32_t)v;
-        return 0;
-}
-
-int cfg_get_bool(struct ctx *c, const char *key, const struct ynode *n, bool *ret)
-{
-        static const char *const truths[] = { "true", "True", "TRUE" };
-        static const char *const lies[] = { "false", "False", "FALSE" };
-        int r = need_scalar(c, key, n, "true or false");
-
-        if (r < 0)
-                return r;
-        if (!n->plain)
-                return cfg_fail(c, n, "%s: expected true or false, got a quoted string", key);
-        for (size_t i = 0; i < 3; i++) {
-                if (cfg_scalar_is(n, truths[i])) {
-                        *ret = true;
-                        return 0;
-                }
-                if (cfg_scalar_is(n, lies[i])) {
-                        *ret = false;
-                        return 0;
-                }
-        }
-        return cfg_fail(c, n, "%s: expected true or false, got %s", key, cfg_quote_node(c, n));
-}
-
 #define ENUM_COUNT(t)           (sizeof(t) / sizeof((t)[0]))
 
-static const struct cfg_enum_name protocol_names[] = {
+static const struct conf_enum_name protocol_names[] = {
         { "sharedlink", CONFIG_PROTOCOL_SHAREDLINK },
         { "circe", CONFIG_PROTOCOL_CIRCE },
 };
-const struct cfg_enum cfg_protocols = { protocol_names, ENUM_COUNT(protocol_names) };
-static const struct cfg_enum_name transport_names[] = {
+const struct conf_enum cfg_protocols = { protocol_names, ENUM_COUNT(protocol_names) };
+static const struct conf_enum_name transport_names[] = {
         { "serial", CONFIG_TRANSPORT_SERIAL },
         { "udp", CONFIG_TRANSPORT_UDP },
         { "pty", CONFIG_TRANSPORT_PTY },
         { "replay", CONFIG_TRANSPORT_REPLAY },
 };
-const struct cfg_enum cfg_transports = { transport_names, ENUM_COUNT(transport_names) };
-static const struct cfg_enum_name role_names[] = {
+const struct conf_enum cfg_transports = { transport_names, ENUM_COUNT(transport_names) };
+static const struct conf_enum_name role_names[] = {
         { "controller", CONFIG_ROLE_CONTROLLER },
         { "mediator", CONFIG_ROLE_MEDIATOR },
 };
-const struct cfg_enum cfg_roles = { role_names, ENUM_COUNT(role_names) };
-static const struct cfg_enum_name parity_names[] = {
+const struct conf_enum cfg_roles = { role_names, ENUM_COUNT(role_names) };
+static const struct conf_enum_name parity_names[] = {
         { "none", CONFIG_PARITY_NONE },
         { "even", CONFIG_PARITY_EVEN },
         { "odd", CONFIG_PARITY_ODD },
 };
-const struct cfg_enum cfg_parities = { parity_names, ENUM_COUNT(parity_names) };
-static const struct cfg_enum_name flow_names[] = {
+const struct conf_enum cfg_parities = { parity_names, ENUM_COUNT(parity_names) };
+static const struct conf_enum_name flow_names[] = {
         { "none", CONFIG_FLOW_NONE },
         { "rtscts", CONFIG_FLOW_RTSCTS },
         { "xonxoff", CONFIG_FLOW_XONXOFF },
 };
-const struct cfg_enum cfg_flows = { flow_names, ENUM_COUNT(flow_names) };
-static const struct cfg_enum_name dialect_names[] = {
+const struct conf_enum cfg_flows = { flow_names, ENUM_COUNT(flow_names) };
+static const struct conf_enum_name dialect_names[] = {
         { "bulletin", CONFIG_DIALECT_BULLETIN },
         { "pronto4", CONFIG_DIALECT_PRONTO4 },
 };
-const struct cfg_enum cfg_dialects = { dialect_names, ENUM_COUNT(dialect_names) };
-static const struct cfg_enum_name var_type_names[] = {
+const struct conf_enum cfg_dialects = { dialect_names, ENUM_COUNT(dialect_names) };
+static const struct conf_enum_name var_type_names[] = {
         { "string", CONFIG_VAR_STRING },
         { "long", CONFIG_VAR_LONG },
         { "double", CONFIG_VAR_DOUBLE },
 };
-const struct cfg_enum cfg_var_types = { var_type_names, ENUM_COUNT(var_type_names) };
-
-int cfg_get_enum(struct ctx *c, const char *key, const struct ynode *n, const struct cfg_enum *e,
-                 int *ret)
-{
-        char expected[128];
-        size_t o = 0;
-        int r = need_scalar(c, key, n, "a name");
-
-        if (r < 0)
-                return r;
-        for (size_t i = 0; i < e->count; i++) {
-                if (cfg_scalar_is(n, e->names[i].name)) {
-                        *ret = e->names[i].value;
-                        return 0;
-                }
-        }
-        for (size_t i = 0; i < e->count && o < sizeof(expected); i++)
-                o += (size_t)snprintf(expected + o, sizeof(expected) - o, "%s%s",
-                                      i == 0 ? "" : (i + 1 == e->count ? " or " : ", "),
-                                      e->names[i].name);
-        return cfg_fail(c, n, "%s: expected %s, got %s", key, expected, cfg_quote_node(c, n));
-}
-
-static const char *enum_lookup(const struct cfg_enum *e, int value)
-{
-        for (size_t i = 0; i < e->count; i++)
-                if (e->names[i].value == value)
-                        return e->names[i].name;
-        return "?";
-}
+const struct conf_enum cfg_var_types = { var_type_names, ENUM_COUNT(var_type_names) };
 
 bool cfg_is_name_char(char ch, bool dot)
 {
@@ -191,7 +66,7 @@ bool cfg_is_name_char(char ch, bool dot)
  * slctl's command line, in shm names and in socket and variable names; no '.', so the prefix
  * "<link>." of one CIRCE link can never be the start of another's).
  */
-int cfg_get_ident(struct ctx *c, const char *key, const struct ynode *n, char *out, size_t size)
+int cfg_get_ident(struct ctx *c, const char *key, const struct conf_node *n, char *out, size_t size)
 {
         int r = cfg_get_string(c, key, n, out, size);
 
@@ -207,7 +82,7 @@ int cfg_get_ident(struct ctx *c, const char *key, const struct ynode *n, char *o
 }
 
 /* Group names as useradd takes them: [A-Za-z_][A-Za-z0-9_.-]*, optionally ending in '$'. */
-int cfg_get_group(struct ctx *c, const struct ynode *n, char *out, size_t size)
+int cfg_get_group(struct ctx *c, const struct conf_node *n, char *out, size_t size)
 {
         int r = cfg_get_string(c, "group", n, out, size);
         size_t len;
@@ -228,20 +103,9 @@ int cfg_get_group(struct ctx *c, const struct ynode *n, char *out, size_t size)
         return 0;
 }
 
-int cfg_get_path(struct ctx *c, const char *key, const struct ynode *n, char *out, size_t size)
+int cfg_get_sl_address(struct ctx *c, const char *key, const struct conf_node *n, char *ret)
 {
-        int r = cfg_get_string(c, key, n, out, size);
-
-        if (r < 0)
-                return r;
-        if (out[0] != '/')
-                return cfg_fail(c, n, "%s: %s is not an absolute path", key, cfg_quote_node(c, n));
-        return 0;
-}
-
-int cfg_get_sl_address(struct ctx *c, const char *key, const struct ynode *n, char *ret)
-{
-        int r = need_scalar(c, key, n, "a node address");
+        int r = conf_need_scalar(&c->conf, key, n, "a node address");
 
         if (r < 0)
                 return r;
@@ -252,10 +116,10 @@ int cfg_get_sl_address(struct ctx *c, const char *key, const struct ynode *n, ch
         return 0;
 }
 
-int cfg_get_circe_address(struct ctx *c, const char *key, const struct ynode *n,
+int cfg_get_circe_address(struct ctx *c, const char *key, const struct conf_node *n,
                           uint32_t *ret)
 {
-        int r = need_scalar(c, key, n, "a CIRCE address");
+        int r = conf_need_scalar(&c->conf, key, n, "a CIRCE address");
 
         if (r < 0)
                 return r;
@@ -269,13 +133,13 @@ int cfg_get_circe_address(struct ctx *c, const char *key, const struct ynode *n,
 }
 
 /* CIRCE version: PARTS dot-separated numbers of 1..3 digits ("0.2" or "0.2.3"). */
-int cfg_get_circe_version(struct ctx *c, const char *key, const struct ynode *n,
+int cfg_get_circe_version(struct ctx *c, const char *key, const struct conf_node *n,
                           unsigned parts, struct config_circe_version *ret)
 {
         struct circe_version v;
         const char *example = parts == 2 ? "MAJOR.MINOR (e.g. \"0.2\")"
                                          : "MAJOR.MINOR.PATCH (e.g. \"0.2.3\")";
-        int r = need_scalar(c, key, n, "a version");
+        int r = conf_need_scalar(&c->conf, key, n, "a version");
 
         if (r < 0)
                 return r;
@@ -290,7 +154,7 @@ int cfg_get_circe_version(struct ctx *c, const char *key, const struct ynode *n,
 }
 
 /* "IPV4:PORT", "[IPV6]:PORT" or "localhost:PORT"; no name lookups in a pure parser. */
-int cfg_get_endpoint(struct ctx *c, const char *key, const struct ynode *n, uint32_t port_min,
+int cfg_get_endpoint(struct ctx *c, const char *key, const struct conf_node *n, uint32_t port_min,
                      struct config_endpoint *ret)
 {
         char text[CONFIG_ENDPOINT_MAX], host[CONFIG_ENDPOINT_MAX];
@@ -359,27 +223,27 @@ bad:
 
 const char *config_protocol_name(enum config_protocol protocol)
 {
-        return enum_lookup(&cfg_protocols, (int)protocol);
+        return conf_enum_name(&cfg_protocols, (int)protocol);
 }
 
 const char *config_transport_name(enum config_transport transport)
 {
-        return enum_lookup(&cfg_transports, (int)transport);
+        return conf_enum_name(&cfg_transports, (int)transport);
 }
 
 const char *config_role_name(enum config_role role)
 {
         if (role == CONFIG_ROLE_NONE)
                 return "none";
-        return enum_lookup(&cfg_roles, (int)role);
+        return conf_enum_name(&cfg_roles, (int)role);
 }
 
 const char *config_var_type_name(enum config_var_type type)
 {
-        return enum_lookup(&cfg_var_types, (int)type);
+        return conf_enum_name(&cfg_var_types, (int)type);
 }
 
 const char *config_dialect_name(enum config_dialect dialect)
 {
-        return enum_lookup(&cfg_dialects, (int)dialect);
+        return conf_enum_name(&cfg_dialects, (int)dialect);
 }

@@ -30,16 +30,9 @@
 #include <stddef.h>
 
 #include "daemon/config.h"
+#include "daemon/daemon_plan.h"        /* DAEMON_ERROR_MAX */
 #include "daemon/evloop.h"
-#include "daemon/notify.h"
-
-#define DAEMON_HEARTBEAT_MS     1000    /* shm heartbeat, engine heartbeat, STATUS refresh */
-#define DAEMON_ADHOC_CAPACITY   2048    /* inbound names engines may add at run time */
-#define DAEMON_VARS_MAX         16384   /* variables all links may declare together */
-#define DAEMON_NAMES_SIZE       (DAEMON_VARS_MAX * 48)  /* scratch for generated names */
-#define DAEMON_ERROR_MAX        512
-#define DAEMON_RUNTIME_DIR_MODE 0755
-#define DAEMON_RUNTIME_DIR_ENV  "SHAREDLINK_RUNTIME_DIR"
+#include "svc/notify.h"
 
 struct daemon;
 

@@ -5,12 +5,11 @@
 #include "daemon/link.h"
 
 #include <errno.h>
-#include <stdio.h>
 #include <string.h>
 
 #include "daemon/control.h"
 
-#include "daemon/log.h"
+#include "svc/log.h"
 #include "daemon/recorder.h"
 #include "daemon/replay.h"
 #include "daemon/transport.h"
@@ -128,49 +127,6 @@ void link_publish_channel_stats(const struct link_env *env, const struct channel
         shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_IO_ERRORS, st.io_errors);
         shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_TX_DROPPED, st.tx_dropped);
         shm_table_counter_set(env->table, env->shm_link, SHM_COUNTER_UDP_REFUSED, st.refused);
-}
-
-int link_parse_ms(const char *s, unsigned min, unsigned max, unsigned *ret)
-{
-        unsigned long v = 0;
-
-        if (!*s)
-                return -EINVAL;
-        for (; *s; s++) {
-                if (*s < '0' || *s > '9')
-                        return -EINVAL;
-                v = v * 10 + (unsigned long)(*s - '0');
-                if (v > max)
-                        return -EINVAL;
-        }
-        if (v < min)
-                return -EINVAL;
-        *ret = (unsigned)v;
-        return 0;
-}
-
-int link_command_wait(int *argc, char *const *argv, unsigned *ret_wait_ms, char *err,
-                      size_t errsz)
-{
-        const size_t plen = strlen(LINK_WAIT_PREFIX);
-        const char *last;
-        unsigned ms;
-
-        /* WORD LINK come first: a wait= word is never one of them. */
-        if (*argc < 3 || strncmp(argv[*argc - 1], LINK_WAIT_PREFIX, plen) != 0) {
-                *ret_wait_ms = 0;
-                return 0;
-        }
-        last = argv[*argc - 1];
-        if (link_parse_ms(last + plen, 0, LINK_WAIT_MAX_MS, &ms) < 0) {
-                if (errsz)
-                        snprintf(err, errsz, "bad wait \"%.24s\": a decimal number 0..%u "
-                                 "expected", last + plen, LINK_WAIT_MAX_MS);
-                return -EINVAL;
-        }
-        (*argc)--;
-        *ret_wait_ms = ms;
-        return 0;
 }
 
 void link_hook_event(void *arg, enum shm_event_type type, const char *text)

@@ -1,9 +1,9 @@
 /*
- * Links: the seam between the daemon core (daemon.c) and the protocol engines
+ * Links: the seam between the daemon core (daemon.c, daemon_*.c) and the protocol engines
  * (link_sharedlink.c, link_circe.c).
  *
- * The core owns one struct link per configured link. For each it asks the engine to declare its
- * variables (before the shm tables exist), then creates the engine with a struct link_env, tells it
+ * The core owns one struct daemon_link per configured link. For each it asks the engine to declare
+ * its variables and what it may learn at run time (before the shm tables exist), then creates the engine with a struct link_env, tells it
  * about client writes to its outbound variables, hands it control-socket commands, and destroys it
  * on reload or shutdown. An engine opens its own channel with link_channel_new(), which maps the
  * link's configuration onto transport parameters, so no engine deals with config-to-termios
@@ -12,7 +12,7 @@
  * Data flows one way (DESIGN.md §1):
  *     channel input -> codec decode -> engine -> shm_table_set/commit, events, counters
  *     client write -> core (outbound scan) -> engine ->outbound() -> codec encode -> channel_send
- *     control command -> core -> engine ->command() -> ... -> control_reply_*()
+ *     control request -> core (reqp_decode) -> engine ->command() -> ... -> control_reply_*()
  *
  * Engines run on the core's event loop thread only; nothing here is thread-safe.
  */
@@ -26,7 +26,7 @@
 #include "daemon/channel.h"
 #include "daemon/config.h"
 #include "daemon/evloop.h"
-#include "proto/control.h"
+#include "proto/request.h"
 #include "shm/layout.h"
 
 struct shm_table;
@@ -43,6 +43,17 @@ struct link_env {
         const struct config *config;            /* the whole configuration in force */
         const struct config_link *cfg;          /* this link's settings (points into config) */
         struct recorder_tap *tap;               /* `record` listens here (NULL: nobody can) */
+};
+
+/*
+ * What a link may learn at run time beyond what it declared (link_ops.learning): the core makes
+ * room for it in the tables and routes client writes to learned outbound names to it.
+ */
+struct link_learning {
+        uint32_t adhoc;         /* names it may add at run time (ad hoc room, either direction) */
+        uint32_t out_spare;     /* outbound ones among them: spare .out slots clients may write */
+        bool outbound;          /* learns outbound names: gets client writes to names added at run
+                                 * time (and ignores the ids that are not its own) */
 };
 
 struct link_ops {
@@ -72,15 +83,15 @@ struct link_ops {
         const char *const *command_words;
 
         /*
-         * A control command addressed to this link (argv[0] one of command_words, argv[1] the link
-         * name). The core has already taken a trailing "wait=MS" off argv (link_command_wait()):
-         * wait_ms > 0 asks the engine to hold the request up to that long while the link is not
-         * ready (link_waitq_*), 0 to refuse it at once. The engine must eventually answer req
-         * exactly once with control_reply_ok() or control_reply_error() (it may send
+         * A control request addressed to this link (r->kind's verb one of command_words,
+         * r->link its name), decoded and checked by the core (proto/request.h). r->wait_ms > 0
+         * asks the engine to hold the request up to that long while the link is not ready
+         * (link_waitq_*), 0 to refuse it at once. The engine must eventually answer req exactly
+         * once with control_reply_ok() or control_reply_error() (it may send
          * control_reply_data() lines first), now or later, and always within a bounded time.
          */
-        void (*command)(void *engine, struct control_request *req, int argc, char **argv,
-                        unsigned wait_ms);
+        void (*command)(void *engine, struct control_request *req,
+                        const struct reqp_request *r);
 
         /* One line for `STATUS=` and logs: "up", "connecting", "down: hang-up" ... The core
          * counts a link as up when the first word of this text is "up". */
@@ -91,6 +102,10 @@ struct link_ops {
          * when no I/O burst happened (reopens while down, say). The core cannot do it itself:
          * the channel belongs to the engine. */
         void (*heartbeat)(void *engine);
+
+        /* Optional (NULL: learns nothing): what a link with settings cfg may learn at run time
+         * (a SharedLink link's Pronto4 peers with learned lists). ret is zeroed by the caller. */
+        void (*learning)(const struct config_link *cfg, struct link_learning *ret);
 };
 
 /* The engine of a protocol: &link_sharedlink_ops or &link_circe_ops. NULL for an unknown one. */
@@ -101,21 +116,6 @@ int link_protocol_for_command(const char *word, enum config_protocol *ret_protoc
 
 /* Whether word is one of ops' command_words. */
 bool link_ops_has_word(const struct link_ops *ops, const char *word);
-
-/* A number of milliseconds: decimal digits only, min..max; 0 or -EINVAL. */
-int link_parse_ms(const char *s, unsigned min, unsigned max, unsigned *ret);
-
-/* The wait=MS word belongs to the request grammar (proto/control.h). */
-#define LINK_WAIT_MAX_MS        CTLP_WAIT_MAX_MS
-#define LINK_WAIT_PREFIX        CTLP_WAIT_PREFIX
-
-/*
- * Takes a trailing "wait=MS" (MS decimal, 0..LINK_WAIT_MAX_MS) off a link command
- * ("WORD LINK ... wait=MS": only after the link name, only as the last word): 0 with *argc
- * reduced and *ret_wait_ms set (0 without one), or -EINVAL with a one-line reason in err.
- */
-int link_command_wait(int *argc, char *const *argv, unsigned *ret_wait_ms, char *err,
-                      size_t errsz);
 
 /*
  * Creates (stopped) the channel of env's link from its configuration (serial settings, devices,

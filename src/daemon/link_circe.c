@@ -12,11 +12,10 @@
 #include <string.h>
 
 #include "daemon/control.h"
-#include "daemon/link_circe_command.h"
 #include "daemon/link_circe_controller.h"
 #include "daemon/link_circe_mediator.h"
 #include "daemon/link_circe_session.h"
-#include "daemon/log.h"
+#include "svc/log.h"
 #include "shm/table.h"
 
 #define NS_PER_MS               1000000ull
@@ -398,12 +397,12 @@ static void hook_log(void *arg, const uint8_t *data, size_t len)
 static void hook_sync_result(void *arg, uint32_t address, bool succeeded)
 {
         struct link_circe *e = arg;
-        char addr[CIRCE_ADDRESS_LEN + 1];
+        char line[REQP_SYNC_RESULT_SIZE];
 
         if (!e->sync_req)
                 return;
-        circe_address_format(address, addr);
-        control_reply_data(e->sync_req, "%s %s", addr, succeeded ? "succeeded" : "timed-out");
+        reqp_sync_result_format(line, sizeof(line), address, succeeded);
+        control_reply_data(e->sync_req, "%s", line);
 }
 
 static void hook_sync_done(void *arg, int err)
@@ -439,14 +438,15 @@ static const struct link_circe_hooks hooks = {
 /* ---- commands -------------------------------------------------------------------------------- */
 
 static void execute(struct link_circe *e, struct control_request *req,
-                    const struct link_circe_cmd *cmd)
+                    const struct reqp_request *cmd)
 {
+        const struct circe_notify_action *act = &cmd->u.circe.u.notify_action;
         char addr[CIRCE_ADDRESS_LEN + 1];
         int r;
 
         batch_begin(e);
         switch (cmd->kind) {
-        case LINK_CIRCE_CMD_SYNC_CLOCKS:
+        case REQP_CIRCE_SYNC_CLOCKS:
                 if (e->sync_req) {
                         control_reply_error(req, EBUSY, "a clock synchronisation is running on "
                                             "link %s", link_name(e));
@@ -461,10 +461,12 @@ static void execute(struct link_circe *e, struct control_request *req,
                                             strerror(-r));
                 }
                 break;
-        case LINK_CIRCE_CMD_EMULATE_ACTION:
-                r = link_circe_mediator_action(&e->med, now_ms(), cmd->address, cmd->keys,
-                                               cmd->sensor_time_ms);
-                circe_address_format(cmd->address, addr);
+        case REQP_CIRCE_EMULATE_ACTION:
+                r = link_circe_mediator_action(&e->med, now_ms(), act->origin,
+                                               act->has_keys ? (long)act->keys : -1,
+                                               act->has_sensor_time ?
+                                               (long)act->sensor_time_ms : -1);
+                circe_address_format(act->origin, addr);
                 if (r == -ENOENT)
                         control_reply_error(req, r, "link %s emulates no device %s",
                                             link_name(e), addr);
@@ -475,10 +477,10 @@ static void execute(struct link_circe *e, struct control_request *req,
                         control_reply_ok(req, NULL);
                 break;
         default:
-                r = hook_send(e, &cmd->msg);
+                r = hook_send(e, &cmd->u.circe);
                 if (r < 0)
                         control_reply_error(req, r, "%s on link %s: %s",
-                                            link_circe_command_name(cmd->kind), link_name(e),
+                                            reqp_name(cmd->kind), link_name(e),
                                             strerror(-r));
                 else
                         control_reply_ok(req, NULL);
@@ -514,43 +516,34 @@ static const struct link_waitq_ops wait_ops = {
         .expire = wait_expire,
 };
 
-static_assert(sizeof(struct link_circe_cmd) <= LINK_WAITQ_DATA_MAX,
+static_assert(sizeof(struct reqp_request) <= LINK_WAITQ_DATA_MAX,
               "a parsed command fits a wait queue entry");
 
 static void rearm(struct link_circe *e);
 
-static void op_command(void *engine, struct control_request *req, int argc, char **argv,
-                       unsigned wait_ms)
+static void op_command(void *engine, struct control_request *req, const struct reqp_request *cmd)
 {
         struct link_circe *e = engine;
-        char err[LINK_CIRCE_CMD_ERR_MAX];
-        struct link_circe_cmd cmd;
-        int r;
 
-        r = link_circe_command_parse(argc, argv, &cmd, err, sizeof(err));
-        if (r < 0) {
-                control_reply_error(req, r, "%s", err);
-                return;
-        }
-        if (link_circe_command_for_controller(cmd.kind) != e->controller) {
+        if (reqp_circe_for_controller(cmd->kind) != e->controller) {
                 control_reply_error(req, EOPNOTSUPP, "link %s is a %s: %s is for %s links",
                                     link_name(e), e->controller ? "controller" :
-                                    "mediator emulator", link_circe_command_name(cmd.kind),
+                                    "mediator emulator", reqp_name(cmd->kind),
                                     e->controller ? "mediator emulator" : "controller");
                 return;
         }
         if (session_ready(e)) {
-                execute(e, req, &cmd);
+                execute(e, req, cmd);
                 /* A synchronisation brings a deadline, an action moves the Keep Alive one. */
                 rearm(e);
                 return;
         }
-        if (wait_ms == 0) {
+        if (cmd->wait_ms == 0) {
                 control_reply_error(req, ENOTCONN, "link %s is not connected (state %s)",
                                     link_name(e), link_circe_state_name(session_state(e)));
                 return;
         }
-        if (link_waitq_add(&e->waitq, req, now_ms(), wait_ms, &cmd, sizeof(cmd)) < 0) {
+        if (link_waitq_add(&e->waitq, req, now_ms(), cmd->wait_ms, cmd, sizeof(*cmd)) < 0) {
                 control_reply_error(req, EBUSY, "link %s: %u requests already wait for it",
                                     link_name(e), LINK_CIRCE_PENDING_MAX);
                 return;

@@ -5,7 +5,7 @@
  * The engine is glue: the channel's bytes go through the CIRCE decoder into the session of the
  * link's role (link_circe_controller.h, link_circe_mediator.h), and the session's actions come
  * back as packets on the channel, values and events in the shm table, counters, log lines and
- * control-socket replies (link_circe_command.h parses the commands).
+ * control-socket replies (the core decodes the commands: proto/request.h).
  *
  * Variables (link L):
  *   L.state                        connecting | connected | version-mismatch | unconfigured |

@@ -24,16 +24,12 @@
 #include <string.h>
 
 #include "daemon/control.h"
-#include "daemon/log.h"
+#include "svc/log.h"
 #include "proto/sharedlink.h"
 #include "shm/table.h"
 
 #define NS_PER_MS               1000000ull
 #define STATUS_MAX              (CHANNEL_REASON_MAX + 16)
-
-#define QUERY_ARGC_MIN          4       /* query LINK PEER NAME */
-#define QUERY_ARGC_MAX          5       /* ... TIMEOUT_MS */
-#define COMMAND_ARGC_MIN        3       /* command LINK MODULE [TEXT...] */
 
 /* Node address letters as strings, for the directory's peer field (must outlive the config). */
 static const char *const addr_names[SLP_ADDR_COUNT] = {
@@ -387,78 +383,41 @@ static void request_run(struct lsl *l, struct control_request *req, const struct
         settle(l);
 }
 
-/* "command LINK MODULE [TEXT...]": the text words joined with single spaces. */
-static void lsl_command_e(struct lsl *l, struct control_request *req, int argc, char **argv,
-                          unsigned wait_ms)
-{
-        struct lsl_wait w = { .command = true };
-        size_t used = 0;
+/* The core decodes requests with the vocabulary; what it lets through fits struct lsl_wait. */
+static_assert(LINK_SHAREDLINK_QUERY_TIMEOUT_MAX_MS == REQP_QUERY_TIMEOUT_MAX_MS, "query timeout");
+static_assert(REQP_MODULE_SIZE <= sizeof(((struct lsl_wait *)0)->module) &&
+              REQP_TEXT_SIZE <= sizeof(((struct lsl_wait *)0)->text) &&
+              REQP_NAME_SIZE <= sizeof(((struct lsl_wait *)0)->name), "request words fit");
 
-        if (argc < COMMAND_ARGC_MIN) {
-                control_reply_error(req, EINVAL, "usage: command LINK MODULE [TEXT...] "
-                                    "[wait=MS]");
-                return;
-        }
-        if (strlen(argv[2]) >= sizeof(w.module)) {
-                control_reply_error(req, EINVAL, "module longer than %u bytes", SLP_VALUE_MAX);
-                return;
-        }
-        copy_cut(w.module, sizeof(w.module), argv[2]);
-        for (int i = COMMAND_ARGC_MIN; i < argc; i++) {
-                size_t n = strlen(argv[i]) + (i > COMMAND_ARGC_MIN);
-
-                if (used + n >= sizeof(w.text)) {
-                        control_reply_error(req, EINVAL, "text longer than %u bytes",
-                                            SLP_VALUE_MAX);
-                        return;
-                }
-                if (i > COMMAND_ARGC_MIN)
-                        w.text[used++] = ' ';
-                memcpy(w.text + used, argv[i], n - (i > COMMAND_ARGC_MIN));
-                used += n - (i > COMMAND_ARGC_MIN);
-                w.text[used] = '\0';
-        }
-        request_run(l, req, &w, wait_ms);
-}
-
-static void lsl_command(void *engine, struct control_request *req, int argc, char **argv,
-                        unsigned wait_ms)
+/* "query LINK PEER NAME [TIMEOUT_MS]" or "command LINK MODULE [TEXT...]", decoded by the core:
+ * only which peers this link has is left to check. */
+static void lsl_command(void *engine, struct control_request *req, const struct reqp_request *r)
 {
         struct lsl *l = engine;
         struct lsl_wait w = { .timeout_ms = LINK_SHAREDLINK_QUERY_TIMEOUT_MS };
 
-        if (argc >= 1 && strcmp(argv[0], "command") == 0) {
-                lsl_command_e(l, req, argc, argv, wait_ms);
+        if (r->kind == REQP_COMMAND) {
+                w.command = true;
+                copy_cut(w.module, sizeof(w.module), r->u.command.module);
+                copy_cut(w.text, sizeof(w.text), r->u.command.text);
+                request_run(l, req, &w, r->wait_ms);
                 return;
         }
-        if (argc < 1 || strcmp(argv[0], "query") != 0) {
+        if (r->kind != REQP_QUERY) {
                 control_reply_error(req, EINVAL, "link %s speaks sharedlink: query or command",
                                     l->cfg->name);
                 return;
         }
-        if (argc < QUERY_ARGC_MIN || argc > QUERY_ARGC_MAX) {
-                control_reply_error(req, EINVAL,
-                                    "usage: query LINK PEER NAME [TIMEOUT_MS] [wait=MS]");
-                return;
-        }
-        w.peer = link_sharedlink_session_peer(l->session, argv[2]);
+        w.peer = link_sharedlink_session_peer(l->session, r->u.query.peer);
         if (w.peer < 0) {
-                control_reply_error(req, EINVAL, "%s is not a peer of link %s", argv[2],
+                control_reply_error(req, EINVAL, "%s is not a peer of link %s", r->u.query.peer,
                                     l->cfg->name);
                 return;
         }
-        if (shm_layout_name_check(argv[3]) < 0) {
-                control_reply_error(req, EINVAL, "bad variable name");
-                return;
-        }
-        if (argc == QUERY_ARGC_MAX &&
-            link_parse_ms(argv[4], 1, LINK_SHAREDLINK_QUERY_TIMEOUT_MAX_MS, &w.timeout_ms) < 0) {
-                control_reply_error(req, EINVAL, "bad timeout %s (1..%u ms)", argv[4],
-                                    LINK_SHAREDLINK_QUERY_TIMEOUT_MAX_MS);
-                return;
-        }
-        copy_cut(w.name, sizeof(w.name), argv[3]);
-        request_run(l, req, &w, wait_ms);
+        if (r->u.query.has_timeout)
+                w.timeout_ms = r->u.query.timeout_ms;
+        copy_cut(w.name, sizeof(w.name), r->u.query.name);
+        request_run(l, req, &w, r->wait_ms);
 }
 
 /* ---------------------------------------------------------------------------------------------
@@ -662,6 +621,22 @@ static const char *lsl_status(void *engine)
         return l->status;
 }
 
+/* A Pronto4 peer's learned list holds up to learn_max names; each learned outbound list as many
+ * spare .out slots. */
+static void lsl_learning(const struct config_link *cfg, struct link_learning *ret)
+{
+        for (unsigned k = 0; k < cfg->sl.n_peers; k++) {
+                const struct config_peer *p = &cfg->sl.peers[k];
+
+                if (p->outbound_learn)
+                        ret->outbound = true;
+                if (p->dialect != CONFIG_DIALECT_PRONTO4)
+                        continue;
+                ret->adhoc += (p->outbound_learn + p->inbound_learn) * p->learn_max;
+                ret->out_spare += p->outbound_learn * p->learn_max;
+        }
+}
+
 static const char *const sharedlink_words[] = { "query", "command", NULL };
 
 const struct link_ops link_sharedlink_ops = {
@@ -673,4 +648,5 @@ const struct link_ops link_sharedlink_ops = {
         .command = lsl_command,
         .status = lsl_status,
         .heartbeat = lsl_heartbeat,
+        .learning = lsl_learning,
 };

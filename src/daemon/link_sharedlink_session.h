@@ -27,7 +27,7 @@
 #include <stdint.h>
 
 #include "daemon/config.h"
-#include "daemon/log.h"
+#include "svc/log.h"
 #include "shm/layout.h"
 
 #define LINK_SHAREDLINK_QUERIES_MAX     16      /* pending control queries per link */

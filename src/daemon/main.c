@@ -10,32 +10,21 @@
  */
 #include <signal.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "daemon/config.h"
 #include "daemon/daemon.h"
 #include "daemon/evloop.h"
-#include "daemon/log.h"
-#include "daemon/notify.h"
+#include "svc/log.h"
+#include "svc/notify.h"
+#include "svc/service.h"
 
 #define MAIN_CONFIG_DEFAULT     "/etc/sharedlink/sharedlinkd.yaml"
-#define MAIN_EXIT_USAGE         2
 
 struct main_ctx {
         struct daemon *daemon;
         struct notify *notify;
 };
-
-static void usage(FILE *f)
-{
-        fprintf(f, "usage: sharedlinkd [-c FILE] [-n] [-v] [-V]\n"
-                   "  -c FILE  configuration (default " MAIN_CONFIG_DEFAULT ")\n"
-                   "  -n       check the configuration, print \"configuration OK\" and exit\n"
-                   "  -v       more detail in the log (debug)\n"
-                   "  -V       print the version and exit\n");
-}
 
 static void on_stop(struct evloop *loop, int signo, void *arg)
 {
@@ -74,51 +63,28 @@ static int check_only(const char *path)
                 fprintf(stderr, "%s: %s\n", path, err);
                 return 1;
         }
-        printf("configuration OK\n");
-        return 0;
+        return service_check_ok();
 }
 
 int main(int argc, char **argv)
 {
-        const char *path = MAIN_CONFIG_DEFAULT;
+        static const struct service_desc desc = {
+                .name = "sharedlinkd", .version = SHAREDLINK_VERSION,
+                .config_default = MAIN_CONFIG_DEFAULT, .check = check_only,
+        };
+        struct service_args args;
         struct main_ctx ctx = { 0 };
         struct config_error cerr;
         struct config *config;
         struct evloop *loop = NULL;
-        int check = 0, verbose = 0, opt, r, code = 1;
+        const char *path;
+        int r, code = 1;
 
-        while ((opt = getopt(argc, argv, "c:nvVh")) != -1) {
-                switch (opt) {
-                case 'c':
-                        path = optarg;
-                        break;
-                case 'n':
-                        check = 1;
-                        break;
-                case 'v':
-                        verbose++;
-                        break;
-                case 'V':
-                        printf("sharedlinkd %s\n", SHAREDLINK_VERSION);
-                        return 0;
-                case 'h':
-                        usage(stdout);
-                        return 0;
-                default:
-                        usage(stderr);
-                        return MAIN_EXIT_USAGE;
-                }
-        }
-        if (optind != argc) {
-                usage(stderr);
-                return MAIN_EXIT_USAGE;
-        }
-        if (check)
-                return check_only(path);
-
-        log_init(verbose, -1);
-        /* Writes to a peer that left return EPIPE instead of killing the daemon. */
-        signal(SIGPIPE, SIG_IGN);
+        r = service_args(&desc, argc, argv, &args);
+        if (r != SERVICE_CONTINUE)
+                return r;
+        path = args.config;
+        service_start(&args);
         r = config_load_file(path, &config, &cerr);
         if (r < 0) {
                 log_msg(LOG_PRIO_ERR, "%s", cerr.message);

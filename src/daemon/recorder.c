@@ -11,7 +11,7 @@
 #include <time.h>
 
 #include "daemon/evloop.h"
-#include "daemon/log.h"
+#include "svc/log.h"
 #include "proto/recording.h"
 
 #define RECORDER_NS_PER_US      1000ull

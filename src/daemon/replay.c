@@ -14,7 +14,7 @@
 #include <time.h>
 #include <unistd.h>
 
-#include "daemon/log.h"
+#include "svc/log.h"
 #include "proto/recording.h"
 
 #define REPLAY_NS_PER_US        1000ull

@@ -23,7 +23,7 @@
 #include "lib/export.h"
 #include "proto/circe.h"
 #include "proto/control.h"
-#include "proto/sharedlink.h"
+#include "proto/request.h"
 
 #define REQUEST_RUNTIME_DIR_ENV "SHAREDLINK_RUNTIME_DIR"
 #define REQUEST_SOCKET_SUFFIX   ".sock"
@@ -32,16 +32,19 @@
 #define REQUEST_SYNC_EXTRA_MS   10000   /* sync-clocks follows devices for 3 s, plus slack */
 #define NS_PER_MS               1000000ull
 
-/* The public limits are the protocols' (proto/control.h, proto/circe.h), word for word. */
+/* The public limits are the protocols' (proto/control.h, proto/circe.h, proto/request.h), word
+ * for word. */
 _Static_assert(SL_REQUEST_LINE_MAX + 1 == CTLP_LINE_MAX, "request line limit");
 _Static_assert(SL_REQUEST_WORDS_MAX == CTLP_WORDS_MAX, "request word limit");
 _Static_assert(SL_REPLY_LINE_MAX == CTLP_REPLY_LINE_MAX, "reply line limit");
 _Static_assert(SL_WAIT_MAX_MS == CTLP_WAIT_MAX_MS, "wait limit");
 _Static_assert(SL_CIRCE_ADDRESS_SIZE == CIRCE_ADDRESS_LEN + 1, "address size");
 _Static_assert(SL_CIRCE_DESTS_MAX == CIRCE_VISUALIZE_DEST_MAX, "visualize destinations");
-_Static_assert(SL_COMMAND_TEXT_MAX == SLP_VALUE_MAX, "command text limit");
-/* "command LINK MODULE" and the handle's "wait=MS" leave the rest of the words to the text. */
-_Static_assert(SL_COMMAND_WORDS_MAX + 4 <= SL_REQUEST_WORDS_MAX, "command text words");
+_Static_assert(SL_COMMAND_TEXT_MAX + 1 == REQP_TEXT_SIZE, "command text limit");
+_Static_assert(SL_COMMAND_WORDS_MAX == REQP_TEXT_WORDS_MAX, "command text words");
+_Static_assert(SL_QUERY_TIMEOUT_MAX_MS == REQP_QUERY_TIMEOUT_MAX_MS, "query timeout");
+_Static_assert(SL_LINK_NAME_SIZE == REQP_LINK_SIZE, "link name size");
+_Static_assert(SL_NAME_SIZE == REQP_NAME_SIZE, "variable name size");
 
 #define SL_VISUALIZE_SIZE_V1    sizeof(struct sl_circe_visualize)
 
@@ -210,77 +213,6 @@ int request_line_check(const char *line, char *why, size_t why_size)
                 say(why, why_size, "request has more than %d words", SL_REQUEST_WORDS_MAX);
                 break;
         }
-        return -EINVAL;
-}
-
-/* Appends one word (printable ASCII, no space) called `what` in messages; 0 or -EINVAL. */
-static int add_word(struct ctlp_builder *b, const char *what, const char *word, char *why,
-                    size_t why_size)
-{
-        switch (ctlp_builder_add(b, word, strnlen(word, CTLP_LINE_MAX))) {
-        case CTLP_REASON_NONE:
-                return 0;
-        case CTLP_REASON_EMPTY:
-                say(why, why_size, "%s is empty", what);
-                break;
-        case CTLP_REASON_BAD_BYTE:
-        case CTLP_REASON_BAD_SPACE:
-                say(why, why_size, "%s contains a space or a byte that is not printable ASCII",
-                    what);
-                break;
-        case CTLP_REASON_TOO_LONG:
-        case CTLP_REASON_TOO_MANY_WORDS:
-                say(why, why_size, "request too long (at %s)", what);
-                break;
-        }
-        return -EINVAL;
-}
-
-static int add_wordf(struct ctlp_builder *b, const char *what, char *why, size_t why_size,
-                     const char *fmt, ...) __attribute__((format(printf, 5, 6)));
-
-static int add_wordf(struct ctlp_builder *b, const char *what, char *why, size_t why_size,
-                     const char *fmt, ...)
-{
-        char word[SL_REQUEST_LINE_MAX + 1];
-        va_list ap;
-
-        va_start(ap, fmt);
-        vsnprintf(word, sizeof(word), fmt, ap);
-        va_end(ap);
-        return add_word(b, what, word, why, why_size);
-}
-
-static int check_link(const char *link, char *why, size_t why_size)
-{
-        size_t len;
-
-        if (!link) {
-                say(why, why_size, "no link name");
-                return -EINVAL;
-        }
-        len = strnlen(link, SL_LINK_NAME_SIZE);
-        if (len == 0 || len >= SL_LINK_NAME_SIZE) {
-                say(why, why_size, "bad link name: 1..%d bytes expected", SL_LINK_NAME_SIZE - 1);
-                return -EINVAL;
-        }
-        return 0;       /* the bytes are checked as a word */
-}
-
-/* A CIRCE address as on the wire (proto/circe.h): six uppercase hex digits, not FFFFFF. */
-static int check_address(const char *what, const char *addr, char *why, size_t why_size)
-{
-        size_t len = addr ? strnlen(addr, CIRCE_ADDRESS_LEN + 1u) : 0;
-        uint32_t value;
-        int r = addr ? circe_address_parse(addr, len, &value) : -EINVAL;
-
-        if (r == 0)
-                return 0;
-        if (r == -ERANGE)
-                say(why, why_size, "bad %s FFFFFF: the address is reserved", what);
-        else
-                say(why, why_size, "bad %s \"%.*s\": six uppercase hex digits expected", what,
-                    (int)len, addr ? addr : "");
         return -EINVAL;
 }
 
@@ -553,40 +485,34 @@ SL_EXPORT int sl_request(struct sl_client *c, const char *line, int timeout_ms,
 
 /* ---- typed commands ------------------------------------------------------------------------ */
 
-/* Sends a built request with the handle's wait=MS, within base_ms plus the wait. */
-static int command(struct sl_client *c, struct ctlp_builder *b, int base_ms,
+/*
+ * Encodes r (proto/request.h checks every argument the way the daemon will) with the handle's
+ * wait=MS and sends it, within base_ms plus the wait.
+ */
+static int command(struct sl_client *c, struct reqp_request *r, int base_ms,
                    sl_data_fn on_data, void *arg, char *reply, size_t reply_size)
 {
         int wait_ms = atomic_load_explicit(&c->command_wait_ms, memory_order_relaxed);
-        int r;
+        char line[CTLP_LINE_MAX];
+        int n;
 
-        if (wait_ms > 0) {
-                r = add_wordf(b, "wait", reply, reply_size, CTLP_WAIT_PREFIX "%d", wait_ms);
-                if (r < 0)
-                        return r;
-        }
-        return sl_request(c, b->line, base_ms + wait_ms, on_data, arg, reply, reply_size);
+        r->wait_ms = (uint32_t)wait_ms;
+        n = reqp_encode(r, line, sizeof(line), reply, reply_size);
+        if (n < 0)
+                return -EINVAL;         /* a bad argument, or more than one line holds */
+        return sl_request(c, line, base_ms + wait_ms, on_data, arg, reply, reply_size);
 }
 
-/* Starts "circe LINK OPERATION". */
-static int circe_begin(struct sl_client *c, struct ctlp_builder *b, const char *link,
-                       const char *op, char *reply, size_t reply_size)
+/* Starts a request of kind on link. */
+static int begin(struct sl_client *c, struct reqp_request *r, enum reqp_kind kind,
+                 const char *link, char *reply, size_t reply_size)
 {
-        int r;
-
-        ctlp_builder_init(b);
+        reqp_init(r, kind);
         if (!c) {
                 say(reply, reply_size, "no handle");
                 return -EINVAL;
         }
-        r = check_link(link, reply, reply_size);
-        if (r == 0)
-                r = add_word(b, "operation", "circe", reply, reply_size);
-        if (r == 0)
-                r = add_word(b, "link name", link, reply, reply_size);
-        if (r == 0)
-                r = add_word(b, "operation", op, reply, reply_size);
-        return r;
+        return reqp_set_link(r, link, reply, reply_size);
 }
 
 /* Receives the query's answer: "OK <value>". */
@@ -594,43 +520,28 @@ SL_EXPORT int sl_query(struct sl_client *c, const char *link, const char *peer, 
                        int timeout_ms, char *reply, size_t reply_size)
 {
         char value[SL_REPLY_LINE_MAX + 1];
-        struct ctlp_builder b;
+        struct reqp_request q;
         size_t len;
         int r;
 
-        ctlp_builder_init(&b);
         if (!c || !reply || reply_size == 0) {
                 say(reply, reply_size, "no handle or no buffer for the value");
                 return -EINVAL;
         }
-        r = check_link(link, reply, reply_size);
-        if (r < 0)
-                return r;
-        if (!peer || !slp_address_text_valid(peer, strnlen(peer, 2))) {
-                say(reply, reply_size, "bad peer \"%.16s\": a node address A..P expected",
-                    peer ? peer : "");
-                return -EINVAL;
-        }
-        if (!name || shm_layout_name_check(name) < 0) {
-                say(reply, reply_size, "bad variable name \"%.48s\": 1..%d bytes of printable "
-                    "ASCII without space, |, [ or ]", name ? name : "", SL_NAME_SIZE - 1);
-                return -EINVAL;
-        }
-        r = check_range("query timeout (ms)", timeout_ms, 0, SL_QUERY_TIMEOUT_MAX_MS, reply,
-                        reply_size);
+        r = begin(c, &q, REQP_QUERY, link, reply, reply_size);
         if (r == 0)
-                r = add_word(&b, "operation", "query", reply, reply_size);
+                r = reqp_set_text(&q, "peer", peer, reply, reply_size);
         if (r == 0)
-                r = add_word(&b, "link name", link, reply, reply_size);
+                r = reqp_set_text(&q, "variable name", name, reply, reply_size);
+        /* 0 is the daemon's default: no TIMEOUT_MS word. */
         if (r == 0)
-                r = add_word(&b, "peer", peer, reply, reply_size);
-        if (r == 0)
-                r = add_word(&b, "variable name", name, reply, reply_size);
+                r = check_range("query timeout (ms)", timeout_ms, 0, SL_QUERY_TIMEOUT_MAX_MS,
+                                reply, reply_size);
         if (r == 0 && timeout_ms > 0)
-                r = add_wordf(&b, "timeout", reply, reply_size, "%d", timeout_ms);
+                r = reqp_set_number(&q, "timeout", timeout_ms, reply, reply_size);
         if (r < 0)
                 return r;
-        r = command(c, &b, (timeout_ms ? timeout_ms : SL_REQUEST_TIMEOUT_MS) +
+        r = command(c, &q, (timeout_ms ? timeout_ms : SL_REQUEST_TIMEOUT_MS) +
                     SL_REQUEST_TIMEOUT_MS, NULL, NULL, value, sizeof(value));
         if (r < 0) {
                 say_text(reply, reply_size, value, strlen(value));
@@ -645,160 +556,67 @@ SL_EXPORT int sl_query(struct sl_client *c, const char *link, const char *peer, 
         return (int)len;
 }
 
-/* A module command's module: a name of the codec (slp_name_check), one word on the wire. */
-static int check_module(const char *module, char *why, size_t why_size)
-{
-        if (module && slp_name_check(module, strnlen(module, SLP_VALUE_MAX + 1u)) == 0)
-                return 0;
-        say(why, why_size, "bad module \"%.64s\": 1..%d bytes of letters, digits, _ . -",
-            module ? module : "", SL_COMMAND_TEXT_MAX);
-        return -EINVAL;
-}
-
-/*
- * A module command's text: the wire charset, at most SL_COMMAND_TEXT_MAX bytes, and words
- * separated by single spaces (the control request splits on spaces, so a leading, trailing or
- * double space could not arrive as sent). Returns the number of words, or -EINVAL.
- */
-static int check_command_text(const char *text, char *why, size_t why_size)
-{
-        size_t len = strnlen(text, SL_COMMAND_TEXT_MAX + 1u);
-        int words = 0;
-
-        if (len > SL_COMMAND_TEXT_MAX) {
-                say(why, why_size, "command text longer than %d bytes", SL_COMMAND_TEXT_MAX);
-                return -EINVAL;
-        }
-        if (slp_value_check(SLP_TYPE_STRING, text, len) < 0) {
-                say(why, why_size, "command text has a byte outside 0x20-0x7E, or | [ ]");
-                return -EINVAL;
-        }
-        for (size_t i = 0; i < len; i++) {
-                if (text[i] != ' ')
-                        continue;
-                if (i == 0 || i + 1u == len || text[i + 1u] == ' ') {
-                        say(why, why_size, "command text has a leading, trailing or double space");
-                        return -EINVAL;
-                }
-                words++;
-        }
-        words += len > 0;
-        if (words > SL_COMMAND_WORDS_MAX) {
-                say(why, why_size, "command text has more than %d words", SL_COMMAND_WORDS_MAX);
-                return -EINVAL;
-        }
-        return words;
-}
-
-/* Appends text's space-separated words (checked by check_command_text). */
-static int add_text_words(struct ctlp_builder *b, const char *text, char *why, size_t why_size)
-{
-        while (*text) {
-                size_t n = strcspn(text, " ");
-                char word[SL_COMMAND_TEXT_MAX + 1];
-                int r;
-
-                memcpy(word, text, n);
-                word[n] = '\0';
-                r = add_word(b, "command text", word, why, why_size);
-                if (r < 0)
-                        return r;
-                text += n + (text[n] == ' ');
-        }
-        return 0;
-}
-
 SL_EXPORT int sl_command(struct sl_client *c, const char *link, const char *module,
                          const char *text)
 {
-        struct ctlp_builder b;
-        int r;
+        struct reqp_request r;
+        int rc = begin(c, &r, REQP_COMMAND, link, NULL, 0);
 
-        ctlp_builder_init(&b);
-        if (!c)
-                return -EINVAL;
-        if (!text)
-                text = "";
-        r = check_link(link, NULL, 0);
-        if (r == 0)
-                r = check_module(module, NULL, 0);
-        if (r == 0)
-                r = check_command_text(text, NULL, 0);
-        if (r < 0)
-                return r;
-        r = add_word(&b, "operation", "command", NULL, 0);
-        if (r == 0)
-                r = add_word(&b, "link name", link, NULL, 0);
-        if (r == 0)
-                r = add_word(&b, "module", module, NULL, 0);
-        if (r == 0)
-                r = add_text_words(&b, text, NULL, 0);
-        if (r < 0)
-                return r;
-        return command(c, &b, SL_REQUEST_TIMEOUT_MS, NULL, NULL, NULL, 0);
+        if (rc == 0)
+                rc = reqp_set_text(&r, "module", module, NULL, 0);
+        if (rc == 0)
+                rc = reqp_set_text(&r, "command text", text ? text : "", NULL, 0);
+        if (rc < 0)
+                return rc;
+        return command(c, &r, SL_REQUEST_TIMEOUT_MS, NULL, NULL, NULL, 0);
 }
 
 SL_EXPORT int sl_circe_alert(struct sl_client *c, const char *link, const char *addr, char *reply,
                              size_t reply_size)
 {
-        struct ctlp_builder b;
-        int r = circe_begin(c, &b, link, "alert", reply, reply_size);
+        struct reqp_request r;
+        int rc = begin(c, &r, REQP_CIRCE_ALERT, link, reply, reply_size);
 
-        if (r == 0)
-                r = check_address("address", addr, reply, reply_size);
-        if (r == 0)
-                r = add_word(&b, "address", addr, reply, reply_size);
-        if (r < 0)
-                return r;
-        return command(c, &b, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
+        if (rc == 0)
+                rc = reqp_set_text(&r, "address", addr, reply, reply_size);
+        if (rc < 0)
+                return rc;
+        return command(c, &r, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
 }
 
 SL_EXPORT int sl_circe_network_setup(struct sl_client *c, const char *link, const char *addr,
                                      int join, int roles, char *reply, size_t reply_size)
 {
-        struct ctlp_builder b;
-        int r = circe_begin(c, &b, link, "network-setup", reply, reply_size);
+        struct reqp_request r;
+        int rc = begin(c, &r, REQP_CIRCE_NETWORK_SETUP, link, reply, reply_size);
 
-        if (r == 0)
-                r = check_address("address", addr, reply, reply_size);
-        if (r == 0)
-                r = check_range("join", join, 0, 1, reply, reply_size);
-        if (r == 0)
-                r = check_range("roles", roles, 0, CIRCE_ROLES_MAX, reply, reply_size);
-        if (r == 0)
-                r = add_word(&b, "address", addr, reply, reply_size);
-        if (r == 0)
-                r = add_word(&b, "membership", join ? "join" : "leave", reply, reply_size);
-        if (r == 0)
-                r = add_wordf(&b, "roles", reply, reply_size, "%d", roles);
-        if (r < 0)
-                return r;
-        return command(c, &b, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
+        if (rc == 0)
+                rc = reqp_set_text(&r, "address", addr, reply, reply_size);
+        if (rc == 0)
+                rc = reqp_set_number(&r, "membership", join, reply, reply_size);
+        if (rc == 0)
+                rc = reqp_set_number(&r, "roles", roles, reply, reply_size);
+        if (rc < 0)
+                return rc;
+        return command(c, &r, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
 }
 
 SL_EXPORT int sl_circe_device_setup(struct sl_client *c, const char *link, const char *assign,
                                     int has_dest, const char *dest, int has_caps, int caps,
                                     char *reply, size_t reply_size)
 {
-        struct ctlp_builder b;
-        int r = circe_begin(c, &b, link, "device-setup", reply, reply_size);
+        struct reqp_request r;
+        int rc = begin(c, &r, REQP_CIRCE_DEVICE_SETUP, link, reply, reply_size);
 
-        if (r == 0)
-                r = check_address("address to assign", assign, reply, reply_size);
-        if (r == 0 && has_dest)
-                r = check_address("destination", dest, reply, reply_size);
-        if (r == 0 && has_caps)
-                r = check_range("capabilities", caps, 0, CIRCE_CAPABILITIES_MAX, reply,
-                                reply_size);
-        if (r == 0)
-                r = add_word(&b, "address to assign", assign, reply, reply_size);
-        if (r == 0 && (has_dest || has_caps))
-                r = add_word(&b, "destination", has_dest ? dest : "-", reply, reply_size);
-        if (r == 0 && has_caps)
-                r = add_wordf(&b, "capabilities", reply, reply_size, "%d", caps);
-        if (r < 0)
-                return r;
-        return command(c, &b, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
+        if (rc == 0)
+                rc = reqp_set_text(&r, "address to assign", assign, reply, reply_size);
+        if (rc == 0 && has_dest)
+                rc = reqp_set_text(&r, "destination", dest, reply, reply_size);
+        if (rc == 0 && has_caps)
+                rc = reqp_set_number(&r, "capabilities", caps, reply, reply_size);
+        if (rc < 0)
+                return rc;
+        return command(c, &r, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
 }
 
 /* Where sync-clocks results go. */
@@ -807,25 +625,17 @@ struct sync_results {
         void *arg;
 };
 
-/* "ADDR succeeded" or "ADDR timed-out". */
+/* One device's result (proto/request.h: REQP_REPLY_SYNC). */
 static int sync_line(const char *text, void *arg)
 {
         const struct sync_results *s = arg;
         char addr[SL_CIRCE_ADDRESS_SIZE];
-        int succeeded;
+        uint32_t address;
+        bool succeeded;
 
-        if (strlen(text) <= CIRCE_ADDRESS_LEN || text[CIRCE_ADDRESS_LEN] != ' ')
+        if (reqp_sync_result_parse(text, &address, &succeeded) < 0)
                 return -EPROTO;
-        memcpy(addr, text, CIRCE_ADDRESS_LEN);
-        addr[CIRCE_ADDRESS_LEN] = '\0';
-        if (check_address("address", addr, NULL, 0) < 0)
-                return -EPROTO;
-        if (strcmp(text + CIRCE_ADDRESS_LEN + 1, "succeeded") == 0)
-                succeeded = 1;
-        else if (strcmp(text + CIRCE_ADDRESS_LEN + 1, "timed-out") == 0)
-                succeeded = 0;
-        else
-                return -EPROTO;
+        circe_address_format(address, addr);
         return s->fn ? s->fn(addr, succeeded, s->arg) : 0;
 }
 
@@ -833,47 +643,20 @@ SL_EXPORT int sl_circe_sync_clocks(struct sl_client *c, const char *link, sl_syn
                                    void *arg, char *reply, size_t reply_size)
 {
         struct sync_results s = { .fn = on_result, .arg = arg };
-        struct ctlp_builder b;
-        int r = circe_begin(c, &b, link, "sync-clocks", reply, reply_size);
+        struct reqp_request r;
+        int rc = begin(c, &r, REQP_CIRCE_SYNC_CLOCKS, link, reply, reply_size);
 
-        if (r < 0)
-                return r;
-        return command(c, &b, SL_REQUEST_TIMEOUT_MS + REQUEST_SYNC_EXTRA_MS, sync_line, &s,
+        if (rc < 0)
+                return rc;
+        return command(c, &r, SL_REQUEST_TIMEOUT_MS + REQUEST_SYNC_EXTRA_MS, sync_line, &s,
                        reply, reply_size);
 }
 
-/* Appends the comma-separated destination list of a Visualize. */
-static int add_destinations(struct ctlp_builder *b, const struct sl_circe_visualize *v,
-                            char *reply, size_t reply_size)
-{
-        char list[SL_CIRCE_DESTS_MAX * SL_CIRCE_ADDRESS_SIZE];
-        size_t len = 0;
-        int r;
-
-        if (!v->dests || v->dest_count < 1 || v->dest_count > SL_CIRCE_DESTS_MAX) {
-                say(reply, reply_size, "bad destination count %u: 1..%d expected",
-                    v->dests ? v->dest_count : 0u, SL_CIRCE_DESTS_MAX);
-                return -EINVAL;
-        }
-        for (unsigned i = 0; i < v->dest_count; i++) {
-                r = check_address("destination", v->dests[i], reply, reply_size);
-                if (r < 0)
-                        return r;
-                if (i)
-                        list[len++] = ',';
-                memcpy(list + len, v->dests[i], CIRCE_ADDRESS_LEN);
-                len += CIRCE_ADDRESS_LEN;
-        }
-        list[len] = '\0';
-        return add_word(b, "destinations", list, reply, reply_size);
-}
-
-/* One optional display field of a Visualize: "key=value" when has is set. */
+/* One optional display field of a Visualize: the vocabulary's key, when has is set. */
 struct vis_field {
         const char *key;
         int has;
         long value;
-        long max;
 };
 
 SL_EXPORT int sl_circe_visualize(struct sl_client *c, const char *link,
@@ -881,8 +664,8 @@ SL_EXPORT int sl_circe_visualize(struct sl_client *c, const char *link,
                                  size_t reply_size)
 {
         struct sl_circe_visualize full;
-        struct ctlp_builder b;
-        int r, given;
+        struct reqp_request r;
+        int rc;
 
         if (!v || v->size < SL_VISUALIZE_SIZE_V1) {
                 say(reply, reply_size, "no visualize fields, or their size is not set");
@@ -891,75 +674,58 @@ SL_EXPORT int sl_circe_visualize(struct sl_client *c, const char *link,
         /* Fields past the caller's size (a newer header than the caller's) read as absent. */
         memset(&full, 0, sizeof(full));
         memcpy(&full, v, v->size < sizeof(full) ? v->size : sizeof(full));
-        r = circe_begin(c, &b, link, "visualize", reply, reply_size);
-        if (r == 0)
-                r = add_destinations(&b, &full, reply, reply_size);
-        if (r < 0)
-                return r;
-        {
-                /* In the order of the control request (control.h). */
-                const struct vis_field fields[] = {
-                        { "current", full.has_current, full.current, CIRCE_COMPETITOR_MAX },
-                        { "next", full.has_next, full.next, CIRCE_COMPETITOR_MAX },
-                        { "start-timer", full.start_timer, full.start_timer, 1 },
-                        { "primary", full.has_primary, full.primary_ms, CIRCE_TIME_MS_MAX },
-                        { "secondary", full.has_secondary, full.secondary_ms, CIRCE_TIME_MS_MAX },
-                        { "faults", full.has_faults, full.faults, CIRCE_COUNT_MAX },
-                        { "refusals", full.has_refusals, full.refusals, CIRCE_COUNT_MAX },
-                        { "eliminated", full.has_eliminated, full.eliminated, 1 },
-                        { "placement", full.has_placement, full.placement, CIRCE_PLACEMENT_MAX },
-                };
-
-                given = 0;
-                for (size_t i = 0; i < sizeof(fields) / sizeof(fields[0]); i++) {
-                        const struct vis_field *f = &fields[i];
-
-                        if (!f->has)
-                                continue;
-                        given++;
-                        r = check_range(f->key, f->value, 0, f->max, reply, reply_size);
-                        if (r < 0)
-                                return r;
-                        if (strcmp(f->key, "start-timer") == 0)
-                                r = add_word(&b, f->key, f->key, reply, reply_size);
-                        else
-                                r = add_wordf(&b, f->key, reply, reply_size, "%s=%ld", f->key,
-                                              f->value);
-                        if (r < 0)
-                                return r;
-                }
-        }
-        if (given == 0) {
-                say(reply, reply_size, "visualize needs at least one display field");
+        rc = begin(c, &r, REQP_CIRCE_VISUALIZE, link, reply, reply_size);
+        if (rc < 0)
+                return rc;
+        if (!full.dests || full.dest_count < 1 || full.dest_count > SL_CIRCE_DESTS_MAX) {
+                say(reply, reply_size, "bad destination count %u: 1..%d expected",
+                    full.dests ? full.dest_count : 0u, SL_CIRCE_DESTS_MAX);
                 return -EINVAL;
         }
-        return command(c, &b, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
+        for (unsigned i = 0; i < full.dest_count; i++) {
+                rc = reqp_set_text(&r, "destination", full.dests[i], reply, reply_size);
+                if (rc < 0)
+                        return rc;
+        }
+        {
+                const struct vis_field fields[] = {
+                        { "current", full.has_current, full.current },
+                        { "next", full.has_next, full.next },
+                        { "start-timer", full.start_timer, full.start_timer },
+                        { "primary", full.has_primary, full.primary_ms },
+                        { "secondary", full.has_secondary, full.secondary_ms },
+                        { "faults", full.has_faults, full.faults },
+                        { "refusals", full.has_refusals, full.refusals },
+                        { "eliminated", full.has_eliminated, full.eliminated },
+                        { "placement", full.has_placement, full.placement },
+                };
+
+                for (size_t i = 0; i < sizeof(fields) / sizeof(fields[0]); i++) {
+                        if (!fields[i].has)
+                                continue;
+                        rc = reqp_set_number(&r, fields[i].key, fields[i].value, reply,
+                                             reply_size);
+                        if (rc < 0)
+                                return rc;
+                }
+        }
+        return command(c, &r, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
 }
 
 SL_EXPORT int sl_circe_emulate_action(struct sl_client *c, const char *link, const char *addr,
                                       int has_keys, int keys, int has_sensor_time,
                                       long sensor_time_ms, char *reply, size_t reply_size)
 {
-        struct ctlp_builder b;
-        int r = circe_begin(c, &b, link, "emulate", reply, reply_size);
+        struct reqp_request r;
+        int rc = begin(c, &r, REQP_CIRCE_EMULATE_ACTION, link, reply, reply_size);
 
-        if (r == 0)
-                r = add_word(&b, "operation", "action", reply, reply_size);
-        if (r == 0)
-                r = check_address("device", addr, reply, reply_size);
-        if (r == 0 && has_keys)
-                r = check_range("keys", keys, 0, CIRCE_KEYS_MAX, reply, reply_size);
-        if (r == 0 && has_sensor_time)
-                r = check_range("sensor time (ms)", sensor_time_ms, 0, CIRCE_TIME_MS_MAX, reply,
-                                reply_size);
-        if (r == 0)
-                r = add_word(&b, "device", addr, reply, reply_size);
-        if (r == 0 && has_keys)
-                r = add_wordf(&b, "keys", reply, reply_size, "keys=%d", keys);
-        if (r == 0 && has_sensor_time)
-                r = add_wordf(&b, "sensor time", reply, reply_size, "sensor-time=%ld",
-                              sensor_time_ms);
-        if (r < 0)
-                return r;
-        return command(c, &b, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
+        if (rc == 0)
+                rc = reqp_set_text(&r, "device", addr, reply, reply_size);
+        if (rc == 0 && has_keys)
+                rc = reqp_set_number(&r, "keys", keys, reply, reply_size);
+        if (rc == 0 && has_sensor_time)
+                rc = reqp_set_number(&r, "sensor-time", sensor_time_ms, reply, reply_size);
+        if (rc < 0)
+                return rc;
+        return command(c, &r, SL_REQUEST_TIMEOUT_MS, NULL, NULL, reply, reply_size);
 }

@@ -13,7 +13,8 @@
 
 #include "mqtt/bridge_cursor.h"
 #include "mqtt/bridge_format.h"
-#include "mqtt/bridge_log.h"
+#include "svc/json.h"
+#include "svc/log.h"
 
 #define INSTANCE_ENV            "SHAREDLINK_INSTANCE"
 #define INSTANCE_DEFAULT        "default"
@@ -153,21 +154,21 @@ static void cursor_start(struct bridge *b)
         b->read.epoch = b->epoch;
         if (r == 0 && c.epoch == b->epoch) {
                 b->read = c;
-                bridge_log(BRIDGE_LOG_INFO, "events: resuming after event %" PRIu64 " (%s)",
-                           c.seq, b->cursor_path);
+                log_msg(LOG_PRIO_INFO, "events: resuming after event %" PRIu64 " (%s)",
+                        c.seq, b->cursor_path);
         } else if (r == 0) {
                 b->announce_restart = true;
-                bridge_log(BRIDGE_LOG_NOTICE, "events: %s is of another daemon run (epoch "
-                           "%016" PRIx64 "): starting at the oldest event retained",
-                           b->cursor_path, c.epoch);
+                log_msg(LOG_PRIO_NOTICE, "events: %s is of another daemon run (epoch "
+                        "%016" PRIx64 "): starting at the oldest event retained",
+                        b->cursor_path, c.epoch);
         } else if (r == -ENOENT) {
-                bridge_log(BRIDGE_LOG_INFO, "events: no cursor in %s yet: starting at the "
-                           "oldest event retained", b->cursor_path);
+                log_msg(LOG_PRIO_INFO, "events: no cursor in %s yet: starting at the "
+                        "oldest event retained", b->cursor_path);
         } else {
                 count(b, &b->counters.cursor_errors, 1);
-                bridge_log(BRIDGE_LOG_WARNING, "events: %s: %s: starting at the oldest event "
-                           "retained (events may repeat)", b->cursor_path,
-                           r == -EBADMSG ? "not a cursor file" : strerror(-r));
+                log_msg(LOG_PRIO_WARNING, "events: %s: %s: starting at the oldest event "
+                        "retained (events may repeat)", b->cursor_path,
+                        r == -EBADMSG ? "not a cursor file" : strerror(-r));
         }
         b->done = b->read;
         b->done_dirty = false;
@@ -185,8 +186,8 @@ int bridge_attach(struct bridge *b)
                 return r;
         }
         b->epoch = daemon_epoch(b);
-        bridge_log(BRIDGE_LOG_INFO, "instance %s: %d variables, %d links", b->instance,
-                   sl_count(b->cl), sl_link_count(b->cl));
+        log_msg(LOG_PRIO_INFO, "instance %s: %d variables, %d links", b->instance,
+                sl_count(b->cl), sl_link_count(b->cl));
         if (b->cfg->events)
                 cursor_start(b);
         return 0;
@@ -216,8 +217,8 @@ static int var_describe(struct bridge *b, int id, struct bridge_var *v)
                 return -ENOENT;
         if (!bridge_format_name_ok(v->info.name)) {
                 if (v->publish || !v->published)
-                        bridge_log(BRIDGE_LOG_WARNING, "variable %s: the name cannot be an MQTT "
-                                   "topic level: not published", v->info.name);
+                        log_msg(LOG_PRIO_WARNING, "variable %s: the name cannot be an MQTT "
+                                "topic level: not published", v->info.name);
                 count(b, &b->counters.unpublishable, 1);
                 v->publish = false;
                 return 0;
@@ -378,7 +379,7 @@ static int status_scan(struct bridge *b, const struct bridge_sink *sink, bool fu
         if (publish(b, sink, topic, s, strlen(s), BRIDGE_STATUS_QOS, true, NULL) < 0)
                 return -ENOTCONN;
         if (news)
-                bridge_log(BRIDGE_LOG_INFO, "status: %s", s);
+                log_msg(LOG_PRIO_INFO, "status: %s", s);
         b->status = s;
         return 1;
 }
@@ -439,8 +440,8 @@ static int notice(struct bridge *b, const struct bridge_sink *sink, const char *
         r = publish(b, sink, topic, json, (size_t)n, b->cfg->events_qos, false, &mid);
         if (r < 0)
                 return r;
-        bridge_log(BRIDGE_LOG_NOTICE, "events: %s before event %" PRIu64 " (%" PRIu64 " lost)",
-                   type, seq, lost);
+        log_msg(LOG_PRIO_NOTICE, "events: %s before event %" PRIu64 " (%" PRIu64 " lost)",
+                type, seq, lost);
         return window_push(b, mid, &b->read);
 }
 
@@ -549,8 +550,8 @@ int bridge_cursor_flush(struct bridge *b, bool sync)
         r = bridge_cursor_store(b->cursor_path, &b->done, sync);
         if (r < 0) {
                 count(b, &b->counters.cursor_errors, 1);
-                bridge_log(BRIDGE_LOG_WARNING, "events: cannot write %s: %s", b->cursor_path,
-                           strerror(-r));
+                log_msg(LOG_PRIO_WARNING, "events: cannot write %s: %s", b->cursor_path,
+                        strerror(-r));
                 return r;
         }
         b->done_dirty = false;
@@ -567,7 +568,7 @@ static int refuse(struct bridge *b, const struct bridge_sink *sink, const char *
         int n;
 
         count(b, &b->counters.set_refused, 1);
-        bridge_log(BRIDGE_LOG_DEBUG, "set %s: refused: %s", name, bridge_format_refusal(why));
+        log_msg(LOG_PRIO_DEBUG, "set %s: refused: %s", name, bridge_format_refusal(why));
         if (!name[0])
                 return -EINVAL;
         bridge_format_topic(set, sizeof(set), b->base, BRIDGE_TOPIC_SET, name);
@@ -590,7 +591,7 @@ int bridge_set(struct bridge *b, const struct bridge_sink *sink, const char *top
         if (r == 0)
                 return 0;
         if (r < 0) {
-                bridge_log(BRIDGE_LOG_DEBUG, "set: topic %.200s refused", topic);
+                log_msg(LOG_PRIO_DEBUG, "set: topic %.200s refused", topic);
                 return refuse(b, sink, "", BRIDGE_REFUSE_TOPIC, 0);
         }
         /* Whatever the message says, an old write must never come back (on a vehicle: a
@@ -645,20 +646,20 @@ uint64_t bridge_counters_version(const struct bridge *b)
 int bridge_counters_json(const struct bridge *b, char *buf, size_t size)
 {
         const struct bridge_counters *c = &b->counters;
-        struct bridge_json j;
+        struct json_buf j;
 
-        bridge_json_begin(&j, buf, size);
-        bridge_json_u64(&j, "values_published", c->values_published);
-        bridge_json_u64(&j, "events_published", c->events_published);
-        bridge_json_u64(&j, "events_acked", c->events_acked);
-        bridge_json_u64(&j, "events_lost", c->events_lost);
-        bridge_json_u64(&j, "events_unacked", b->w_count);
-        bridge_json_u64(&j, "last_event_acked", b->done.seq);
-        bridge_json_u64(&j, "set_written", c->set_written);
-        bridge_json_u64(&j, "set_refused", c->set_refused);
-        bridge_json_u64(&j, "unpublishable", c->unpublishable);
-        bridge_json_u64(&j, "publish_errors", c->publish_errors);
-        bridge_json_u64(&j, "cursor_errors", c->cursor_errors);
-        bridge_json_u64(&j, "broker_errors", c->broker_errors);
-        return bridge_json_end(&j);
+        json_buf_begin(&j, buf, size);
+        json_buf_u64(&j, "values_published", c->values_published);
+        json_buf_u64(&j, "events_published", c->events_published);
+        json_buf_u64(&j, "events_acked", c->events_acked);
+        json_buf_u64(&j, "events_lost", c->events_lost);
+        json_buf_u64(&j, "events_unacked", b->w_count);
+        json_buf_u64(&j, "last_event_acked", b->done.seq);
+        json_buf_u64(&j, "set_written", c->set_written);
+        json_buf_u64(&j, "set_refused", c->set_refused);
+        json_buf_u64(&j, "unpublishable", c->unpublishable);
+        json_buf_u64(&j, "publish_errors", c->publish_errors);
+        json_buf_u64(&j, "cursor_errors", c->cursor_errors);
+        json_buf_u64(&j, "broker_errors", c->broker_errors);
+        return json_buf_end(&j);
 }

@@ -1,7 +1,8 @@
 /*
- * sharedlink-mqtt configuration: one YAML file, parsed with libyaml's event API in the style of
- * sharedlinkd's (unknown keys, wrong types, out-of-range numbers, duplicate keys, anchors, aliases
- * and tags are errors "FILE:LINE:COL: message", never a silent default).
+ * sharedlink-mqtt configuration: one YAML file, read with the toolkit's reader (svc/conf.h), as
+ * sharedlinkd's is: unknown keys, wrong types, out-of-range numbers, duplicate keys, anchors,
+ * aliases and tags are errors "FILE:LINE:COL: message" worded as sharedlinkd's, never a silent
+ * default.
  */
 #ifndef SHAREDLINK_MQTT_BRIDGE_CONFIG_H
 #define SHAREDLINK_MQTT_BRIDGE_CONFIG_H

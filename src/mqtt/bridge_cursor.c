@@ -11,6 +11,8 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "svc/io.h"
+
 #define CURSOR_MAGIC            "sharedlink-mqtt-cursor 1"
 #define CURSOR_LINE_MAX         128
 #define CURSOR_PATH_MAX         512
@@ -41,21 +43,6 @@ int bridge_cursor_load(const char *path, struct bridge_cursor *ret)
         return 0;
 }
 
-static int write_all(int fd, const char *p, size_t len)
-{
-        while (len > 0) {
-                ssize_t n = write(fd, p, len);
-
-                if (n < 0 && errno == EINTR)
-                        continue;
-                if (n < 0)
-                        return -errno;
-                p += n;
-                len -= (size_t)n;
-        }
-        return 0;
-}
-
 static int sync_dir(const char *path)
 {
         char copy[CURSOR_PATH_MAX];
@@ -83,7 +70,7 @@ int bridge_cursor_store(const char *path, const struct bridge_cursor *c, bool sy
         fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
         if (fd < 0)
                 return -errno;
-        r = write_all(fd, line, (size_t)n);
+        r = io_write_all(fd, line, (size_t)n);
         if (r == 0 && sync && fsync(fd) < 0)
                 r = -errno;
         if (close(fd) < 0 && r == 0)

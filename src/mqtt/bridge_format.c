@@ -8,6 +8,8 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "svc/json.h"
+
 #define NS_PER_MS               1000000u
 #define SET_LEVEL               "/" BRIDGE_TOPIC_SET "/"
 #define ERROR_SUFFIX            "/" BRIDGE_TOPIC_ERROR
@@ -149,97 +151,20 @@ const char *bridge_format_refusal(enum bridge_refusal r)
         return (unsigned)r < BRIDGE_REFUSE_COUNT ? refusal_text[r] : "refused";
 }
 
-/* ---- JSON ------------------------------------------------------------------------------------ */
-
-static void json_put(struct bridge_json *j, const char *s, size_t n)
-{
-        if (j->overflow || j->len + n >= j->size) {
-                j->overflow = true;
-                return;
-        }
-        memcpy(j->buf + j->len, s, n);
-        j->len += n;
-        j->buf[j->len] = '\0';
-}
-
-/* A JSON string: quotes, backslashes and control bytes escaped; bytes >= 0x80 pass (the daemon's
- * texts are ASCII; set/ payloads echoed in errors were checked to be UTF-8). */
-static void json_quoted(struct bridge_json *j, const char *s, size_t len)
-{
-        json_put(j, "\"", 1);
-        for (size_t i = 0; i < len; i++) {
-                unsigned char ch = (unsigned char)s[i];
-                char esc[8];
-
-                if (ch == '"' || ch == '\\') {
-                        esc[0] = '\\';
-                        esc[1] = (char)ch;
-                        json_put(j, esc, 2);
-                } else if (ch < 0x20 || ch == 0x7f) {
-                        snprintf(esc, sizeof(esc), "\\u%04x", ch);
-                        json_put(j, esc, 6);
-                } else {
-                        json_put(j, s + i, 1);
-                }
-        }
-        json_put(j, "\"", 1);
-}
-
-static void json_key(struct bridge_json *j, const char *key)
-{
-        if (j->need_comma)
-                json_put(j, ",", 1);
-        j->need_comma = true;
-        json_quoted(j, key, strlen(key));
-        json_put(j, ":", 1);
-}
-
-void bridge_json_begin(struct bridge_json *j, char *buf, size_t size)
-{
-        *j = (struct bridge_json){ .buf = buf, .size = size };
-        if (size)
-                buf[0] = '\0';
-        json_put(j, "{", 1);
-}
-
-void bridge_json_str(struct bridge_json *j, const char *key, const char *value)
-{
-        json_key(j, key);
-        json_quoted(j, value, strlen(value));
-}
-
-void bridge_json_u64(struct bridge_json *j, const char *key, uint64_t value)
-{
-        char num[24];
-
-        json_key(j, key);
-        json_put(j, num, (size_t)snprintf(num, sizeof(num), "%" PRIu64, value));
-}
-
-void bridge_json_bool(struct bridge_json *j, const char *key, bool value)
-{
-        json_key(j, key);
-        json_put(j, value ? "true" : "false", value ? 4 : 5);
-}
-
-int bridge_json_end(struct bridge_json *j)
-{
-        json_put(j, "}", 1);
-        return j->overflow ? -ENOBUFS : (int)j->len;
-}
+/* ---- JSON (the toolkit's writer, svc/json.h) ---------------------------------------------- */
 
 int bridge_format_error(char *buf, size_t size, const char *name, enum bridge_refusal r,
                         int err)
 {
-        struct bridge_json j;
+        struct json_buf j;
 
-        bridge_json_begin(&j, buf, size);
-        bridge_json_str(&j, "name", name);
-        bridge_json_str(&j, "code", (unsigned)r < BRIDGE_REFUSE_COUNT ? refusal_code[r] : "?");
-        bridge_json_str(&j, "error", bridge_format_refusal(r));
+        json_buf_begin(&j, buf, size);
+        json_buf_str(&j, "name", name);
+        json_buf_str(&j, "code", (unsigned)r < BRIDGE_REFUSE_COUNT ? refusal_code[r] : "?");
+        json_buf_str(&j, "error", bridge_format_refusal(r));
         if (err < 0)
-                bridge_json_str(&j, "detail", sl_strerror(err));
-        return bridge_json_end(&j);
+                json_buf_str(&j, "detail", sl_strerror(err));
+        return json_buf_end(&j);
 }
 
 static const char *type_name(int type)
@@ -257,20 +182,20 @@ static const char *type_name(int type)
 int bridge_format_meta(char *buf, size_t size, const struct sl_var_info *info,
                        const struct sl_meta *meta, const char *link_name)
 {
-        struct bridge_json j;
+        struct json_buf j;
 
-        bridge_json_begin(&j, buf, size);
-        bridge_json_bool(&j, "valid", meta->flags & SL_FLAG_VALID);
-        bridge_json_bool(&j, "stale", meta->flags & SL_FLAG_STALE);
-        bridge_json_u64(&j, "age_ms", meta->age_ns / NS_PER_MS);
-        bridge_json_u64(&j, "seq", meta->sequence);
-        bridge_json_u64(&j, "time_ns", meta->real_ns);
-        bridge_json_str(&j, "direction", info->direction == SL_DIR_OUT ? "out" : "in");
-        bridge_json_str(&j, "type", type_name(info->type));
-        bridge_json_str(&j, "link", link_name);
-        bridge_json_str(&j, "peer", info->peer);
-        bridge_json_bool(&j, "repaired", meta->flags & SL_FLAG_REPAIRED);
-        return bridge_json_end(&j);
+        json_buf_begin(&j, buf, size);
+        json_buf_bool(&j, "valid", meta->flags & SL_FLAG_VALID);
+        json_buf_bool(&j, "stale", meta->flags & SL_FLAG_STALE);
+        json_buf_u64(&j, "age_ms", meta->age_ns / NS_PER_MS);
+        json_buf_u64(&j, "seq", meta->sequence);
+        json_buf_u64(&j, "time_ns", meta->real_ns);
+        json_buf_str(&j, "direction", info->direction == SL_DIR_OUT ? "out" : "in");
+        json_buf_str(&j, "type", type_name(info->type));
+        json_buf_str(&j, "link", link_name);
+        json_buf_str(&j, "peer", info->peer);
+        json_buf_bool(&j, "repaired", meta->flags & SL_FLAG_REPAIRED);
+        return json_buf_end(&j);
 }
 
 static void epoch_hex(char out[17], uint64_t epoch)
@@ -279,12 +204,12 @@ static void epoch_hex(char out[17], uint64_t epoch)
 }
 
 /* "k=v k2=v2" as an object; a word without '=' becomes a key with an empty value. */
-static void json_fields(struct bridge_json *j, const char *text)
+static void json_fields(struct json_buf *j, const char *text)
 {
         bool first = true;
 
-        json_key(j, "fields");
-        json_put(j, "{", 1);
+        json_buf_key(j, "fields");
+        json_buf_raw(j, "{", 1);
         for (const char *p = text; *p;) {
                 size_t wl = strcspn(p, " "), kl;
                 const char *eq;
@@ -296,46 +221,46 @@ static void json_fields(struct bridge_json *j, const char *text)
                 eq = memchr(p, '=', wl);
                 kl = eq ? (size_t)(eq - p) : wl;
                 if (!first)
-                        json_put(j, ",", 1);
+                        json_buf_raw(j, ",", 1);
                 first = false;
-                json_quoted(j, p, kl);
-                json_put(j, ":", 1);
-                json_quoted(j, eq ? eq + 1 : p + wl, eq ? wl - kl - 1 : 0);
+                json_buf_quoted(j, p, kl);
+                json_buf_raw(j, ":", 1);
+                json_buf_quoted(j, eq ? eq + 1 : p + wl, eq ? wl - kl - 1 : 0);
                 p += wl;
         }
-        json_put(j, "}", 1);
+        json_buf_raw(j, "}", 1);
 }
 
 int bridge_format_event(char *buf, size_t size, uint64_t epoch, const struct sl_event *ev)
 {
-        struct bridge_json j;
+        struct json_buf j;
         char hex[17];
 
         epoch_hex(hex, epoch);
-        bridge_json_begin(&j, buf, size);
-        bridge_json_str(&j, "epoch", hex);
-        bridge_json_u64(&j, "seq", ev->seq);
-        bridge_json_u64(&j, "time_ns", ev->real_ns);
-        bridge_json_str(&j, "link", ev->link_name);
-        bridge_json_str(&j, "type", ev->type_name);
-        bridge_json_str(&j, "text", ev->text);
+        json_buf_begin(&j, buf, size);
+        json_buf_str(&j, "epoch", hex);
+        json_buf_u64(&j, "seq", ev->seq);
+        json_buf_u64(&j, "time_ns", ev->real_ns);
+        json_buf_str(&j, "link", ev->link_name);
+        json_buf_str(&j, "type", ev->type_name);
+        json_buf_str(&j, "text", ev->text);
         json_fields(&j, ev->text);
-        bridge_json_bool(&j, "truncated", ev->flags & SL_EVENT_TRUNCATED);
-        return bridge_json_end(&j);
+        json_buf_bool(&j, "truncated", ev->flags & SL_EVENT_TRUNCATED);
+        return json_buf_end(&j);
 }
 
 int bridge_format_notice(char *buf, size_t size, const char *type, uint64_t epoch, uint64_t seq,
                          uint64_t lost)
 {
-        struct bridge_json j;
+        struct json_buf j;
         char hex[17];
 
         epoch_hex(hex, epoch);
-        bridge_json_begin(&j, buf, size);
-        bridge_json_str(&j, "epoch", hex);
-        bridge_json_u64(&j, "seq", seq);
-        bridge_json_str(&j, "link", "");
-        bridge_json_str(&j, "type", type);
-        bridge_json_u64(&j, "lost", lost);
-        return bridge_json_end(&j);
+        json_buf_begin(&j, buf, size);
+        json_buf_str(&j, "epoch", hex);
+        json_buf_u64(&j, "seq", seq);
+        json_buf_str(&j, "link", "");
+        json_buf_str(&j, "type", type);
+        json_buf_u64(&j, "lost", lost);
+        return json_buf_end(&j);
 }

@@ -58,13 +58,6 @@ enum bridge_refusal {
         BRIDGE_REFUSE_COUNT
 };
 
-/* A growing JSON text in a caller's buffer; overflow is sticky and reported by the finisher. */
-struct bridge_json {
-        char *buf;
-        size_t size, len;
-        bool overflow, need_comma;
-};
-
 /* "<base>/<a>[/<b>]" into buf (BRIDGE_TOPIC_MAX); b may be NULL. 0 or -ENAMETOOLONG. */
 int bridge_format_topic(char *buf, size_t size, const char *base, const char *a, const char *b);
 
@@ -106,12 +99,5 @@ int bridge_format_event(char *buf, size_t size, uint64_t epoch, const struct sl_
  * seq is the number of the event that follows. Its length or -ENOBUFS. */
 int bridge_format_notice(char *buf, size_t size, const char *type, uint64_t epoch, uint64_t seq,
                          uint64_t lost);
-
-/* JSON builder: begin an object into buf; add members; end gives the length or -ENOBUFS. */
-void bridge_json_begin(struct bridge_json *j, char *buf, size_t size);
-void bridge_json_str(struct bridge_json *j, const char *key, const char *value);
-void bridge_json_u64(struct bridge_json *j, const char *key, uint64_t value);
-void bridge_json_bool(struct bridge_json *j, const char *key, bool value);
-int bridge_json_end(struct bridge_json *j);
 
 #endif

@@ -22,7 +22,7 @@
 #include <mqtt_protocol.h>
 
 #include "mqtt/bridge_format.h"
-#include "mqtt/bridge_log.h"
+#include "svc/log.h"
 
 #define NS_PER_MS               1000000ull
 #define MISC_INTERVAL_MS        1000u   /* keepalive pings and retries: mosquitto_loop_misc */
@@ -144,7 +144,7 @@ static void poll_update(struct conn *c)
         if (epoll_ctl(bm->epoll_fd, c->polled_fd == fd ? EPOLL_CTL_MOD : EPOLL_CTL_ADD, fd,
                       &ev) < 0 &&
             (errno != EEXIST || epoll_ctl(bm->epoll_fd, EPOLL_CTL_MOD, fd, &ev) < 0)) {
-                bridge_log(BRIDGE_LOG_ERR, "broker %s:%d: %sepoll: %s", bm->cfg->host,
+                log_msg(LOG_PRIO_ERR, "broker %s:%d: %sepoll: %s", bm->cfg->host,
                            bm->cfg->port, c->label, strerror(errno));
                 return;
         }
@@ -183,7 +183,7 @@ static void connection_lost(struct conn *c, uint64_t now_ns, const char *why)
         bridge_broker_error(bm->b);
         if (c == &bm->writes)
                 bridge_writes_ready(bm->b, false);
-        bridge_log(news ? BRIDGE_LOG_WARNING : BRIDGE_LOG_DEBUG,
+        log_msg(news ? LOG_PRIO_WARNING : LOG_PRIO_DEBUG,
                    "broker %s:%d: %s%s; retrying in %u ms", bm->cfg->host, bm->cfg->port,
                    c->label, text, c->backoff_ms);
         poll_forget(c);
@@ -231,7 +231,7 @@ static void connected(struct conn *c)
                                            WRITES_SUB_OPTIONS, NULL);
         }
         if (r != MOSQ_ERR_SUCCESS)
-                bridge_log(BRIDGE_LOG_ERR, "broker %s:%d: %s%ssubscribe %s: %s",
+                log_msg(LOG_PRIO_ERR, "broker %s:%d: %s%ssubscribe %s: %s",
                            bm->cfg->host, bm->cfg->port, c->label, c == &bm->own ? "un" : "",
                            bm->set_topic, mosquitto_strerror(r));
 }
@@ -253,15 +253,15 @@ static void on_connect(struct mosquitto *m, void *arg, int rc)
                                      mosquitto_connack_string(rc));
                 if (n > 0 && n < sizeof(why) && why[n - 1] == '.')
                         why[n - 1] = '\0';
-                bridge_log(strcmp(why, c->error) && conn_speaks(c) ? BRIDGE_LOG_ERR :
-                           BRIDGE_LOG_DEBUG,
+                log_msg(strcmp(why, c->error) && conn_speaks(c) ? LOG_PRIO_ERR :
+                           LOG_PRIO_DEBUG,
                            "broker %s:%d: %s%s", cfg->host, cfg->port, c->label, why);
                 memcpy(c->refusal, why, sizeof(why));
                 c->refused = true;
                 return;
         }
         c->error[0] = '\0';
-        bridge_log(BRIDGE_LOG_INFO, "broker %s:%d: connected as %s", cfg->host, cfg->port,
+        log_msg(LOG_PRIO_INFO, "broker %s:%d: connected as %s", cfg->host, cfg->port,
                    c->client_id);
         c->state = CONN_UP;
         c->backoff_ms = cfg->reconnect_min_ms;
@@ -277,7 +277,7 @@ static void on_subscribe(struct mosquitto *m, void *arg, int mid, int n, const i
         if (c != &c->bm->writes)
                 return;
         if (n < 1 || granted[0] >= REASON_FAILURE_MIN) {
-                bridge_log(BRIDGE_LOG_ERR, "broker %s:%d: %sthe subscription to %s was "
+                log_msg(LOG_PRIO_ERR, "broker %s:%d: %sthe subscription to %s was "
                            "refused (the broker's access rules?): writes are not taken",
                            c->bm->cfg->host, c->bm->cfg->port, c->label, c->bm->set_topic);
                 return;

@@ -26,17 +26,15 @@
 
 #include <mosquitto.h>
 #include <sharedlink.h>
-#if HAVE_LIBSYSTEMD
-#include <systemd/sd-daemon.h>
-#endif
 
 #include "mqtt/bridge.h"
 #include "mqtt/bridge_config.h"
 #include "mqtt/bridge_format.h"
-#include "mqtt/bridge_log.h"
 #include "mqtt/bridge_mqtt.h"
+#include "svc/log.h"
+#include "svc/notify.h"
+#include "svc/service.h"
 
-#define MAIN_EXIT_USAGE         2
 #define NS_PER_MS               1000000ull
 #define WAKER_SLICE_MS          250     /* sl_wait slice: how soon the waker sees a stop */
 #define TICK_MS                 1000u   /* rescan anyway (staleness by heartbeat), stats */
@@ -52,6 +50,7 @@ struct main_ctx {
         struct bridge_config cfg;
         struct bridge *b;
         struct bridge_mqtt *bm;
+        struct notify *notify;
         int sig_fd, wake_fd;
         pthread_t waker;
         bool waker_running;
@@ -74,36 +73,6 @@ static uint64_t now_ns(void)
 
         clock_gettime(CLOCK_MONOTONIC, &ts);
         return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
-}
-
-static void notify(const char *text)
-{
-#if HAVE_LIBSYSTEMD
-        sd_notify(0, text);
-#else
-        (void)text;
-#endif
-}
-
-static void watchdog_setup(struct main_ctx *ctx)
-{
-#if HAVE_LIBSYSTEMD
-        uint64_t usec = 0;
-
-        if (sd_watchdog_enabled(0, &usec) > 0 && usec > 0)
-                ctx->watchdog_interval_ns = usec * 1000u / 2u;
-#else
-        (void)ctx;
-#endif
-}
-
-static void usage(FILE *f)
-{
-        fprintf(f, "usage: sharedlink-mqtt [-c FILE] [-n] [-v] [-V]\n"
-                   "  -c FILE  configuration (default " BRIDGE_CONFIG_DEFAULT ")\n"
-                   "  -n       check the configuration, print \"configuration OK\" and exit\n"
-                   "  -v       more detail in the log (debug)\n"
-                   "  -V       print the version and exit\n");
 }
 
 /* Sleeps on the change word; every change rings the eventfd the poll loop watches. */
@@ -134,8 +103,8 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
         r = bridge_attach(ctx->b);
         if (r < 0) {
                 if (ctx->attach_ms == ATTACH_MIN_MS)
-                        bridge_log(BRIDGE_LOG_WARNING, "sharedlinkd instance: %s; retrying",
-                                   sl_strerror(r));
+                        log_msg(LOG_PRIO_WARNING, "sharedlinkd instance: %s; retrying",
+                                sl_strerror(r));
                 ctx->attach_ns = now + ctx->attach_ms * NS_PER_MS;
                 ctx->attach_ms = ctx->attach_ms * 2u > ATTACH_MAX_MS ? ATTACH_MAX_MS :
                                  ctx->attach_ms * 2u;
@@ -145,8 +114,8 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
         if (pthread_create(&ctx->waker, NULL, waker_main, ctx) == 0)
                 ctx->waker_running = true;
         else
-                bridge_log(BRIDGE_LOG_WARNING, "waker thread: %s: rescanning every %u ms only",
-                           strerror(errno), TICK_MS);
+                log_msg(LOG_PRIO_WARNING, "waker thread: %s: rescanning every %u ms only",
+                        strerror(errno), TICK_MS);
         ctx->dirty = true;
 }
 
@@ -165,7 +134,7 @@ static void status_update(struct main_ctx *ctx)
                  !strcmp(bridge_status(ctx->b), "online") ? "running" : "not running");
         if (strcmp(s, ctx->status) != 0) {
                 memcpy(ctx->status, s, sizeof(s));
-                notify(s);
+                notify_send(ctx->notify, s);
         }
 }
 
@@ -246,9 +215,9 @@ static void on_signal(struct main_ctx *ctx, uint64_t now)
 
         if (read(ctx->sig_fd, &si, sizeof(si)) != sizeof(si) || ctx->stopping)
                 return;
-        bridge_log(BRIDGE_LOG_NOTICE, "%s: stopping (%u events to be acknowledged)",
-                   strsignal((int)si.ssi_signo), bridge_unacked(ctx->b));
-        notify("STOPPING=1");
+        log_msg(LOG_PRIO_NOTICE, "%s: stopping (%u events to be acknowledged)",
+                strsignal((int)si.ssi_signo), bridge_unacked(ctx->b));
+        notify_stopping(ctx->notify);
         ctx->stopping = true;
         ctx->stop_deadline_ns = now + ctx->cfg.drain_ms * NS_PER_MS;
 }
@@ -273,11 +242,11 @@ static int run(struct main_ctx *ctx)
                 if (!ready) {
                         /* Ready once the configuration is in and the first attempts were made:
                          * a broker or daemon that is down is retried, not fatal. */
-                        notify("READY=1");
+                        notify_ready(ctx->notify);
                         ready = true;
                 }
                 if (ctx->watchdog_interval_ns && now >= ctx->watchdog_ns) {
-                        notify("WATCHDOG=1");
+                        notify_watchdog(ctx->notify);
                         ctx->watchdog_ns = now + ctx->watchdog_interval_ns;
                 }
                 fd = bridge_mqtt_fd(ctx->bm);
@@ -287,7 +256,7 @@ static int run(struct main_ctx *ctx)
                                         (bridge_mqtt_want_write(ctx->bm) ? POLLOUT : 0)) };
                 n = poll(p, fd >= 0 ? 3 : 2, timeout_ms(ctx, now));
                 if (n < 0 && errno != EINTR) {
-                        bridge_log(BRIDGE_LOG_ERR, "poll: %s", strerror(errno));
+                        log_msg(LOG_PRIO_ERR, "poll: %s", strerror(errno));
                         return 1;
                 }
                 now = now_ns();
@@ -313,8 +282,7 @@ static int check_only(const char *path)
                 fprintf(stderr, "%s\n", err);
                 return 1;
         }
-        printf("configuration OK\n");
-        return 0;
+        return service_check_ok();
 }
 
 static int setup(struct main_ctx *ctx, const char *path)
@@ -324,18 +292,18 @@ static int setup(struct main_ctx *ctx, const char *path)
         int r;
 
         if (bridge_config_load(path, &ctx->cfg, err, sizeof(err)) < 0) {
-                bridge_log(BRIDGE_LOG_ERR, "%s", err);
+                log_msg(LOG_PRIO_ERR, "%s", err);
                 return -EINVAL;
         }
         r = bridge_new(&ctx->cfg, &ctx->b);
         if (r < 0) {
-                bridge_log(BRIDGE_LOG_ERR, "%s: %s", path, r == -EINVAL ?
-                           "instance or prefix too long for a topic" : strerror(-r));
+                log_msg(LOG_PRIO_ERR, "%s: %s", path, r == -EINVAL ?
+                        "instance or prefix too long for a topic" : strerror(-r));
                 return r;
         }
         r = bridge_mqtt_new(&ctx->cfg, ctx->b, &ctx->bm, err, sizeof(err));
         if (r < 0) {
-                bridge_log(BRIDGE_LOG_ERR, "%s: %s", path, err);
+                log_msg(LOG_PRIO_ERR, "%s: %s", path, err);
                 return r;
         }
         sigemptyset(&set);
@@ -344,17 +312,21 @@ static int setup(struct main_ctx *ctx, const char *path)
         sigaddset(&set, SIGHUP);        /* no reload: a restart; ignored, not fatal */
         pthread_sigmask(SIG_BLOCK, &set, NULL);
         sigdelset(&set, SIGHUP);
-        signal(SIGPIPE, SIG_IGN);
         ctx->sig_fd = signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK);
         ctx->wake_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
         if (ctx->sig_fd < 0 || ctx->wake_fd < 0) {
-                bridge_log(BRIDGE_LOG_ERR, "signalfd/eventfd: %s", strerror(errno));
+                log_msg(LOG_PRIO_ERR, "signalfd/eventfd: %s", strerror(errno));
                 return -errno;
         }
         ctx->attach_ms = ATTACH_MIN_MS;
-        watchdog_setup(ctx);
-        bridge_log(BRIDGE_LOG_INFO, "sharedlink-mqtt %s: %s -> %s:%d, topics %s/...",
-                   SHAREDLINK_VERSION, path, ctx->cfg.host, ctx->cfg.port, bridge_base(ctx->b));
+        r = notify_new(&ctx->notify);
+        if (r < 0) {
+                log_msg(LOG_PRIO_ERR, "%s", strerror(-r));
+                return r;
+        }
+        ctx->watchdog_interval_ns = notify_watchdog_interval_ms(ctx->notify) * NS_PER_MS;
+        log_msg(LOG_PRIO_INFO, "sharedlink-mqtt %s: %s -> %s:%d, topics %s/...",
+                SHAREDLINK_VERSION, path, ctx->cfg.host, ctx->cfg.port, bridge_base(ctx->b));
         return 0;
 }
 
@@ -367,12 +339,13 @@ static void teardown(struct main_ctx *ctx)
         if (ctx->bm)
                 bridge_mqtt_disconnect(ctx->bm);
         if (ctx->b && bridge_unacked(ctx->b))
-                bridge_log(BRIDGE_LOG_WARNING, "stopped with %u events unacknowledged: they "
-                           "are sent again at the next start", bridge_unacked(ctx->b));
+                log_msg(LOG_PRIO_WARNING, "stopped with %u events unacknowledged: they "
+                        "are sent again at the next start", bridge_unacked(ctx->b));
         if (ctx->b)
                 bridge_cursor_flush(ctx->b, true);
         ctx->bm = bridge_mqtt_free(ctx->bm);
         ctx->b = bridge_free(ctx->b);
+        ctx->notify = notify_free(ctx->notify);
         if (ctx->wake_fd >= 0)
                 close(ctx->wake_fd);
         if (ctx->sig_fd >= 0)
@@ -381,41 +354,19 @@ static void teardown(struct main_ctx *ctx)
 
 int main(int argc, char **argv)
 {
+        static const struct service_desc desc = {
+                .name = "sharedlink-mqtt", .version = SHAREDLINK_VERSION,
+                .config_default = BRIDGE_CONFIG_DEFAULT, .check = check_only,
+        };
         static struct main_ctx ctx = { .sig_fd = -1, .wake_fd = -1 };
-        const char *path = BRIDGE_CONFIG_DEFAULT;
-        int opt, verbose = 0, check = 0, r;
+        struct service_args args;
+        int r = service_args(&desc, argc, argv, &args);
 
-        while ((opt = getopt(argc, argv, "c:nvVh")) != -1) {
-                switch (opt) {
-                case 'c':
-                        path = optarg;
-                        break;
-                case 'n':
-                        check = 1;
-                        break;
-                case 'v':
-                        verbose++;
-                        break;
-                case 'V':
-                        printf("sharedlink-mqtt %s\n", SHAREDLINK_VERSION);
-                        return 0;
-                case 'h':
-                        usage(stdout);
-                        return 0;
-                default:
-                        usage(stderr);
-                        return MAIN_EXIT_USAGE;
-                }
-        }
-        if (optind != argc) {
-                usage(stderr);
-                return MAIN_EXIT_USAGE;
-        }
-        if (check)
-                return check_only(path);
-        bridge_log_init(verbose);
+        if (r != SERVICE_CONTINUE)
+                return r;
+        service_start(&args);
         mosquitto_lib_init();
-        r = setup(&ctx, path) < 0 ? 1 : run(&ctx);
+        r = setup(&ctx, args.config) < 0 ? 1 : run(&ctx);
         teardown(&ctx);
         mosquitto_lib_cleanup();
         return r;

@@ -50,6 +50,7 @@
 
 #include "shm/slot.h"
 #include "shm/table.h"
+#include "svc/io.h"
 
 #define ROUNDS          2000000u        /* tight loops of section 1 */
 #define NS_PER_S        1000000000.0
@@ -569,21 +570,6 @@ static struct figure wake_latency(struct bench *b, int cpu)
 
 /* ---- round trips: echo server and Redis ---------------------------------------------------- */
 
-static int write_all(int fd, const char *p, size_t len)
-{
-        while (len > 0) {
-                ssize_t n = write(fd, p, len);
-
-                if (n < 0 && errno == EINTR)
-                        continue;
-                if (n <= 0)
-                        return -1;
-                p += n;
-                len -= (size_t)n;
-        }
-        return 0;
-}
-
 static int read_exact(int fd, char *p, size_t len)
 {
         while (len > 0) {
@@ -604,7 +590,7 @@ static void echo_child(int fd, int cpu)
         char msg[MSG_SIZE];
 
         pin(cpu);
-        while (read_exact(fd, msg, sizeof(msg)) == 0 && write_all(fd, msg, sizeof(msg)) == 0)
+        while (read_exact(fd, msg, sizeof(msg)) == 0 && io_write_all(fd, msg, sizeof(msg)) == 0)
                 ;
         _exit(0);
 }
@@ -632,7 +618,8 @@ static struct figure echo_round_trip(int cpu)
         for (unsigned i = 0; pid > 0 && i < RTT_WARMUP + RTT_SAMPLES; i++) {
                 uint64_t t0 = now_ns();
 
-                if (write_all(sv[0], msg, sizeof(msg)) < 0 || read_exact(sv[0], msg, sizeof(msg)))
+                if (io_write_all(sv[0], msg, sizeof(msg)) < 0 ||
+                    read_exact(sv[0], msg, sizeof(msg)))
                         break;
                 if (i >= RTT_WARMUP)
                         samples_add(&s, now_ns() - t0);
@@ -752,7 +739,8 @@ static struct figure redis_round_trip(struct redis *r, const char *cmd, const ch
         for (unsigned i = 0; i < RTT_WARMUP + RTT_SAMPLES; i++) {
                 uint64_t t0 = now_ns();
 
-                if (write_all(r->fd, cmd, len) < 0 || resp_read(r->fd, reply, sizeof(reply)) < 0 ||
+                if (io_write_all(r->fd, cmd, len) < 0 ||
+                    resp_read(r->fd, reply, sizeof(reply)) < 0 ||
                     strncmp(reply, expect, strlen(expect)) != 0) {
                         fprintf(stderr, "bench_shm: unexpected Redis reply \"%.40s\"\n", reply);
                         break;

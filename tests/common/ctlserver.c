@@ -5,7 +5,7 @@
 
 #include <stdio.h>
 
-#include "daemon/log.h"
+#include "svc/log.h"
 
 static void on_guard(struct evloop *loop, struct evloop_timer *t, void *arg)
 {

@@ -228,8 +228,12 @@ static void test_back_to_back(void **state)
 
         /* Refusals, each with its reason, and nothing sent for them. */
         assert_string_equal(request(f, "circe agility alert E1E1E"),
-                            "ERR 22 bad address \"E1E1E\": six hex digits expected (FFFFFF is "
-                            "reserved)\n");
+                            "ERR 22 bad address \"E1E1E\": six uppercase hex digits expected\n");
+        /* Upper case only, as the library and the configuration want it (PROTOCOLS.md 2.3). */
+        assert_string_equal(request(f, "circe agility alert e1e1e1"),
+                            "ERR 22 bad address \"e1e1e1\": six uppercase hex digits expected\n");
+        assert_string_equal(request(f, "circe arena emulate action e1e1e1"),
+                            "ERR 22 bad device \"e1e1e1\": six uppercase hex digits expected\n");
         assert_string_equal(request(f, "circe arena alert E1E1E1"),
                             "ERR 95 link arena is a mediator emulator: alert is for controller "
                             "links\n");

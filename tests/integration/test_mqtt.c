@@ -1038,7 +1038,7 @@ static void test_check_config(void **state)
                                             "broker:\n  host: x\n  port: 70000\n", path), 0);
         assert_int_equal(harness_run_capture(&f->h, out, sizeof(out), err, sizeof(err), T_WAIT_MS,
                                              argv), 1);
-        snprintf(want, sizeof(want), "%s:3:9: port: 70000 out of range 1..65535", path);
+        snprintf(want, sizeof(want), "%s:3:9: port 70000 out of range (1..65535)", path);
         assert_non_null(strstr(err, want));
         assert_int_equal(harness_write_file(&f->h, "good.yaml", "prefix: fleet/car1\n", path), 0);
         assert_int_equal(harness_run_capture(&f->h, out, sizeof(out), err, sizeof(err), T_WAIT_MS,

@@ -28,7 +28,7 @@
 #include "common/harness.h"
 #include "daemon/control.h"
 #include "daemon/evloop.h"
-#include "daemon/log.h"
+#include "svc/log.h"
 
 #define T_GUARD_MS      5000    /* a test that waits longer has failed */
 #define HELD_MAX        8

@@ -1,8 +1,8 @@
 /*
- * link.c's helpers: the core's wait=MS parsing (link_command_wait, link_parse_ms), the
- * command-word routing (link_protocol_for_command), and the wait queue both engines use
- * (link_waitq_*), on real control requests: a control socket on a real event loop, its clients
- * in this process, the queue driven by hand with the time the test chooses.
+ * link.c's helpers: the command-word routing (link_protocol_for_command), and the wait queue
+ * both engines use (link_waitq_*), on real control requests: a control socket on a real event
+ * loop, its clients in this process, the queue driven by hand with the time the test chooses.
+ * The wait=MS word itself is the vocabulary's (test_request_proto.c).
  */
 #include <errno.h>
 #include <setjmp.h>
@@ -18,85 +18,15 @@
 
 #include "common/ctlserver.h"
 #include "common/harness.h"
-#include "common/words.h"
 #include "daemon/control.h"
 #include "daemon/evloop.h"
 #include "daemon/link.h"
-#include "daemon/log.h"
+#include "svc/log.h"
 
 #define T0              1000u           /* the queue's clock starts here (ms) */
 #define GUARD_MS        5000            /* a wait longer than this has failed */
 #define CLIENTS         (LINK_WAITQ_MAX + 3)
 #define NAME_MAX_LEN    16
-
-#define WORDS_MAX       8
-
-struct wait_case {
-        const char *line;
-        int result;             /* 0 or -EINVAL */
-        int argc;               /* words left */
-        unsigned wait_ms;
-};
-
-static const struct wait_case wait_cases[] = {
-        { "query veh A X", 0, 4, 0 },
-        { "query veh A X 100 wait=250", 0, 5, 250 },
-        { "circe a sync-clocks wait=0", 0, 3, 0 },
-        { "circe a alert E1E1E1 wait=60000", 0, 4, 60000 },
-        { "circe a wait=5", 0, 2, 5 },
-        /* WORD LINK are never a wait: the engine reports what is missing. */
-        { "query wait=5", 0, 2, 0 },
-        /* Only the last word. */
-        { "circe a emulate action E1E1E1 wait=5 keys=1", 0, 7, 0 },
-        { "query veh A X wait=60001", -EINVAL, 5, 0 },
-        { "query veh A X wait=", -EINVAL, 5, 0 },
-        { "query veh A X wait=-5", -EINVAL, 5, 0 },
-        { "query veh A X wait=12ms", -EINVAL, 5, 0 },
-        { "query veh A X wait=99999999999999999999", -EINVAL, 5, 0 },
-};
-
-static void test_command_wait(void **state)
-{
-        (void)state;
-        for (size_t i = 0; i < sizeof(wait_cases) / sizeof(wait_cases[0]); i++) {
-                const struct wait_case *k = &wait_cases[i];
-                char buf[128], err[128] = "", *argv[WORDS_MAX];
-                unsigned wait_ms = 12345;
-                int argc, r;
-
-                snprintf(buf, sizeof(buf), "%s", k->line);
-                argc = words_split(buf, argv, WORDS_MAX);
-                r = link_command_wait(&argc, argv, &wait_ms, err, sizeof(err));
-                if (r != k->result || argc != k->argc)
-                        fail_msg("\"%s\": %d, %d words (want %d, %d)", k->line, r, argc,
-                                 k->result, k->argc);
-                if (r == 0) {
-                        assert_int_equal(wait_ms, k->wait_ms);
-                } else {
-                        /* Nothing written on failure but the reason. */
-                        assert_int_equal(wait_ms, 12345);
-                        assert_non_null(strstr(err, "bad wait \""));
-                        assert_non_null(strstr(err, "0..60000"));
-                }
-        }
-}
-
-static void test_parse_ms(void **state)
-{
-        unsigned v = 7;
-
-        (void)state;
-        assert_int_equal(link_parse_ms("1", 1, 10, &v), 0);
-        assert_int_equal(v, 1);
-        assert_int_equal(link_parse_ms("10", 1, 10, &v), 0);
-        assert_int_equal(v, 10);
-        assert_int_equal(link_parse_ms("0", 1, 10, &v), -EINVAL);
-        assert_int_equal(link_parse_ms("11", 1, 10, &v), -EINVAL);
-        assert_int_equal(link_parse_ms("", 0, 10, &v), -EINVAL);
-        assert_int_equal(link_parse_ms("+1", 0, 10, &v), -EINVAL);
-        assert_int_equal(link_parse_ms("1 ", 0, 10, &v), -EINVAL);
-        assert_int_equal(v, 10);
-}
 
 static void test_command_words(void **state)
 {
@@ -173,7 +103,8 @@ static void on_request(struct control_request *req, int argc, char **argv, void 
         f->calls++;
         assert_int_equal(argc, 3);
         snprintf(name, sizeof(name), "%s", argv[1]);
-        assert_int_equal(link_parse_ms(argv[2], 1, LINK_WAIT_MAX_MS, &wait_ms), 0);
+        wait_ms = (unsigned)strtoul(argv[2], NULL, 10);
+        assert_true(wait_ms >= 1 && wait_ms <= CTLP_WAIT_MAX_MS);
         r = link_waitq_add(&f->q, req, T0, wait_ms, name, sizeof(name));
         if (r < 0)
                 control_reply_error(req, r, "queue full");
@@ -303,8 +234,6 @@ static void test_waitq(void **state)
 int main(void)
 {
         const struct CMUnitTest tests[] = {
-                cmocka_unit_test(test_command_wait),
-                cmocka_unit_test(test_parse_ms),
                 cmocka_unit_test(test_command_words),
                 cmocka_unit_test_setup_teardown(test_waitq, wq_setup, wq_teardown),
         };

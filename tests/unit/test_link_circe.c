@@ -43,8 +43,9 @@
 #include "daemon/control.h"
 #include "daemon/evloop.h"
 #include "daemon/link_circe.h"
-#include "daemon/log.h"
+#include "svc/log.h"
 #include "proto/circe.h"
+#include "proto/request.h"
 #include "shm/table.h"
 
 #define WAIT_MS         5000    /* guard for one awaited thing */
@@ -151,24 +152,24 @@ static void on_reply(struct evloop *loop, int fd, unsigned revents, void *arg)
 static void on_request(struct control_request *req, int argc, char **argv, void *arg)
 {
         struct fx *f = arg;
-        unsigned wait_ms;
-        char err[128];
+        struct reqp_request r;
+        char err[REQP_ERR_MAX];
 
         if (argc < 2 || !link_ops_has_word(&link_circe_ops, argv[0])) {
                 control_reply_error(req, EINVAL, "test: only circe requests");
                 return;
         }
-        /* The core's part: wait=MS comes off before the engine sees the command. */
-        if (link_command_wait(&argc, argv, &wait_ms, err, sizeof(err)) < 0) {
+        /* The core's part: the request is decoded whole before the engine sees it. */
+        if (reqp_decode(argc, argv, &r, err, sizeof(err)) < 0) {
                 control_reply_error(req, EINVAL, "%s", err);
                 return;
         }
         for (unsigned i = 0; i < f->n_links; i++)
-                if (strcmp(f->cfg->links[i].name, argv[1]) == 0 && f->engine[i]) {
-                        link_circe_ops.command(f->engine[i], req, argc, argv, wait_ms);
+                if (strcmp(f->cfg->links[i].name, r.link) == 0 && f->engine[i]) {
+                        link_circe_ops.command(f->engine[i], req, &r);
                         return;
                 }
-        control_reply_error(req, ENOENT, "no link %s", argv[1]);
+        control_reply_error(req, ENOENT, "no link %s", r.link);
 }
 
 static int setup(void **state)
@@ -983,8 +984,7 @@ static void test_ctl_commands(void **state)
         assert_string_equal(request(f, "circe agility alert E1E1E1 wait=100"),
                             "ERR 110 link agility not connected within 100 ms (state connecting)\n");
         assert_string_equal(request(f, "circe agility alert XYZ"),
-                            "ERR 22 bad address \"XYZ\": six hex digits expected (FFFFFF is "
-                            "reserved)\n");
+                            "ERR 22 bad address \"XYZ\": six uppercase hex digits expected\n");
         assert_string_equal(request(f, "circe agility emulate action E1E1E1"),
                             "ERR 95 link agility is a controller: emulate action is for mediator "
                             "emulator links\n");

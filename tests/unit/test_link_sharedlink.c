@@ -44,6 +44,7 @@
 #include "daemon/evloop.h"
 #include "daemon/link.h"
 #include "daemon/link_sharedlink.h"
+#include "proto/request.h"
 #include "proto/sharedlink.h"
 #include "shm/table.h"
 
@@ -1445,18 +1446,18 @@ struct client {
 static void on_request(struct control_request *req, int argc, char **argv, void *arg)
 {
         struct fx *fx = arg;
-        unsigned wait_ms;
-        char err[128];
+        struct reqp_request r;
+        char err[REQP_ERR_MAX];
 
-        /* The core's part: wait=MS comes off before the engine sees the command. */
-        if (link_command_wait(&argc, argv, &wait_ms, err, sizeof(err)) < 0) {
+        /* The core's part: the request is decoded whole before the engine sees it. */
+        if (reqp_decode(argc, argv, &r, err, sizeof(err)) < 0) {
                 control_reply_error(req, EINVAL, "%s", err);
                 return;
         }
-        if (argc >= 2 && link_ops_has_word(ops, argv[0]))
+        if (reqp_has_link(r.kind) && link_ops_has_word(ops, reqp_verb(r.kind)))
                 for (unsigned i = 0; i < fx->nlinks; i++)
-                        if (fx->engines[i] && strcmp(fx->cfg->links[i].name, argv[1]) == 0) {
-                                ops->command(fx->engines[i], req, argc, argv, wait_ms);
+                        if (fx->engines[i] && strcmp(fx->cfg->links[i].name, r.link) == 0) {
+                                ops->command(fx->engines[i], req, &r);
                                 return;
                         }
         control_reply_error(req, ENOENT, "no such link");

@@ -512,6 +512,12 @@ static void test_wire_words(void **state)
                 { { "command SetIP", OP_COMMAND, "v", "Link", "0, SetIP, 1.2.3.4:4220, 4000", 0,
                     0, 0, 0 },
                   "command v Link 0, SetIP, 1.2.3.4:4220, 4000" },
+                /* A last word that reads as the link wait is followed by one (wait=0), so the
+                 * daemon takes it for what it is. */
+                { { "query wait=5", OP_QUERY, "vehicle", "A", "wait=5", 0, 0, 0, 0 },
+                  "query vehicle A wait=5 wait=0" },
+                { { "command wait=x", OP_COMMAND, "v", "Link", "0 wait=x", 0, 0, 0, 0 },
+                  "command v Link 0 wait=x wait=0" },
                 { { "command 28 words", OP_COMMAND, "v", "Link", WORDS_28, 0, 0, 0, 0 },
                   "command v Link " WORDS_28 },
         };

@@ -472,6 +472,11 @@ int bridge_pump(struct bridge *b, const struct bridge_sink *sink)
 
         if (!b->cl || !b->cfg->events)
                 return 0;
+        /* Events acknowledged since the cursor was last written would be sent again by a bridge
+         * killed now, on top of those in flight: the cursor goes to disk before the window
+         * refills, so a killed bridge repeats at most events_window events. */
+        if (b->done_dirty)
+                bridge_cursor_flush(b, false);
         /* A notice and its event take two places: stop while fewer are free. */
         while (b->w_count + 2 <= b->cfg->events_window) {
                 struct sl_event ev = { .size = sizeof(ev) };

@@ -6,6 +6,7 @@
  * base/status says online.
  */
 #include <errno.h>
+#include <inttypes.h>
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stdbool.h>
@@ -14,6 +15,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include <cmocka.h>
 
@@ -22,9 +24,12 @@
 #include "common/shmtest.h"
 #include "mqtt/bridge.h"
 #include "mqtt/bridge_config.h"
+#include "mqtt/bridge_cursor.h"
 #include "mqtt/bridge_format.h"
 
 #define SINK_MAX        64      /* messages a test looks at */
+#define EVENTS_WINDOW   4u      /* events_window of the kill test: a few rounds fit the ring */
+#define KILL_ROUNDS     3u
 #define PAYLOAD_MAX     BRIDGE_JSON_MAX
 
 enum { LAT, THROTTLE, STEER, NVARS };
@@ -42,6 +47,7 @@ struct message {
         size_t len;
         int qos;
         bool retain;
+        int mid;
 };
 
 /* The fake sink: records what is published, or refuses it (a broker that is gone). */
@@ -78,6 +84,7 @@ static int sink_publish(void *arg, const char *topic, const void *payload, size_
                 m->payload[m->len] = '\0';
                 m->qos = qos;
                 m->retain = retain;
+                m->mid = fs->next_mid + 1;
         }
         fs->n++;
         *ret_mid = ++fs->next_mid;
@@ -332,6 +339,61 @@ static void test_scan_sink_down(void **state)
         assert_true(find(f, topic(f, "CmdThrottle", NULL)) >= 0);
 }
 
+/* The largest "seq" among the events the last pump published (0: none). */
+static uint64_t published_seq(struct fixture *f)
+{
+        uint64_t max = 0;
+
+        for (unsigned i = 0; i < f->fs.n && i < SINK_MAX; i++) {
+                const char *p = strstr(f->fs.msg[i].payload, "\"seq\":");
+                uint64_t seq;
+
+                if (p && sscanf(p, "\"seq\":%" SCNu64, &seq) == 1 && seq > max)
+                        max = seq;
+        }
+        return max;
+}
+
+/* A bridge killed at any moment sends at most events_window events again: those published
+ * beyond the cursor on disk. Events acknowledged since the cursor was last written count too,
+ * so the cursor is written before the window refills. */
+static void test_events_kill_bound(void **state)
+{
+        struct fixture *f = *state;
+        struct bridge_config cfg = f->cfg;
+        struct bridge *b;
+        uint64_t seq = 0;
+
+        cfg.events = true;
+        cfg.events_window = EVENTS_WINDOW;
+        snprintf(cfg.cursor_file, sizeof(cfg.cursor_file), "/tmp/%s.cursor", f->tb.instance);
+        unlink(cfg.cursor_file);
+        assert_int_equal(bridge_new(&cfg, &b), 0);
+        assert_int_equal(bridge_attach(b), 0);
+        for (unsigned i = 0; i < SHMTEST_EVENTS; i++)
+                shm_table_eventf(f->tb.t, SHM_EVENT_LOG, SHM_LINK_NONE, "i=%u", i);
+
+        for (unsigned round = 0; round < KILL_ROUNDS; round++) {
+                struct bridge_cursor disk = { 0 };
+
+                f->fs.n = 0;
+                assert_true(bridge_pump(b, &f->sink) > 0);
+                if (published_seq(f) > seq)
+                        seq = published_seq(f);
+                /* Killed here: a new bridge resumes after the cursor on disk. */
+                if (bridge_cursor_load(cfg.cursor_file, &disk) == -ENOENT)
+                        disk.seq = 0;
+                if (seq - disk.seq > EVENTS_WINDOW)
+                        fail_msg("round %u: events up to %" PRIu64 " published, %" PRIu64
+                                 " on disk: a killed bridge repeats more than the window",
+                                 round, seq, disk.seq);
+                for (unsigned i = 0; i < f->fs.n && i < SINK_MAX; i++)
+                        bridge_acked(b, f->fs.msg[i].mid);
+        }
+        unlink(cfg.cursor_file);
+        bridge_free(b);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -341,6 +403,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_scan, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_status, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_scan_sink_down, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_events_kill_bound, setup, teardown),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

@@ -37,9 +37,12 @@
  * wire can carry).
  *
  * Trust: the daemon treats everything clients write as hostile and survives any of it. Writers
- * share one outbound table, so a member of the group that truncates it can make other writers'
- * processes fault (SIGBUS) until the daemon has recreated it; the library installs no signal
- * handlers. Readers only map the daemon's read-only table and are not exposed to this. The extensible structs below start with a `size` member that the caller sets
+ * share one outbound table, so a member of the group that truncates it can make other processes
+ * of the group that write (or read outbound variables) fault (SIGBUS) until the daemon has
+ * recreated it: at once when a client that opens the table finds it unusable (it wakes the
+ * daemon through the read-only table), else at the daemon's next heartbeat (a second). The
+ * library installs no signal handlers. Processes outside the group only map the daemon's
+ * read-only table and are not exposed to this. The extensible structs below start with a `size` member that the caller sets
  * to sizeof(the struct); the library fills only what fits, so newer fields never break old callers.
  *
  * Commands to the daemon (CIRCE operations, SharedLink queries) go through its control socket:
@@ -61,6 +64,7 @@ extern "C" {
 #define SL_LINK_NAME_SIZE       32
 #define SL_PROTOCOL_SIZE        16
 #define SL_STATE_NAME_SIZE      32
+#define SL_STATE_TEXT_SIZE      256     /* a link's whole state text + NUL (sl_link_info) */
 #define SL_TYPE_NAME_SIZE       24
 #define SL_EVENT_TEXT_SIZE      216     /* "key=value ..." + NUL */
 #define SL_COUNTERS_MAX         64      /* counters per link (named ones + spare room) */
@@ -131,6 +135,10 @@ struct sl_link_info {
         uint64_t state_age_ns;          /* time since the last state change */
         unsigned counter_count;         /* entries used in counters[] */
         struct sl_counter counters[SL_COUNTERS_MAX];
+        /* Added after 0.1.0 (an older caller's size stops before it): the whole state text,
+         * of which state_name holds the first 31 bytes, e.g. "down: /srv/rec/run.rec:12: bad
+         * line" (cut at SL_STATE_TEXT_SIZE - 1) */
+        char state_text[SL_STATE_TEXT_SIZE];
 };
 
 /* The daemon behind the tables (sl_daemon_info). */
@@ -179,10 +187,16 @@ int sl_info(struct sl_client *c, int id, struct sl_var_info *ret);
 /*
  * Copies the value of variable id (NUL-terminated) into buf; meta may be NULL. Returns its length
  * (0 and no SL_FLAG_VALID when it was never set), -ENOENT, -ENOBUFS (size < length + 1), or
- * -EAGAIN when a writer kept it busy for every bounded attempt (try again). An outbound variable
- * reads as what was last written to it. On failure buf holds nothing meaningful (a buffer of
- * SL_VALUE_SIZE bytes or more is used as scratch space by the read: the fastest path).
+ * -EAGAIN when its writer stayed in the middle of a write for every bounded attempt and then
+ * SL_READ_BUSY_MS of sleeping: a writer that is stopped, or was killed mid-write (the daemon
+ * repairs such a slot within a second); try again. A writer that was merely preempted mid-write
+ * costs the read a yield or a short sleep, not an error, so a read normally takes nanoseconds and
+ * only then up to about SL_READ_BUSY_MS. An outbound variable reads as what was last written to
+ * it. On failure buf holds nothing meaningful (a buffer of SL_VALUE_SIZE bytes or more is used as
+ * scratch space by the read: the fastest path).
  */
+#define SL_READ_BUSY_MS         20      /* sl_read's longest wait for a writer mid-write */
+
 int sl_read(struct sl_client *c, int id, char *buf, size_t size, struct sl_meta *meta);
 
 /* Reads a value as a double; -ENODATA when not valid or empty, -EDOM when not a number. */
@@ -239,7 +253,8 @@ int sl_wait_with(struct sl_client *c, uint32_t *cursor, int timeout_ms,
  * Reads up to ret_size events after *cursor (start with 0: the oldest retained; or with
  * sl_events_now) into ret[0..ret_size-1], each element's size set by the caller. Returns the
  * number read (0: none new) and advances *cursor. Events are never skipped silently: lost counts
- * the ones overwritten before they could be read.
+ * the ones overwritten before they could be read. After a daemon restart the first event read
+ * from the new daemon carries SL_EVENT_RESTARTED, once, however many calls found nothing before it.
  */
 int sl_events_read(struct sl_client *c, uint64_t *cursor, struct sl_event *ret, size_t ret_size);
 
@@ -257,6 +272,22 @@ int sl_daemon_info(struct sl_client *c, struct sl_daemon_info *ret);
 
 /* 1 when the daemon is running (heartbeat recent, tables current), 0 when not, or -errno. */
 int sl_daemon_alive(struct sl_client *c);
+
+/* sl_counter_scope: where a counter is moved */
+#define SL_COUNTER_SHAREDLINK   0x1u    /* by SharedLink links */
+#define SL_COUNTER_CIRCE        0x2u    /* by CIRCE links */
+#define SL_COUNTER_DAEMON       0x4u    /* daemon-wide: the outbound table, the event ring */
+
+/*
+ * Where the counter called name is moved: SL_COUNTER_* bits (both link bits for one that every
+ * link moves), or 0 for a name this library does not know. A counter outside a link's protocol
+ * (or the daemon's) always reads 0 there: for showing only those that apply. Since SHAREDLINK_1.2.
+ */
+unsigned sl_counter_scope(const char *name);
+
+/* Name of counter i, in the order of the counters of sl_link_info and sl_daemon_info (0, 1, ...),
+ * or NULL past the last. Since SHAREDLINK_1.2. */
+const char *sl_counter_name(unsigned i);
 
 /* A static English message for a value returned by any sl_* function (negative or not). */
 const char *sl_strerror(int err);

@@ -132,9 +132,10 @@ class LinkInfo(NamedTuple):
     name: str
     protocol: str
     state: int
-    state_name: str             # "" when its engine never set one
+    state_name: str             # "" when its engine never set one; at most 31 bytes
     state_age_ns: int
     counters: dict              # name -> value, in the library's order
+    state_text: str             # the whole state text, e.g. "down: FILE:LINE: message"
 
 
 class DaemonInfo(NamedTuple):
@@ -540,7 +541,8 @@ class Client:
             if r < 0:
                 _raise(r, "link %d" % i)
             out.append(LinkInfo(i, _text(info.name), _text(info.protocol), info.state,
-                                _text(info.state_name), info.state_age_ns, _counters(info)))
+                                _text(info.state_name), info.state_age_ns, _counters(info),
+                                _text(info.state_text)))
         return out
 
     def link(self, name):

@@ -20,6 +20,7 @@ SL_PEER_SIZE = 16
 SL_LINK_NAME_SIZE = 32
 SL_PROTOCOL_SIZE = 16
 SL_STATE_NAME_SIZE = 32
+SL_STATE_TEXT_SIZE = 256
 SL_TYPE_NAME_SIZE = 24
 SL_EVENT_TEXT_SIZE = 216
 SL_COUNTERS_MAX = 64
@@ -42,6 +43,10 @@ SL_EVENT_TRUNCATED = 0x1
 SL_EVENT_RESTARTED = 0x2
 SL_WAIT_SPIN = 0x1             # sl_wait_with: Client.wait(..., spin_us=N)
 SL_WAIT_SPIN_MAX_US = 10000
+SL_READ_BUSY_MS = 20
+SL_COUNTER_SHAREDLINK = 0x1
+SL_COUNTER_CIRCE = 0x2
+SL_COUNTER_DAEMON = 0x4
 
 SL_RUNTIME_DIR_DEFAULT = "/run/sharedlink"
 SL_REQUEST_LINE_MAX = 1023
@@ -107,6 +112,7 @@ class sl_link_info(ctypes.Structure):
         ("state_age_ns", c_u64),
         ("counter_count", c_uint),
         ("counters", sl_counter * SL_COUNTERS_MAX),
+        ("state_text", ctypes.c_char * SL_STATE_TEXT_SIZE),
     ]
 
 
@@ -282,11 +288,19 @@ _checked = False
 _checked_lock = threading.Lock()
 
 
+# Structs that grew at their end since their first version: the library takes any size from the
+# first version's up (an older caller's), so "one byte short" is checked against that one.
+_FIRST_SIZE = {
+    sl_link_info: sl_link_info.state_text.offset,
+}
+
+
 def _accepts(call, struct_type):
-    """(short, full): what call returns for a struct whose size says one byte less than ours,
-    and for ours."""
+    """(short, full): what call returns for a struct whose size says one byte less than its first
+    version's (ours, for most), and for ours."""
     out = []
-    for size in (ctypes.sizeof(struct_type) - 1, ctypes.sizeof(struct_type)):
+    first = _FIRST_SIZE.get(struct_type, ctypes.sizeof(struct_type))
+    for size in (first - 1, ctypes.sizeof(struct_type)):
         s = struct_type()
         s.size = size
         out.append(call(s))
@@ -296,9 +310,11 @@ def _accepts(call, struct_type):
 def check_sizes(handle):
     """Once per process: every extensible struct has exactly the size this library expects.
 
-    The library refuses a struct whose `size` is below its own sizeof with -EINVAL (and accepts
-    larger ones), so "one byte short is refused, ours is accepted" means ours is exactly its size:
-    a mirror that drifted from the header fails here, before it could corrupt memory."""
+    The library refuses a struct whose `size` is below its own sizeof (its first version's, for
+    one that grew) with -EINVAL and accepts larger ones, so "one byte short is refused, ours is
+    accepted" means ours is exactly its size: a mirror that drifted from the header fails here,
+    before it could corrupt memory. (A grown struct's later fields are checked by
+    tests/python/layout.c; an older library fills only what it knows of them.)"""
     global _checked
     if _checked:
         return

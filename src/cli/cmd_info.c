@@ -192,8 +192,8 @@ static void link_text(const struct sl_link_info *l, int all)
 
         slctl_format_age(age, sizeof(age), l->state_age_ns, 1);
         printf("link %s (%s): ", l->name, l->protocol[0] ? l->protocol : "-");
-        if (l->state_name[0])
-                printf("%s for %s (state %d)\n", l->state_name, age, l->state);
+        if (l->state_text[0])
+                printf("%s for %s (state %d)\n", l->state_text, age, l->state);
         else
                 printf("no state yet\n");      /* its engine never set one */
         counters_text(l->counters, l->counter_count,
@@ -229,6 +229,7 @@ static void link_json(const struct sl_link_info *l, int first)
         json_key(stdout, 0, "state");
         printf("%d", l->state);
         json_member_string(stdout, 0, "state_name", l->state_name);
+        json_member_string(stdout, 0, "state_text", l->state_text);
         json_member_u64(stdout, 0, "state_age_ns", l->state_age_ns);
         json_key(stdout, 0, "counters");
         counters_json(l->counters, l->counter_count);

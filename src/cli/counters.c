@@ -1,95 +1,31 @@
 /*
- * Counter scopes, from which code increments which counter (src/daemon/): link.c (the transport)
- * for every link, link_sharedlink.c for SharedLink, link_circe*.c for CIRCE, and the table's
- * outbound scan and event ring (src/shm/table.c) daemon-wide. tests/unit/test_counters.c checks
- * that every counter of the layout has a scope here, and tests/integration/test_slctl.c that the
- * real daemon moves no counter outside it.
+ * Counter scopes: which code moves which counter is part of the one counter list (shm/layout.h),
+ * which slctl reads through the public library (sl_counter_name, sl_counter_scope).
+ * tests/integration/test_slctl.c checks that the real daemon moves no counter outside its scope.
  */
 #include "cli/counters.h"
 
 #include <string.h>
 
-#define SL      COUNTERS_SHAREDLINK
-#define CI      COUNTERS_CIRCE
-#define LINKS   COUNTERS_LINKS
-#define DAEMON  COUNTERS_DAEMON
-
-static const struct {
-        const char *name;
-        unsigned scope;
-} known[] = {
-        { "frames_in", LINKS },
-        { "frames_out", LINKS },
-        { "bytes_in", LINKS },
-        { "bytes_out", LINKS },
-        { "noise_bytes", LINKS },
-        { "bad_checksum", LINKS },
-        { "resync", LINKS },
-        { "overlong", LINKS },
-        { "bad_address", SL },
-        { "bad_field", LINKS },
-        { "unknown_field", SL },
-        { "empty_field", SL },
-        { "list_mismatch", SL },
-        { "unknown_peer", SL },
-        { "not_for_us", SL },
-        { "adhoc_full", LINKS },
-        { "queries_in", SL },
-        { "answers_out", SL },
-        { "reopens", LINKS },
-        { "io_errors", LINKS },
-        { "bad_header", LINKS },
-        { "unknown_op", CI },
-        { "bad_value", LINKS },
-        { "missing_param", CI },
-        { "skipped_param", CI },
-        { "repeated_param", CI },
-        { "noncompliant_status", CI },
-        { "log_messages", CI },
-        { "tx_dropped", LINKS },
-        { "queries_out", SL },
-        { "answers_in", SL },
-        { "timeouts", LINKS },
-        { "out_accepted", DAEMON },
-        { "out_invalid", DAEMON },
-        { "out_busy", DAEMON },
-        { "out_repaired", DAEMON },
-        { "out_bad_object", DAEMON },
-        { "out_recreated", DAEMON },
-        { "events", DAEMON },
-        { "declarations_in", SL },
-        { "declarations_out", SL },
-        { "acks_in", SL },
-        { "learn_full", SL },
-        { "learn_conflict", SL },
-        { "bad_type", SL },
-        { "type_mismatch", SL },
-        { "undeclared_data", SL },
-        { "redeclared", SL },
-        { "commands_in", SL },
-        { "commands_out", SL },
-        { "bad_command", SL },
-        { "udp_refused", LINKS },
-};
-
-#define NKNOWN (sizeof(known) / sizeof(known[0]))
-
 unsigned counters_known(void)
 {
-        return NKNOWN;
+        unsigned n = 0;
+
+        while (sl_counter_name(n))
+                n++;
+        return n;
 }
 
 const char *counters_known_name(unsigned i)
 {
-        return i < NKNOWN ? known[i].name : NULL;
+        return sl_counter_name(i);
 }
 
 unsigned counters_scope(const char *name)
 {
-        for (unsigned i = 0; name && i < NKNOWN; i++)
-                if (strcmp(known[i].name, name) == 0)
-                        return known[i].scope;
-        return COUNTERS_ALL;
+        unsigned scope = name ? sl_counter_scope(name) : 0;
+
+        return scope ? scope : COUNTERS_ALL;
 }
 
 unsigned counters_protocol_scope(const char *protocol)

@@ -1,5 +1,5 @@
 /*
- * Which counters mean something where: the library reports every named counter (39) for every
+ * Which counters mean something where: the library reports every named counter for every
  * link and for the daemon, most of them always 0 there because no code of that protocol moves
  * them. slctl stats shows the ones that apply, non-zero first (--all: every one).
  */
@@ -8,21 +8,21 @@
 
 #include <sharedlink.h>
 
-/* Scope bits: where a counter is moved. */
-#define COUNTERS_SHAREDLINK     0x1u    /* by SharedLink links */
-#define COUNTERS_CIRCE          0x2u    /* by CIRCE links */
-#define COUNTERS_DAEMON         0x4u    /* daemon-wide (the outbound table, the event ring) */
+/* Scope bits: where a counter is moved (the library's SL_COUNTER_*). */
+#define COUNTERS_SHAREDLINK     SL_COUNTER_SHAREDLINK
+#define COUNTERS_CIRCE          SL_COUNTER_CIRCE
+#define COUNTERS_DAEMON         SL_COUNTER_DAEMON
 #define COUNTERS_LINKS          (COUNTERS_SHAREDLINK | COUNTERS_CIRCE)
 #define COUNTERS_ALL            (COUNTERS_LINKS | COUNTERS_DAEMON)
 
-/* Number of counters this slctl knows the scope of. */
+/* Number of counters the library names (and knows the scope of). */
 unsigned counters_known(void);
 
 /* Name of known counter i (0..counters_known()-1), or NULL. */
 const char *counters_known_name(unsigned i);
 
-/* Scope bits of the counter called name; COUNTERS_ALL for one this slctl does not know (a newer
- * library's), so that it is shown rather than hidden. */
+/* Scope bits of the counter called name; COUNTERS_ALL for one the library does not know (a
+ * newer daemon's), so that it is shown rather than hidden. */
 unsigned counters_scope(const char *name);
 
 /* Scope of a link speaking protocol; COUNTERS_ALL for a protocol this slctl does not know. */

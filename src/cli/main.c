@@ -109,8 +109,8 @@ static const struct command commands[] = {
           "           {\"pid\", \"alive\",\n"
           "           \"epoch\" (hex string), \"heartbeat_age_ns\", \"heartbeat_interval_ms\",\n"
           "           \"started_real_ns\", \"counters\": {name: n}}, \"links\": [{\"name\",\n"
-          "           \"protocol\", \"state\", \"state_name\", \"state_age_ns\",\n"
-          "           \"counters\": {name: n}}]}\n" },
+          "           \"protocol\", \"state\", \"state_name\" (its first 31 bytes),\n"
+          "           \"state_text\" (whole), \"state_age_ns\", \"counters\": {name: n}}]}\n" },
         { "query", cmd_daemon_query, "query [--timeout MS] [--wait MS] LINK PEER NAME",
           "Usage: slctl [-i INSTANCE] query [--timeout MS] [--wait MS] LINK PEER NAME\n"
           "\n"

@@ -70,7 +70,7 @@ static void daemon_on_out_change(void *userdata, const struct shm_out_change *ch
         }
 }
 
-static void daemon_out_scan(struct daemon *d)
+void daemon_out_scan(struct daemon *d)
 {
         int r = shm_table_out_scan(d->table, daemon_on_out_change, d);
 

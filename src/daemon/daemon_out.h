@@ -18,6 +18,12 @@ void daemon_out_init(struct daemon *d);
 /* Puts the table's wake fd on the loop and scans once. 0 or -errno (logged). */
 int daemon_out_start(struct daemon *d);
 
+/*
+ * Scans the .out table once and hands the changes to the links. The scan also checks the object
+ * (recreated when truncated or scribbled) and repairs slots of dead writers.
+ */
+void daemon_out_scan(struct daemon *d);
+
 /* Takes the wake fd off the loop (the table owns and closes it). */
 void daemon_out_stop(struct daemon *d);
 

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "daemon/daemon_internal.h"
+#include "daemon/daemon_out.h"
 #include "daemon/daemon_tables.h"
 #include "shm/table.h"
 
@@ -54,6 +55,9 @@ static void daemon_on_heartbeat(struct evloop *loop, struct evloop_timer *t, voi
         if (!d->table)
                 return;
         shm_table_heartbeat(d->table);
+        /* On our own clock too: a truncated .out (or a dead writer's slot) may have no client
+         * left that can wake us (shm_table_out_scan). */
+        daemon_out_scan(d);
         for (unsigned i = 0; i < d->n_links; i++) {
                 struct daemon_link *dl = d->links[i];
 

@@ -95,7 +95,6 @@ static const char *state_word(enum link_sharedlink_state s)
 /* Publishes the state (and an event when its number changes); reason only for DOWN. */
 static void state_set(struct lsl *l, enum link_sharedlink_state s, const char *reason)
 {
-        char name[SHM_STATE_NAME_SIZE];
         char status[STATUS_MAX];
         bool changed = s != l->state;
 
@@ -106,9 +105,8 @@ static void state_set(struct lsl *l, enum link_sharedlink_state s, const char *r
         if (!changed && strcmp(status, l->status) == 0)
                 return;
         snprintf(l->status, sizeof(l->status), "%s", status);
-        /* The shm field holds 31 bytes: the reason is cut there, the log line has it all. */
-        copy_cut(name, sizeof(name), status);
-        shm_table_link_state(l->env.table, l->env.shm_link, (uint32_t)s, name);
+        /* Whole (up to SHM_LINK_TEXT_SIZE - 1 bytes): a broken recording's FILE:LINE: message. */
+        shm_table_link_state(l->env.table, l->env.shm_link, (uint32_t)s, status);
         if (!changed)
                 return;
         l->state = s;

@@ -95,6 +95,9 @@ static int map_open(const char *name, struct client_map **ret_map)
         m->in = h;
         m->size = (size_t)st.st_size;
         m->links = (const struct shm_link *)((const char *)base + h->links_offset);
+        if (shm_layout_has_link_texts(h, (uint64_t)st.st_size))
+                m->link_texts = (const struct shm_link_text *)((const char *)base +
+                                                               h->link_texts_offset);
         m->events = (const struct shm_event *)((const char *)base + h->events_offset);
         m->dir = (const struct shm_dir_entry *)((const char *)base + h->dir_offset);
         m->slots = (const struct shm_slot *)((const char *)base + h->slots_offset);
@@ -102,6 +105,7 @@ static int map_open(const char *name, struct client_map **ret_map)
         m->event_capacity = h->event_capacity;
         m->epoch = h->epoch;
         m->waiter_flag = (h->layout_version & 0xffffu) >= SHM_LAYOUT_MINOR_WAITER;
+        m->doorbell = (h->layout_version & 0xffffu) >= SHM_LAYOUT_MINOR_DOORBELL;
         m->dev = st.st_dev;
         m->ino = st.st_ino;
         *ret_map = m;
@@ -141,6 +145,17 @@ int client_map_replaced(const struct sl_client *c, const struct client_map *m)
         return replaced;
 }
 
+static void out_map(struct sl_client *c);
+
+void client_ring_daemon(const struct sl_client *c)
+{
+        const struct client_map *m = c->map;
+
+        /* FUTEX_WAKE neither reads nor writes the word: fine on our read-only mapping. */
+        if (m->doorbell)
+                shm_futex_wake((_Atomic uint32_t *)(uintptr_t)&m->in->out_doorbell, 1);
+}
+
 static void out_unmap(struct sl_client *c)
 {
         if (c->out)
@@ -153,9 +168,18 @@ static void out_unmap(struct sl_client *c)
 
 /*
  * Maps .out read-write if this user may. On failure out_error keeps the reason (-EACCES: not in
- * the group) for sl_write to return; reading never needs .out.
+ * the group) for sl_write to return; reading never needs .out. An object that is there but
+ * unusable (truncated, scribbled, left from another epoch or generation) rings the daemon, which
+ * recreates it: nobody else may be left to tell it.
  */
 static void out_open(struct sl_client *c)
+{
+        out_map(c);
+        if (!c->out && c->out_error != -EACCES && c->out_error != -EPERM)
+                client_ring_daemon(c);
+}
+
+static void out_map(struct sl_client *c)
 {
         const struct client_map *m = c->map;
         uint32_t generation = atomic_load_explicit(&m->in->out_generation, memory_order_acquire);
@@ -188,9 +212,10 @@ static void out_open(struct sl_client *c)
         }
         h = base;
         r = shm_layout_check_out(h, (uint64_t)st.st_size);
-        /* Another client may have scribbled on it; the daemon will recreate it. */
-        if (r == 0 && (h->epoch != m->epoch || h->generation != generation ||
-                       h->capacity != m->in->out_capacity))
+        /* Another client may have scribbled on it (-EPROTO too: .in told us the layout): the
+         * daemon will recreate it, so it is "try again". */
+        if (r == -EPROTO || (r == 0 && (h->epoch != m->epoch || h->generation != generation ||
+                                        h->capacity != m->in->out_capacity)))
                 r = -EAGAIN;
         if (r < 0) {
                 munmap(base, (size_t)st.st_size);

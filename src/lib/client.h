@@ -35,6 +35,7 @@ struct client_map {
         const struct shm_in_header *in;
         size_t size;
         const struct shm_link *links;
+        const struct shm_link_text *link_texts;         /* layout >= 1.4, else NULL */
         const struct shm_event *events;
         const struct shm_dir_entry *dir;
         const struct shm_slot *slots;
@@ -42,6 +43,7 @@ struct client_map {
         uint32_t event_capacity;
         uint64_t epoch;
         int waiter_flag;                /* layout >= 1.1: the daemon sets SHM_OUT_WAITING */
+        int doorbell;                   /* layout >= 1.3: the daemon sleeps on out_doorbell */
         dev_t dev;                      /* identity of the object, to notice a replacement */
         ino_t ino;
 };
@@ -248,6 +250,13 @@ static inline int client_alive(const struct sl_client *c, uint64_t now_mono, uin
         return age <= (uint64_t)CLIENT_HEARTBEAT_MISSES * h->heartbeat_interval_ms *
                       CLIENT_NS_PER_MS;
 }
+
+/*
+ * Wakes the daemon because .out is unusable (truncated, scribbled, a slot held for every bounded
+ * attempt): a FUTEX_WAKE of the doorbell in .in (layout 1.3), which needs only read access. Read
+ * or write lock held.
+ */
+void client_ring_daemon(const struct sl_client *c);
 
 /* Takes a reference on the current map (read lock held); release with client_map_put. */
 struct client_map *client_map_get(struct sl_client *c);

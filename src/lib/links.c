@@ -3,6 +3,7 @@
  */
 #include <errno.h>
 #include <signal.h>
+#include <stddef.h>
 #include <string.h>
 
 #include <sharedlink.h>
@@ -11,12 +12,14 @@
 #include "lib/export.h"
 #include "shm/seqlock.h"
 
-#define SL_LINK_INFO_SIZE_V1    sizeof(struct sl_link_info)
+/* Extensible structs: the caller's size must cover at least the first version (sl_link_info's
+ * ended with counters[]; state_text came after). */
+#define SL_LINK_INFO_SIZE_V1    offsetof(struct sl_link_info, state_text)
 #define SL_DAEMON_INFO_SIZE_V1  sizeof(struct sl_daemon_info)
 
 _Static_assert(SL_COUNTERS_MAX == SHM_COUNTERS_MAX, "counter slots");
-_Static_assert(SL_STATE_NAME_SIZE == SHM_STATE_NAME_SIZE && SL_PROTOCOL_SIZE == SHM_PROTOCOL_SIZE,
-               "link sizes");
+_Static_assert(SL_STATE_NAME_SIZE == SHM_STATE_NAME_SIZE && SL_PROTOCOL_SIZE == SHM_PROTOCOL_SIZE &&
+               SL_STATE_TEXT_SIZE == SHM_LINK_TEXT_SIZE, "link sizes");
 
 /* Named counters only: the spare slots have no name and are not reported. */
 static unsigned counters_fill(struct sl_counter *out, const _Atomic uint64_t *words)
@@ -31,6 +34,19 @@ static unsigned counters_fill(struct sl_counter *out, const _Atomic uint64_t *wo
         return n;
 }
 
+_Static_assert(SL_COUNTER_SHAREDLINK == SHM_SCOPE_SHAREDLINK && SL_COUNTER_CIRCE == SHM_SCOPE_CIRCE &&
+               SL_COUNTER_DAEMON == SHM_SCOPE_DAEMON, "counter scopes");
+
+SL_EXPORT unsigned sl_counter_scope(const char *name)
+{
+        return shm_layout_counter_scope(name);
+}
+
+SL_EXPORT const char *sl_counter_name(unsigned i)
+{
+        return shm_layout_counter_name(i);
+}
+
 SL_EXPORT int sl_link_count(struct sl_client *c)
 {
         uint32_t n;
@@ -43,11 +59,16 @@ SL_EXPORT int sl_link_count(struct sl_client *c)
         return (int)(n < SHM_LINKS_MAX ? n : SHM_LINKS_MAX);
 }
 
-/* Bounded seqlock copy of a link's state (see seqlock.h). */
-static int link_state_read(const struct shm_link *l, struct sl_link_info *info, uint64_t now)
+/*
+ * Bounded seqlock copy of a link's state (see seqlock.h), with its whole text when the table has
+ * link texts (text NULL: layout before 1.4, the 31-byte state name is all there is).
+ */
+static int link_state_read(const struct shm_link *l, const struct shm_link_text *text,
+                           struct sl_link_info *info, uint64_t now)
 {
         for (unsigned attempt = 0; attempt < SHM_SEQLOCK_TRIES; attempt++) {
                 uint64_t words[SHM_STATE_NAME_WORDS], start = shm_seqlock_read_begin(&l->seq);
+                uint64_t long_words[SHM_LINK_TEXT_WORDS];
                 uint64_t state_ns;
                 uint32_t state;
 
@@ -59,12 +80,21 @@ static int link_state_read(const struct shm_link *l, struct sl_link_info *info, 
                 state_ns = atomic_load_explicit(&l->state_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
                 for (unsigned i = 0; i < SHM_STATE_NAME_WORDS; i++)
                         words[i] = atomic_load_explicit(&l->state_name[i], SHM_SEQLOCK_PAYLOAD_LOAD);
+                for (unsigned i = 0; text && i < SHM_LINK_TEXT_WORDS; i++)
+                        long_words[i] = atomic_load_explicit(&text->text[i],
+                                                             SHM_SEQLOCK_PAYLOAD_LOAD);
                 if (shm_seqlock_read_retry(&l->seq, start))
                         continue;
                 info->state = (int)state;
                 info->state_age_ns = state_ns && now > state_ns ? now - state_ns : 0;
                 client_copy_field(info->state_name, sizeof(info->state_name),
                                   (const char *)words, sizeof(words));
+                if (text)
+                        client_copy_field(info->state_text, sizeof(info->state_text),
+                                          (const char *)long_words, sizeof(long_words));
+                else
+                        client_copy_field(info->state_text, sizeof(info->state_text),
+                                          (const char *)words, sizeof(words));
                 return 0;
         }
         return -EAGAIN;
@@ -89,7 +119,8 @@ SL_EXPORT int sl_link_info(struct sl_client *c, int link, struct sl_link_info *r
         l = &c->map->links[link];
         client_copy_field(info.name, sizeof(info.name), l->name, sizeof(l->name));
         client_copy_field(info.protocol, sizeof(info.protocol), l->protocol, sizeof(l->protocol));
-        r = link_state_read(l, &info, client_now(CLOCK_MONOTONIC));
+        r = link_state_read(l, c->map->link_texts ? &c->map->link_texts[link] : NULL, &info,
+                            client_now(CLOCK_MONOTONIC));
         info.counter_count = counters_fill(info.counters, l->counters);
         client_unlock(c);
         if (r < 0)

@@ -241,7 +241,11 @@ SL_EXPORT int sl_events_read(struct sl_client *c, uint64_t *cursor, struct sl_ev
                 flags = 0;
                 got++;
         }
-        *cursor = (tag << NOTIFY_CURSOR_SHIFT) | (number & NOTIFY_CURSOR_MASK);
+        /* A restart seen but no event handed out to carry its flag: the cursor stays as it was,
+         * so the next call sees the restart again and flags the first event it does hand out
+         * (rewriting it with this run's tag would lose the flag for good). */
+        if (got > 0 || !(flags & SL_EVENT_RESTARTED))
+                *cursor = (tag << NOTIFY_CURSOR_SHIFT) | (number & NOTIFY_CURSOR_MASK);
         client_unlock(c);
         if (got == 0 && r < 0)
                 return r;

@@ -7,12 +7,14 @@
 #include <limits.h>
 #include <linux/futex.h>
 #include <stdint.h>
+#include <string.h>
 #include <sys/syscall.h>
 #include <time.h>
 #include <unistd.h>
 
 #define MS_PER_S        1000
 #define NS_PER_MS       1000000L
+#define NS_PER_S        1000000000ull
 
 /* The futex syscalls take a mutable pointer even for waiting; go through an integer. */
 static uint32_t *futex_addr(const _Atomic uint32_t *word)
@@ -60,23 +62,33 @@ int shm_futex_wake_private(_Atomic uint32_t *word, int n)
         return futex_call(word, FUTEX_WAKE_PRIVATE, (uint32_t)n, -1);
 }
 
-int shm_futex_wait2(const _Atomic uint32_t *shared_word, uint32_t shared_expected,
-                    const _Atomic uint32_t *private_word, uint32_t private_expected)
+int shm_futex_wait_any(const struct shm_futex_want *want, unsigned n, uint64_t deadline_ns)
 {
 #ifdef SYS_futex_waitv
-        struct futex_waitv w[2] = {
-                { .val = shared_expected, .uaddr = (uint64_t)(uintptr_t)shared_word,
-                  .flags = FUTEX_32 },
-                { .val = private_expected, .uaddr = (uint64_t)(uintptr_t)private_word,
-                  .flags = FUTEX_32 | FUTEX_PRIVATE_FLAG },
-        };
-        long r = syscall(SYS_futex_waitv, w, 2u, 0u, NULL, CLOCK_MONOTONIC);
+        struct futex_waitv w[SHM_FUTEX_WANT_MAX];
+        struct timespec ts, *tsp = NULL;
+        long r;
 
+        if (n == 0 || n > SHM_FUTEX_WANT_MAX)
+                return -EINVAL;
+        memset(w, 0, sizeof(w));
+        for (unsigned i = 0; i < n; i++) {
+                w[i].val = want[i].expected;
+                w[i].uaddr = (uint64_t)(uintptr_t)want[i].word;
+                w[i].flags = FUTEX_32 | (want[i].private_word ? FUTEX_PRIVATE_FLAG : 0u);
+        }
+        if (deadline_ns) {
+                /* futex_waitv takes an absolute time on the clock it is given */
+                ts.tv_sec = (time_t)(deadline_ns / NS_PER_S);
+                ts.tv_nsec = (long)(deadline_ns % NS_PER_S);
+                tsp = &ts;
+        }
+        r = syscall(SYS_futex_waitv, w, n, 0u, tsp, CLOCK_MONOTONIC);
         if (r < 0)
                 return -errno;
-        return 0;
+        return (int)r;
 #else
-        (void)shared_word; (void)shared_expected; (void)private_word; (void)private_expected;
+        (void)want; (void)n; (void)deadline_ns;
         return -ENOSYS;
 #endif
 }

@@ -28,13 +28,22 @@ int shm_futex_wait_private(const _Atomic uint32_t *word, uint32_t expected, int 
 /* Wakes up to n waiters of a process-private word. */
 int shm_futex_wake_private(_Atomic uint32_t *word, int n);
 
+/* One word of shm_futex_wait_any. */
+struct shm_futex_want {
+        const _Atomic uint32_t *word;
+        uint32_t expected;
+        int private_word;               /* 1: a process-private word (ordinary memory) */
+};
+
+#define SHM_FUTEX_WANT_MAX      4u      /* words one shm_futex_wait_any waits on (kernel: 128) */
+
 /*
- * Waits until either the shared word differs from shared_expected or the private word differs from
- * private_expected, or one of them is woken (futex_waitv, Linux 5.16). Returns 0 when woken,
- * -EAGAIN when a word differs already, -EFAULT when the shared word is not mapped (e.g. a client
- * truncated the object), -ENOSYS on older kernels (the caller falls back), -EINTR.
+ * Waits until one of the n words (n <= SHM_FUTEX_WANT_MAX) differs from its expected value or is
+ * woken (futex_waitv, Linux 5.16), at most until deadline_ns (CLOCK_MONOTONIC; 0: no limit).
+ * Returns the index of a word that was woken, -EAGAIN when a word differs already, -ETIMEDOUT,
+ * -EFAULT when a shared word is not mapped (e.g. a client truncated its object), -EINVAL, -EINTR,
+ * or -ENOSYS on older kernels (the caller falls back).
  */
-int shm_futex_wait2(const _Atomic uint32_t *shared_word, uint32_t shared_expected,
-                    const _Atomic uint32_t *private_word, uint32_t private_expected);
+int shm_futex_wait_any(const struct shm_futex_want *want, unsigned n, uint64_t deadline_ns);
 
 #endif

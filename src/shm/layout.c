@@ -8,9 +8,13 @@
 #include <stdio.h>
 #include <string.h>
 
-#define SHM_COUNTER_NAME(id, name) name,
+#define SHM_COUNTER_NAME(id, name, scope) name,
 static const char *const counter_names[] = { SHM_COUNTER_LIST(SHM_COUNTER_NAME) };
 #undef SHM_COUNTER_NAME
+
+#define SHM_COUNTER_SCOPE(id, name, scope) SHM_SCOPE_##scope,
+static const unsigned counter_scopes[] = { SHM_COUNTER_LIST(SHM_COUNTER_SCOPE) };
+#undef SHM_COUNTER_SCOPE
 
 #define SHM_EVENT_NAME(id, name) name,
 static const char *const event_names[] = { SHM_EVENT_LIST(SHM_EVENT_NAME) };
@@ -36,6 +40,9 @@ void shm_layout_in_geometry(uint32_t capacity, uint32_t event_capacity,
         g.slots_offset = align_up(g.dir_offset + (uint64_t)capacity * sizeof(struct shm_dir_entry),
                                   SHM_CACHE_LINE);
         g.total_size = g.slots_offset + (uint64_t)capacity * sizeof(struct shm_slot);
+        g.link_texts_offset = align_up(g.total_size, SHM_CACHE_LINE);
+        g.object_size = g.link_texts_offset +
+                        (uint64_t)SHM_LINKS_MAX * sizeof(struct shm_link_text);
         *ret_geometry = g;
 }
 
@@ -77,6 +84,17 @@ int shm_layout_check_in(const struct shm_in_header *h, uint64_t object_size)
         return 0;
 }
 
+int shm_layout_has_link_texts(const struct shm_in_header *h, uint64_t object_size)
+{
+        struct shm_in_geometry g;
+
+        if ((h->layout_version & 0xffffu) < SHM_LAYOUT_MINOR_LINK_TEXT ||
+            h->link_text_size != sizeof(struct shm_link_text))
+                return 0;
+        shm_layout_in_geometry(h->capacity, h->event_capacity, &g);
+        return h->link_texts_offset == g.link_texts_offset && g.object_size <= object_size;
+}
+
 int shm_layout_check_out(const struct shm_out_header *h, uint64_t object_size)
 {
         uint64_t magic;
@@ -101,6 +119,14 @@ const char *shm_layout_counter_name(unsigned i)
         if (i >= SHM_COUNTER_COUNT)
                 return NULL;
         return counter_names[i];
+}
+
+unsigned shm_layout_counter_scope(const char *name)
+{
+        for (unsigned i = 0; name && i < SHM_COUNTER_COUNT; i++)
+                if (strcmp(counter_names[i], name) == 0)
+                        return counter_scopes[i];
+        return 0;
 }
 
 const char *shm_layout_event_name(unsigned t)

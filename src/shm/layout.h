@@ -43,6 +43,23 @@
  *        before), so clients find the socket with no environment. An older daemon leaves it
  *        empty: clients use $SHAREDLINK_RUNTIME_DIR or the default, as before. The path is
  *        written once at creation; a reload that moves the socket recreates the tables.
+ *   1.3  the .in header carries the outbound doorbell (out_doorbell, reserved bytes before): a
+ *        word no one ever changes, on which the daemon's wake thread also sleeps. A client that
+ *        finds .out unusable (truncated, scribbled, of another epoch) or a slot held for every
+ *        bounded attempt FUTEX_WAKEs it, so the daemon checks .out at once. It lives in .in
+ *        because .in is the daemon's own object, which no client can truncate or write: the
+ *        .out change word is gone with the object it is in, and waking needs only read access.
+ *        An older daemon sleeps on nothing there (the wake is lost: its .out is looked at when
+ *        a client wakes it through .out, as before); the daemon also checks .out at every
+ *        heartbeat whatever the layout.
+ *   1.4  each link's whole state text (shm_link_text, SHM_LINK_TEXT_SIZE bytes, e.g. "down:
+ *        FILE:LINE: message" of a broken recording) in a region of its own after the slots,
+ *        under the link's seqlock; link_texts_offset and link_text_size in the header (reserved
+ *        bytes before) say where. shm_link.state_name keeps the text cut to 31 bytes, as before.
+ *        total_size keeps counting the regions up to the slots, which is what a 1.3 client
+ *        computes and compares it with, so the region lies past total_size: the object is
+ *        link_texts_offset + SHM_LINKS_MAX * link_text_size bytes, and a client checks that
+ *        against the object's size. An older daemon leaves both fields 0: no texts.
  */
 #ifndef SHM_LAYOUT_H
 #define SHM_LAYOUT_H
@@ -53,9 +70,11 @@
 #include <stdint.h>
 
 #define SHM_LAYOUT_MAJOR        1u
-#define SHM_LAYOUT_MINOR        2u
+#define SHM_LAYOUT_MINOR        4u
 #define SHM_LAYOUT_MINOR_WAITER 1u      /* first minor with SHM_OUT_WAITING */
 #define SHM_LAYOUT_MINOR_SOCKET 2u      /* first minor with shm_in_header.control_socket */
+#define SHM_LAYOUT_MINOR_DOORBELL 3u    /* first minor with shm_in_header.out_doorbell */
+#define SHM_LAYOUT_MINOR_LINK_TEXT 4u   /* first minor with the link texts region */
 #define SHM_LAYOUT_VERSION      ((SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR)
 
 /* "SLNK.IN\0" and "SLNK.OUT" as little-endian words: recognisable in a hex dump. */
@@ -73,6 +92,8 @@
 #define SHM_PROTOCOL_SIZE       16u
 #define SHM_STATE_NAME_SIZE     32u
 #define SHM_STATE_NAME_WORDS    (SHM_STATE_NAME_SIZE / 8u)
+#define SHM_LINK_TEXT_SIZE      256u    /* a link's whole state text + NUL (layout 1.4) */
+#define SHM_LINK_TEXT_WORDS     (SHM_LINK_TEXT_SIZE / 8u)
 #define SHM_LINKS_MAX           32u
 #define SHM_COUNTERS_MAX        64u     /* counter slots per link: named ones + spare room */
 #define SHM_EVENT_TEXT_SIZE     216u    /* "key=value ..." + NUL */
@@ -120,65 +141,75 @@
 #define SHM_EVENT_TRUNCATED     0x1u    /* the text did not fit and was cut */
 
 /*
- * Counters: one fixed, named list shared by the daemon and the library. Per-link counters and the
- * daemon-wide counters (in the header) use the same indices; a counter that does not apply stays 0.
- * Append only: the index is part of the layout.
+ * Counters: one fixed, named list shared by the daemon, the library and (through the library's
+ * sl_counter_scope) slctl. Per-link counters and the daemon-wide counters (in the header) use the
+ * same indices; a counter that does not apply stays 0. Append only: the index is part of the
+ * layout. The third column is the counter's scope, where code moves it (SHM_SCOPE_*): SharedLink
+ * links (src/daemon/link_sharedlink*.c), CIRCE links (link_circe*.c), both (the transport,
+ * link.c), or the daemon (the outbound scan and the event ring, src/shm/table.c);
+ * tests/integration/test_slctl.c checks that the real daemon moves no counter outside it.
  */
-#define SHM_COUNTER_LIST(X) \
-        X(FRAMES_IN,            "frames_in") \
-        X(FRAMES_OUT,           "frames_out") \
-        X(BYTES_IN,             "bytes_in") \
-        X(BYTES_OUT,            "bytes_out") \
-        X(NOISE_BYTES,          "noise_bytes") \
-        X(BAD_CHECKSUM,         "bad_checksum") \
-        X(RESYNC,               "resync") \
-        X(OVERLONG,             "overlong") \
-        X(BAD_ADDRESS,          "bad_address") \
-        X(BAD_FIELD,            "bad_field") \
-        X(UNKNOWN_FIELD,        "unknown_field") \
-        X(EMPTY_FIELD,          "empty_field") \
-        X(LIST_MISMATCH,        "list_mismatch") \
-        X(UNKNOWN_PEER,         "unknown_peer") \
-        X(NOT_FOR_US,           "not_for_us") \
-        X(ADHOC_FULL,           "adhoc_full") \
-        X(QUERIES_IN,           "queries_in") \
-        X(ANSWERS_OUT,          "answers_out") \
-        X(REOPENS,              "reopens") \
-        X(IO_ERRORS,            "io_errors") \
-        X(BAD_HEADER,           "bad_header") \
-        X(UNKNOWN_OP,           "unknown_op") \
-        X(BAD_VALUE,            "bad_value") \
-        X(MISSING_PARAM,        "missing_param") \
-        X(SKIPPED_PARAM,        "skipped_param") \
-        X(REPEATED_PARAM,       "repeated_param") \
-        X(NONCOMPLIANT_STATUS,  "noncompliant_status") \
-        X(LOG_MESSAGES,         "log_messages") \
-        X(TX_DROPPED,           "tx_dropped") \
-        X(QUERIES_OUT,          "queries_out") \
-        X(ANSWERS_IN,           "answers_in") \
-        X(TIMEOUTS,             "timeouts") \
-        X(OUT_ACCEPTED,         "out_accepted") \
-        X(OUT_INVALID,          "out_invalid") \
-        X(OUT_BUSY,             "out_busy") \
-        X(OUT_REPAIRED,         "out_repaired") \
-        X(OUT_BAD_OBJECT,       "out_bad_object") \
-        X(OUT_RECREATED,        "out_recreated") \
-        X(EVENTS,               "events") \
-        X(DECLARATIONS_IN,      "declarations_in") \
-        X(DECLARATIONS_OUT,     "declarations_out") \
-        X(ACKS_IN,              "acks_in") \
-        X(LEARN_FULL,           "learn_full") \
-        X(LEARN_CONFLICT,       "learn_conflict") \
-        X(BAD_TYPE,             "bad_type") \
-        X(TYPE_MISMATCH,        "type_mismatch") \
-        X(UNDECLARED_DATA,      "undeclared_data") \
-        X(REDECLARED,           "redeclared") \
-        X(COMMANDS_IN,          "commands_in") \
-        X(COMMANDS_OUT,         "commands_out") \
-        X(BAD_COMMAND,          "bad_command") \
-        X(UDP_REFUSED,          "udp_refused")
+#define SHM_SCOPE_SHAREDLINK    0x1u
+#define SHM_SCOPE_CIRCE         0x2u
+#define SHM_SCOPE_LINKS         (SHM_SCOPE_SHAREDLINK | SHM_SCOPE_CIRCE)
+#define SHM_SCOPE_DAEMON        0x4u
+#define SHM_SCOPE_ALL           (SHM_SCOPE_LINKS | SHM_SCOPE_DAEMON)
 
-#define SHM_COUNTER_ENUM(id, name) SHM_COUNTER_##id,
+#define SHM_COUNTER_LIST(X) \
+        X(FRAMES_IN,            "frames_in",            LINKS) \
+        X(FRAMES_OUT,           "frames_out",           LINKS) \
+        X(BYTES_IN,             "bytes_in",             LINKS) \
+        X(BYTES_OUT,            "bytes_out",            LINKS) \
+        X(NOISE_BYTES,          "noise_bytes",          LINKS) \
+        X(BAD_CHECKSUM,         "bad_checksum",         LINKS) \
+        X(RESYNC,               "resync",               LINKS) \
+        X(OVERLONG,             "overlong",             LINKS) \
+        X(BAD_ADDRESS,          "bad_address",          SHAREDLINK) \
+        X(BAD_FIELD,            "bad_field",            LINKS) \
+        X(UNKNOWN_FIELD,        "unknown_field",        SHAREDLINK) \
+        X(EMPTY_FIELD,          "empty_field",          SHAREDLINK) \
+        X(LIST_MISMATCH,        "list_mismatch",        SHAREDLINK) \
+        X(UNKNOWN_PEER,         "unknown_peer",         SHAREDLINK) \
+        X(NOT_FOR_US,           "not_for_us",           SHAREDLINK) \
+        X(ADHOC_FULL,           "adhoc_full",           LINKS) \
+        X(QUERIES_IN,           "queries_in",           SHAREDLINK) \
+        X(ANSWERS_OUT,          "answers_out",          SHAREDLINK) \
+        X(REOPENS,              "reopens",              LINKS) \
+        X(IO_ERRORS,            "io_errors",            LINKS) \
+        X(BAD_HEADER,           "bad_header",           LINKS) \
+        X(UNKNOWN_OP,           "unknown_op",           CIRCE) \
+        X(BAD_VALUE,            "bad_value",            LINKS) \
+        X(MISSING_PARAM,        "missing_param",        CIRCE) \
+        X(SKIPPED_PARAM,        "skipped_param",        CIRCE) \
+        X(REPEATED_PARAM,       "repeated_param",       CIRCE) \
+        X(NONCOMPLIANT_STATUS,  "noncompliant_status",  CIRCE) \
+        X(LOG_MESSAGES,         "log_messages",         CIRCE) \
+        X(TX_DROPPED,           "tx_dropped",           LINKS) \
+        X(QUERIES_OUT,          "queries_out",          SHAREDLINK) \
+        X(ANSWERS_IN,           "answers_in",           SHAREDLINK) \
+        X(TIMEOUTS,             "timeouts",             LINKS) \
+        X(OUT_ACCEPTED,         "out_accepted",         DAEMON) \
+        X(OUT_INVALID,          "out_invalid",          DAEMON) \
+        X(OUT_BUSY,             "out_busy",             DAEMON) \
+        X(OUT_REPAIRED,         "out_repaired",         DAEMON) \
+        X(OUT_BAD_OBJECT,       "out_bad_object",       DAEMON) \
+        X(OUT_RECREATED,        "out_recreated",        DAEMON) \
+        X(EVENTS,               "events",               DAEMON) \
+        X(DECLARATIONS_IN,      "declarations_in",      SHAREDLINK) \
+        X(DECLARATIONS_OUT,     "declarations_out",     SHAREDLINK) \
+        X(ACKS_IN,              "acks_in",              SHAREDLINK) \
+        X(LEARN_FULL,           "learn_full",           SHAREDLINK) \
+        X(LEARN_CONFLICT,       "learn_conflict",       SHAREDLINK) \
+        X(BAD_TYPE,             "bad_type",             SHAREDLINK) \
+        X(TYPE_MISMATCH,        "type_mismatch",        SHAREDLINK) \
+        X(UNDECLARED_DATA,      "undeclared_data",      SHAREDLINK) \
+        X(REDECLARED,           "redeclared",           SHAREDLINK) \
+        X(COMMANDS_IN,          "commands_in",          SHAREDLINK) \
+        X(COMMANDS_OUT,         "commands_out",         SHAREDLINK) \
+        X(BAD_COMMAND,          "bad_command",          SHAREDLINK) \
+        X(UDP_REFUSED,          "udp_refused",          LINKS)
+
+#define SHM_COUNTER_ENUM(id, name, scope) SHM_COUNTER_##id,
 enum shm_counter {
         SHM_COUNTER_LIST(SHM_COUNTER_ENUM)
         SHM_COUNTER_COUNT
@@ -239,10 +270,14 @@ struct shm_in_header {
         uint64_t slots_offset;
         _Atomic uint64_t heartbeat_ns;          /* CLOCK_MONOTONIC, refreshed by the daemon */
         _Atomic uint64_t event_head;            /* number of the last event written (0: none) */
-        uint8_t reserved0[32];
+        uint64_t link_texts_offset;             /* 1.4: SHM_LINKS_MAX shm_link_text; 0: none */
+        uint32_t link_text_size;                /* 1.4: sizeof(struct shm_link_text) */
+        uint8_t reserved0[20];
         /* Own cache line: the futex clients wait on, bumped once per committed batch. */
         _Atomic uint32_t change;
-        uint8_t reserved1[60];
+        /* 1.3: clients FUTEX_WAKE it when .out is unusable; never written (see the history) */
+        _Atomic uint32_t out_doorbell;
+        uint8_t reserved1[56];
         _Atomic uint64_t counters[SHM_COUNTERS_MAX];    /* daemon-wide (outbound object health) */
         /* 1.2: absolute path of the control socket, NUL-terminated and NUL-padded; "" if none */
         char control_socket[SHM_SOCKET_PATH_SIZE];
@@ -260,6 +295,11 @@ struct shm_link {
         char protocol[SHM_PROTOCOL_SIZE];
         uint8_t reserved1[24];
         _Atomic uint64_t counters[SHM_COUNTERS_MAX];
+};
+
+/* A link's whole state text (1.4), written and read under its shm_link's seq. */
+struct shm_link_text {
+        _Atomic uint64_t text[SHM_LINK_TEXT_WORDS];     /* NUL-terminated, NUL-padded */
 };
 
 /*
@@ -344,9 +384,14 @@ static_assert(offsetof(struct shm_in_header, heartbeat_ns) == 144, "heartbeat of
 static_assert(offsetof(struct shm_in_header, event_head) == 152, "event head offset");
 static_assert(offsetof(struct shm_in_header, change) == 192, "change word offset");
 static_assert(offsetof(struct shm_in_header, change) % SHM_CACHE_LINE == 0, "change word line");
+static_assert(offsetof(struct shm_in_header, out_doorbell) == 196, "doorbell offset");
 static_assert(offsetof(struct shm_in_header, counters) == 256, "counters offset");
 static_assert(offsetof(struct shm_in_header, control_socket) == 768, "control socket offset");
+static_assert(offsetof(struct shm_in_header, link_texts_offset) == 160, "link texts offset");
+static_assert(offsetof(struct shm_in_header, link_text_size) == 168, "link text size offset");
 static_assert(sizeof(struct shm_link) == 640, "link size");
+static_assert(sizeof(struct shm_link_text) == SHM_LINK_TEXT_SIZE, "link text size");
+static_assert(SHM_LINK_TEXT_SIZE % SHM_CACHE_LINE == 0, "link texts on whole cache lines");
 static_assert(offsetof(struct shm_link, name) == 56, "link name offset");
 static_assert(offsetof(struct shm_link, counters) == 128, "link counters offset");
 static_assert(sizeof(struct shm_event) == 256, "event size");
@@ -366,13 +411,15 @@ static_assert(SHM_COUNTER_COUNT <= SHM_COUNTERS_MAX, "too many counters");
 static_assert(SHM_VALUE_SIZE % 8 == 0 && SHM_EVENT_TEXT_SIZE % 8 == 0, "text in whole words");
 static_assert(SHM_STATE_NAME_SIZE % 8 == 0, "state name in whole words");
 
-/* The .in layout of a table with these capacities; returns the total size (for create and check). */
+/* The .in layout of a table with these capacities (for create and check). */
 struct shm_in_geometry {
         uint64_t links_offset;
         uint64_t events_offset;
         uint64_t dir_offset;
         uint64_t slots_offset;
-        uint64_t total_size;
+        uint64_t total_size;            /* the header's total_size: up to the end of the slots */
+        uint64_t link_texts_offset;     /* 1.4, past total_size */
+        uint64_t object_size;           /* the whole object, link texts included */
 };
 
 /* Computes where each region of .in lives for the given capacities. */
@@ -388,11 +435,17 @@ uint64_t shm_layout_out_size(uint32_t out_capacity);
  */
 int shm_layout_check_in(const struct shm_in_header *h, uint64_t object_size);
 
+/* 1 when a checked .in header has the link texts region (1.4) and it fits the object, else 0. */
+int shm_layout_has_link_texts(const struct shm_in_header *h, uint64_t object_size);
+
 /* Same for .out; returns 0, -EAGAIN or -EPROTO. Does not compare epoch/generation. */
 int shm_layout_check_out(const struct shm_out_header *h, uint64_t object_size);
 
 /* Name of counter i, or NULL beyond the named list. */
 const char *shm_layout_counter_name(unsigned i);
+
+/* Scope (SHM_SCOPE_*) of the counter called name, or 0 for a name not in the list. */
+unsigned shm_layout_counter_scope(const char *name);
 
 /* Name of event type t ("none" .. ), or "unknown". */
 const char *shm_layout_event_name(unsigned t);

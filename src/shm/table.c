@@ -78,6 +78,7 @@ struct shm_table {
         struct shm_out_header *out;
         size_t out_size;
         struct shm_link *links;
+        struct shm_link_text *link_texts;
         struct shm_event *events;
         struct shm_dir_entry *dir;
         struct shm_slot *slots;
@@ -528,6 +529,8 @@ static int in_fill(struct shm_table *t, const struct shm_table_config *cfg,
         h->layout_version = SHM_LAYOUT_VERSION;
         h->header_size = sizeof(*h);
         h->total_size = g->total_size;
+        h->link_texts_offset = g->link_texts_offset;
+        h->link_text_size = sizeof(struct shm_link_text);
         h->epoch = t->epoch;
         h->daemon_pid = (int32_t)t->pid;
         h->heartbeat_interval_ms = cfg->heartbeat_interval_ms;
@@ -606,18 +609,18 @@ int shm_table_create(const struct shm_table_config *cfg, struct shm_table **ret_
 
         /* 1. Claim .in: exclusive create, replacing the object of a dead daemon at most once. */
         shm_layout_in_geometry(t->capacity, t->event_capacity, &g);
-        r = create_object(t->in_name, g.total_size, &t->in_fd, &map);
+        r = create_object(t->in_name, g.object_size, &t->in_fd, &map);
         if (r == -EEXIST) {
                 r = replace_stale_in(t->in_name);
                 if (r == 0)
-                        r = create_object(t->in_name, g.total_size, &t->in_fd, &map);
+                        r = create_object(t->in_name, g.object_size, &t->in_fd, &map);
                 if (r == -EEXIST)
                         r = -EBUSY;     /* another daemon was quicker */
         }
         if (r < 0)
                 goto fail;
         t->in = map;
-        t->in_size = g.total_size;
+        t->in_size = g.object_size;
         /* Between the create and the lock a racing daemon could have taken our object for an
          * abandoned one and replaced it: once locked, check the name is still ours. */
         if (flock(t->in_fd, LOCK_EX | LOCK_NB) < 0 || !name_is_fd(t->in_name, t->in_fd)) {
@@ -625,6 +628,7 @@ int shm_table_create(const struct shm_table_config *cfg, struct shm_table **ret_
                 goto fail;
         }
         t->links = (struct shm_link *)((char *)map + g.links_offset);
+        t->link_texts = (struct shm_link_text *)((char *)map + g.link_texts_offset);
         t->events = (struct shm_event *)((char *)map + g.events_offset);
         t->dir = (struct shm_dir_entry *)((char *)map + g.dir_offset);
         t->slots = (struct shm_slot *)((char *)map + g.slots_offset);
@@ -878,22 +882,36 @@ int shm_table_link_add(struct shm_table *t, const struct shm_link_def *def)
         return (int)(t->link_count - 1u);
 }
 
+/* Copies text, cut to fit, into size/8 NUL-padded words. */
+static void text_words(uint64_t *words, size_t size, const char *text)
+{
+        size_t len = strnlen(text, size - 1u);
+
+        memset(words, 0, size);
+        memcpy(words, text, len);
+}
+
 int shm_table_link_state(struct shm_table *t, uint32_t link, uint32_t state, const char *name)
 {
-        uint64_t words[SHM_STATE_NAME_WORDS];
+        uint64_t words[SHM_STATE_NAME_WORDS], text[SHM_LINK_TEXT_WORDS];
         struct shm_link *l;
         uint64_t odd;
 
-        if (link >= t->link_count || !name || strnlen(name, SHM_STATE_NAME_SIZE) >= SHM_STATE_NAME_SIZE)
+        if (link >= t->link_count || !name)
                 return -EINVAL;
         l = &t->links[link];
-        memset(words, 0, sizeof(words));
-        memcpy(words, name, strlen(name));
+        /* The whole text (cut at SHM_LINK_TEXT_SIZE - 1), and its first 31 bytes where a 1.3
+         * client looks. */
+        text_words(words, sizeof(words), name);
+        text_words(text, sizeof(text), name);
         odd = shm_seqlock_write_begin(&l->seq);
         atomic_store_explicit(&l->state, state, SHM_SEQLOCK_PAYLOAD_STORE);
         atomic_store_explicit(&l->state_ns, clock_ns(CLOCK_MONOTONIC), SHM_SEQLOCK_PAYLOAD_STORE);
         for (unsigned i = 0; i < SHM_STATE_NAME_WORDS; i++)
                 atomic_store_explicit(&l->state_name[i], words[i], SHM_SEQLOCK_PAYLOAD_STORE);
+        for (unsigned i = 0; i < SHM_LINK_TEXT_WORDS; i++)
+                atomic_store_explicit(&t->link_texts[link].text[i], text[i],
+                                      SHM_SEQLOCK_PAYLOAD_STORE);
         shm_seqlock_write_end(&l->seq, odd);
         publish(t);
         return 0;
@@ -1183,6 +1201,7 @@ int shm_table_out_wake_fd(struct shm_table *t)
                 if (r < 0)
                         return r;
                 shm_wake_watch_flagged(t->wake, &t->out->change, SHM_OUT_WAITING);
+                shm_wake_doorbell(t->wake, &t->in->out_doorbell);
         }
         return shm_wake_fd(t->wake);
 }

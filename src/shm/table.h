@@ -146,7 +146,11 @@ int shm_table_add(struct shm_table *t, const struct shm_var *v);
 /* Adds a link; returns its index, -ENOSPC (SHM_LINKS_MAX) or -EINVAL. */
 int shm_table_link_add(struct shm_table *t, const struct shm_link_def *def);
 
-/* Sets a link's state (a small integer and its name) and publishes a change. 0 or -EINVAL. */
+/*
+ * Sets a link's state (a small integer and its text, e.g. "up" or "down: FILE:LINE: message", cut
+ * at SHM_LINK_TEXT_SIZE - 1 bytes; shm_link.state_name gets its first 31) and publishes a change.
+ * 0 or -EINVAL.
+ */
 int shm_table_link_state(struct shm_table *t, uint32_t link, uint32_t state, const char *name);
 
 /* Adds delta to counter c of a link (SHM_LINK_NONE: the daemon-wide counters). */
@@ -179,8 +183,10 @@ uint64_t shm_table_eventf(struct shm_table *t, enum shm_event_type type, uint32_
  * per changed slot. Never waits on a client-controlled word.
  * Returns the number of changes reported, or -EBADMSG when the object was truncated or its header
  * overwritten: it was then recreated empty (clients reopen it) and the scan is void.
- * Call it when the wake fd is readable, and also on a periodic timer (e.g. the link period): a
- * writer that died mid-write never bumps the change word, so only a later scan repairs its slot.
+ * Call it when the wake fd is readable, and also on a periodic timer (the daemon: every
+ * heartbeat): a writer that died mid-write never bumps the change word, and a client that
+ * truncated .out under everyone may leave no client able to wake the daemon, so only a later scan
+ * repairs the slot or recreates the object.
  */
 int shm_table_out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata);
 
@@ -188,8 +194,9 @@ int shm_table_out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata)
 int shm_table_out_recreate(struct shm_table *t);
 
 /*
- * An eventfd that becomes readable after clients write to .out (starts the wake thread on first
- * use; shm_table_destroy stops it). Returns the fd or -errno.
+ * An eventfd that becomes readable after clients write to .out, or ring the doorbell in .in
+ * because .out is unusable (layout 1.3; starts the wake thread on first use; shm_table_destroy
+ * stops it). Returns the fd or -errno.
  */
 int shm_table_out_wake_fd(struct shm_table *t);
 

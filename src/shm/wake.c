@@ -1,6 +1,7 @@
 /*
  * Wake thread (see wake.h).
  */
+#define _GNU_SOURCE     /* pthread_setname_np */
 #include "shm/wake.h"
 
 #include <errno.h>
@@ -26,6 +27,7 @@ struct shm_wake {
         uint32_t baseline;
         int baseline_set;
         uint32_t flag;                  /* waiter flag bit of `word`, 0 for none */
+        _Atomic uint32_t *doorbell;     /* under `lock`; NULL: none */
         _Atomic uint64_t signal_ns;     /* CLOCK_MONOTONIC of the last eventfd signal */
 };
 
@@ -94,33 +96,68 @@ static int wake_arm(_Atomic uint32_t *word, uint32_t flag, uint32_t *value)
         return l.armed;
 }
 
-static void wake_signal(struct shm_wake *w)
+#define WAKE_NS_PER_MS  1000000ull
+
+static uint64_t wake_now(void)
 {
         struct timespec ts;
+
+        clock_gettime(CLOCK_MONOTONIC, &ts);
+        return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+}
+
+static void wake_signal(struct shm_wake *w)
+{
         uint64_t one = 1;
 
         /* One clock read per wake-up (not per write): tells how long the wake-up took. */
-        clock_gettime(CLOCK_MONOTONIC, &ts);
-        atomic_store_explicit(&w->signal_ns, (uint64_t)ts.tv_sec * 1000000000ull +
-                              (uint64_t)ts.tv_nsec, memory_order_relaxed);
+        atomic_store_explicit(&w->signal_ns, wake_now(), memory_order_relaxed);
         /* EAGAIN (counter saturated) is fine: the fd is readable either way. */
         if (write(w->efd, &one, sizeof(one)) < 0 && errno != EAGAIN)
                 return;
 }
 
+/* Doorbell pacing: at most one signal per SHM_WAKE_DOORBELL_GAP_MS, none lost. */
+struct wake_bell {
+        uint64_t quiet_until;           /* no doorbell signal before this (CLOCK_MONOTONIC) */
+        int pending;                    /* rung inside the gap: signal once it ends */
+};
+
+static void wake_bell_ring(struct shm_wake *w, struct wake_bell *b, uint64_t now)
+{
+        if (now < b->quiet_until) {
+                b->pending = 1;
+                return;
+        }
+        wake_signal(w);
+        b->pending = 0;
+        b->quiet_until = now + SHM_WAKE_DOORBELL_GAP_MS * WAKE_NS_PER_MS;
+}
+
 static void *wake_main(void *arg)
 {
         struct shm_wake *w = arg;
+        struct wake_bell bell = { 0, 0 };
 
         while (!atomic_load_explicit(&w->stop, memory_order_acquire)) {
                 uint32_t control = atomic_load_explicit(&w->control, memory_order_acquire);
-                _Atomic uint32_t *word;
+                struct shm_futex_want want[3];
+                _Atomic uint32_t *word, *doorbell;
+                unsigned n = 0, bell_index = SHM_FUTEX_WANT_MAX;
                 uint32_t value = 0;
                 int readable, armed = 1, r;
 
                 pthread_mutex_lock(&w->lock);
                 word = w->word;
+                doorbell = w->doorbell;
                 readable = word && wake_read(word, &value) == 0;
+                if (word && !readable && w->baseline_set) {
+                        /* It was readable: the object was truncated under us. A client that
+                         * then rang the doorbell while we were awake rang in vain (a wake-up
+                         * reaches sleepers only), so this counts as the change it reports. */
+                        w->baseline_set = 0;
+                        wake_signal(w);
+                }
                 if (readable) {
                         if (w->baseline_set && value != w->baseline)
                                 wake_signal(w);
@@ -141,17 +178,29 @@ static void *wake_main(void *arg)
                         continue;       /* changed while arming (or gone): look again */
                 if (atomic_load_explicit(&w->stop, memory_order_acquire))
                         break;
+                if (bell.pending)
+                        wake_bell_ring(w, &bell, wake_now());
 
-                if (!readable) {
-                        /* Nothing to watch, or the object is truncated: wait for watch()/stop. */
-                        shm_futex_wait_private(&w->control, control, -1);
-                        continue;
+                /* A concurrent watch() bumps control before we block: the wait returns -EAGAIN.
+                 * If the shared word was unmapped meanwhile, it fails with -EFAULT and we loop,
+                 * to find it unreadable and wait without it. A truncated .out leaves the control
+                 * word and the doorbell (in memory no client can truncate). */
+                want[n++] = (struct shm_futex_want){ &w->control, control, 1 };
+                if (readable)
+                        want[n++] = (struct shm_futex_want){ word, value, 0 };
+                if (doorbell && !bell.pending) {
+                        bell_index = n;
+                        want[n++] = (struct shm_futex_want){
+                                doorbell, atomic_load_explicit(doorbell, memory_order_relaxed), 0 };
                 }
-                /* A concurrent watch() bumps control before we block: waitv returns -EAGAIN. If
-                 * the shared word was unmapped meanwhile, waitv fails with -EFAULT and we loop. */
-                r = shm_futex_wait2(word, value, &w->control, control);
-                if (r == -ENOSYS) {
-                        if (atomic_load_explicit(&w->control, memory_order_acquire) == control)
+                r = shm_futex_wait_any(want, n, bell.pending ? bell.quiet_until : 0);
+                if (r >= 0 && (unsigned)r == bell_index) {
+                        wake_bell_ring(w, &bell, wake_now());
+                } else if (r == -ENOSYS) {
+                        if (!readable)  /* nothing to watch, or the object is truncated */
+                                shm_futex_wait_private(&w->control, control, -1);
+                        else if (atomic_load_explicit(&w->control, memory_order_acquire) ==
+                                 control)
                                 shm_futex_wait(word, value, SHM_WAKE_FALLBACK_MS);
                 }
         }
@@ -179,6 +228,8 @@ int shm_wake_start(struct shm_wake **ret_wake)
                 free(w);
                 return -r;
         }
+        /* Named for ps/top and debuggers (and for tests that wait until it sleeps). */
+        pthread_setname_np(w->thread, SHM_WAKE_THREAD_NAME);
         *ret_wake = w;
         return 0;
 }
@@ -228,6 +279,14 @@ void shm_wake_watch(struct shm_wake *w, _Atomic uint32_t *word)
 void shm_wake_watch_flagged(struct shm_wake *w, _Atomic uint32_t *word, uint32_t flag)
 {
         wake_watch(w, word, flag);
+}
+
+void shm_wake_doorbell(struct shm_wake *w, _Atomic uint32_t *word)
+{
+        pthread_mutex_lock(&w->lock);
+        w->doorbell = word;
+        pthread_mutex_unlock(&w->lock);
+        wake_kick(w);
 }
 
 struct shm_wake *shm_wake_stop(struct shm_wake *w)

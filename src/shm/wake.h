@@ -10,8 +10,12 @@
  * on it without the control word, and only signals the eventfd (it never touches the table).
  * With a waiter flag (shm_wake_watch_flagged) writers skip the FUTEX_WAKE while the thread is
  * awake; the flag is set, like the word is read, under the SIGBUS guard.
+ * A third word, the doorbell (shm_wake_doorbell), lives in memory no client can write or truncate
+ * (the daemon's .in): clients FUTEX_WAKE it without changing it when .out itself is unusable, and
+ * every such wake-up signals the eventfd too, at most once per SHM_WAKE_DOORBELL_GAP_MS (anyone
+ * who can read .in can ring it; a ring inside the gap is signalled when the gap ends, never lost).
  * On kernels without futex_waitv (before 5.16) it waits on the shared word alone with a timeout of
- * SHM_WAKE_FALLBACK_MS and rechecks the control word in between.
+ * SHM_WAKE_FALLBACK_MS and rechecks the control word in between; the doorbell is not heard there.
  */
 #ifndef SHM_WAKE_H
 #define SHM_WAKE_H
@@ -20,6 +24,8 @@
 #include <stdint.h>
 
 #define SHM_WAKE_FALLBACK_MS    250
+#define SHM_WAKE_DOORBELL_GAP_MS 100    /* shortest time between two doorbell signals */
+#define SHM_WAKE_THREAD_NAME    "sl-wake"       /* the thread's name (comm, < 16 bytes) */
 
 struct shm_wake;
 
@@ -49,6 +55,12 @@ void shm_wake_watch(struct shm_wake *w, _Atomic uint32_t *word);
  * only when they cleared it. Writers that ignore the flag (add 1, always wake) still work.
  */
 void shm_wake_watch_flagged(struct shm_wake *w, _Atomic uint32_t *word, uint32_t flag);
+
+/*
+ * Also sleeps on word (NULL: none), a doorbell: a wake-up on it signals the eventfd whether or not
+ * anything changed (see above). Its value is never compared with anything.
+ */
+void shm_wake_doorbell(struct shm_wake *w, _Atomic uint32_t *word);
 
 /* Stops and joins the thread, closes the eventfd, frees w. NULL-safe; returns NULL. */
 struct shm_wake *shm_wake_stop(struct shm_wake *w);

@@ -4,15 +4,19 @@
 #define _GNU_SOURCE     /* setgroups */
 #include "common/shmtest.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <grp.h>
+#include <inttypes.h>
+#include <sched.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #define SHMTEST_SIGNAL_BASE     128
@@ -206,6 +210,82 @@ long shmtest_object_size(const char *name)
         r = fstat(fd, &st) < 0 ? -errno : (long)st.st_size;
         close(fd);
         return r;
+}
+
+size_t shmtest_value_make(unsigned writer, uint64_t n, char *buf)
+{
+        size_t len = (size_t)snprintf(buf, SHM_VALUE_SIZE, "w%un%" PRIu64 ":", writer, n);
+        size_t target = 24 + (size_t)(n % 36);
+        unsigned sum = 0;
+
+        while (len < target) {
+                buf[len] = (char)('a' + (n + len) % 26);
+                len++;
+        }
+        for (size_t i = 0; i < len; i++)
+                sum += (unsigned char)buf[i];
+        snprintf(buf + len, SHM_VALUE_SIZE - len, "%02X", sum & 0xffu);
+        return len + 2;
+}
+
+int shmtest_value_ok(const char *v, size_t len)
+{
+        char expect[SHM_VALUE_SIZE];
+        unsigned writer;
+        uint64_t n;
+
+        if (len >= SHM_VALUE_SIZE || sscanf(v, "w%un%" SCNu64 ":", &writer, &n) != 2)
+                return 0;
+        return shmtest_value_make(writer, n, expect) == len && memcmp(expect, v, len) == 0;
+}
+
+int shmtest_thread_state(const char *comm)
+{
+        DIR *d = opendir("/proc/self/task");
+        struct dirent *e;
+        int state = -1;
+
+        if (!d)
+                return -1;
+        while (state < 0 && (e = readdir(d))) {
+                char path[300], buf[512], *p;
+                size_t n;
+                FILE *f;
+
+                if (e->d_name[0] == '.')
+                        continue;
+                snprintf(path, sizeof(path), "/proc/self/task/%s/stat", e->d_name);
+                f = fopen(path, "r");
+                if (!f)
+                        continue;       /* exited meanwhile */
+                n = fread(buf, 1, sizeof(buf) - 1u, f);
+                fclose(f);
+                buf[n] = '\0';
+                /* "tid (comm) S ...": comm may hold anything, so the last ')' ends it. */
+                p = strrchr(buf, ')');
+                if (!p || p[1] != ' ' || !strchr(buf, '('))
+                        continue;
+                *p = '\0';
+                if (strcmp(strchr(buf, '(') + 1, comm) == 0)
+                        state = (unsigned char)p[2];
+        }
+        closedir(d);
+        return state;
+}
+
+int shmtest_thread_wait_asleep(const char *comm, int limit_ms)
+{
+        struct timespec start, now;
+
+        clock_gettime(CLOCK_MONOTONIC, &start);
+        while (shmtest_thread_state(comm) != 'S') {
+                clock_gettime(CLOCK_MONOTONIC, &now);
+                if ((now.tv_sec - start.tv_sec) * 1000L +
+                    (now.tv_nsec - start.tv_nsec) / 1000000L > limit_ms)
+                        return -1;
+                sched_yield();
+        }
+        return 0;
 }
 
 int shmtest_object_mode(const char *name, unsigned *ret_mode, gid_t *ret_gid)

@@ -95,6 +95,25 @@ int shmtest_as_user(uid_t uid, gid_t gid, size_t ngroups, const gid_t *groups,
 /* Size of the shm object called name ("/sharedlink.x.in"), or -errno. */
 long shmtest_object_size(const char *name);
 
+/*
+ * Self-checking values for the stress tests: "w<writer>n<n>:", filler, then two hex digits of the
+ * byte sum of what precedes (26..63 bytes, wire charset). Writes the value for (writer, n) into
+ * buf (SL_VALUE_SIZE bytes) and returns its length.
+ */
+size_t shmtest_value_make(unsigned writer, uint64_t n, char *buf);
+
+/* 1 when v[0..len) is exactly a value shmtest_value_make can produce, else 0. */
+int shmtest_value_ok(const char *v, size_t len);
+
+/*
+ * State letter (proc(5): 'R' running, 'S' sleeping, ...) of the thread of this process named comm
+ * (pthread_setname_np), or -1 when there is none: how a test learns that a thread is asleep.
+ */
+int shmtest_thread_state(const char *comm);
+
+/* Waits until the thread named comm sleeps ('S'), at most limit_ms (a hang guard); 0 or -1. */
+int shmtest_thread_wait_asleep(const char *comm, int limit_ms);
+
 /* Mode bits (& 07777) and group of an shm object; 0 or -errno. */
 int shmtest_object_mode(const char *name, unsigned *ret_mode, gid_t *ret_gid);
 

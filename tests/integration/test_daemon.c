@@ -8,7 +8,8 @@
  * protocol mismatch, half-closed client, connection limit, stale and foreign sockets,
  * permissions); runtime_dir creation; SIGHUP reload (changed link reopened, unchanged one
  * untouched, tables kept or recreated, recreated when the socket moves, bad config kept out); no
- * fd leak across reloads; a missing device recovering; no idle wakeups; WATCHDOG=1.
+ * fd leak across reloads; a missing device recovering; no idle wakeups; WATCHDOG=1; a truncated
+ * or scribbled outbound table recreated with no writer left to wake the daemon.
  */
 #define _GNU_SOURCE     /* setgroups */
 #include <setjmp.h>
@@ -27,6 +28,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/mman.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -971,6 +973,61 @@ static void test_idle_wakeups(void **state)
         stop_ok(h, SIGTERM);
 }
 
+/*
+ * Writes value to name through a client opened now, waiting (sl_wait, an event) while .out is
+ * unusable: the daemon must recreate it on its own, with no writer left to wake it through .out.
+ */
+static void write_through(struct harness *h, const char *name, const char *value)
+{
+        struct sl_client *c;
+        uint32_t cursor = 0;
+        int id, r, tries = 0;
+
+        assert_int_equal(sl_open(h->instance, &c), 0);
+        id = sl_find(c, name);
+        assert_true(id >= 0);
+        sl_wait(c, &cursor, 0);
+        while ((r = sl_write(c, id, value)) != 0) {
+                assert_int_equal(r, -EAGAIN);                   /* .out unusable for now */
+                assert_true(++tries < 4);
+                assert_int_equal(sl_wait(c, &cursor, T_RECOVER_MS), 1); /* recreated */
+        }
+        sl_close(c);
+}
+
+/* Truncated (issue: a 0-byte .out stayed for minutes), then scribbled over: recreated both times. */
+static void test_out_truncated_recovers(void **state)
+{
+        struct harness *h = *state;
+        char links[2 * LINK_MAX], path[PATH_BUF], name[PATH_BUF];
+        unsigned char junk[4096];
+        int fd;
+
+        two_links(h, links, sizeof(links), 100, NULL);
+        write_config(h, "a.yaml", NULL, links, path);
+        start_ok(h, path);
+        write_through(h, "p1.out1", "1");
+        snprintf(name, sizeof(name), "/sharedlink.%s.out", h->instance);
+
+        /* No client has .out mapped now; someone empties it. */
+        fd = shm_open(name, O_RDWR, 0);
+        assert_true(fd >= 0);
+        assert_int_equal(ftruncate(fd, 0), 0);
+        close(fd);
+        write_through(h, "p1.out1", "2");
+
+        /* Random bytes over it, size kept. */
+        for (size_t i = 0; i < sizeof(junk); i++)
+                junk[i] = (unsigned char)(i * 131u + 7u);
+        fd = shm_open(name, O_RDWR, 0);
+        assert_true(fd >= 0);
+        assert_true(write(fd, junk, sizeof(junk)) > 0);
+        close(fd);
+        write_through(h, "p2.out2", "3");
+        assert_int_equal(harness_log_contains(h, "truncated or overwritten by a client"), 1);
+        stop_ok(h, SIGTERM);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -995,6 +1052,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_reload_no_fd_leak, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_missing_device, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_idle_wakeups, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_truncated_recovers, setup, teardown),
         };
 
         signal(SIGPIPE, SIG_IGN);       /* a daemon that hangs up is an error code, not death */

@@ -773,6 +773,19 @@ static void test_broken_recording(void **state)
         assert_int_equal(harness_wait_log(&t->h, want, WAIT_MS), 0);
         link_info(t, &li);
         assert_memory_equal(li.state_name, "down", 4);
+        /* The whole reason, as docs/recording.md promises, in the link's state and in stats
+         * (it was cut at 31 bytes: "down: /tmp/sltest.XXXXXX/veh.r"). */
+        if (!strstr(li.state_text, want))
+                fail_msg("link state \"%s\" lacks \"%s\"", li.state_text, want);
+        {
+                const char *stats[] = { harness_slctl_path(), "-i", t->h.instance, "stats",
+                                        NULL };
+
+                assert_int_equal(harness_run_capture(&t->h, out, sizeof(out), err, sizeof(err),
+                                                     WAIT_MS, stats), 0);
+                if (!strstr(out, want))
+                        fail_msg("slctl stats said \"%s\", without \"%s\"", out, want);
+        }
         assert_int_equal(counter(&li, "reopens"), 0);
         stop(t);
 }

@@ -33,6 +33,7 @@ static void structs(void)
         OFF(sl_link_info, size); OFF(sl_link_info, name); OFF(sl_link_info, protocol);
         OFF(sl_link_info, state); OFF(sl_link_info, state_name); OFF(sl_link_info, state_age_ns);
         OFF(sl_link_info, counter_count); OFF(sl_link_info, counters);
+        OFF(sl_link_info, state_text);
 
         SIZE(sl_daemon_info);
         OFF(sl_daemon_info, size); OFF(sl_daemon_info, pid); OFF(sl_daemon_info, alive);
@@ -64,14 +65,15 @@ static void structs(void)
 static void constants(void)
 {
         CONST(SL_NAME_SIZE); CONST(SL_VALUE_SIZE); CONST(SL_PEER_SIZE); CONST(SL_LINK_NAME_SIZE);
-        CONST(SL_PROTOCOL_SIZE); CONST(SL_STATE_NAME_SIZE); CONST(SL_TYPE_NAME_SIZE);
+        CONST(SL_PROTOCOL_SIZE); CONST(SL_STATE_NAME_SIZE); CONST(SL_STATE_TEXT_SIZE); CONST(SL_TYPE_NAME_SIZE);
         CONST(SL_EVENT_TEXT_SIZE); CONST(SL_COUNTERS_MAX);
         CONST(SL_DIR_IN); CONST(SL_DIR_OUT);
         CONST(SL_VAR_STRING); CONST(SL_VAR_LONG); CONST(SL_VAR_DOUBLE); CONST(SL_VAR_ADHOC);
         CONST(SL_FLAG_VALID); CONST(SL_FLAG_STALE); CONST(SL_FLAG_OUTBOUND);
         CONST(SL_FLAG_REPAIRED);
         CONST(SL_EVENT_TRUNCATED); CONST(SL_EVENT_RESTARTED);
-        CONST(SL_WAIT_SPIN); CONST(SL_WAIT_SPIN_MAX_US);
+        CONST(SL_WAIT_SPIN); CONST(SL_WAIT_SPIN_MAX_US); CONST(SL_READ_BUSY_MS);
+        CONST(SL_COUNTER_SHAREDLINK); CONST(SL_COUNTER_CIRCE); CONST(SL_COUNTER_DAEMON);
         CONST_STR(SL_RUNTIME_DIR_DEFAULT);
         CONST(SL_REQUEST_LINE_MAX); CONST(SL_REQUEST_WORDS_MAX); CONST(SL_REPLY_LINE_MAX);
         CONST(SL_REQUEST_TIMEOUT_MS); CONST(SL_WAIT_MAX_MS); CONST(SL_QUERY_TIMEOUT_MAX_MS);

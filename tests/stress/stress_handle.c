@@ -9,16 +9,19 @@
  * slots are not built under ThreadSanitizer, which does not model membarrier: there every reader
  * goes through the shared count.)
  *
- * STRESS_SECONDS (default 2) bounds the run.
+ * Bounded by work, not by seconds: the daemon restarts RESTARTS times, and before each of its
+ * steps (a name added, .out recreated, a restart) it waits until the readers finished another
+ * batch of reads, so readers are inside the handle between every two refreshes however busy the
+ * machine is (a 2 s run once made no refresh at all under ThreadSanitizer on a loaded machine).
  */
 #include <errno.h>
 #include <inttypes.h>
 #include <pthread.h>
+#include <sched.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include <sharedlink.h>
 
@@ -30,8 +33,8 @@
  * store, the writer's membarrier), the others, whose slot is taken, through the shared count. */
 #define READERS                 ((int)CLIENT_READER_SLOTS + 4)
 #define ADHOC                   64      /* names one table run adds before it restarts */
-#define DEFAULT_SECONDS         2
-#define NS_PER_S                1000000000ull
+#define RESTARTS                6       /* table runs after the first */
+#define BATCH                   64      /* reads of one reader between two progress marks */
 #define VALUE_PREFIX            "value-"
 
 enum { IN, OUT, NVARS };
@@ -39,7 +42,8 @@ enum { IN, OUT, NVARS };
 struct shared {
         const char *instance;
         struct sl_client *c;
-        uint64_t deadline;
+        _Atomic int done;               /* the daemon loop is over: readers stop */
+        _Atomic uint64_t batches;       /* reader batches finished: the daemon's pace */
         _Atomic uint64_t reads;
         _Atomic uint64_t good;          /* reads that returned a well-formed value */
         _Atomic uint64_t bad;           /* reads that returned something else */
@@ -47,12 +51,14 @@ struct shared {
         _Atomic uint64_t restarts;
 };
 
-static uint64_t now_ns(void)
+/* Waits until the readers finished a batch after the one seen last (*seen). */
+static void wait_readers(struct shared *sh, uint64_t *seen)
 {
-        struct timespec ts;
+        uint64_t now;
 
-        clock_gettime(CLOCK_MONOTONIC, &ts);
-        return (uint64_t)ts.tv_sec * NS_PER_S + (uint64_t)ts.tv_nsec;
+        while ((now = atomic_load(&sh->batches)) == *seen)
+                sched_yield();
+        *seen = now;
 }
 
 static int create_table(const char *instance, uint64_t run, struct shm_table **ret)
@@ -75,20 +81,22 @@ static int create_table(const char *instance, uint64_t run, struct shm_table **r
         return shm_table_set_str(*ret, IN, value);
 }
 
-/* The daemon's side: add names, recreate .out, restart, until the deadline. */
+/* The daemon's side: add names, recreate .out, restart, RESTARTS times, in step with readers. */
 static int daemon_loop(struct shared *sh)
 {
         struct shm_table *t;
-        uint64_t run = 0;
+        uint64_t run = 0, seen = 0;
         char name[SL_NAME_SIZE];
 
         if (create_table(sh->instance, run, &t) < 0)
                 return -1;
-        while (now_ns() < sh->deadline) {
+        while (run < RESTARTS) {
                 struct shm_var v = { name, SHM_DIR_IN, SHM_TYPE_STRING, SHM_LINK_NONE, NULL,
                                      SHM_POSITION_NONE };
                 uint64_t n = atomic_fetch_add(&sh->refreshes, 1);
                 int id;
+
+                wait_readers(sh, &seen);
 
                 snprintf(name, sizeof(name), "adhoc.%" PRIu64, n);
                 id = shm_table_add(t, &v);
@@ -126,8 +134,8 @@ static void *reader_main(void *arg)
         char buf[SL_VALUE_SIZE], small[8], name[SL_NAME_SIZE];
         uint64_t reads = 0;
 
-        while (now_ns() < sh->deadline) {
-                for (int i = 0; i < 64; i++, reads++) {
+        while (!atomic_load(&sh->done)) {
+                for (int i = 0; i < BATCH; i++, reads++) {
                         int count = sl_count(sh->c), r;
 
                         /* Both read paths (straight into buf, and through a copy) ... */
@@ -146,6 +154,7 @@ static void *reader_main(void *arg)
                         snprintf(name, sizeof(name), "adhoc.%d", (int)(reads % ADHOC));
                         sl_find(sh->c, name);
                 }
+                atomic_fetch_add(&sh->batches, 1);
         }
         atomic_fetch_add(&sh->reads, reads);
         return NULL;
@@ -153,8 +162,6 @@ static void *reader_main(void *arg)
 
 int main(void)
 {
-        const char *env = getenv("STRESS_SECONDS");
-        uint64_t seconds = env ? strtoull(env, NULL, 10) : DEFAULT_SECONDS;
         struct shared sh;
         struct shm_table *t;
         pthread_t readers[READERS];
@@ -162,8 +169,6 @@ int main(void)
         int r, ok;
 
         memset(&sh, 0, sizeof(sh));
-        if (seconds == 0)
-                seconds = DEFAULT_SECONDS;
         shmtest_instance(instance, sizeof(instance), "handle");
         sh.instance = instance;
         /* A first table, so that the handle can open; the daemon loop then takes over. */
@@ -172,17 +177,17 @@ int main(void)
                 return 1;
         }
         shm_table_destroy(t);
-        sh.deadline = now_ns() + seconds * NS_PER_S;
         for (int i = 0; i < READERS; i++)
                 pthread_create(&readers[i], NULL, reader_main, &sh);
         r = daemon_loop(&sh);
+        atomic_store(&sh.done, 1);
         for (int i = 0; i < READERS; i++)
                 pthread_join(readers[i], NULL);
         sl_close(sh.c);
         shmtest_unlink(instance);
         /* It proved something only if readers read while the handle was refreshed many times. */
         ok = r == 0 && atomic_load(&sh.bad) == 0 && atomic_load(&sh.good) > 0 &&
-             atomic_load(&sh.restarts) > 1 && atomic_load(&sh.refreshes) > ADHOC;
+             atomic_load(&sh.restarts) == RESTARTS && atomic_load(&sh.refreshes) > ADHOC;
         printf("stress_handle: reads=%" PRIu64 " good=%" PRIu64 " bad=%" PRIu64
                " refreshes=%" PRIu64 " restarts=%" PRIu64 "\n", atomic_load(&sh.reads),
                atomic_load(&sh.good), atomic_load(&sh.bad), atomic_load(&sh.refreshes),

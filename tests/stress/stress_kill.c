@@ -7,8 +7,9 @@
  *
  * Writers alternate between the library (sl_write) and a deliberately slow raw writer that stores
  * the value word by word, yielding in between, so that many kills land inside a write.
- * Runs KILL_ITERATIONS kills (default 2000; a few seconds on an idle machine), or until
- * STRESS_SECONDS (default 30) have passed on a busy one, whichever comes first.
+ * Runs KILL_ITERATIONS kills (default 1000, 300 under ThreadSanitizer), however long that takes: bounded by work, not by
+ * seconds, so a busy machine makes it slower, never weaker (each kill waits for its writer's
+ * progress on the .out change word, an event).
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -20,7 +21,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
-#include <time.h>
 #include <unistd.h>
 
 #include <sharedlink.h>
@@ -32,10 +32,12 @@
 #include "shm/table.h"
 
 #define NVARS                   4
-#define DEFAULT_ITERATIONS      2000
-#define DEFAULT_SECONDS         30
+#if defined(SHM_SEQLOCK_TSAN)
+#define DEFAULT_ITERATIONS      300     /* ThreadSanitizer: each kill costs ~10x */
+#else
+#define DEFAULT_ITERATIONS      1000
+#endif
 #define WAIT_LIMIT_MS           10000
-#define NS_PER_S                1000000000ull
 
 struct shared {
         _Atomic int stop;
@@ -43,43 +45,6 @@ struct shared {
         _Atomic uint64_t valid_reads;
         _Atomic uint64_t torn;
 };
-
-static uint64_t now_ns(void)
-{
-        struct timespec ts;
-
-        clock_gettime(CLOCK_MONOTONIC, &ts);
-        return (uint64_t)ts.tv_sec * NS_PER_S + (uint64_t)ts.tv_nsec;
-}
-
-/* Value for (writer, n): "w<writer>n<n>:" then filler, then the 2-hex-digit sum of what precedes. */
-static size_t make_value(unsigned writer, uint64_t n, char *buf)
-{
-        size_t len = (size_t)snprintf(buf, SL_VALUE_SIZE, "w%un%" PRIu64 ":", writer, n);
-        size_t target = 24 + (size_t)(n % 36);
-        unsigned sum = 0;
-
-        while (len < target) {
-                buf[len] = (char)('a' + (n + len) % 26);
-                len++;
-        }
-        for (size_t i = 0; i < len; i++)
-                sum += (unsigned char)buf[i];
-        snprintf(buf + len, SL_VALUE_SIZE - len, "%02X", sum & 0xffu);
-        return len + 2;
-}
-
-/* 1 when v is exactly a value make_value can produce. */
-static int value_ok(const char *v, size_t len)
-{
-        char expect[SL_VALUE_SIZE];
-        unsigned writer;
-        uint64_t n;
-
-        if (sscanf(v, "w%un%" SCNu64 ":", &writer, &n) != 2)
-                return 0;
-        return make_value(writer, n, expect) == len && memcmp(expect, v, len) == 0;
-}
 
 /* ---- the writer that gets killed --------------------------------------------------------------- */
 
@@ -111,7 +76,7 @@ static int writer_main(void *arg)
         }
         for (uint64_t n = 0;; n++) {
                 unsigned id = (unsigned)((n * 7 + w->index) % NVARS);
-                size_t len = make_value(w->index, n, value);
+                size_t len = shmtest_value_make(w->index, n, value);
                 uint64_t word, words[SHM_VALUE_WORDS];
 
                 if (!w->slow) {
@@ -162,7 +127,7 @@ static int reader_main(void *arg)
                 if (len < 0 || !(meta.flags & SL_FLAG_VALID))
                         continue;       /* busy, or no valid value: nothing handed out */
                 valid++;
-                if (!value_ok(buf, (size_t)len))
+                if (!shmtest_value_ok(buf, (size_t)len))
                         torn++;
         }
         atomic_fetch_add(&r->sh->reads, reads);
@@ -188,7 +153,7 @@ static void on_change(void *userdata, const struct shm_out_change *ch)
         switch (ch->status) {
         case SHM_OUT_CHANGED:
                 s->accepted++;
-                if (!value_ok(ch->value, ch->length))
+                if (!shmtest_value_ok(ch->value, ch->length))
                         s->bad++;
                 break;
         case SHM_OUT_REPAIRED:
@@ -240,7 +205,6 @@ static unsigned env_unsigned(const char *name, unsigned def)
 int main(void)
 {
         unsigned iterations = env_unsigned("KILL_ITERATIONS", DEFAULT_ITERATIONS);
-        uint64_t deadline = now_ns() + env_unsigned("STRESS_SECONDS", DEFAULT_SECONDS) * NS_PER_S;
         struct shared *sh = mmap(NULL, sizeof(*sh), PROT_READ | PROT_WRITE,
                                  MAP_SHARED | MAP_ANONYMOUS, -1, 0);
         char instance[64], name[SHM_OBJECT_NAME_SIZE];
@@ -267,7 +231,7 @@ int main(void)
         ra = (struct reader_arg){ instance, sh };
         reader = shmtest_fork(reader_main, &ra);
 
-        for (; kills < iterations && now_ns() < deadline; kills++) {
+        for (; kills < iterations; kills++) {
                 struct writer_arg w = { instance, kills, (int)(kills & 1u) };
                 pid_t pid = shmtest_fork(writer_main, &w);
 
@@ -288,7 +252,7 @@ int main(void)
                 for (int i = 0; i < NVARS; i++) {
                         char v[SL_VALUE_SIZE];
 
-                        make_value(9999, (uint64_t)i, v);
+                        shmtest_value_make(9999, (uint64_t)i, v);
                         final_fail += sl_write(c, i, v) != 0;
                 }
                 sl_close(c);

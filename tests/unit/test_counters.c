@@ -1,5 +1,6 @@
 /*
- * cli/counters: every counter of the shared layout has a scope in slctl, and stats' selection
+ * cli/counters: slctl knows every counter of the shared layout, with its scope, through the public
+ * library (sl_counter_name, sl_counter_scope: one list, shm/layout.h), and stats' selection
  * (the counters in scope, non-zero first, in the library's order) picks and orders right.
  */
 #include <setjmp.h>

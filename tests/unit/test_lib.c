@@ -3,6 +3,7 @@
  * a child process, plays the daemon): ids, reads and metadata, writes and their refusals, waiting,
  * events, links, ad hoc names, daemon restarts (clean and crashed), a recreated .out, permissions.
  */
+#define _GNU_SOURCE     /* pthread_setname_np */
 #include <errno.h>
 #include <fcntl.h>
 #include <locale.h>
@@ -32,6 +33,7 @@
 #include "shm/layout.h"
 #include "shm/slot.h"
 #include "shm/table.h"
+#include "shm/wake.h"
 
 #define WAIT_LIMIT_MS   10000   /* a hang guard, not a timing assertion */
 #define ADHOC           4u
@@ -784,6 +786,34 @@ static void test_links(void **state)
         assert_int_equal(sl_link_info(f->c, 2, &li), -ENOENT);
         assert_int_equal(sl_link_info(f->c, -1, &li), -ENOENT);
 
+        /* A long state (layout 1.4): whole in state_text, its first 31 bytes in state_name; a
+         * caller of the first version (no state_text) is still served. */
+        {
+                static const char why[] = "down: /srv/rec/field-recording-today.rec:1234: "
+                                          "time: 6 digits after the point";
+                char text[SL_STATE_TEXT_SIZE + 8];
+                struct sl_link_info old;
+
+                assert_int_equal(shm_table_link_state(f->tb.t, 1, 4, why), 0);
+                assert_int_equal(sl_link_info(f->c, 1, &li), 0);
+                assert_string_equal(li.state_text, why);
+                assert_int_equal(strlen(li.state_name), SL_STATE_NAME_SIZE - 1);
+                assert_memory_equal(li.state_name, why, SL_STATE_NAME_SIZE - 1);
+                memset(&old, 0x55, sizeof(old));
+                old.size = offsetof(struct sl_link_info, state_text);
+                assert_int_equal(sl_link_info(f->c, 1, &old), 0);
+                assert_memory_equal(old.state_name, why, SL_STATE_NAME_SIZE - 1);
+                assert_int_equal((unsigned char)old.state_text[0], 0x55);      /* untouched */
+                old.size--;
+                assert_int_equal(sl_link_info(f->c, 1, &old), -EINVAL);
+                /* Longer than the field: cut, never refused. */
+                memset(text, 'x', sizeof(text) - 1);
+                text[sizeof(text) - 1] = '\0';
+                assert_int_equal(shm_table_link_state(f->tb.t, 1, 4, text), 0);
+                assert_int_equal(sl_link_info(f->c, 1, &li), 0);
+                assert_int_equal(strlen(li.state_text), SL_STATE_TEXT_SIZE - 1);
+        }
+
         /* A link added later shows up. */
         shm_table_link_add(f->tb.t, &(struct shm_link_def){ "arena", "circe" });
         assert_int_equal(sl_link_count(f->c), 3);
@@ -886,6 +916,48 @@ static void test_restart_clean(void **state)
         assert_int_equal(s.last.id, 1);                 /* its id in the new table */
         assert_string_equal(s.last.value, "0.5");
         assert_int_equal(sl_wait(f->c, &w.cursor, 0), 1);
+}
+
+/*
+ * A daemon restart is flagged on the first event of the new run, exactly once, whatever the
+ * reader found in between: here the first reads after the restart find the new ring empty, as
+ * they do when the reader polls faster than the new daemon logs (the flag used to be lost then).
+ */
+static void test_events_restart_empty_ring(void **state)
+{
+        struct fixture *f = *state;
+        struct sl_event ev[4];
+        uint64_t cursor = 0, tag;
+        unsigned flagged = 0;
+
+        event_init(ev, 4);
+        shm_table_event(f->tb.t, SHM_EVENT_LOG, SHM_LINK_NONE, "run=1");
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 1);
+        tag = cursor >> 48;
+        /* A new daemon whose cursor tag differs (16 bits of its epoch: retried on a clash). */
+        for (int i = 0; i < 8 && cursor >> 48 == tag; i++) {
+                f->tb.t = shm_table_destroy(f->tb.t);
+                assert_int_equal(shm_table_create(&f->tb.cfg, &f->tb.t), 0);
+                tag = shm_table_epoch(f->tb.t) >> 48;
+                tag = tag ? tag : 1u;                   /* as the library tags cursors */
+        }
+        assert_int_not_equal(cursor >> 48, tag);
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 0);     /* the new ring: empty */
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 0);
+        shm_table_event(f->tb.t, SHM_EVENT_DAEMON, SHM_LINK_NONE, "run=2");
+        shm_table_event(f->tb.t, SHM_EVENT_LOG, SHM_LINK_NONE, "n=2");
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 1), 1);
+        assert_int_equal(ev[0].seq, 1);
+        assert_int_equal(ev[0].flags & SL_EVENT_RESTARTED, SL_EVENT_RESTARTED);
+        flagged += (ev[0].flags & SL_EVENT_RESTARTED) != 0;
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 1);
+        assert_int_equal(ev[0].seq, 2);
+        flagged += (ev[0].flags & SL_EVENT_RESTARTED) != 0;
+        shm_table_event(f->tb.t, SHM_EVENT_LOG, SHM_LINK_NONE, "n=3");
+        assert_int_equal(sl_events_read(f->c, &cursor, ev, 4), 1);
+        flagged += (ev[0].flags & SL_EVENT_RESTARTED) != 0;
+        assert_int_equal(flagged, 1);
+        assert_int_equal(cursor >> 48, tag);
 }
 
 struct crash_daemon {
@@ -1033,6 +1105,64 @@ static void test_read_outbound_mirror(void **state)
         assert_int_equal(sl_read(f->c, THROTTLE, buf, sizeof(buf), &after), 4);
         assert_string_equal(buf, "0.75");
         assert_int_equal(after.sequence, before.sequence + 1u);
+        munmap(base, size);
+}
+
+#define BUSY_READER_NAME        "test-reader"
+
+struct busy_reader {
+        struct sl_client *c;
+        _Atomic int done;
+        int result;
+        char buf[SL_VALUE_SIZE];
+};
+
+/* Reads THROTTLE until a read succeeds (a bounded number of calls). */
+static void *busy_reader_main(void *arg)
+{
+        struct busy_reader *b = arg;
+
+        pthread_setname_np(pthread_self(), BUSY_READER_NAME);
+        for (int i = 0; i < 1000; i++) {
+                b->result = sl_read(b->c, THROTTLE, b->buf, sizeof(b->buf), NULL);
+                if (b->result != -EAGAIN)
+                        break;
+        }
+        atomic_store(&b->done, 1);
+        return NULL;
+}
+
+/*
+ * A writer that is alive but off its CPU in the middle of a write (here: it holds the slot until
+ * the reader sleeps) costs a read a wait, not -EAGAIN: the library sleeps, and reads the value
+ * once the writer published it. Before, every call returned -EAGAIN at once and never slept.
+ */
+static void test_read_waits_out_writer(void **state)
+{
+        struct fixture *f = *state;
+        struct busy_reader b = { f->c, 0, 0, "" };
+        struct shm_slot *slot;
+        pthread_t th;
+        uint64_t word;
+        size_t size;
+        void *base;
+        int asleep = 0;
+
+        out_change_map(f, &base, &size);
+        slot = (struct shm_slot *)((char *)base + ((struct shm_out_header *)base)->slots_offset);
+        assert_int_equal(shm_slot_claim(slot, (uint32_t)getpid(), &word), 0);  /* THROTTLE's */
+        shm_slot_store(slot, "0.25", 4, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND, 1, 1);
+        assert_int_equal(pthread_create(&th, NULL, busy_reader_main, &b), 0);
+        /* Until the reader sleeps in its read, or gave up without ever sleeping. */
+        while (!atomic_load(&b.done) && !asleep) {
+                asleep = shmtest_thread_state(BUSY_READER_NAME) == 'S';
+                sched_yield();
+        }
+        assert_int_equal(shm_slot_publish(slot, word), 0);
+        pthread_join(th, NULL);
+        assert_true(asleep);
+        assert_int_equal(b.result, 4);
+        assert_string_equal(b.buf, "0.25");
         munmap(base, size);
 }
 
@@ -1221,6 +1351,115 @@ static void test_out_recreated(void **state)
         assert_string_equal(s.last.value, "b");
 }
 
+/*
+ * Waits (on the wake eventfd, the daemon's event) until a client rang the daemon, then scans as
+ * the daemon does; returns the scan's result.
+ */
+static int wait_rung_and_scan(struct fixture *f, int fd, struct seen *s)
+{
+        struct pollfd p = { .fd = fd, .events = POLLIN };
+
+        assert_int_equal(poll(&p, 1, WAIT_LIMIT_MS), 1);        /* a hang guard */
+        shm_table_out_wake_ack(f->tb.t);
+        return scan(f, s);
+}
+
+/*
+ * A client truncates .out and no writer is left to wake the daemon through it: a client that
+ * then finds .out unusable rings the doorbell in .in (layout 1.3), the daemon recreates .out,
+ * and the write goes through. Waits on events only (the eventfd, then sl_wait).
+ */
+static void test_out_truncated_rings_daemon(void **state)
+{
+        struct fixture *f = *state;
+        int wake = shm_table_out_wake_fd(f->tb.t);
+        struct sl_client *c;
+        uint32_t cursor = 0;
+        struct seen s;
+        int fd;
+
+        assert_true(wake >= 0);
+        /* The wake thread asleep on the .out word: only a wake-up can tell it anything now. */
+        assert_int_equal(shmtest_thread_wait_asleep(SHM_WAKE_THREAD_NAME, WAIT_LIMIT_MS), 0);
+        /* Everyone's mappings are left as they are (f->c's too: it must not touch .out now). */
+        fd = shm_open(f->tb.out_name, O_RDWR, 0);
+        assert_true(fd >= 0);
+        assert_int_equal(ftruncate(fd, 0), 0);
+        close(fd);
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        sl_wait(c, &cursor, 0);
+        assert_int_equal(sl_write(c, NOTE, "a"), -EAGAIN);     /* unusable: rings */
+        assert_int_equal(wait_rung_and_scan(f, wake, &s), -EBADMSG);    /* recreated */
+        assert_int_equal(sl_wait(c, &cursor, WAIT_LIMIT_MS), 1);       /* the new generation */
+        assert_int_equal(sl_write(c, NOTE, "b"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        assert_string_equal(s.last.value, "b");
+        assert_int_equal(shm_table_counter_get(f->tb.t, SHM_LINK_NONE, SHM_COUNTER_OUT_RECREATED),
+                         1);
+        sl_close(c);
+}
+
+/* Fills size bytes at p with bytes of a fixed pseudo-random sequence (no zero words). */
+static void scribble(void *p, size_t size, uint64_t seed)
+{
+        unsigned char *b = p;
+
+        for (size_t i = 0; i < size; i++) {
+                seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+                b[i] = (unsigned char)(seed >> 56) | 1u;
+        }
+}
+
+/*
+ * Random bytes over .out, its size kept. Over the header: a new client cannot use it and rings,
+ * the daemon recreates it. Over the slots only: the daemon repairs the words a writer could not
+ * claim (odd, pid of no process) when a client rings, and never takes the bytes for a value.
+ */
+static void test_out_scribbled_rings_daemon(void **state)
+{
+        struct fixture *f = *state;
+        int wake = shm_table_out_wake_fd(f->tb.t);
+        struct shm_out_header *h;
+        struct sl_client *c;
+        uint32_t cursor = 0;
+        struct seen s;
+        size_t size;
+        void *base;
+
+        assert_true(wake >= 0);
+        assert_int_equal(shmtest_thread_wait_asleep(SHM_WAKE_THREAD_NAME, WAIT_LIMIT_MS), 0);
+        out_change_map(f, &base, &size);
+        h = base;
+        scribble(base, sizeof(*h), 1);
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        sl_wait(c, &cursor, 0);
+        assert_true(sl_write(c, THROTTLE, "1") < 0);           /* unusable: rings */
+        assert_int_equal(wait_rung_and_scan(f, wake, &s), -EBADMSG);
+        munmap(base, size);
+        assert_int_equal(sl_wait(c, &cursor, WAIT_LIMIT_MS), 1);
+        assert_int_equal(sl_write(c, THROTTLE, "2"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        assert_string_equal(s.last.value, "2");
+
+        /* Now the slots: odd words with no live writer, garbage values. */
+        out_change_map(f, &base, &size);
+        h = base;
+        scribble((char *)base + h->slots_offset, size - h->slots_offset, 2);
+        for (int id = THROTTLE; id <= NOTE; id += (id == STEER ? NOTE - STEER : 1)) {
+                int r;
+
+                for (int tries = 0; (r = sl_write(c, id, "3")) == -EBUSY && tries < 4; tries++)
+                        wait_rung_and_scan(f, wake, &s);        /* repaired on the ring */
+                assert_int_equal(r, 0);
+        }
+        memset(&s, 0, sizeof(s));
+        assert_true(shm_table_out_scan(f->tb.t, on_change, &s) >= 0);
+        assert_string_equal(s.last.value, "3");
+        assert_int_equal(s.last.status, SHM_OUT_CHANGED);
+        munmap(base, size);
+        sl_close(c);
+}
+
 /* ---- permissions ------------------------------------------------------------------------------ */
 
 struct perm_probe {
@@ -1298,6 +1537,24 @@ static void test_permissions_group(void **state)
         assert_string_equal(s.last.value, "0.5");
 }
 
+/* The counter list through the public API (one list: shm/layout.h), as slctl reads it. */
+static void test_counter_names_scopes(void **state)
+{
+        (void)state;
+        assert_string_equal(sl_counter_name(0), "frames_in");
+        for (unsigned i = 0; i < SHM_COUNTER_COUNT; i++) {
+                assert_string_equal(sl_counter_name(i), shm_layout_counter_name(i));
+                assert_true(sl_counter_scope(sl_counter_name(i)) != 0);
+        }
+        assert_null(sl_counter_name(SHM_COUNTER_COUNT));
+        assert_int_equal(sl_counter_scope("frames_in"), SL_COUNTER_SHAREDLINK | SL_COUNTER_CIRCE);
+        assert_int_equal(sl_counter_scope("bad_address"), SL_COUNTER_SHAREDLINK);
+        assert_int_equal(sl_counter_scope("noncompliant_status"), SL_COUNTER_CIRCE);
+        assert_int_equal(sl_counter_scope("out_recreated"), SL_COUNTER_DAEMON);
+        assert_int_equal(sl_counter_scope("no_such_counter"), 0);
+        assert_int_equal(sl_counter_scope(NULL), 0);
+}
+
 static void test_strerror(void **state)
 {
         static const int codes[] = { ENOENT, EINVAL, EPERM, EACCES, EAGAIN, EBUSY, ECANCELED,
@@ -1327,6 +1584,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_write_refused, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_numbers, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_read_after_repair, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_read_waits_out_writer, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wait_thread, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wait_process, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wait_spin, setup, teardown),
@@ -1335,7 +1593,10 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_adhoc_visible, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_restart_clean, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_restart_after_crash, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_events_restart_empty_ring, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_recreated, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_truncated_rings_daemon, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_scribbled_rings_daemon, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_age_coarse, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_waiter_flag, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_outbound_mirror, setup, teardown),
@@ -1343,6 +1604,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_read_stale_after_kill, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_permissions_no_group, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_permissions_group, setup_bare, teardown),
+                cmocka_unit_test(test_counter_names_scopes),
                 cmocka_unit_test(test_strerror),
         };
 

@@ -152,8 +152,14 @@ static void test_create_layout(void **state)
 
         assert_non_null(v.base);
         shm_layout_in_geometry(NVARS + ADHOC, 16, &g);
-        assert_int_equal(v.size, g.total_size);
+        /* 1.4: the link texts lie past total_size (what a 1.3 client checks it against). */
+        assert_int_equal(v.size, g.object_size);
+        assert_int_equal(h->total_size, g.total_size);
+        assert_true(g.link_texts_offset >= g.total_size);
+        assert_int_equal(h->link_texts_offset, g.link_texts_offset);
         assert_int_equal(shm_layout_check_in(h, v.size), 0);
+        assert_int_equal(shm_layout_has_link_texts(h, v.size), 1);
+        assert_int_equal(shm_layout_has_link_texts(h, v.size - 1u), 0);
         assert_int_equal(atomic_load(&h->magic), SHM_IN_MAGIC);
         assert_int_equal(h->daemon_pid, getpid());
         assert_int_equal(h->epoch, shm_table_epoch(f->t));
@@ -286,7 +292,7 @@ static void test_create_socket_path(void **state)
         v = shmtest_view_open(f->in_name, 0);
         h = shmtest_in_header(&v);
         assert_non_null(v.base);
-        assert_int_equal(h->layout_version & 0xffffu, SHM_LAYOUT_MINOR_SOCKET);
+        assert_true((h->layout_version & 0xffffu) >= SHM_LAYOUT_MINOR_SOCKET);
         assert_memory_equal(h->control_socket, path, SHM_SOCKET_PATH_SIZE);
         shmtest_view_close(&v);
         f->t = shm_table_destroy(f->t);
@@ -636,8 +642,16 @@ static void test_links_counters(void **state)
         assert_string_equal((const char *)(uintptr_t)l->state_name, "connected");
         assert_true(atomic_load(&l->state_ns) > 0);
         assert_int_equal(shm_table_link_state(f->t, 9, 1, "x"), -EINVAL);
+        /* A long text (1.4): whole in the link text, its first 31 bytes in state_name. */
         assert_int_equal(shm_table_link_state(f->t, 1, 1,
-                         "a-state-name-that-is-far-too-long-for-it"), -EINVAL);
+                         "a-state-name-that-is-far-too-long-for-it"), 0);
+        assert_string_equal((const char *)(uintptr_t)l->state_name,
+                            "a-state-name-that-is-far-too-lo");
+        assert_string_equal((const char *)(uintptr_t)((const char *)v.base +
+                                                      shmtest_in_header(&v)->link_texts_offset +
+                                                      sizeof(struct shm_link_text)),
+                            "a-state-name-that-is-far-too-long-for-it");
+        assert_int_equal(shm_table_link_state(f->t, 1, 1, NULL), -EINVAL);
 
         shm_table_counter_add(f->t, 0, SHM_COUNTER_FRAMES_IN, 3);
         shm_table_counter_add(f->t, 0, SHM_COUNTER_FRAMES_IN, 2);

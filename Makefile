@@ -537,15 +537,20 @@ $(O)/examples/%: examples/%.c $(LIBSL_A)
 FUZZ_CC    ?= clang
 FUZZ_O     := build/fuzz
 FUZZ_LIBSRC:= $(PROTO_SRC) $(SHM_SRC) $(SVC_SRC) $(DAEMON_SRC) $(AGILITY_SRC)
+# The MQTT targets (fuzz_mqtt_*) run the bridge's logic on the client library and real tables
+# (tests/common/shmtest.c); libmosquitto's side and main() stay out.
+FUZZ_MQTT_LIBSRC := $(PROTO_SRC) $(SHM_SRC) $(SVC_SRC) $(LIB_SRC) tests/common/shmtest.c \
+	$(filter-out src/mqtt/bridge_mqtt.c,$(MQTT_SRC))
 FUZZ_NAMES := $(patsubst tests/fuzz/fuzz_%.c,%,$(FUZZ_SRC))
 
 fuzz:
 	@command -v $(FUZZ_CC) >/dev/null || { echo "make fuzz needs clang: make deps-extra"; exit 1; }
 	@mkdir -p $(FUZZ_O)
 	@set -e; for n in $(FUZZ_NAMES); do \
+	    case $$n in mqtt_*) src='$(FUZZ_MQTT_LIBSRC)' ;; *) src='$(FUZZ_LIBSRC)' ;; esac; \
 	    $(FUZZ_CC) -std=c11 -g -O1 -Iinclude -Isrc -Itests -D_DEFAULT_SOURCE $(YAML_CFLAGS) $(SYSTEMD_CFLAGS) \
 	        -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all \
-	        -o $(FUZZ_O)/fuzz_$$n tests/fuzz/fuzz_$$n.c $(FUZZ_LIBSRC) $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lm; \
+	        -o $(FUZZ_O)/fuzz_$$n tests/fuzz/fuzz_$$n.c $$src $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lm; \
 	done
 	@set -e; for n in $(FUZZ_NAMES); do \
 	    mkdir -p $(FUZZ_O)/corpus-$$n; \

@@ -18,7 +18,6 @@
 
 #define INSTANCE_ENV            "SHAREDLINK_INSTANCE"
 #define INSTANCE_DEFAULT        "default"
-#define STATUS_QOS              1
 #define FLAGS_PUBLISHED         (SL_FLAG_VALID | SL_FLAG_STALE | SL_FLAG_REPAIRED)
 #define PAYLOAD_MAX             4096    /* one event's JSON, escapes and fields included */
 
@@ -52,6 +51,7 @@ struct bridge {
         char link_name[BRIDGE_LINKS_MAX][SL_LINK_NAME_SIZE];
         bool link_published[BRIDGE_LINKS_MAX];
         const char *status;             /* published last, NULL: never */
+        bool writes_ready;              /* set/ messages reach the bridge (bridge_writes_ready) */
 
         struct bridge_cursor read;      /* after the last event published */
         struct bridge_cursor done;      /* after the last event acknowledged (what goes to disk) */
@@ -276,7 +276,7 @@ static int var_publish(struct bridge *b, const struct bridge_sink *sink, struct 
         count(b, &b->counters.values_published, 1);
         if (b->cfg->meta != BRIDGE_META_JSON)
                 return 0;
-        bridge_format_topic(topic, sizeof(topic), b->base, v->info.name, "meta");
+        bridge_format_topic(topic, sizeof(topic), b->base, v->info.name, BRIDGE_TOPIC_META);
         if (meta)
                 n = bridge_format_meta(json, sizeof(json), &v->info, meta,
                                        link_name(b, v->info.link));
@@ -335,7 +335,8 @@ static int links_scan(struct bridge *b, const struct bridge_sink *sink, bool ful
                 if (!full && b->link_published[i] && !strcmp(b->link_state[i], li.state_name))
                         continue;
                 if (!bridge_format_name_ok(li.name) ||
-                    bridge_format_topic(topic, sizeof(topic), b->base, "links", li.name) < 0)
+                    bridge_format_topic(topic, sizeof(topic), b->base, BRIDGE_TOPIC_LINKS,
+                                        li.name) < 0)
                         continue;
                 if (publish(b, sink, topic, li.state_name, strlen(li.state_name), b->cfg->qos,
                             true, NULL) < 0)
@@ -349,20 +350,35 @@ static int links_scan(struct bridge *b, const struct bridge_sink *sink, bool ful
 
 const char *bridge_status(struct bridge *b)
 {
-        return b->cl && sl_daemon_alive(b->cl) == 1 ? "online" : "offline";
+        return b->cl && sl_daemon_alive(b->cl) == 1 ? BRIDGE_STATUS_ONLINE :
+                                                       BRIDGE_STATUS_OFFLINE;
 }
 
 static int status_scan(struct bridge *b, const struct bridge_sink *sink, bool full)
 {
         const char *s = bridge_status(b);
+        bool waiting = b->cfg->writable.count > 0 && !b->writes_ready &&
+                       !strcmp(s, BRIDGE_STATUS_ONLINE);
         char topic[BRIDGE_TOPIC_MAX];
+        bool news;
 
-        if (!full && b->status == s)
+        /* online promises that writes are taken too, when there are any to take. Right after
+         * a connection the writes' subscription is a moment behind: the broker holds offline
+         * then (the will, or the last clean stop), so nothing is said until it is online;
+         * writes that stop being taken later make it offline. */
+        if (waiting && (full || !b->status)) {
+                b->status = NULL;
                 return 0;
-        bridge_format_topic(topic, sizeof(topic), b->base, "status", NULL);
-        if (publish(b, sink, topic, s, strlen(s), STATUS_QOS, true, NULL) < 0)
+        }
+        if (waiting)
+                s = BRIDGE_STATUS_OFFLINE;
+        news = !b->status || strcmp(b->status, s) != 0;
+        if (!full && !news)
+                return 0;
+        bridge_format_topic(topic, sizeof(topic), b->base, BRIDGE_TOPIC_STATUS, NULL);
+        if (publish(b, sink, topic, s, strlen(s), BRIDGE_STATUS_QOS, true, NULL) < 0)
                 return -ENOTCONN;
-        if (b->status != s)
+        if (news)
                 log_msg(LOG_PRIO_INFO, "status: %s", s);
         b->status = s;
         return 1;
@@ -420,7 +436,7 @@ static int notice(struct bridge *b, const struct bridge_sink *sink, const char *
         char topic[BRIDGE_TOPIC_MAX], json[BRIDGE_JSON_MAX];
         int n = bridge_format_notice(json, sizeof(json), type, b->epoch, seq, lost), mid, r;
 
-        bridge_format_topic(topic, sizeof(topic), b->base, "events", NULL);
+        bridge_format_topic(topic, sizeof(topic), b->base, BRIDGE_TOPIC_EVENTS, NULL);
         r = publish(b, sink, topic, json, (size_t)n, b->cfg->events_qos, false, &mid);
         if (r < 0)
                 return r;
@@ -436,9 +452,10 @@ static int event_publish(struct bridge *b, const struct bridge_sink *sink,
         int n, mid, r;
 
         if (ev->link_name[0] && bridge_format_name_ok(ev->link_name))
-                r = bridge_format_topic(topic, sizeof(topic), b->base, "events", ev->link_name);
+                r = bridge_format_topic(topic, sizeof(topic), b->base, BRIDGE_TOPIC_EVENTS,
+                                        ev->link_name);
         else
-                r = bridge_format_topic(topic, sizeof(topic), b->base, "events", NULL);
+                r = bridge_format_topic(topic, sizeof(topic), b->base, BRIDGE_TOPIC_EVENTS, NULL);
         n = bridge_format_event(json, sizeof(json), b->epoch, ev);
         if (r < 0 || n < 0)
                 return r < 0 ? r : n;
@@ -455,6 +472,11 @@ int bridge_pump(struct bridge *b, const struct bridge_sink *sink)
 
         if (!b->cl || !b->cfg->events)
                 return 0;
+        /* Events acknowledged since the cursor was last written would be sent again by a bridge
+         * killed now, on top of those in flight: the cursor goes to disk before the window
+         * refills, so a killed bridge repeats at most events_window events. */
+        if (b->done_dirty)
+                bridge_cursor_flush(b, false);
         /* A notice and its event take two places: stop while fewer are free. */
         while (b->w_count + 2 <= b->cfg->events_window) {
                 struct sl_event ev = { .size = sizeof(ev) };
@@ -554,16 +576,17 @@ static int refuse(struct bridge *b, const struct bridge_sink *sink, const char *
         log_msg(LOG_PRIO_DEBUG, "set %s: refused: %s", name, bridge_format_refusal(why));
         if (!name[0])
                 return -EINVAL;
-        bridge_format_topic(set, sizeof(set), b->base, "set", name);
+        bridge_format_topic(set, sizeof(set), b->base, BRIDGE_TOPIC_SET, name);
         n = bridge_format_error(json, sizeof(json), name, why, err);
-        if (n >= 0 && (size_t)snprintf(topic, sizeof(topic), "%s/error", set) < sizeof(topic))
+        if (n >= 0 && (size_t)snprintf(topic, sizeof(topic), "%s/" BRIDGE_TOPIC_ERROR, set) <
+                      sizeof(topic))
                 publish(b, sink, topic, json, (size_t)n, b->cfg->set_qos, false, NULL);
-        return why == BRIDGE_REFUSE_INBOUND || why == BRIDGE_REFUSE_NOT_WRITABLE ? -EPERM :
-               -EINVAL;
+        return why == BRIDGE_REFUSE_INBOUND || why == BRIDGE_REFUSE_NOT_WRITABLE ||
+               why == BRIDGE_REFUSE_RETAINED || why == BRIDGE_REFUSE_QUEUED ? -EPERM : -EINVAL;
 }
 
 int bridge_set(struct bridge *b, const struct bridge_sink *sink, const char *topic,
-               const void *payload, size_t len)
+               const void *payload, size_t len, enum bridge_set_via via)
 {
         struct sl_var_info info = { .size = sizeof(info) };
         char name[SL_NAME_SIZE] = "", value[SL_VALUE_SIZE];
@@ -576,6 +599,15 @@ int bridge_set(struct bridge *b, const struct bridge_sink *sink, const char *top
                 log_msg(LOG_PRIO_DEBUG, "set: topic %.200s refused", topic);
                 return refuse(b, sink, "", BRIDGE_REFUSE_TOPIC, 0);
         }
+        /* Whatever the message says, an old write must never come back (on a vehicle: a
+         * throttle command). An empty retained message is a publisher removing its retained
+         * one from the broker: not a write, and nothing to answer. */
+        if (via == BRIDGE_SET_RETAINED && len == 0)
+                return 0;
+        if (via == BRIDGE_SET_RETAINED)
+                return refuse(b, sink, name, BRIDGE_REFUSE_RETAINED, 0);
+        if (via == BRIDGE_SET_QUEUED)
+                return refuse(b, sink, name, BRIDGE_REFUSE_QUEUED, 0);
         if (!b->cl)
                 return refuse(b, sink, name, BRIDGE_REFUSE_FAILED, -ENOTCONN);
         id = sl_find(b->cl, name);
@@ -597,6 +629,11 @@ int bridge_set(struct bridge *b, const struct bridge_sink *sink, const char *top
                 return refuse(b, sink, name, BRIDGE_REFUSE_FAILED, r);
         count(b, &b->counters.set_written, 1);
         return 1;
+}
+
+void bridge_writes_ready(struct bridge *b, bool ready)
+{
+        b->writes_ready = ready;
 }
 
 /* ---- counters -------------------------------------------------------------------------------- */

@@ -1,13 +1,15 @@
 /*
  * sharedlink-mqtt: the bridge between a sharedlinkd instance (through the public libsharedlink
- * only) and an MQTT broker (through a sink: bridge_mqtt.c in the program). The logic lives here,
- * independent of libmosquitto; it is driven from one thread by main.c:
+ * only) and an MQTT broker (through a sink: one per connection of bridge_mqtt.c in the program,
+ * a fake one in tests/unit/test_bridge.c). The logic lives here, independent of libmosquitto;
+ * it is driven from one thread by main.c:
  *
  *   bridge_attach     opens the instance (retried while no daemon runs)
  *   bridge_scan       publishes what changed: values (+ meta), link states, status
  *   bridge_pump       publishes events from the ring, at most events_window unacknowledged
  *   bridge_acked      the broker acknowledged message mid: the cursor moves over acked events
  *   bridge_set        a message on base/set/<name>: written, or refused with an error reply
+ *                     (always refused when it was retained or waited through a disconnection)
  *
  * Events: every event is published with QoS events_qos; the cursor on disk (bridge_cursor.h)
  * only moves over events whose PUBACK (QoS 1) or PUBCOMP (QoS 2) came back, in ring order, so
@@ -105,13 +107,27 @@ unsigned bridge_unacked(const struct bridge *b);
 /* Writes the cursor if it moved (sync: with fsync, see bridge_cursor.h). 0 or -errno. */
 int bridge_cursor_flush(struct bridge *b, bool sync);
 
-/* Handles a message that arrived on topic (under base/set/): writes the variable, or refuses
- * (counted, and an error JSON on base/set/<name>/error). Returns 1 written, 0 ignored (one of
- * our own error replies), or a negative bridge_refusal-coded -EPERM/-EINVAL. */
-int bridge_set(struct bridge *b, const struct bridge_sink *sink, const char *topic,
-               const void *payload, size_t len);
+/* How a set/ message reached the bridge (bridge_mqtt.c tells it from the connection it came on
+ * and its retain flag; see bridge_mqtt.h for why there are two connections). */
+enum bridge_set_via {
+        BRIDGE_SET_LIVE,                /* as it was published, to the bridge's clean session */
+        BRIDGE_SET_RETAINED,            /* the broker kept it (retain flag): never a write */
+        BRIDGE_SET_QUEUED,              /* on the persistent session: it waited for the bridge */
+};
 
-/* "online" when the daemon is running, else "offline". */
+/* Handles a message that arrived on topic (under base/set/): writes the variable, or refuses
+ * (counted, and an error JSON on base/set/<name>/error through sink). Only a LIVE message is
+ * ever written. Returns 1 written, 0 ignored (one of our own error replies, or an empty
+ * retained message: a publisher clearing one), or -EPERM (not allowed: inbound, not writable,
+ * retained, queued) / -EINVAL (anything else). */
+int bridge_set(struct bridge *b, const struct bridge_sink *sink, const char *topic,
+               const void *payload, size_t len, enum bridge_set_via via);
+
+/* Whether set/ messages reach the bridge now (its set/ subscription was acknowledged). While
+ * writable: names anything and they do not, base/status says offline: writes are not taken. */
+void bridge_writes_ready(struct bridge *b, bool ready);
+
+/* "online" when the daemon is running, else "offline" (base/status also needs writes ready). */
 const char *bridge_status(struct bridge *b);
 
 /* The counters; and the JSON of them into buf (length or -ENOBUFS). */

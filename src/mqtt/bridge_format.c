@@ -11,10 +11,13 @@
 #include "svc/json.h"
 
 #define NS_PER_MS               1000000u
-#define SET_LEVEL               "/set/"
-#define ERROR_SUFFIX            "/error"
+#define SET_LEVEL               "/" BRIDGE_TOPIC_SET "/"
+#define ERROR_SUFFIX            "/" BRIDGE_TOPIC_ERROR
 
-static const char *const reserved_words[] = { "set", "events", "links", "status", "bridge" };
+static const char *const reserved_words[] = {
+        BRIDGE_TOPIC_SET, BRIDGE_TOPIC_EVENTS, BRIDGE_TOPIC_LINKS, BRIDGE_TOPIC_STATUS,
+        BRIDGE_TOPIC_BRIDGE,
+};
 
 static const char *const refusal_text[BRIDGE_REFUSE_COUNT] = {
         [BRIDGE_REFUSE_NONE] = "accepted",
@@ -26,6 +29,10 @@ static const char *const refusal_text[BRIDGE_REFUSE_COUNT] = {
         [BRIDGE_REFUSE_NOT_UTF8] = "value is not UTF-8",
         [BRIDGE_REFUSE_BAD_VALUE] = "value cannot go on the wire (printable ASCII without | [ ])",
         [BRIDGE_REFUSE_FAILED] = "write failed",
+        [BRIDGE_REFUSE_RETAINED] = "a retained message is never applied (publish writes without "
+                                   "retain, and clear this one)",
+        [BRIDGE_REFUSE_QUEUED] = "it waited in the broker while the bridge was disconnected: "
+                                 "never applied late",
 };
 
 static const char *const refusal_code[BRIDGE_REFUSE_COUNT] = {
@@ -38,6 +45,8 @@ static const char *const refusal_code[BRIDGE_REFUSE_COUNT] = {
         [BRIDGE_REFUSE_NOT_UTF8] = "not-utf8",
         [BRIDGE_REFUSE_BAD_VALUE] = "bad-value",
         [BRIDGE_REFUSE_FAILED] = "failed",
+        [BRIDGE_REFUSE_RETAINED] = "retained",
+        [BRIDGE_REFUSE_QUEUED] = "queued",
 };
 
 int bridge_format_topic(char *buf, size_t size, const char *base, const char *a, const char *b)

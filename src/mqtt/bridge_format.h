@@ -23,6 +23,22 @@
 #include <sharedlink.h>
 
 #define BRIDGE_TOPIC_MAX        512     /* bytes of a topic + NUL */
+
+/* The bridge's own topic words under base (the only place they are spelled): each is also a
+ * name no variable or link can publish under (bridge_format_name_ok). */
+#define BRIDGE_TOPIC_SET        "set"
+#define BRIDGE_TOPIC_EVENTS     "events"
+#define BRIDGE_TOPIC_LINKS      "links"
+#define BRIDGE_TOPIC_STATUS     "status"
+#define BRIDGE_TOPIC_BRIDGE     "bridge"
+/* ... and the words after a name: base/<name>/meta, base/set/<name>/error. */
+#define BRIDGE_TOPIC_META       "meta"
+#define BRIDGE_TOPIC_ERROR      "error"
+#define BRIDGE_TOPIC_ALL        "#"     /* the MQTT multi-level wildcard: base/set/# */
+/* base/status: its two payloads (retained; "offline" is also the last will) and their QoS. */
+#define BRIDGE_STATUS_ONLINE    "online"
+#define BRIDGE_STATUS_OFFLINE   "offline"
+#define BRIDGE_STATUS_QOS       1
 #define BRIDGE_JSON_MAX         1024    /* bytes of one JSON payload + NUL */
 #define BRIDGE_SET_PAYLOAD_MAX  (SL_VALUE_SIZE - 1)
 
@@ -37,6 +53,8 @@ enum bridge_refusal {
         BRIDGE_REFUSE_NOT_UTF8,         /* payload is not UTF-8 */
         BRIDGE_REFUSE_BAD_VALUE,        /* the library refused the text (-EINVAL) */
         BRIDGE_REFUSE_FAILED,           /* the write failed (no daemon, no permission, busy) */
+        BRIDGE_REFUSE_RETAINED,         /* a retained message: never a write */
+        BRIDGE_REFUSE_QUEUED,           /* it waited in the broker while the bridge was away */
         BRIDGE_REFUSE_COUNT
 };
 

@@ -11,6 +11,10 @@
  *    characters, unknown name, extra topic levels) get an error reply, are counted, and change
  *    nothing; set/ topics MQTT forbids (wildcards, not UTF-8), sent by a raw client, are
  *    dropped by the broker and change nothing, and the bridge goes on;
+ *  - old writes never come back over a later local write: a retained set/ is refused
+ *    ("retained") when published and again after a bridge restart; one published while the
+ *    bridge is stopped is refused ("queued") when an older bridge's persistent session kept it,
+ *    and otherwise never delivered (the writes' session is clean);
  *  - a daemon that stops makes values stale and the status offline; its restart is followed;
  *  - 10,000 gate passages across a bridge restart and a broker restart, each in mid-burst,
  *    arrive at a persistent-session QoS 2 subscriber exactly once and in order (QoS 2; the
@@ -37,6 +41,7 @@
 #include <cmocka.h>
 
 #include <errno.h>
+#include <inttypes.h>
 #include <signal.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -425,6 +430,180 @@ static void test_stale_and_daemon_restart(void **state)
         wait_contains(f, topic(f, "b.Lat", "meta"), "\"stale\":false", NULL, 0);
 }
 
+/* The last lines of the bridge's and the broker's logs, for a failure message. */
+static void dump_logs(struct fx *f)
+{
+        const char *logs[] = { f->bridge.log_path, f->broker.log };
+
+        for (size_t i = 0; i < 2; i++) {
+                char cmd[PATH_BUF * 2];
+
+                snprintf(cmd, sizeof(cmd), "tail -n 40 %s >&2", logs[i]);
+                if (system(cmd) != 0)
+                        print_message("(no log %s)\n", logs[i]);
+        }
+}
+
+/* ---- old writes never come back ------------------------------------------------------------- */
+
+/* The bridge's own client id (its persistent session): the default, sharedlink-mqtt-<instance>. */
+#define BRIDGE_CLIENT_ID_PREFIX "sharedlink-mqtt-"
+
+/* Publishes a write (QoS 1) and waits until the broker has taken it: the subscriber, which
+ * subscribes to everything under base, sees it come back. */
+static void set_taken(struct fx *f, const char *name, const char *value, bool retain)
+{
+        const char *t = topic(f, "set", name);
+        uint64_t seen = mqtt_client_count(&f->sub, t);
+
+        assert_int_equal(mqtt_client_publish(&f->sub, t, value, strlen(value), 1, retain), 0);
+        if (mqtt_client_wait_count(&f->sub, t, seen + 1, T_WAIT_MS) != 0)
+                fail_msg("the broker never passed %s on", t);
+}
+
+/* Waits for the n-th reply on base/set/<name>/error and checks its code. */
+static void wait_refusal(struct fx *f, const char *name, uint64_t n, const char *code)
+{
+        char t[MQTT_TOPIC_MAX], want[64];
+
+        snprintf(t, sizeof(t), "%s/error", topic(f, "set", name));
+        snprintf(want, sizeof(want), "\"code\":\"%s\"", code);
+        if (mqtt_client_wait_count(&f->sub, t, n, T_WAIT_MS) != 0) {
+                dump_logs(f);
+                fail_msg("no reply %" PRIu64 " on %s (expected %s)", n, t, want);
+        }
+        wait_contains(f, t, want, NULL, 0);
+}
+
+static uint64_t refusals(struct fx *f, const char *name)
+{
+        char t[MQTT_TOPIC_MAX];
+
+        snprintf(t, sizeof(t), "%s/error", topic(f, "set", name));
+        return mqtt_client_count(&f->sub, t);
+}
+
+static void write_local(struct fx *f, const char *name, const char *value)
+{
+        int id = sl_find(f->cl, name);
+
+        assert_true(id >= 0);
+        assert_int_equal(sl_write(f->cl, id, value), 0);
+}
+
+static void assert_value(struct fx *f, const char *name, const char *want)
+{
+        char v[SL_VALUE_SIZE];
+        struct sl_meta meta;
+
+        read_value(f, name, v, &meta);
+        if (strcmp(v, want) != 0)
+                fail_msg("%s is \"%s\", not \"%s\": an old write came back", name, v, want);
+}
+
+/* A live write of a.Lon that the bridge applied: what the broker had for the bridge's writes
+ * before it has been handled (one publisher, one connection: in order). */
+static void barrier(struct fx *f, const char *value)
+{
+        set(f, "a.Lon", value, strlen(value));
+        wait_value(f, topic(f, "b.Lon", NULL), value);
+}
+
+static void restart_bridge(struct fx *f)
+{
+        stop_bridge(f, SIGTERM);
+        wait_value(f, topic(f, "status", NULL), "offline");
+        start_bridge(f);
+        wait_value(f, topic(f, "status", NULL), "online");
+}
+
+/* The bridge's own session subscribed to base/set/#, as a bridge before the writes' connection
+ * left it (made while the bridge is stopped). */
+static void legacy_subscription(struct fx *f)
+{
+        struct mqtt_client legacy = { 0 };
+        char id[MQTT_TOPIC_MAX], sub[MQTT_TOPIC_MAX];
+
+        snprintf(id, sizeof(id), BRIDGE_CLIENT_ID_PREFIX "%s", f->h.instance);
+        snprintf(sub, sizeof(sub), "%s/#", topic(f, "set", NULL));
+        assert_int_equal(mqtt_client_start(&legacy, f->broker.port, id, false, sub, 1,
+                                           T_START_MS), 0);
+        mqtt_client_stop(&legacy);
+}
+
+/* While the bridge is stopped, a.Lat is written through MQTT (remote), then locally (local); the
+ * bridge starts again, and after a barrier write a.Lat still holds the local value. */
+static void write_while_away(struct fx *f, const char *remote, const char *local, bool legacy,
+                             const char *barrier_value)
+{
+        stop_bridge(f, SIGTERM);
+        wait_value(f, topic(f, "status", NULL), "offline");
+        if (legacy)
+                legacy_subscription(f);
+        set_taken(f, "a.Lat", remote, false);
+        write_local(f, "a.Lat", local);
+        start_bridge(f);
+        wait_value(f, topic(f, "status", NULL), "online");
+        barrier(f, barrier_value);
+        assert_value(f, "a.Lat", local);
+}
+
+/* Everything up, a.Lat written through MQTT; the replies on its error topic so far. */
+static uint64_t start_writes(struct fx *f, const char *sub_id)
+{
+        start_all(f, sub_id);
+        set(f, "a.Lat", "1.5", 3);
+        wait_value(f, topic(f, "b.Lat", NULL), "1.5");
+        return refusals(f, "a.Lat");
+}
+
+/* A retained set/ is never a write: refused with its reason when it is published (the writes'
+ * subscription keeps the retain flag of a message as published) and again whenever the bridge
+ * subscribes, here after a restart, while a later local write stands. An empty retained message
+ * (the publisher clearing it) is neither a write nor refused. */
+static void test_set_retained(void **state)
+{
+        struct fx *f = *state;
+        uint64_t n;
+
+        n = start_writes(f, "test-retained");
+
+        set_taken(f, "a.Lat", "9.5", true);
+        barrier(f, "2.5");
+        assert_value(f, "a.Lat", "1.5");
+        wait_refusal(f, "a.Lat", n + 1, "retained");
+
+        write_local(f, "a.Lat", "2.5");
+        restart_bridge(f);
+        barrier(f, "3.5");
+        assert_value(f, "a.Lat", "2.5");
+        wait_refusal(f, "a.Lat", n + 2, "retained");
+
+        set_taken(f, "a.Lat", "", true);        /* cleared */
+        barrier(f, "4.5");
+        assert_int_equal(refusals(f, "a.Lat"), n + 2);
+        assert_value(f, "a.Lat", "2.5");
+}
+
+/* A write published while the bridge is away never comes back after a later local write:
+ *  - in the persistent session an older bridge left subscribed to set/# (here made by hand) it
+ *    waits, arrives on the bridge's own connection at its start and is refused, "queued";
+ *  - the bridge then drops that subscription, and its writes' session is clean: a write
+ *    published while it is away again is dropped by the broker, neither applied nor answered. */
+static void test_set_queued(void **state)
+{
+        struct fx *f = *state;
+        uint64_t n;
+
+        n = start_writes(f, "test-queued");
+
+        write_while_away(f, "7.5", "2.5", true, "3.5");
+        wait_refusal(f, "a.Lat", n + 1, "queued");
+
+        write_while_away(f, "8.5", "4.5", false, "5.5");
+        assert_int_equal(refusals(f, "a.Lat"), n + 1);
+}
+
 /* ---- events ---------------------------------------------------------------------------------- */
 
 static size_t pkt(const char *body, char *out)
@@ -442,20 +621,6 @@ static void mediator_login(struct fx *f)
         assert_non_null(strstr(buf, "01\t"));
         n = pkt("51\t010:0.2.3\t012:0\t", buf);
         assert_int_equal(harness_write_all(f->master, buf, n, T_WAIT_MS), 0);
-}
-
-/* The last lines of the bridge's and the broker's logs, for a failure message. */
-static void dump_logs(struct fx *f)
-{
-        const char *logs[] = { f->bridge.log_path, f->broker.log };
-
-        for (size_t i = 0; i < 2; i++) {
-                char cmd[PATH_BUF * 2];
-
-                snprintf(cmd, sizeof(cmd), "tail -n 40 %s >&2", logs[i]);
-                if (system(cmd) != 0)
-                        print_message("(no log %s)\n", logs[i]);
-        }
 }
 
 /* The CIRCE link's counters, for a failure message: did the daemon get every packet? */
@@ -896,6 +1061,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_events_connection_dropped, setup,
                                                 teardown),
                 cmocka_unit_test_setup_teardown(test_set_bad_topics, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_set_retained, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_set_queued, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_tls_password, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wrong_password, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wrong_ca, setup, teardown),

@@ -141,7 +141,7 @@ static void publish_stats(struct main_ctx *ctx)
         if (v == ctx->stats_version)
                 return;
         n = bridge_counters_json(ctx->b, json, sizeof(json));
-        bridge_format_topic(topic, sizeof(topic), bridge_base(ctx->b), "bridge", NULL);
+        bridge_format_topic(topic, sizeof(topic), bridge_base(ctx->b), BRIDGE_TOPIC_BRIDGE, NULL);
         if (n >= 0 && sink->publish(sink->arg, topic, json, (size_t)n, 1, true, NULL) == 0)
                 ctx->stats_version = v;
 }

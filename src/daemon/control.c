@@ -67,6 +67,7 @@
 #define CONTROL_GROUPS_MAX      65536   /* NGROUPS_MAX on Linux */
 #define CONTROL_PW_BUF          16384   /* getpwuid_r buffer */
 #define CONTROL_ACCEPT_PAUSE_MS 100     /* out of fds: stop accepting this long (no spinning) */
+#define CONTROL_IDLE_WHY_MAX    80      /* "no request for N ms: closing the connection" */
 
 #define CONTROL_ERR_DENIED      "ERR 13 permission denied\n"
 #define CONTROL_ERR_BUSY        "ERR 87 too many control connections\n"
@@ -565,7 +566,7 @@ static void control_on_kick(struct evloop *loop, struct evloop_timer *t, void *a
 static void client_on_idle(struct evloop *loop, struct evloop_timer *t, void *arg)
 {
         struct control_client *cl = arg;
-        char why[CTLP_REPLY_LINE_MAX];
+        char why[CONTROL_IDLE_WHY_MAX];
 
         (void)loop;
         (void)t;

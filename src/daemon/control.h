@@ -37,7 +37,8 @@
  * No peer can keep the others out (every refusal is one "ERR 87 <why>" line, then the close):
  *   - root and the daemon's own user ("privileged") may take any free slot; every other uid may
  *     hold at most CONTROL_CLIENTS_PER_UID connections, and none of the last
- *     CONTROL_CLIENTS_RESERVED free slots, so that root's `slctl` always gets in;
+ *     CONTROL_CLIENTS_RESERVED free slots, so that root's `slctl` gets in whatever other users
+ *     hold;
  *   - a connection with no request pending for CONTROL_IDLE_TIMEOUT_MS (since its accept or
  *     its last answer; a partial line does not count) gets "ERR 110 no request for N ms: closing
  *     the connection" and is closed. A pending request (a command waiting for its peer, a

@@ -91,6 +91,7 @@ struct bench {
         struct input in;
 };
 
+static char sock_dir[] = "/tmp/fuzz_control_conn.XXXXXX";
 static char sock_path[sizeof(((struct sockaddr_un *)NULL)->sun_path)];
 static char flood_line[FLOOD_LINE + 1];
 
@@ -456,17 +457,23 @@ static void step(struct bench *b)
 
 /* ---- one input ------------------------------------------------------------------------------ */
 
+/* Every input's server unlinks its socket when freed: the directory is empty by then. */
+static void remove_dir(void)
+{
+        rmdir(sock_dir);
+}
+
 static void init_once(void)
 {
         static bool done;
-        char dir[] = "/tmp/fuzz_control_conn.XXXXXX";
         int null_fd;
 
         if (done)
                 return;
         done = true;
-        CHECK(mkdtemp(dir) != NULL);
-        snprintf(sock_path, sizeof(sock_path), "%s/c.sock", dir);
+        CHECK(mkdtemp(sock_dir) != NULL);
+        atexit(remove_dir);
+        snprintf(sock_path, sizeof(sock_path), "%s/c.sock", sock_dir);
         memset(flood_line, 'f', FLOOD_LINE);
         /* Quiet: slow readers and refusals are logged, thousands of times a second here. */
         null_fd = open("/dev/null", O_WRONLY | O_CLOEXEC);

@@ -77,6 +77,11 @@ int slctl_open(struct slctl *s, int allow_dead)
         if (r == -EINVAL)
                 return slctl_error(s, "bad instance name \"%s\" (letters, digits, '_', '-', '.')",
                                    s->instance);
+        /* The tables themselves are closed to this user: reads are refused, not only writes. */
+        if (r == -EACCES)
+                return slctl_error(s, "cannot read instance \"%s\": permission denied (its "
+                                   "daemon has a group, which this user is not in: reading, "
+                                   "writing and commands all need it)", s->instance);
         if (r < 0)
                 return slctl_error(s, "cannot open instance \"%s\": %s", s->instance,
                                    sl_strerror(r));

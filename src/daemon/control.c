@@ -14,14 +14,29 @@
  * the control_reply_*() call, so an engine is never re-entered while it answers.
  *
  * Lifetimes: a request outlives its client (and the whole server): when the client goes, the
- * request is orphaned (req->client = NULL) and its answer goes nowhere; the request is freed when
- * it is answered. A client is closed only outside its own processing (the `busy` flag defers it).
+ * request is orphaned (req->client = NULL), its gone callback (if any) is told, and its answer
+ * goes nowhere; the request is freed when it is answered. A client is closed only outside its own
+ * processing (the `busy` flag defers it).
+ *
+ * A peer that is gone is noticed at once, whatever it asked: the fd stays polled for POLLHUP
+ * (EVLOOP_HANGUP) also after EOF, when nothing else is asked of it. A peer that only shut its
+ * sending side (shutdown(SHUT_WR), socat at the end of its input) is still reading and keeps its
+ * answers; one that closed altogether is dropped, and a stream it asked for (a recorder) ends
+ * through the gone callback, not at its next write, which on a silent link may never come.
+ *
+ * Admission (control.h): the peer's credentials are read before a slot is given, so that the
+ * bound per uid and the slots kept for root and the daemon's user are decided at accept(), and a
+ * refused peer is told why. Every client has an idle timer that runs while it has no request
+ * pending (from its accept, then from each answer): a connection that holds a slot without
+ * asking anything is closed after the idle timeout, a partial line notwithstanding (a line
+ * dribbled in a byte at a time does not keep it).
  */
 #define _GNU_SOURCE     /* struct ucred, SO_PEERCRED, accept4 */
 #include "daemon/control.h"
 
 #include <errno.h>
 #include <grp.h>
+#include <inttypes.h>
 #include <poll.h>
 #include <pwd.h>
 #include <stdarg.h>
@@ -52,9 +67,17 @@
 #define CONTROL_GROUPS_MAX      65536   /* NGROUPS_MAX on Linux */
 #define CONTROL_PW_BUF          16384   /* getpwuid_r buffer */
 #define CONTROL_ACCEPT_PAUSE_MS 100     /* out of fds: stop accepting this long (no spinning) */
+#define CONTROL_IDLE_WHY_MAX    80      /* "no request for N ms: closing the connection" */
 
 #define CONTROL_ERR_DENIED      "ERR 13 permission denied\n"
 #define CONTROL_ERR_BUSY        "ERR 87 too many control connections\n"
+#define CONTROL_STR(x)          #x
+#define CONTROL_XSTR(x)         CONTROL_STR(x)
+#define CONTROL_ERR_USER        "ERR 87 too many control connections from this user (at most " \
+                                CONTROL_XSTR(CONTROL_CLIENTS_PER_UID) " each)\n"
+#define CONTROL_ERR_RESERVED    "ERR 87 too many control connections (the last " \
+                                CONTROL_XSTR(CONTROL_CLIENTS_RESERVED) " are kept for root " \
+                                "and the daemon's user)\n"
 
 struct control_client {
         struct control *ctl;
@@ -65,6 +88,7 @@ struct control_client {
         bool closing;                   /* close once the output queue is empty */
         bool broken;                    /* write failed or the peer is gone: close at once */
         bool busy;                      /* inside client_process(): closing is deferred */
+        struct evloop_timer idle;       /* runs while no request is pending */
         size_t in_len;
         char in[CTLP_LINE_MAX];
         char *out;                      /* queued bytes are out[out_off..out_len) */
@@ -76,6 +100,8 @@ struct control_request {
         struct control_client *client;  /* NULL once the client is gone */
         struct control *ctl;            /* NULL once the server is gone */
         struct control_request *prev, *next;    /* in ctl->orphans while orphaned */
+        control_gone_fn on_gone;        /* control_request_on_gone() */
+        void *gone_arg;
         int argc;
         char *argv[CTLP_WORDS_MAX + 1];
         char line[CTLP_LINE_MAX];
@@ -95,12 +121,15 @@ struct control {
         struct evloop_timer kick;       /* resumes clients whose answer came asynchronously */
         struct evloop_timer resume;     /* accepting again after running out of fds */
         struct log_ratelimit accept_rl;
+        struct log_ratelimit refuse_rl;         /* peers refused a slot */
+        uint64_t idle_ms;                       /* CONTROL_IDLE_TIMEOUT_MS unless a test says */
         struct control_client *clients[CONTROL_CLIENTS_MAX];
         struct control_request *orphans;        /* requests whose client left, unanswered */
         struct control_stats stats;
 };
 
 static void client_on_event(struct evloop *loop, int fd, unsigned revents, void *arg);
+static void client_on_idle(struct evloop *loop, struct evloop_timer *t, void *arg);
 
 /* ---------------------------------------------------------------------------------------------
  * Peer credentials */
@@ -167,12 +196,19 @@ out:
         return yes;
 }
 
+/* Root and the daemon's own user: always served, not bound per uid, and the only ones that may
+ * take the last CONTROL_CLIENTS_RESERVED slots. */
+static bool peer_privileged(const struct control *c, const struct ucred *cred)
+{
+        return cred->uid == 0 || cred->uid == c->uid;
+}
+
 /* The rule of control.h: the daemon's uid, root, or a member of the configured group. */
 static bool peer_allowed(const struct control *c, int fd, const struct ucred *cred)
 {
         int r;
 
-        if (cred->uid == 0 || cred->uid == c->uid)
+        if (peer_privileged(c, cred))
                 return true;
         if (!c->has_group)
                 return false;
@@ -189,7 +225,8 @@ static bool peer_allowed(const struct control *c, int fd, const struct ucred *cr
 
 static void client_update_events(struct control_client *cl)
 {
-        unsigned ev = 0;
+        /* Also after EOF, when nothing else is asked: a peer gone for good must be seen. */
+        unsigned ev = EVLOOP_HANGUP;
 
         if (cl->broken)
                 return;
@@ -296,17 +333,30 @@ static void request_orphan(struct control_request *req)
 static void client_close(struct control_client *cl)
 {
         struct control *c = cl->ctl;
+        struct control_request *gone = cl->pending;
 
-        if (cl->pending)
-                request_orphan(cl->pending);
+        if (gone)
+                request_orphan(gone);
         for (unsigned i = 0; i < CONTROL_CLIENTS_MAX; i++)
                 if (c->clients[i] == cl)
                         c->clients[i] = NULL;
         c->stats.clients--;
+        evloop_timer_cancel(&cl->idle);
         evloop_del_fd(c->loop, cl->fd);
         close(cl->fd);
         free(cl->out);
         free(cl);
+        /* Last: the callee may answer (and so free) the request at once. */
+        if (gone && gone->on_gone)
+                gone->on_gone(gone, gone->gone_arg);
+}
+
+/* (Re)starts the idle clock of a client that has no request pending. */
+static void client_idle_arm(struct control_client *cl)
+{
+        /* Cannot fail short of EVLOOP_TIMERS_MAX, far above CONTROL_CLIENTS_MAX; the client
+         * would then merely keep its slot until it leaves. */
+        evloop_timer_arm(&cl->idle, cl->ctl->idle_ms, 0);
 }
 
 /* Closes the client if it is done or broken; returns true if it did. */
@@ -367,6 +417,9 @@ static void client_handle_line(struct control_client *cl, const char *line, size
         struct control_request *req;
         enum ctlp_reason reason;
 
+        /* A line answered is activity: the idle clock starts again (stopped below if the line
+         * becomes a pending request). */
+        client_idle_arm(cl);
         if (!cl->authorized) {
                 c->stats.denied++;
                 log_info("control: pid %ld uid %ld: permission denied", (long)cl->cred.pid,
@@ -393,6 +446,7 @@ static void client_handle_line(struct control_client *cl, const char *line, size
         req->client = cl;
         req->ctl = c;
         cl->pending = req;
+        evloop_timer_cancel(&cl->idle);
         c->stats.requests++;
         log_debug("control: pid %ld: %s", (long)cl->cred.pid, req->argv[0]);
         c->fn(req, req->argc, req->argv, c->arg);
@@ -508,6 +562,26 @@ static void control_on_kick(struct evloop *loop, struct evloop_timer *t, void *a
         }
 }
 
+/* A client held its slot for the idle timeout without a request pending: told why, closed. */
+static void client_on_idle(struct evloop *loop, struct evloop_timer *t, void *arg)
+{
+        struct control_client *cl = arg;
+        char why[CONTROL_IDLE_WHY_MAX];
+
+        (void)loop;
+        (void)t;
+        cl->ctl->stats.idle_closed++;
+        log_debug("control: pid %ld uid %ld: idle for %" PRIu64 " ms, closing",
+                  (long)cl->cred.pid, (long)cl->cred.uid, cl->ctl->idle_ms);
+        snprintf(why, sizeof(why), "no request for %" PRIu64 " ms: closing the connection",
+                 cl->ctl->idle_ms);
+        client_send_error(cl, -ETIMEDOUT, why);
+        /* At once, even with an old reply still unread: a client that neither asks nor reads
+         * for that long has no claim on its slot. */
+        cl->broken = true;
+        client_settle(cl);
+}
+
 /* A request was answered: the client may take its next line, or be done. */
 static void request_finish(struct control_request *req)
 {
@@ -525,6 +599,7 @@ static void request_finish(struct control_request *req)
         }
         if (cl) {
                 cl->pending = NULL;
+                client_idle_arm(cl);
                 /* Buffered input (a next line, an overlong one, a last one before EOF) is
                  * taken up from the loop, not from inside the engine's reply call. */
                 if (!cl->busy && !client_settle(cl) && (cl->eof || cl->in_len > 0))
@@ -580,6 +655,12 @@ void control_reply_error(struct control_request *req, int err, const char *fmt, 
         request_finish(req);
 }
 
+void control_request_on_gone(struct control_request *req, control_gone_fn fn, void *arg)
+{
+        req->on_gone = fn;
+        req->gone_arg = arg;
+}
+
 int control_request_alive(const struct control_request *req)
 {
         return req->client && !req->client->broken;
@@ -597,6 +678,14 @@ void control_get_stats(const struct control *c, struct control_stats *ret_stats)
         *ret_stats = c->stats;
 }
 
+void control_set_idle_timeout(struct control *c, unsigned ms)
+{
+        c->idle_ms = ms;
+        for (unsigned i = 0; i < CONTROL_CLIENTS_MAX; i++)
+                if (c->clients[i] && !c->clients[i]->pending)
+                        client_idle_arm(c->clients[i]);
+}
+
 /* ---------------------------------------------------------------------------------------------
  * Listening socket */
 
@@ -609,17 +698,62 @@ static void control_refuse(struct control *c, int fd, const char *msg)
         close(fd);
 }
 
+/* Whether a peer with these credentials may have a slot (control.h): NULL and the free slot in
+ * ret_slot, or the refusal line that says why (counted). */
+static const char *control_admit(struct control *c, const struct ucred *cred, unsigned *ret_slot)
+{
+        unsigned slot = CONTROL_CLIENTS_MAX, used = 0, same_uid = 0;
+
+        for (unsigned i = 0; i < CONTROL_CLIENTS_MAX; i++) {
+                if (!c->clients[i]) {
+                        if (slot == CONTROL_CLIENTS_MAX)
+                                slot = i;
+                        continue;
+                }
+                used++;
+                same_uid += c->clients[i]->cred.uid == cred->uid;
+        }
+        if (slot == CONTROL_CLIENTS_MAX) {
+                c->stats.refused_full++;
+                return CONTROL_ERR_BUSY;
+        }
+        if (!peer_privileged(c, cred)) {
+                if (same_uid >= CONTROL_CLIENTS_PER_UID) {
+                        c->stats.refused_user++;
+                        log_ratelimited(&c->refuse_rl, LOG_PRIO_WARNING, "control: refusing "
+                                        "pid %ld: uid %ld holds %u connections already",
+                                        (long)cred->pid, (long)cred->uid, same_uid);
+                        return CONTROL_ERR_USER;
+                }
+                if (CONTROL_CLIENTS_MAX - used <= CONTROL_CLIENTS_RESERVED) {
+                        c->stats.refused_reserved++;
+                        log_ratelimited(&c->refuse_rl, LOG_PRIO_WARNING, "control: refusing "
+                                        "pid %ld uid %ld: only the slots kept for root and the "
+                                        "daemon's user are free", (long)cred->pid,
+                                        (long)cred->uid);
+                        return CONTROL_ERR_RESERVED;
+                }
+        }
+        *ret_slot = slot;
+        return NULL;
+}
+
 static void control_accept_one(struct control *c, int fd)
 {
         struct control_client *cl;
-        socklen_t len = sizeof(struct ucred);
+        struct ucred cred;
+        socklen_t len = sizeof(cred);
+        const char *refusal;
         unsigned slot;
 
-        for (slot = 0; slot < CONTROL_CLIENTS_MAX && c->clients[slot]; slot++)
-                ;
-        if (slot == CONTROL_CLIENTS_MAX) {
-                c->stats.refused_full++;
-                control_refuse(c, fd, CONTROL_ERR_BUSY);
+        if (getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cred, &len) < 0) {
+                log_warn("control: SO_PEERCRED");
+                close(fd);
+                return;
+        }
+        refusal = control_admit(c, &cred, &slot);
+        if (refusal) {
+                control_refuse(c, fd, refusal);
                 return;
         }
         cl = calloc(1, sizeof(*cl));
@@ -629,18 +763,15 @@ static void control_accept_one(struct control *c, int fd)
         }
         cl->ctl = c;
         cl->fd = fd;
-        if (getsockopt(fd, SOL_SOCKET, SO_PEERCRED, &cl->cred, &len) < 0) {
-                log_warn("control: SO_PEERCRED");
-                free(cl);
-                close(fd);
-                return;
-        }
+        cl->cred = cred;
         cl->authorized = peer_allowed(c, fd, &cl->cred);
-        if (evloop_add_fd(c->loop, fd, POLLIN, client_on_event, cl) < 0) {
+        if (evloop_add_fd(c->loop, fd, POLLIN | EVLOOP_HANGUP, client_on_event, cl) < 0) {
                 free(cl);
                 close(fd);
                 return;
         }
+        evloop_timer_init(&cl->idle, c->loop, client_on_idle, cl);
+        client_idle_arm(cl);
         c->clients[slot] = cl;
         c->stats.accepted++;
         c->stats.clients++;
@@ -734,9 +865,12 @@ int control_new(struct evloop *loop, const char *path, gid_t group, int has_grou
         c->has_group = has_group != 0;
         c->fn = fn;
         c->arg = arg;
+        c->idle_ms = CONTROL_IDLE_TIMEOUT_MS;
         evloop_timer_init(&c->kick, loop, control_on_kick, c);
         evloop_timer_init(&c->resume, loop, control_on_resume, c);
         log_ratelimit_init(&c->accept_rl, "control accept", LOG_RATELIMIT_INTERVAL_MS,
+                           LOG_RATELIMIT_BURST);
+        log_ratelimit_init(&c->refuse_rl, "control refusals", LOG_RATELIMIT_INTERVAL_MS,
                            LOG_RATELIMIT_BURST);
         c->fd = socket(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0);
         if (c->fd < 0) {

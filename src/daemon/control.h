@@ -33,6 +33,19 @@
  * member of the configured group (primary or supplementary); others get "ERR 13 permission
  * denied" and the connection is closed. Bounded: CONTROL_CLIENTS_MAX connections, one pending
  * request each; an overlong line or a client that stops reading is disconnected (counted).
+ *
+ * No peer can keep the others out (every refusal is one "ERR 87 <why>" line, then the close):
+ *   - root and the daemon's own user ("privileged") may take any free slot; every other uid may
+ *     hold at most CONTROL_CLIENTS_PER_UID connections, and none of the last
+ *     CONTROL_CLIENTS_RESERVED free slots, so that root's `slctl` gets in whatever other users
+ *     hold;
+ *   - a connection with no request pending for CONTROL_IDLE_TIMEOUT_MS (since its accept or
+ *     its last answer; a partial line does not count) gets "ERR 110 no request for N ms: closing
+ *     the connection" and is closed. A pending request (a command waiting for its peer, a
+ *     recorder's stream) is never timed out here: its engine bounds it;
+ *   - a peer that closes is dropped at once, even after it shut its sending side, and a pending
+ *     request's gone callback is told (control_request_on_gone()). A peer that only shut its
+ *     sending side (shutdown(SHUT_WR)) still gets its answers.
  */
 #ifndef SHAREDLINK_DAEMON_CONTROL_H
 #define SHAREDLINK_DAEMON_CONTROL_H
@@ -45,6 +58,9 @@
 #include "proto/control.h"
 
 #define CONTROL_CLIENTS_MAX     64      /* connections at once */
+#define CONTROL_CLIENTS_PER_UID 16      /* connections of one uid other than root/the daemon's */
+#define CONTROL_CLIENTS_RESERVED 8      /* last free slots only root/the daemon's user may take */
+#define CONTROL_IDLE_TIMEOUT_MS 30000   /* a connection with no request pending is closed */
 #define CONTROL_REPLY_MAX       65536   /* bytes of reply queued per client */
 
 struct control;
@@ -54,6 +70,9 @@ struct control_request;
 struct control_stats {
         uint64_t accepted;              /* connections accepted */
         uint64_t refused_full;          /* refused: CONTROL_CLIENTS_MAX already connected */
+        uint64_t refused_user;          /* refused: its uid held CONTROL_CLIENTS_PER_UID */
+        uint64_t refused_reserved;      /* refused: only CONTROL_CLIENTS_RESERVED slots free */
+        uint64_t idle_closed;           /* closed after CONTROL_IDLE_TIMEOUT_MS without a request */
         uint64_t denied;                /* peers outside uid/root/group, answered ERR 13 */
         uint64_t requests;              /* requests handed to the handler */
         uint64_t bad_requests;          /* malformed lines answered ERR without the handler */
@@ -70,6 +89,10 @@ struct control_stats {
  * control_reply_error(), now or later. argv points into the request and is valid until then.
  */
 typedef void (*control_request_fn)(struct control_request *req, int argc, char **argv, void *arg);
+
+/* Called once when req's client goes before req is answered (req is then orphaned, its answer
+ * goes nowhere); the callee may answer req at once. */
+typedef void (*control_gone_fn)(struct control_request *req, void *arg);
 
 /*
  * Binds the socket (replacing a stale one left by a dead daemon; refusing, -EADDRINUSE, one a
@@ -98,11 +121,19 @@ void control_reply_error(struct control_request *req, int err, const char *fmt, 
 /* Whether the client that sent req is still connected (an engine may stop waiting early). */
 int control_request_alive(const struct control_request *req);
 
+/* Asks to be told when req's client goes before req is answered (a stream that may have
+ * nothing to write for a long time ends then, rather than at its next write). */
+void control_request_on_gone(struct control_request *req, control_gone_fn fn, void *arg);
+
 /* Reply bytes queued for req's client and not sent yet (0 once it is gone): a streaming answer
  * (a recorder) keeps under its own bound with it instead of being disconnected as a slow reader. */
 size_t control_request_queued(const struct control_request *req);
 
 /* Copies the counters. */
 void control_get_stats(const struct control *c, struct control_stats *ret_stats);
+
+/* Replaces CONTROL_IDLE_TIMEOUT_MS (for tests, which cannot wait half a minute); the idle clocks
+ * running now start again with it. */
+void control_set_idle_timeout(struct control *c, unsigned ms);
 
 #endif

@@ -31,9 +31,11 @@ static void request_stats(struct daemon *d, struct control_request *req)
         control_reply_data(req, "control clients=%u accepted=%" PRIu64 " refused_full=%" PRIu64
                            " denied=%" PRIu64 " requests=%" PRIu64 " bad_requests=%" PRIu64
                            " overlong=%" PRIu64 " slow_readers=%" PRIu64 " orphaned=%" PRIu64
-                           " orphan_answers=%" PRIu64, cs.clients, cs.accepted, cs.refused_full,
-                           cs.denied, cs.requests, cs.bad_requests, cs.overlong, cs.slow_readers,
-                           cs.orphaned, cs.orphan_answers);
+                           " orphan_answers=%" PRIu64 " refused_user=%" PRIu64
+                           " refused_reserved=%" PRIu64 " idle_closed=%" PRIu64, cs.clients,
+                           cs.accepted, cs.refused_full, cs.denied, cs.requests, cs.bad_requests,
+                           cs.overlong, cs.slow_readers, cs.orphaned, cs.orphan_answers,
+                           cs.refused_user, cs.refused_reserved, cs.idle_closed);
         for (unsigned k = 0; k < DAEMON_OUT_STAGES; k++) {
                 struct stages_summary sum = { 0 };
 

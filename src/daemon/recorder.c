@@ -90,6 +90,21 @@ struct recorder_tap *recorder_tap_free(struct recorder_tap *tap, const char *why
         return NULL;
 }
 
+/* The client of a recorder left (control_request_on_gone): the recorder ends now, not at the
+ * link's next chunk, which on a silent link may never come, so its slot of
+ * RECORDER_PER_LINK_MAX is free again at once. */
+static void recorder_on_gone(struct control_request *req, void *arg)
+{
+        struct recorder_tap *tap = arg;
+
+        for (unsigned i = 0; i < tap->n; i++) {
+                if (tap->rec[i].req == req) {
+                        recorder_end(tap, i, "client gone");
+                        return;
+                }
+        }
+}
+
 /* The wall-clock time now, UTC, ISO 8601 with microseconds. */
 static void recorder_utc_now(char *buf, size_t size)
 {
@@ -114,6 +129,7 @@ int recorder_add(struct recorder_tap *tap, struct control_request *req)
         memset(r, 0, sizeof(*r));
         r->req = req;
         r->start_ns = evloop_clock_ns();
+        control_request_on_gone(req, recorder_on_gone, tap);
         recorder_utc_now(start, sizeof(start));
         control_reply_data(req, "%s", REC_HEADER);
         control_reply_data(req, "# link: %s", tap->link);

@@ -65,7 +65,8 @@ int recorder_add(struct recorder_tap *tap, struct control_request *req);
 void recorder_chunk(void *tap, bool out, const uint8_t *data, size_t len);
 
 /* Ends recorders whose client left and writes the pending "# dropped" comments that now fit
- * (the core calls it at every heartbeat). */
+ * (the core calls it at every heartbeat). A recorder whose client closes ends at once anyway
+ * (control_request_on_gone); this catches one whose client broke without closing yet. */
 void recorder_sweep(struct recorder_tap *tap);
 
 /* Whether the tap has a recorder (the channel skips formatting when none). */

@@ -17,7 +17,10 @@ SL_EXPORT const char *sl_strerror(int err)
         case EINVAL:    return "invalid argument, or a value the wire cannot carry "
                                "(printable ASCII except | [ ], at most 63 bytes)";
         case EPERM:     return "not an outbound variable: only the daemon writes it";
-        case EACCES:    return "permission denied (writes and commands need the daemon's group)";
+        /* Not only writes: with a group configured, reading the tables needs it too (.in is
+         * 0640 then), and a non-member's sl_open fails with this. */
+        case EACCES:    return "permission denied: not in the daemon's group (writes and "
+                               "commands need it, and so do reads when the daemon has one)";
         case EAGAIN:    return "busy: the value kept changing or the tables are being set up; try again";
         case EBUSY:     return "another writer kept the variable busy; try again";
         case ECANCELED: return "write abandoned: the daemon took the slot back from a stalled writer";

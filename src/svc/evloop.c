@@ -27,7 +27,8 @@
 #define EVLOOP_INITIAL_CAP      16
 #define EVLOOP_SIGINFO_BATCH    8       /* signalfd records read per read(2) */
 #define EVLOOP_SIGNO_MAX        65      /* > SIGRTMAX on Linux */
-#define EVLOOP_EVENTS_ALLOWED   (POLLIN | POLLOUT | POLLPRI)
+#define EVLOOP_EVENTS_POLL      (POLLIN | POLLOUT | POLLPRI)
+#define EVLOOP_EVENTS_ALLOWED   (EVLOOP_EVENTS_POLL | EVLOOP_HANGUP)
 #define EVLOOP_EVENTS_ALWAYS    (POLLERR | POLLHUP | POLLNVAL)
 
 struct evloop_io {
@@ -500,9 +501,11 @@ int evloop_run_once(struct evloop *loop)
         evloop_sweep_io(loop);
         n_polled = loop->n_io;
         for (size_t i = 0; i < n_polled; i++) {
-                /* A negative fd makes poll() skip the entry: events 0 means "not now". */
+                /* A negative fd makes poll() skip the entry: events 0 means "not now". With
+                 * EVLOOP_HANGUP alone it is polled with events 0, which poll() still answers
+                 * with POLLHUP/POLLERR. */
                 loop->pfds[i].fd = loop->io[i].events ? loop->io[i].fd : -1;
-                loop->pfds[i].events = (short)loop->io[i].events;
+                loop->pfds[i].events = (short)(loop->io[i].events & EVLOOP_EVENTS_POLL);
                 loop->pfds[i].revents = 0;
         }
         timeout = evloop_next_timeout_ms(loop);

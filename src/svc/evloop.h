@@ -24,7 +24,10 @@
  *   round is first polled in the next round, so it never sees the previous owner's events.
  *   A timer armed from inside a callback does not fire in the same round, even with delay 0.
  * - An fd registered with events 0 is not polled at all (not even for POLLHUP/POLLERR); set
- *   POLLOUT only while output is queued.
+ *   POLLOUT only while output is queued. EVLOOP_HANGUP keeps an fd polled for POLLHUP/POLLERR
+ *   alone while it asks for nothing else (a socket whose peer shut its sending side may still
+ *   go away altogether); its callback must then end the fd or drop EVLOOP_HANGUP, since poll()
+ *   reports a hangup for as long as it lasts.
  * - A callback receiving POLLNVAL (an fd closed without evloop_del_fd) is called once, then the
  *   fd is dropped from the loop, so a forgotten fd cannot make the loop spin.
  * - Signals given to evloop_add_signal() are blocked with pthread_sigmask() and read from a
@@ -43,6 +46,9 @@
 #define EVLOOP_FDS_MAX          1024    /* fds per loop (links, control clients, wakeup fds) */
 #define EVLOOP_TIMERS_MAX       4096    /* armed timers per loop */
 #define EVLOOP_TIMER_IDLE       SIZE_MAX
+/* Not a poll(2) event (those fit in a short): poll the fd for POLLHUP/POLLERR even when it
+ * asks for no other event. */
+#define EVLOOP_HANGUP           0x10000u
 
 struct evloop;
 struct evloop_timer;
@@ -84,7 +90,8 @@ int evloop_new(struct evloop **ret_loop);
 /* Closes the signalfd, unblocks the signals it blocked, disarms every timer; returns NULL. */
 struct evloop *evloop_free(struct evloop *loop);
 
-/* Watches fd for events (POLLIN, POLLOUT, POLLPRI); -EEXIST, -EINVAL, -ENOSPC or -ENOMEM. */
+/* Watches fd for events (POLLIN, POLLOUT, POLLPRI, EVLOOP_HANGUP); -EEXIST, -EINVAL, -ENOSPC or
+ * -ENOMEM. */
 int evloop_add_fd(struct evloop *loop, int fd, unsigned events, evloop_fd_cb cb, void *arg);
 
 /* Changes the events of a watched fd (0 stops polling it); 0 or -ENOENT, -EINVAL. */

@@ -29,6 +29,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/un.h>
@@ -38,6 +39,8 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "daemon/control.h"
+#include "daemon/recorder.h"
 
 #define T_START_MS      15000   /* READY=1 after start or reload (ASan build) */
 #define T_REPLY_MS      5000    /* one control reply */
@@ -54,6 +57,8 @@
 #define LINE_MAX_BYTES  1024    /* CTLP_LINE_MAX */
 #define PATH_BUF        1024    /* any path built from the harness dir */
 #define NOBODY_ID       65534
+#define USERS           4       /* uids holding connections: enough to fill what users may */
+#define USER_CONNECTIONS (CONTROL_CLIENTS_PER_UID + 4)  /* each tries this many */
 
 /* ---------------------------------------------------------------------------------------------
  * Config text */
@@ -594,6 +599,196 @@ static void test_control_permissions(void **state)
         stop_ok(h, SIGTERM);
 }
 
+/* The "key=N" counter of a fresh stats request. */
+static uint64_t stat_now(struct harness *h, const char *key)
+{
+        char reply[REPLY_MAX];
+
+        request(h, "stats", reply, sizeof(reply));
+        return stat_value(reply, key);
+}
+
+/* Reads a recorder's header up to its last line ("# time: ..."): the recorder runs. */
+static void read_record_header(int fd)
+{
+        char line[REPLY_MAX];
+
+        do
+                assert_true(harness_read_until(fd, line, sizeof(line), '\n', T_REPLY_MS) > 0);
+        while (strncmp(line, "DATA # time:", 12) != 0);
+}
+
+/* `record LINK`, shutdown(SHUT_WR), close() (socat when its input ends) on a link that carries
+ * nothing: the client and its recorder are gone from the very next request's stats, with no
+ * other traffic. They were kept until a restart, and RECORDER_PER_LINK_MAX such clients filled
+ * the link's recorders for good, so this goes one past that. No waiting: the daemon sees the
+ * EOF (then the hangup) before the next connection's request, whose data came later and whose fd
+ * is polled after this one's. */
+static void test_control_half_closed_recorder(void **state)
+{
+        struct harness *h = *state;
+        char path[PATH_BUF];
+        int fd;
+
+        start_two(h);
+        socket_path(h, path, sizeof(path));
+        for (unsigned i = 0; i <= RECORDER_PER_LINK_MAX; i++) {
+                fd = harness_connect_unix(path);
+                assert_true(fd >= 0);
+                assert_int_equal(harness_write_all(fd, "record p1\n", 10, T_REPLY_MS), 0);
+                read_record_header(fd);
+                assert_int_equal(shutdown(fd, SHUT_WR), 0);
+                /* Half-closed: still reading, so still served (this stats client is the 2nd). */
+                assert_int_equal(stat_now(h, "clients"), 2);
+                assert_int_equal(stat_now(h, "recorders"), 1);
+                close(fd);
+                assert_int_equal(stat_now(h, "clients"), 1);
+                assert_int_equal(stat_now(h, "recorders"), 0);
+        }
+        assert_int_equal(stat_now(h, "started"), RECORDER_PER_LINK_MAX + 1);
+        stop_ok(h, SIGTERM);
+}
+
+/* What a child holding control connections as another user saw. */
+enum held_count { HELD_SERVED, HELD_USER, HELD_RESERVED, HELD_COUNTS };
+
+struct holder {
+        pid_t pid;
+        unsigned got[HELD_COUNTS];
+};
+
+/* In a child as uid, in the daemon's group through a supplementary group: n connections, each
+ * pinged; the served ones are kept open until the parent kills the child. Reports the counts
+ * through a pipe, or exits 3+ on anything unexpected. */
+static void hold_as(struct holder *hd, const char *path, uid_t uid, unsigned n)
+{
+        const gid_t member = 0;         /* the daemon's group in these tests: root's */
+        pid_t parent = getpid();
+        int report[2];
+        ssize_t got;
+
+        assert_int_equal(pipe2(report, O_CLOEXEC), 0);
+        hd->pid = fork();
+        assert_true(hd->pid >= 0);
+        if (hd->pid == 0) {
+                unsigned counts[HELD_COUNTS] = { 0 };
+                char buf[REPLY_MAX];
+
+                close(report[0]);
+                if (setgroups(1, &member) < 0 || setgid(uid) < 0 || setuid(uid) < 0)
+                        _exit(3);
+                /* Dies with the test, also one that fails before it kills us (set after
+                 * setuid, which clears it). */
+                if (prctl(PR_SET_PDEATHSIG, SIGKILL) < 0 || getppid() != parent)
+                        _exit(9);
+                for (unsigned i = 0; i < n; i++) {
+                        int fd = harness_connect_unix(path);
+
+                        if (fd < 0)
+                                _exit(4);
+                        /* A refused one may be closed before the ping goes (EPIPE): its
+                         * refusal line is read all the same. */
+                        (void)!send(fd, "ping\n", 5, MSG_NOSIGNAL);
+                        if (harness_read_until(fd, buf, sizeof(buf), '\n', T_REPLY_MS) <= 0)
+                                _exit(8);
+                        if (!strncmp(buf, "OK ", 3)) {
+                                counts[HELD_SERVED]++;
+                                continue;       /* held open */
+                        }
+                        if (strncmp(buf, "ERR 87 ", 7) != 0)
+                                _exit(5);
+                        if (strstr(buf, "from this user"))
+                                counts[HELD_USER]++;
+                        else if (strstr(buf, "kept for root"))
+                                counts[HELD_RESERVED]++;
+                        else
+                                _exit(6);
+                        close(fd);
+                }
+                if (write(report[1], counts, sizeof(counts)) != (ssize_t)sizeof(counts))
+                        _exit(7);
+                close(report[1]);
+                for (;;)
+                        pause();
+        }
+        close(report[1]);
+        got = read(report[0], hd->got, sizeof(hd->got));
+        close(report[0]);
+        if (got != (ssize_t)sizeof(hd->got)) {
+                int st = 0;
+
+                waitpid(hd->pid, &st, 0);
+                fail_msg("the child as uid %ld reported nothing: wait status 0x%x", (long)uid, st);
+        }
+}
+
+static void release_holder(struct holder *hd)
+{
+        int st;
+
+        assert_int_equal(kill(hd->pid, SIGKILL), 0);
+        assert_int_equal(waitpid(hd->pid, &st, 0), hd->pid);
+}
+
+/* Group members under other uids try to fill the control socket with idle connections: each uid
+ * gets CONTROL_CLIENTS_PER_UID, and together they never get the last CONTROL_CLIENTS_RESERVED
+ * slots, so root's requests are still served (they were refused "too many control
+ * connections"). Each refusal says why, and is counted. */
+static void test_control_held_by_users(void **state)
+{
+        struct harness *h = *state;
+        char links[2 * LINK_MAX], top[128], path[PATH_BUF], buf[REPLY_MAX];
+        struct holder hd[USERS];
+        const unsigned open_slots = CONTROL_CLIENTS_MAX - CONTROL_CLIENTS_RESERVED;
+        unsigned served = 0, refused_user = 0, refused_reserved = 0;
+        int fds[CONTROL_CLIENTS_RESERVED];
+
+        if (geteuid() != 0) {
+                print_message("not root: cannot play another user\n");
+                skip();
+        }
+        snprintf(top, sizeof(top), "group: %s\n", getgrgid(0)->gr_name);
+        two_links(h, links, sizeof(links), 100, NULL);
+        write_config(h, "a.yaml", top, links, path);
+        start_ok(h, path);
+        socket_path(h, path, sizeof(path));
+
+        for (unsigned u = 0; u < USERS; u++) {
+                unsigned want = open_slots - served < CONTROL_CLIENTS_PER_UID ?
+                                open_slots - served : CONTROL_CLIENTS_PER_UID;
+
+                hold_as(&hd[u], path, NOBODY_ID - u, USER_CONNECTIONS);
+                assert_int_equal(hd[u].got[HELD_SERVED], want);
+                served += want;
+                /* Over its own bound, or (the last one) over what is left to users. */
+                if (want == CONTROL_CLIENTS_PER_UID)
+                        refused_user += hd[u].got[HELD_USER];
+                else
+                        refused_reserved += hd[u].got[HELD_RESERVED];
+                assert_int_equal(hd[u].got[HELD_USER] + hd[u].got[HELD_RESERVED],
+                                 USER_CONNECTIONS - want);
+        }
+        assert_int_equal(served, open_slots);
+
+        /* Root is served, in every slot that is left. */
+        for (unsigned i = 0; i < CONTROL_CLIENTS_RESERVED; i++) {
+                fds[i] = harness_connect_unix(path);
+                assert_true(fds[i] >= 0);
+                assert_true(harness_control_request(fds[i], "ping", buf, sizeof(buf),
+                                                    T_REPLY_MS) > 0);
+                assert_memory_equal(buf, "OK ", 3);
+        }
+        assert_true(harness_control_request(fds[0], "stats", buf, sizeof(buf), T_REPLY_MS) > 0);
+        assert_int_equal(stat_value(buf, "refused_user"), refused_user);
+        assert_int_equal(stat_value(buf, "refused_reserved"), refused_reserved);
+        assert_true(refused_user > 0 && refused_reserved > 0);
+        for (unsigned i = 0; i < CONTROL_CLIENTS_RESERVED; i++)
+                close(fds[i]);
+        for (unsigned u = 0; u < USERS; u++)
+                release_holder(&hd[u]);
+        stop_ok(h, SIGTERM);
+}
+
 /* A socket left by a dead daemon is replaced; one somebody listens on is not (exit 1, and the
  * listener keeps it). */
 static void test_control_stale_and_live(void **state)
@@ -1042,6 +1237,9 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_control_overlong, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_control_clients_max, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_control_permissions, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_control_half_closed_recorder, setup,
+                                                teardown),
+                cmocka_unit_test_setup_teardown(test_control_held_by_users, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_control_stale_and_live, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_second_daemon, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_request_outlives_client, setup, teardown),

@@ -25,6 +25,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <grp.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -75,6 +76,8 @@ struct fixture {
         char err[ERR_SIZE];
         int ignore_sigint;              /* start slctl with SIGINT ignored (as `cmd &` in sh) */
         int no_runtime_env;             /* start slctl without SHAREDLINK_RUNTIME_DIR */
+        uid_t run_uid;                  /* start slctl as this uid, in no group (0: as we are) */
+        int table_group;                /* make_table: tables of a daemon with a group (root) */
 };
 
 static int make_table(struct fixture *f, uint32_t event_capacity, struct shm_table **ret)
@@ -82,6 +85,7 @@ static int make_table(struct fixture *f, uint32_t event_capacity, struct shm_tab
         struct shm_table_config cfg = {
                 .instance = f->h.instance, .vars = vars, .nvars = NVARS, .links = table_links,
                 .nlinks = 2, .adhoc_capacity = 4, .event_capacity = event_capacity,
+                .has_group = f->table_group, .gid = 0,
         };
 
         return shm_table_create(&cfg, ret);
@@ -159,6 +163,9 @@ static void proc_start(struct fixture *f, const char *const *args, struct proc *
                         setenv("SHAREDLINK_RUNTIME_DIR", f->h.dir, 1);
                 if (f->ignore_sigint)
                         signal(SIGINT, SIG_IGN);
+                if (f->run_uid && (setgroups(0, NULL) < 0 || setgid(f->run_uid) < 0 ||
+                                   setuid(f->run_uid) < 0))
+                        _exit(126);
                 dup2(out[1], STDOUT_FILENO);
                 dup2(err[1], STDERR_FILENO);
                 execv(u.m[0], u.m);
@@ -879,6 +886,30 @@ static void test_bad_input(void **state)
 }
 
 /* ---- no daemon ----------------------------------------------------------------------------- */
+
+/* A user outside the group of a daemon that has one: the tables are 0640, so reading is refused
+ * as well as writing, and slctl says so; it said only that writes and commands need the group. */
+static void test_not_a_member(void **state)
+{
+        struct fixture *f = *state;
+
+        if (geteuid() != 0) {
+                print_message("not root: cannot play another user\n");
+                skip();
+        }
+        f->table_group = 1;
+        assert_int_equal(make_table(f, 16, &f->t), 0);
+        f->run_uid = SHMTEST_NOBODY;
+        assert_int_equal(RUN(f, "get", "AutoGpsLat"), 1);
+        if (!strstr(f->err, "permission denied") ||
+            !strstr(f->err, "reading, writing and commands all need it"))
+                fail_msg("slctl get as a non-member said: %s", f->err);
+        /* The library's own words, for every other caller: reads are named too. */
+        assert_non_null(strstr(sl_strerror(-EACCES), "so do reads"));
+        /* Root reads the same tables. */
+        f->run_uid = 0;
+        assert_int_equal(RUN(f, "list"), 0);
+}
 
 static void test_not_running(void **state)
 {
@@ -1670,6 +1701,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_usage, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_help, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_bad_input, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_not_a_member, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_not_running, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_dead_daemon, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_circe, setup_bare, teardown),

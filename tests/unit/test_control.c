@@ -37,11 +37,13 @@
 #define BIG_LINES       400     /* 1.6 MB: more than any socket buffer plus CONTROL_REPLY_MAX */
 #define FILLERS_MAX     4096    /* fds the out-of-fds test may hold */
 #define PAUSES          3       /* accept pauses the out-of-fds test sits through */
+#define T_IDLE_MS       20      /* idle timeout of the idle test */
 
 enum mode {
         MODE_ECHO,              /* OK <argc> <argv...> at once */
         MODE_HOLD,              /* keep the request; the test answers it */
         MODE_FLOOD,             /* BIG_LINES DATA lines, then OK */
+        MODE_STREAM,            /* like MODE_HOLD, and answered as soon as its client goes */
 };
 
 struct fixture {
@@ -50,7 +52,25 @@ struct fixture {
         struct control_request *held[HELD_MAX];
         unsigned n_held;
         unsigned calls;
+        unsigned gone;                  /* gone callbacks seen (MODE_STREAM registers one) */
 };
+
+/* The client of a held request left: answer it at once, as a recorder does. */
+static void on_gone(struct control_request *req, void *arg)
+{
+        struct fixture *f = arg;
+
+        f->gone++;
+        for (unsigned i = 0; i < f->n_held; i++) {
+                if (f->held[i] == req) {
+                        assert_false(control_request_alive(req));
+                        control_reply_ok(req, "nobody reads this");
+                        f->held[i] = NULL;
+                        return;
+                }
+        }
+        fail_msg("gone callback for a request the test does not hold");
+}
 
 static void on_request(struct control_request *req, int argc, char **argv, void *arg)
 {
@@ -67,8 +87,11 @@ static void on_request(struct control_request *req, int argc, char **argv, void 
                 control_reply_ok(req, "%d%s", argc, text);
                 break;
         case MODE_HOLD:
+        case MODE_STREAM:
                 assert_true(f->n_held < HELD_MAX);
                 f->held[f->n_held++] = req;
+                if (f->mode == MODE_STREAM)
+                        control_request_on_gone(req, on_gone, f);
                 break;
         case MODE_FLOOD: {
                 static char big[BIG_LINE + 1];
@@ -414,6 +437,114 @@ static void test_half_close(void **state)
         pump_until(f, clients_n, (void *)0);
 }
 
+/* A client asks for a stream (a recorder), shuts its sending side and later closes (socat when
+ * its input ends): while half-closed it still gets what the stream sends; once closed it is
+ * dropped at once and the stream is told (gone callback), with no other traffic. After its EOF
+ * the server asks nothing of the fd, which must still be polled for the hangup. */
+static void test_half_close_then_close(void **state)
+{
+        struct fixture *f = *state;
+        struct control_stats st;
+        struct rx r = { .fd = client_connect(f) };
+
+        f->mode = MODE_STREAM;
+        client_send(r.fd, "record link\n");
+        assert_int_equal(shutdown(r.fd, SHUT_WR), 0);
+        pump_until(f, held_n, (void *)1);
+        control_reply_data(f->held[0], "chunk");
+        exchange(f, &r, NULL, 1);
+        assert_string_equal(r.buf, "DATA chunk\n");
+        assert_int_equal(f->gone, 0);
+        assert_true(control_request_alive(f->held[0]));
+
+        close(r.fd);
+        pump_until(f, clients_n, (void *)0);
+        assert_int_equal(f->gone, 1);
+        assert_null(f->held[0]);                        /* answered from the callback */
+        control_get_stats(f->srv.ctl, &st);
+        assert_int_equal(st.orphaned, 1);
+        assert_int_equal(st.orphan_answers, 1);
+}
+
+static int gone_n(struct fixture *f, void *arg)
+{
+        return f->gone >= (unsigned)(uintptr_t)arg;
+}
+
+/* The same with the server freed while the stream runs: the callback comes from control_free()
+ * and may answer there. */
+static void test_gone_on_free(void **state)
+{
+        struct fixture *f = *state;
+        int fd = client_connect(f);
+
+        f->mode = MODE_STREAM;
+        client_send(fd, "record link\n");
+        pump_until(f, held_n, (void *)1);
+        f->srv.ctl = control_free(f->srv.ctl);
+        assert_true(gone_n(f, (void *)1));
+        assert_null(f->held[0]);
+        close(fd);
+}
+
+static int idle_closed_n(struct fixture *f, void *arg)
+{
+        struct control_stats st;
+
+        control_get_stats(f->srv.ctl, &st);
+        return st.idle_closed >= (uint64_t)(uintptr_t)arg;
+}
+
+/* Connections with no request pending are closed after the idle timeout (told why), a partial
+ * line notwithstanding; one whose request is pending is not, and its clock starts at the
+ * answer. No timing is assumed: a client accepted earlier has the earlier deadline, so when a
+ * later one is closed, the earlier one's deadline has passed too. */
+static void test_idle_timeout(void **state)
+{
+        struct fixture *f = *state;
+        struct rx a, b, c;
+        struct control_stats st;
+        char want[BUF_MAX];
+
+        snprintf(want, sizeof(want), "ERR 110 no request for %u ms: closing the connection\n",
+                 T_IDLE_MS);
+        control_set_idle_timeout(f->srv.ctl, T_IDLE_MS);
+        f->mode = MODE_HOLD;
+        memset(&a, 0, sizeof(a));
+        memset(&b, 0, sizeof(b));
+        memset(&c, 0, sizeof(c));
+        /* a's request is there before its accept: it is read (io before timers) in the round
+         * after the accept, whatever the timeout, so its clock never runs out first. */
+        a.fd = client_connect(f);
+        client_send(a.fd, "hold\n");
+        pump_until(f, held_n, (void *)1);
+        b.fd = client_connect(f);
+        pump_until(f, clients_n, (void *)2);
+        c.fd = client_connect(f);
+        client_send(c.fd, "partial line, never end");
+        pump_until(f, clients_n, (void *)3);
+
+        pump_until(f, rx_at_eof, &b);
+        assert_string_equal(b.buf, want);
+        pump_until(f, rx_at_eof, &c);
+        assert_string_equal(c.buf, want);
+        control_get_stats(f->srv.ctl, &st);
+        assert_int_equal(st.idle_closed, 2);
+        assert_int_equal(st.clients, 1);
+        assert_true(control_request_alive(f->held[0]));
+
+        /* Answered: idle from now on. */
+        control_reply_ok(f->held[0], "held");
+        pump_until(f, rx_at_eof, &a);
+        assert_memory_equal(a.buf, "OK held\n", 8);
+        assert_string_equal(a.buf + 8, want);
+        pump_until(f, idle_closed_n, (void *)3);
+        pump_until(f, clients_n, (void *)0);
+        close(a.fd);
+        close(b.fd);
+        close(c.fd);
+}
+
 /* CTLP_LINE_MAX bytes with the '\n' is a line; one more byte is answered ERR 90 and the
  * connection is closed, also when the long line waited behind a pending request. */
 static void test_overlong(void **state)
@@ -630,6 +761,9 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_send_and_close, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_server_freed_first, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_half_close, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_half_close_then_close, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_gone_on_free, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_idle_timeout, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_overlong, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_hangup_full_buffer, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_slow_reader, setup, teardown),

@@ -17,6 +17,7 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -150,6 +151,42 @@ static void test_fd_basic(void **state)
         evloop_free(loop);
         close(p[0]);
         close(p[1]);
+}
+
+/* EVLOOP_HANGUP alone: a socket whose peer only shut its sending side (readable for ever, at
+ * EOF) is not reported, so nothing spins; the peer's full close is, as POLLHUP. Events 0 would
+ * never report it. */
+static void test_fd_hangup_only(void **state)
+{
+        struct evloop *loop;
+        struct evloop_timer guard, kick;
+        struct fdctx rd = { 0 };
+        int sp[2];
+
+        (void)state;
+        assert_int_equal(evloop_new(&loop), 0);
+        arm_guard(loop, &guard);
+        evloop_timer_init(&kick, loop, on_timer_exit, NULL);
+        assert_int_equal(socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0, sp),
+                         0);
+        assert_int_equal(evloop_add_fd(loop, sp[0], EVLOOP_HANGUP, on_fd, &rd), 0);
+
+        /* Half-closed: POLLIN|POLLRDHUP for ever, none of which was asked for. */
+        assert_int_equal(shutdown(sp[1], SHUT_WR), 0);
+        assert_int_equal(evloop_timer_arm(&kick, 0, 0), 0);
+        assert_int_equal(evloop_run(loop), 0);
+        assert_int_equal(rd.calls, 0);
+
+        /* Gone altogether: reported without waiting for a timer. */
+        close(sp[1]);
+        assert_int_equal(evloop_run_once(loop), 0);
+        assert_int_equal(rd.calls, 1);
+        assert_true(rd.last_revents & POLLHUP);
+        assert_false(rd.last_revents & POLLIN);
+
+        evloop_timer_cancel(&guard);
+        evloop_free(loop);
+        close(sp[0]);
 }
 
 /* A POLLNVAL fd (closed behind the loop's back) is reported once and then dropped. */
@@ -760,6 +797,7 @@ int main(void)
 {
         const struct CMUnitTest tests[] = {
                 cmocka_unit_test(test_fd_basic),
+                cmocka_unit_test(test_fd_hangup_only),
                 cmocka_unit_test(test_fd_nval_dropped),
                 cmocka_unit_test(test_fd_removal_during_dispatch),
                 cmocka_unit_test(test_fd_mod_during_dispatch),

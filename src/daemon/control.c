@@ -49,8 +49,8 @@
 #include <sys/un.h>
 #include <unistd.h>
 
-#include "svc/log.h"
 #include "proto/control.h"
+#include "svc/log.h"
 
 #ifndef SO_PEERGROUPS
 #define SO_PEERGROUPS           59      /* Linux 4.13; the value is the same on every arch */

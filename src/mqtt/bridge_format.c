@@ -8,6 +8,7 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "proto/sharedlink.h"
 #include "svc/json.h"
 
 #define NS_PER_MS               1000000u
@@ -62,7 +63,7 @@ int bridge_format_name_ok(const char *name)
         if (!name[0] || strlen(name) >= SL_NAME_SIZE)
                 return 0;
         for (const char *p = name; *p; p++)
-                if (*p < 0x21 || *p > 0x7e || *p == '/' || *p == '+' || *p == '#')
+                if (!slp_name_byte(*p))         /* the tables' own rule: never '/', '+' or '#' */
                         return 0;
         for (size_t i = 0; i < sizeof(reserved_words) / sizeof(reserved_words[0]); i++)
                 if (!strcmp(name, reserved_words[i]))

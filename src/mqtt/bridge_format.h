@@ -61,9 +61,9 @@ enum bridge_refusal {
 /* "<base>/<a>[/<b>]" into buf (BRIDGE_TOPIC_MAX); b may be NULL. 0 or -ENAMETOOLONG. */
 int bridge_format_topic(char *buf, size_t size, const char *base, const char *a, const char *b);
 
-/* 1 when a variable or link name can be a topic level under base: non-empty, printable ASCII
- * without '/', '+', '#', and not one of the bridge's own words (set, events, links, status,
- * bridge); 0 otherwise. */
+/* 1 when a variable or link name can be a topic level under base: a name the tables can hold
+ * (1..47 bytes of letters, digits, _ . -: slp_name_byte, the one rule of every name) and not one
+ * of the bridge's own words (set, events, links, status, bridge); 0 otherwise. */
 int bridge_format_name_ok(const char *name);
 
 /*

@@ -38,6 +38,8 @@ static void test_topics(void **state)
         assert_false(bridge_format_name_ok("a+"));
         assert_false(bridge_format_name_ok("#"));
         assert_false(bridge_format_name_ok("a b"));
+        assert_false(bridge_format_name_ok("a:b"));            /* no name the tables can hold */
+        assert_false(bridge_format_name_ok("a\"b"));
         assert_false(bridge_format_name_ok("status"));          /* our own topics */
         assert_false(bridge_format_name_ok("events"));
         assert_false(bridge_format_name_ok("set"));

@@ -6,6 +6,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <linux/membarrier.h>
@@ -19,7 +20,6 @@
 #include <sharedlink.h>
 
 #include "lib/export.h"
-#include "lib/request.h"
 #include "shm/futex.h"
 #include "shm/seqlock.h"
 
@@ -668,7 +668,9 @@ SL_EXPORT int sl_open(const char *instance, struct sl_client **ret)
                 free(c);
                 return -EINVAL;
         }
-        request_init(c, instance);
+        snprintf(c->instance, sizeof(c->instance), "%s", instance);
+        atomic_init(&c->command_wait_ms, 0);
+        sockpath_default(&c->sock, c->instance);        /* an error stays in it for requests */
         c->c_locale = newlocale(LC_ALL_MASK, "C", (locale_t)0);
         if (c->c_locale == (locale_t)0) {
                 free(c);

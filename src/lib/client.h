@@ -20,11 +20,11 @@
 #include <sys/types.h>
 #include <time.h>
 
+#include "lib/sockpath.h"
 #include "shm/layout.h"
 
 #define CLIENT_IDS_MAX          (4u * SHM_CAPACITY_MAX)  /* ids a handle hands out in its life */
 #define CLIENT_HEARTBEAT_MISSES 3u      /* heartbeat older than this many intervals: not alive */
-#define CLIENT_RUNTIME_DIR_SIZE 108     /* sizeof(sun_path): the socket path must fit it anyway */
 #define CLIENT_NS_PER_MS        1000000ull
 #define CLIENT_READER_SLOTS     64u     /* threads that read without a locked instruction */
 #define CLIENT_READER_SHIFT     (64u - 6u)      /* log2(CLIENT_READER_SLOTS) bits of a hash */
@@ -100,10 +100,7 @@ struct sl_client {
         locale_t c_locale;              /* numbers are formatted and parsed in the C locale */
         /* control socket (request.c): "<runtime_dir>/<instance>.sock", under the lock */
         char instance[SHM_INSTANCE_MAX + 1];
-        char runtime_dir[CLIENT_RUNTIME_DIR_SIZE];      /* "": runtime_dir_error says why */
-        int runtime_dir_error;
-        int runtime_dir_chosen;         /* 1: set or from the environment, not the default, so
-                                         * the path the header publishes does not apply */
+        struct sockpath sock;
         _Atomic int command_wait_ms;    /* "wait=MS" on query/circe requests; 0: none */
 };
 

@@ -21,12 +21,11 @@
 
 #include "lib/client.h"
 #include "lib/export.h"
+#include "lib/sockpath.h"
 #include "proto/circe.h"
 #include "proto/control.h"
 #include "proto/request.h"
 
-#define REQUEST_RUNTIME_DIR_ENV "SHAREDLINK_RUNTIME_DIR"
-#define REQUEST_SOCKET_SUFFIX   ".sock"
 #define REQUEST_READ_CHUNK      1024
 #define REQUEST_BACKLOG_PAUSE_MS 5      /* connect found the daemon's backlog full: try again */
 #define REQUEST_SYNC_EXTRA_MS   10000   /* sync-clocks follows devices for 3 s, plus slack */
@@ -77,61 +76,6 @@ static void say_text(char *buf, size_t size, const char *text, size_t len)
 
 /* ---- where the socket is ------------------------------------------------------------------- */
 
-/* Stores dir as the runtime directory (lock held, or the handle not shared yet). */
-static int runtime_dir_store(struct sl_client *c, const char *dir)
-{
-        struct sockaddr_un sa;
-        size_t need = strlen(dir) + 1u + strlen(c->instance) + sizeof(REQUEST_SOCKET_SUFFIX);
-
-        if (need > sizeof(sa.sun_path) || strlen(dir) >= sizeof(c->runtime_dir)) {
-                c->runtime_dir[0] = '\0';
-                c->runtime_dir_error = -ENAMETOOLONG;
-                return -ENAMETOOLONG;
-        }
-        strcpy(c->runtime_dir, dir);
-        c->runtime_dir_error = 0;
-        return 0;
-}
-
-/* $SHAREDLINK_RUNTIME_DIR, else the default (lock held, or the handle not shared yet). */
-static int runtime_dir_default(struct sl_client *c)
-{
-        const char *env = getenv(REQUEST_RUNTIME_DIR_ENV);
-
-        c->runtime_dir_chosen = env && *env;
-        return runtime_dir_store(c, c->runtime_dir_chosen ? env : SL_RUNTIME_DIR_DEFAULT);
-}
-
-void request_init(struct sl_client *c, const char *instance)
-{
-        snprintf(c->instance, sizeof(c->instance), "%s", instance);
-        atomic_init(&c->command_wait_ms, 0);
-        runtime_dir_default(c);
-}
-
-int request_published_socket(const struct shm_in_header *h, const char *instance, char *buf,
-                             size_t size)
-{
-        char path[SHM_SOCKET_PATH_SIZE];
-        char want[SHM_INSTANCE_MAX + sizeof(REQUEST_SOCKET_SUFFIX) + 1];        /* "/NAME.sock" */
-        size_t len, tail;
-
-        if ((h->layout_version & 0xffffu) < SHM_LAYOUT_MINOR_SOCKET || !h->control_socket[0])
-                return -ENOENT;         /* an older daemon: reserved bytes, not a path */
-        /* One copy, checked and used: the object is not ours, its bytes may change meanwhile. */
-        memcpy(path, h->control_socket, sizeof(path));
-        len = strnlen(path, sizeof(path));
-        tail = (size_t)snprintf(want, sizeof(want), "/%s%s", instance, REQUEST_SOCKET_SUFFIX);
-        if (len == sizeof(path) || len >= size || path[0] != '/' || len <= tail ||
-            strcmp(path + len - tail, want) != 0)
-                return -EINVAL;
-        for (size_t i = 0; i < len; i++)        /* ASCII controls: no path of ours has them */
-                if ((unsigned char)path[i] < 0x20 || path[i] == 0x7f)
-                        return -EINVAL;
-        memcpy(buf, path, len + 1);
-        return 0;
-}
-
 SL_EXPORT int sl_set_runtime_dir(struct sl_client *c, const char *dir)
 {
         int r;
@@ -139,12 +83,7 @@ SL_EXPORT int sl_set_runtime_dir(struct sl_client *c, const char *dir)
         if (!c || (dir && !*dir))
                 return -EINVAL;
         client_wrlock(c);
-        if (dir) {
-                r = runtime_dir_store(c, dir);
-                c->runtime_dir_chosen = 1;
-        } else {
-                r = runtime_dir_default(c);
-        }
+        r = dir ? sockpath_set(&c->sock, c->instance, dir) : sockpath_default(&c->sock, c->instance);
         client_wrunlock(c);
         return r;
 }
@@ -157,34 +96,15 @@ SL_EXPORT int sl_set_command_wait(struct sl_client *c, int wait_ms)
         return 0;
 }
 
-/*
- * The socket address of c's daemon; 0 or -ENAMETOOLONG. A directory set or in the environment
- * wins; else the path the daemon published in its tables; else the default.
- */
+/* The socket address of c's daemon (sockpath_address); 0 or -ENAMETOOLONG. */
 static int socket_address(struct sl_client *c, struct sockaddr_un *ret_sa)
 {
-        struct sockaddr_un sa = { .sun_family = AF_UNIX };
         int r;
 
-        _Static_assert(sizeof(sa.sun_path) >= SHM_SOCKET_PATH_SIZE, "published socket path");
         client_rdlock(c);
-        r = c->runtime_dir_error;
-        if (!c->runtime_dir_chosen &&
-            request_published_socket(c->map->in, c->instance, sa.sun_path,
-                                     sizeof(sa.sun_path)) == 0) {
-                r = 0;
-        } else if (r == 0) {
-                int n = snprintf(sa.sun_path, sizeof(sa.sun_path), "%s/%s%s", c->runtime_dir,
-                                 c->instance, REQUEST_SOCKET_SUFFIX);
-
-                if (n < 0 || (size_t)n >= sizeof(sa.sun_path))
-                        r = -ENAMETOOLONG;      /* not reached: runtime_dir_store checked it */
-        }
+        r = sockpath_address(&c->sock, c->map->in, c->instance, ret_sa);
         client_unlock(c);
-        if (r < 0)
-                return r;
-        *ret_sa = sa;
-        return 0;
+        return r;
 }
 
 /* ---- checking what is sent ----------------------------------------------------------------- */

@@ -1,6 +1,6 @@
 /*
  * Client side of the daemon's control socket (src/proto/control.h has the wire format and parses
- * the reply lines): where the socket is, and checking request lines before they leave. The
+ * the reply lines): checking request lines before they leave (where the socket is: sockpath.h). The
  * exported functions (sl_request, sl_query, sl_circe_*) are in request.c; these are its internal
  * parts, so that the unit tests can reach them.
  */
@@ -8,24 +8,6 @@
 #define SL_REQUEST_H
 
 #include <stddef.h>
-
-struct shm_in_header;
-struct sl_client;
-
-/*
- * Sets up the control-socket part of a new handle: its instance name and the runtime directory
- * ($SHAREDLINK_RUNTIME_DIR, else SL_RUNTIME_DIR_DEFAULT). The handle is not shared yet.
- */
-void request_init(struct sl_client *c, const char *instance);
-
-/*
- * The control socket path that header h publishes (layout 1.2), checked as hostile input: a NUL
- * within the field, an absolute path naming "<instance>.sock", no control byte. Copies it into
- * buf (size >= SHM_SOCKET_PATH_SIZE) and returns 0; -ENOENT when h publishes none (an older
- * daemon), -EINVAL when the field is not such a path.
- */
-int request_published_socket(const struct shm_in_header *h, const char *instance, char *buf,
-                             size_t size);
 
 /*
  * Checks a request line with ctlp_request_check(): 1..SL_REQUEST_LINE_MAX bytes, words of

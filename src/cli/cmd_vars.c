@@ -316,7 +316,7 @@ int cmd_vars_set(struct slctl *s, int argc, char **argv)
         id = sl_find(s->c, name);
         if (id < 0)
                 return slctl_error(s, "no variable called \"%s\" (see `slctl list`)", name);
-        r = sl_write(s->c, id, value);
+        r = slctl_write(s, id, value);
         switch (r) {
         case 0:
                 return SLCTL_EXIT_OK;

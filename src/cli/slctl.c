@@ -10,6 +10,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #define SLCTL_ERR_SIZE          256
 
@@ -111,6 +112,22 @@ void slctl_interruptible(void)
         sa.sa_handler = SIG_DFL;
         sigemptyset(&sa.sa_mask);
         sigaction(SIGINT, &sa, NULL);
+}
+
+int slctl_write(struct slctl *s, int id, const char *value)
+{
+        long nap_ms = 1, waited_ms = 0;
+        int r = sl_write(s->c, id, value);
+
+        while (r == -EAGAIN && waited_ms < SLCTL_WRITE_BUSY_MS) {
+                struct timespec ts = { nap_ms / 1000, (nap_ms % 1000) * 1000000L };
+
+                nanosleep(&ts, NULL);
+                waited_ms += nap_ms;
+                nap_ms = nap_ms * 2 < 100 ? nap_ms * 2 : 100;
+                r = sl_write(s->c, id, value);
+        }
+        return r;
 }
 
 int slctl_read(struct slctl *s, int id, char *buf, size_t size, struct sl_meta *meta)

@@ -20,6 +20,10 @@
 #define SLCTL_EXIT_NOT_RUNNING  3       /* the daemon is not running */
 
 #define SLCTL_READ_TRIES        16      /* sl_read -EAGAIN (a writer kept the slot busy) */
+/* sl_write -EAGAIN: .out is being recreated (a client truncated or scribbled over it; the
+ * library rang the daemon) or a dead writer's slot awaits repair. The daemon answers a ring
+ * within about 100 ms; a one-shot command waits that out rather than fail, up to this long. */
+#define SLCTL_WRITE_BUSY_MS     3000
 
 struct slctl {
         const char *instance;           /* -i, $SHAREDLINK_INSTANCE, or "default" */
@@ -67,6 +71,9 @@ int slctl_count_timeout(struct slctl *s, const char *count_text, const char *tim
  * `kill -INT`. For the commands that run until interrupted (watch, events --follow).
  */
 void slctl_interruptible(void);
+
+/* sl_write, waiting out -EAGAIN for up to SLCTL_WRITE_BUSY_MS. */
+int slctl_write(struct slctl *s, int id, const char *value);
 
 /* sl_read with retries on -EAGAIN. */
 int slctl_read(struct slctl *s, int id, char *buf, size_t size, struct sl_meta *meta);

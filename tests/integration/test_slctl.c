@@ -26,7 +26,9 @@
 #include <stdlib.h>
 #include <string.h>
 #include <grp.h>
+#include <sys/syscall.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -1685,6 +1687,54 @@ static void test_daemon_tables(void **state)
         assert_int_equal(RUN(f, "set", "agility.state", "x"), 1);
 }
 
+/* 1 when process pid sleeps in nanosleep/clock_nanosleep (its /proc syscall line); -1 gone. */
+static int proc_napping(pid_t pid)
+{
+        char path[64], line[128] = "";
+        long nr = -1;
+        FILE *fp;
+
+        snprintf(path, sizeof(path), "/proc/%d/syscall", (int)pid);
+        fp = fopen(path, "re");
+        if (!fp)
+                return -1;
+        if (fgets(line, sizeof(line), fp))
+                nr = strtol(line, NULL, 10);
+        fclose(fp);
+        return nr == SYS_nanosleep || nr == SYS_clock_nanosleep;
+}
+
+/*
+ * A member truncates .out (issue 19.3) while the daemon cannot answer at once (stopped here, so
+ * the first write surely finds the table unusable): `slctl set` rings the daemon, waits instead
+ * of failing with "try again", and goes through once the daemon has recreated the table.
+ */
+static void test_daemon_out_truncated(void **state)
+{
+        struct fixture *f = *state;
+        char path[sizeof(f->h.instance) + 32];
+        struct proc p;
+        int fd, code;
+
+        daemon_start_sharedlink(f);
+        assert_int_equal(RUN(f, "set", "a.Lat", "40.5"), 0);
+        snprintf(path, sizeof(path), "/dev/shm/sharedlink.%s.out", f->h.instance);
+        assert_int_equal(kill(f->h.pid, SIGSTOP), 0);
+        fd = open(path, O_WRONLY | O_TRUNC | O_CLOEXEC);
+        assert_true(fd >= 0);
+        close(fd);
+        f->out[0] = f->err[0] = '\0';
+        proc_start(f, (const char *const[]){ "set", "a.Lat", "41.5", NULL }, &p);
+        /* Until slctl has found the table unusable and waits (or, without the wait, has ended). */
+        for (int i = 0; i < 5000 && proc_napping(p.pid) == 0; i++)
+                nanosleep(&(struct timespec){ 0, 1000000 }, NULL);
+        assert_int_equal(kill(f->h.pid, SIGCONT), 0);
+        code = proc_finish(&p, f->out, sizeof(f->out), f->err, sizeof(f->err));
+        if (code != 0)
+                fail_msg("slctl set after a truncated .out: exit %d: %s", code, f->err);
+        wait_value(f, "b.Lat", "41.5");
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -1709,6 +1759,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_daemon_link_down, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_library, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_tables, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_daemon_out_truncated, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_query, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_wrong_protocol, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_published_socket, setup_bare,

@@ -1,0 +1,627 @@
+/*
+ * sharedlink-agility: times dog-agility runs from CIRCE gate passages and remote-control keys,
+ * stores every completed run in SQLite and drives the wireless displays (docs/agility.md).
+ *
+ *   sharedlink-agility [-c FILE] [-n] [-v] [-V]
+ *
+ * A client of sharedlinkd through the public library only: events through sl_events_read, clock
+ * synchronisation and displays through sl_circe_*. The rules are the pure engine's
+ * (agility_run.h); this file feeds it and carries out what it asks (docs/agility.md §9).
+ *
+ * One thread runs the engine from one poll loop (signals, a wake-up eventfd, the engine's next
+ * deadline). A second, tiny thread only sleeps in sl_wait (a futex, which poll cannot watch) and
+ * rings the eventfd when the tables changed, as sharedlink-mqtt does. Always in the foreground,
+ * logging to stderr with <N> priority prefixes. Exit status: 0 after a clean stop (SIGTERM,
+ * SIGINT) or a good -n check, 1 on a bad configuration or a failed start, 2 on a usage error.
+ */
+#include <errno.h>
+#include <inttypes.h>
+#include <poll.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdatomic.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/eventfd.h>
+#include <sys/signalfd.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <sharedlink.h>
+
+#include "agility/agility_run.h"
+#include "agility/agilityd_config.h"
+#include "agility/agilityd_store.h"
+#include "svc/log.h"
+#include "svc/notify.h"
+#include "svc/service.h"
+
+#define NS_PER_MS               1000000ull
+#define WAKER_SLICE_MS          250     /* sl_wait slice: how soon the waker sees a stop */
+#define ATTACH_MIN_MS           100u    /* sl_open retries while no daemon runs ... */
+#define ATTACH_MAX_MS           5000u   /* ... doubling to this */
+#define STORE_RETRY_MS          5000u   /* a run the database refused is tried again */
+#define EVENTS_BATCH            32
+#define REPLY_MAX               512
+#define STATUS_MAX              256
+#define COMMAND_WAIT_MS         0       /* a command to a link that is down fails at once */
+
+#ifndef SHAREDLINK_VERSION
+#define SHAREDLINK_VERSION      "unknown"
+#endif
+
+struct main_ctx {
+        struct agilityd_config cfg;
+        struct agility_result results[AGILITY_COMPETITORS_MAX];
+        bool unsaved[AGILITY_COMPETITORS_MAX];  /* completed, the database refused it */
+        struct agility_run run;
+        struct agilityd_store *store;
+        struct sl_client *cl;
+        uint64_t ev_cursor;
+        char display_addr[AGILITYD_DISPLAYS_MAX][SL_CIRCE_ADDRESS_SIZE];
+        struct agility_display shown[AGILITYD_DISPLAYS_MAX];
+        struct notify *notify;
+        int sig_fd, wake_fd;
+        pthread_t waker;
+        bool waker_running;
+        atomic_bool stop_waker;
+        bool stopping;
+        bool sync_wanted;
+        bool db_error;                  /* the last store failed: said in STATUS= */
+        bool ready;                     /* READY=1 sent: STATUS= follows it */
+        uint64_t last_ms;               /* the engine's clock never goes back */
+        unsigned attach_ms;
+        uint64_t attach_at_ms;          /* next sl_open attempt */
+        uint64_t retry_at_ms;           /* next store retry, 0: none due */
+        uint64_t watchdog_at_ms, watchdog_interval_ms;
+        char status[STATUS_MAX];
+        struct log_ratelimit display_rl;
+};
+
+static void handle(struct main_ctx *ctx, struct agility_actions *acts);
+
+static uint64_t now_ms(void)
+{
+        struct timespec ts;
+
+        clock_gettime(CLOCK_MONOTONIC, &ts);
+        return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / NS_PER_MS;
+}
+
+/* The engine's "now": the time something happened, never before what it was last told. */
+static uint64_t engine_ms(struct main_ctx *ctx, uint64_t t)
+{
+        if (t < ctx->last_ms)
+                t = ctx->last_ms;
+        ctx->last_ms = t;
+        return t;
+}
+
+/* ---- status ---------------------------------------------------------------------------------- */
+
+static void status_update(struct main_ctx *ctx)
+{
+        char s[STATUS_MAX];
+
+        if (!ctx->ready)
+                return;
+        /* States and reasons only (sd_notify may block when nobody reads): no counts. */
+        snprintf(s, sizeof(s), "STATUS=class %s: %s, competitor %u%s%s",
+                 ctx->cfg.class_name, agility_run_state_name(ctx->run.state),
+                 (unsigned)ctx->run.current, ctx->cl ? "" : ", sharedlinkd not found",
+                 ctx->db_error ? ", DATABASE NOT WRITABLE: completed runs kept in memory" : "");
+        if (strcmp(s, ctx->status) != 0) {
+                memcpy(ctx->status, s, sizeof(s));
+                notify_send(ctx->notify, s);
+        }
+}
+
+/* ---- displays -------------------------------------------------------------------------------- */
+
+/* Sends each display the fields that differ from what it shows; one that did not take it is
+ * unknown again (it gets every field next time). */
+static void displays_update(struct main_ctx *ctx)
+{
+        struct agility_display want;
+        char reply[REPLY_MAX];
+
+        if (!ctx->cl || ctx->cfg.display_count == 0)
+                return;
+        agility_run_display(&ctx->run, &want);
+        for (unsigned i = 0; i < ctx->cfg.display_count; i++) {
+                struct sl_circe_visualize vis = { .size = sizeof(vis) };
+                struct agility_display next;
+                const char *dest = ctx->display_addr[i];
+                int r;
+
+                if (agility_display_diff(&ctx->shown[i], &want, &vis, &next) == 0)
+                        continue;
+                vis.dests = &dest;
+                vis.dest_count = 1;
+                r = sl_circe_visualize(ctx->cl, ctx->cfg.link, &vis, reply, sizeof(reply));
+                if (r == 0) {
+                        ctx->shown[i] = next;
+                        continue;
+                }
+                agility_display_unknown(&ctx->shown[i]);
+                log_ratelimited(&ctx->display_rl, LOG_PRIO_WARNING, "display %s: %s", dest,
+                                reply[0] ? reply : sl_strerror(r));
+        }
+}
+
+static int display_index(const struct main_ctx *ctx, uint32_t addr)
+{
+        for (unsigned i = 0; i < ctx->cfg.display_count; i++)
+                if (ctx->cfg.displays[i] == addr)
+                        return (int)i;
+        return -1;
+}
+
+/* ---- results --------------------------------------------------------------------------------- */
+
+/* A completed run goes to the database before anything shows it; one the database refuses
+ * stays in memory (and on the displays), is tried again, and the error is loud. */
+static void store_result(struct main_ctx *ctx, size_t index)
+{
+        char err[AGILITYD_STORE_ERROR_MAX];
+        int r = agilityd_store_save(ctx->store, ctx->results, ctx->run.count, index, err,
+                                    sizeof(err));
+
+        if (r == 0) {
+                ctx->unsaved[index] = false;
+                log_msg(LOG_PRIO_INFO, "competitor %u: run stored",
+                        (unsigned)ctx->results[index].competitor);
+                return;
+        }
+        ctx->unsaved[index] = true;
+        ctx->db_error = true;
+        ctx->retry_at_ms = now_ms() + STORE_RETRY_MS;
+        log_msg(LOG_PRIO_ERR, "competitor %u: the run is NOT stored (kept in memory, retried "
+                "every %u s): %s", (unsigned)ctx->results[index].competitor,
+                STORE_RETRY_MS / 1000u, err);
+}
+
+static void store_retry(struct main_ctx *ctx, uint64_t now)
+{
+        bool left = false;
+
+        if (!ctx->retry_at_ms || now < ctx->retry_at_ms)
+                return;
+        ctx->retry_at_ms = 0;
+        ctx->db_error = false;
+        for (size_t i = 0; i < ctx->run.count; i++)
+                if (ctx->unsaved[i])
+                        store_result(ctx, i);
+        for (size_t i = 0; i < ctx->run.count; i++)
+                left |= ctx->unsaved[i];
+        if (!left)
+                log_msg(LOG_PRIO_NOTICE, "database writable again: every completed run stored");
+}
+
+/* ---- clock synchronisation ------------------------------------------------------------------- */
+
+static int on_sync_result(const char *addr, int succeeded, void *arg)
+{
+        struct main_ctx *ctx = arg;
+        struct agility_actions acts;
+        uint32_t dev;
+
+        if (agilityd_address_parse(addr, &dev) < 0)
+                return 0;
+        log_msg(LOG_PRIO_DEBUG, "clock sync: %s %s", addr, succeeded ? "succeeded" :
+                "timed out");
+        agility_run_sync_device(&ctx->run, engine_ms(ctx, now_ms()), dev, succeeded != 0,
+                                &acts);
+        handle(ctx, &acts);
+        return 0;
+}
+
+/* Synchronize Clocks, each device's outcome into the engine, then the end. The call takes up
+ * to the specification's 3 s; events that come meanwhile wait in the daemon's ring (the engine
+ * is in WaitingForSync, where a passage does not count anyway). */
+static void sync_clocks(struct main_ctx *ctx)
+{
+        struct agility_actions acts;
+        char reply[REPLY_MAX] = "";
+        int r = -ENOTCONN;
+
+        ctx->sync_wanted = false;
+        if (ctx->cl)
+                r = sl_circe_sync_clocks(ctx->cl, ctx->cfg.link, on_sync_result, ctx, reply,
+                                         sizeof(reply));
+        if (r < 0)
+                log_msg(LOG_PRIO_WARNING, "clock sync on link %s: %s", ctx->cfg.link,
+                        reply[0] ? reply : sl_strerror(r));
+        agility_run_sync_done(&ctx->run, engine_ms(ctx, now_ms()), &acts);
+        handle(ctx, &acts);
+}
+
+/* ---- the engine's actions -------------------------------------------------------------------- */
+
+static void notice(struct main_ctx *ctx, const struct agility_action *a)
+{
+        char dev[SL_CIRCE_ADDRESS_SIZE] = "-";
+
+        if (a->device)
+                agilityd_address_format(a->device, dev);
+        log_msg(a->notice == AGILITY_NOTICE_SYNC_FAILED ? LOG_PRIO_WARNING : LOG_PRIO_NOTICE,
+                "%s (device %s, competitor %u, state %s)", agility_run_notice_name(a->notice),
+                dev, (unsigned)a->number, agility_run_state_name(ctx->run.state));
+}
+
+static void handle(struct main_ctx *ctx, struct agility_actions *acts)
+{
+        for (unsigned i = 0; i < acts->count; i++) {
+                const struct agility_action *a = &acts->a[i];
+
+                switch (a->kind) {
+                case AGILITY_ACT_STATE:
+                        log_msg(LOG_PRIO_INFO, "state %s -> %s, competitor %u",
+                                agility_run_state_name(a->from), agility_run_state_name(a->to),
+                                (unsigned)ctx->run.current);
+                        break;
+                case AGILITY_ACT_SYNC_CLOCKS:
+                        ctx->sync_wanted = true;
+                        break;
+                case AGILITY_ACT_STORE_RESULT:
+                        store_result(ctx, a->index);
+                        break;
+                case AGILITY_ACT_DISPLAY:
+                        displays_update(ctx);
+                        break;
+                case AGILITY_ACT_NOTICE:
+                        notice(ctx, a);
+                        break;
+                }
+        }
+        if (acts->overflow)
+                log_msg(LOG_PRIO_WARNING, "some notices were dropped (too many at once)");
+        status_update(ctx);
+}
+
+/* ---- events ---------------------------------------------------------------------------------- */
+
+/* The value of "key=" in an event's "key=value ..." text; false when absent. */
+static bool event_field(const char *text, const char *key, char *out, size_t size)
+{
+        size_t kl = strlen(key);
+
+        for (const char *p = text; *p; ) {
+                size_t wl = strcspn(p, " ");
+
+                if (wl > kl && strncmp(p, key, kl) == 0 && p[kl] == '=') {
+                        size_t vl = wl - kl - 1;
+
+                        if (vl >= size)
+                                return false;
+                        memcpy(out, p + kl + 1, vl);
+                        out[vl] = '\0';
+                        return true;
+                }
+                p += wl;
+                p += strspn(p, " ");
+        }
+        return false;
+}
+
+static bool event_number(const char *text, const char *key, unsigned long max,
+                         unsigned long *ret)
+{
+        char v[16], *end;
+
+        if (!event_field(text, key, v, sizeof(v)) || v[0] < '0' || v[0] > '9')
+                return false;
+        errno = 0;
+        *ret = strtoul(v, &end, 10);
+        return !*end && !errno && *ret <= max;
+}
+
+static void on_event(struct main_ctx *ctx, const struct sl_event *ev)
+{
+        struct agility_actions acts;
+        char addr[SL_CIRCE_ADDRESS_SIZE + 1];
+        unsigned long keys = 0, sensor = 0;
+        bool has_keys, has_sensor;
+        uint32_t dev;
+        int di;
+
+        if (strcmp(ev->link_name, ctx->cfg.link) != 0 ||
+            !event_field(ev->text, "device", addr, sizeof(addr)) ||
+            agilityd_address_parse(addr, &dev) < 0)
+                return;
+        if (strcmp(ev->type_name, "action") == 0) {
+                has_keys = event_number(ev->text, "keys", UINT16_MAX, &keys);
+                has_sensor = event_number(ev->text, "sensor_time", UINT32_MAX, &sensor);
+                log_msg(LOG_PRIO_DEBUG, "action %s", ev->text);
+                /* The passage's received time is when the link heard it, not when we read
+                 * the event: the low-precision time does not grow with our latency. */
+                agility_run_action(&ctx->run, engine_ms(ctx, ev->mono_ns / NS_PER_MS), dev,
+                                   has_keys, (uint16_t)keys, has_sensor, (uint32_t)sensor, &acts);
+                handle(ctx, &acts);
+        } else if (strcmp(ev->type_name, "device-online") == 0 &&
+                   (di = display_index(ctx, dev)) >= 0) {
+                /* A display back online shows what it showed at power-up: send everything. */
+                agility_display_unknown(&ctx->shown[di]);
+                displays_update(ctx);
+        }
+}
+
+static void events_pump(struct main_ctx *ctx)
+{
+        struct sl_event ev[EVENTS_BATCH];
+        int n;
+
+        if (!ctx->cl)
+                return;
+        do {
+                for (int i = 0; i < EVENTS_BATCH; i++)
+                        ev[i].size = sizeof(ev[i]);
+                n = sl_events_read(ctx->cl, &ctx->ev_cursor, ev, EVENTS_BATCH);
+                for (int i = 0; i < n; i++) {
+                        if (ev[i].lost)
+                                log_msg(LOG_PRIO_ERR, "%" PRIu64 " events were lost before "
+                                        "they could be read", ev[i].lost);
+                        on_event(ctx, &ev[i]);
+                        if (ctx->sync_wanted)
+                                sync_clocks(ctx);
+                }
+        } while (n == EVENTS_BATCH);
+        if (n < 0)
+                log_msg(LOG_PRIO_WARNING, "events: %s", sl_strerror(n));
+}
+
+/* ---- attaching to sharedlinkd ---------------------------------------------------------------- */
+
+static void *waker_main(void *arg)
+{
+        struct main_ctx *ctx = arg;
+        uint32_t cursor = 0;
+        uint64_t one = 1;
+
+        while (!atomic_load(&ctx->stop_waker)) {
+                int r = sl_wait(ctx->cl, &cursor, WAKER_SLICE_MS);
+
+                if (r == 1 && write(ctx->wake_fd, &one, sizeof(one)) < 0 && errno != EAGAIN)
+                        break;
+                if (r < 0)
+                        poll(NULL, 0, WAKER_SLICE_MS);  /* e.g. -ENOMEM: do not spin */
+        }
+        return NULL;
+}
+
+static void attach_due(struct main_ctx *ctx, uint64_t now)
+{
+        const char *inst = ctx->cfg.instance[0] ? ctx->cfg.instance : NULL;
+        int r;
+
+        if (ctx->cl || now < ctx->attach_at_ms)
+                return;
+        r = sl_open(inst, &ctx->cl);
+        if (r == 0)
+                r = sl_events_now(ctx->cl, &ctx->ev_cursor);
+        if (r < 0) {
+                ctx->cl = sl_close(ctx->cl);
+                if (ctx->attach_ms == ATTACH_MIN_MS)
+                        log_msg(LOG_PRIO_WARNING, "sharedlinkd instance %s: %s; retrying",
+                                inst ? inst : "(default)", sl_strerror(r));
+                ctx->attach_at_ms = now + ctx->attach_ms;
+                ctx->attach_ms = ctx->attach_ms * 2u > ATTACH_MAX_MS ? ATTACH_MAX_MS :
+                                 ctx->attach_ms * 2u;
+                return;
+        }
+        sl_set_command_wait(ctx->cl, COMMAND_WAIT_MS);
+        atomic_store(&ctx->stop_waker, false);
+        if (pthread_create(&ctx->waker, NULL, waker_main, ctx) == 0)
+                ctx->waker_running = true;
+        else
+                log_msg(LOG_PRIO_ERR, "waker thread: %s", strerror(errno));
+        log_msg(LOG_PRIO_INFO, "attached to sharedlinkd, link %s", ctx->cfg.link);
+        for (unsigned i = 0; i < ctx->cfg.display_count; i++)
+                agility_display_unknown(&ctx->shown[i]);
+        displays_update(ctx);
+}
+
+/* ---- the loop -------------------------------------------------------------------------------- */
+
+static int timeout_ms(struct main_ctx *ctx, uint64_t now)
+{
+        uint64_t at = agility_run_next_deadline(&ctx->run);
+
+        if (!ctx->cl && ctx->attach_at_ms < at)
+                at = ctx->attach_at_ms;
+        if (ctx->retry_at_ms && ctx->retry_at_ms < at)
+                at = ctx->retry_at_ms;
+        if (ctx->watchdog_interval_ms && ctx->watchdog_at_ms < at)
+                at = ctx->watchdog_at_ms;
+        if (at == UINT64_MAX)
+                return -1;
+        return at <= now ? 0 : at - now > INT32_MAX ? INT32_MAX : (int)(at - now);
+}
+
+static void on_signal(struct main_ctx *ctx)
+{
+        struct signalfd_siginfo si;
+
+        if (read(ctx->sig_fd, &si, sizeof(si)) != sizeof(si))
+                return;
+        log_msg(LOG_PRIO_NOTICE, "%s: stopping", strsignal((int)si.ssi_signo));
+        notify_stopping(ctx->notify);
+        ctx->stopping = true;
+}
+
+static int run(struct main_ctx *ctx)
+{
+        struct agility_actions acts;
+
+        agility_run_start_class(&ctx->run, engine_ms(ctx, now_ms()), &acts);
+        handle(ctx, &acts);
+        /* Ready once the class is in and sharedlinkd was tried: a daemon that is not running
+         * yet is retried, not fatal. */
+        attach_due(ctx, now_ms());
+        notify_ready(ctx->notify);
+        ctx->ready = true;
+        status_update(ctx);
+        while (!ctx->stopping) {
+                struct pollfd p[2] = {
+                        { .fd = ctx->sig_fd, .events = POLLIN },
+                        { .fd = ctx->wake_fd, .events = POLLIN },
+                };
+                uint64_t now = now_ms();
+                int n;
+
+                if (ctx->watchdog_interval_ms && now >= ctx->watchdog_at_ms) {
+                        notify_watchdog(ctx->notify);
+                        ctx->watchdog_at_ms = now + ctx->watchdog_interval_ms;
+                }
+                n = poll(p, 2, timeout_ms(ctx, now));
+                if (n < 0 && errno != EINTR) {
+                        log_msg(LOG_PRIO_ERR, "poll: %s", strerror(errno));
+                        return 1;
+                }
+                if (n > 0 && p[0].revents)
+                        on_signal(ctx);
+                if (n > 0 && p[1].revents) {
+                        uint64_t v;
+
+                        if (read(ctx->wake_fd, &v, sizeof(v)) < 0 && errno != EAGAIN)
+                                log_msg(LOG_PRIO_WARNING, "eventfd: %s", strerror(errno));
+                }
+                now = now_ms();
+                attach_due(ctx, now);
+                events_pump(ctx);
+                if (agility_run_next_deadline(&ctx->run) <= now) {
+                        agility_run_tick(&ctx->run, engine_ms(ctx, now), &acts);
+                        handle(ctx, &acts);
+                }
+                if (ctx->sync_wanted)
+                        sync_clocks(ctx);
+                store_retry(ctx, now);
+                status_update(ctx);
+        }
+        return 0;
+}
+
+/* ---- start and stop -------------------------------------------------------------------------- */
+
+static int check_only(const char *path)
+{
+        static struct agilityd_config cfg;     /* 200 KB: not on the stack */
+        static struct agility_result results[AGILITY_COMPETITORS_MAX];
+        static struct agility_run run;
+        char err[AGILITYD_ERROR_MAX];
+
+        if (agilityd_config_load(path, &cfg, err, sizeof(err)) < 0) {
+                fprintf(stderr, "%s\n", err);
+                return SERVICE_EXIT_FAILURE;
+        }
+        if (agility_run_init(&run, &cfg.cls, cfg.competitors, cfg.competitor_count, results,
+                             0) < 0) {
+                fprintf(stderr, "%s: the class breaks a rule of docs/agility.md §1\n", path);
+                return SERVICE_EXIT_FAILURE;
+        }
+        return service_check_ok();
+}
+
+static int setup(struct main_ctx *ctx, const char *path)
+{
+        char err[AGILITYD_ERROR_MAX > AGILITYD_STORE_ERROR_MAX ? AGILITYD_ERROR_MAX :
+                 AGILITYD_STORE_ERROR_MAX];
+        uint16_t last = 0;
+        unsigned skipped = 0, stored = 0;
+        sigset_t set;
+        int r;
+
+        if (agilityd_config_load(path, &ctx->cfg, err, sizeof(err)) < 0) {
+                log_msg(LOG_PRIO_ERR, "%s", err);
+                return -EINVAL;
+        }
+        r = agilityd_store_open(ctx->cfg.database, ctx->cfg.class_name, &ctx->store, err,
+                                sizeof(err));
+        if (r == 0)
+                r = agilityd_store_load(ctx->store, ctx->cfg.competitors,
+                                        ctx->cfg.competitor_count, ctx->results, &last,
+                                        &skipped, err, sizeof(err));
+        if (r < 0) {
+                log_msg(LOG_PRIO_ERR, "%s", err);
+                return r;
+        }
+        if (skipped)
+                log_msg(LOG_PRIO_WARNING, "%s: %u stored runs of class %s are of competitors "
+                        "no longer in %s: not shown", ctx->cfg.database, skipped,
+                        ctx->cfg.class_name, ctx->cfg.competitors_path);
+        r = agility_run_init(&ctx->run, &ctx->cfg.cls, ctx->cfg.competitors,
+                             ctx->cfg.competitor_count, ctx->results, last);
+        if (r < 0) {
+                log_msg(LOG_PRIO_ERR, "%s: the class breaks a rule of docs/agility.md §1", path);
+                return r;
+        }
+        for (size_t i = 0; i < ctx->run.count; i++)
+                stored += ctx->results[i].completed;
+        for (unsigned i = 0; i < ctx->cfg.display_count; i++) {
+                agilityd_address_format(ctx->cfg.displays[i], ctx->display_addr[i]);
+                agility_display_unknown(&ctx->shown[i]);
+        }
+        log_ratelimit_init(&ctx->display_rl, "displays", LOG_RATELIMIT_INTERVAL_MS,
+                           LOG_RATELIMIT_BURST);
+        sigemptyset(&set);
+        sigaddset(&set, SIGTERM);
+        sigaddset(&set, SIGINT);
+        sigaddset(&set, SIGHUP);        /* no reload yet: a restart; ignored, not fatal */
+        pthread_sigmask(SIG_BLOCK, &set, NULL);
+        sigdelset(&set, SIGHUP);
+        ctx->sig_fd = signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK);
+        ctx->wake_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+        if (ctx->sig_fd < 0 || ctx->wake_fd < 0) {
+                log_msg(LOG_PRIO_ERR, "signalfd/eventfd: %s", strerror(errno));
+                return -errno;
+        }
+        ctx->attach_ms = ATTACH_MIN_MS;
+        r = notify_new(&ctx->notify);
+        if (r < 0) {
+                log_msg(LOG_PRIO_ERR, "%s", strerror(-r));
+                return r;
+        }
+        ctx->watchdog_interval_ms = notify_watchdog_interval_ms(ctx->notify);
+        log_msg(LOG_PRIO_INFO, "sharedlink-agility %s: %s: class %s, %zu competitors, %u runs "
+                "stored in %s", SHAREDLINK_VERSION, path, ctx->cfg.class_name,
+                ctx->run.count, stored, ctx->cfg.database);
+        return 0;
+}
+
+static void teardown(struct main_ctx *ctx)
+{
+        if (ctx->waker_running) {
+                atomic_store(&ctx->stop_waker, true);
+                pthread_join(ctx->waker, NULL);
+        }
+        for (size_t i = 0; i < ctx->run.count; i++)
+                if (ctx->unsaved[i])
+                        log_msg(LOG_PRIO_ERR, "competitor %u: stopping with the run NOT stored",
+                                (unsigned)ctx->results[i].competitor);
+        ctx->cl = sl_close(ctx->cl);
+        ctx->store = agilityd_store_close(ctx->store);
+        ctx->notify = notify_free(ctx->notify);
+        if (ctx->wake_fd >= 0)
+                close(ctx->wake_fd);
+        if (ctx->sig_fd >= 0)
+                close(ctx->sig_fd);
+}
+
+int main(int argc, char **argv)
+{
+        static const struct service_desc desc = {
+                .name = "sharedlink-agility", .version = SHAREDLINK_VERSION,
+                .config_default = AGILITYD_CONFIG_DEFAULT, .check = check_only,
+        };
+        static struct main_ctx ctx = { .sig_fd = -1, .wake_fd = -1 };
+        struct service_args args;
+        int r = service_args(&desc, argc, argv, &args);
+
+        if (r != SERVICE_CONTINUE)
+                return r;
+        service_start(&args);
+        r = setup(&ctx, args.config) < 0 ? SERVICE_EXIT_FAILURE : run(&ctx);
+        teardown(&ctx);
+        return r;
+}

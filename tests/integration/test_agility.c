@@ -1,0 +1,467 @@
+/*
+ * sharedlink-agility end to end: the real sharedlinkd (build/asan) with a CIRCE controller link
+ * facing its own mediator emulator (tests/data/agility_links.yaml: start gate E1E1E1, finish
+ * gate E2E2E2, remote AAAAAA, display D15D15), the real sharedlink-agility on that link, runs
+ * played by the emulator's `circe arena emulate action` commands, and the outcome read where a
+ * user would find it: the SQLite database (through sqlite3's C API), the emulated display's
+ * variables (what the Visualize packets made it show), sd_notify STATUS=.
+ *
+ *  - -n: "configuration OK", or "FILE:LINE:COL: message" and exit 1;
+ *  - the specification's run: Ready on the remote, start at sensor time 5000, finish at 32000:
+ *    27.000 s at high precision, stored, placement 1, on the display;
+ *  - SIGKILL after a completed run and in the middle of the next one: nothing completed is lost,
+ *    and the restarted daemon resumes the class with the next competitor;
+ *  - a database another process keeps locked: the run stays in memory and on the display, the
+ *    error is loud (STATUS=, the log), and it is stored once the lock goes.
+ */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <errno.h>
+#include <poll.h>
+#include <signal.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <sqlite3.h>
+#include <sharedlink.h>
+
+#include "common/harness.h"
+#include "common/slwait.h"
+#include "common/testdata.h"
+
+#define T_START_MS      15000   /* READY=1 (ASan build) */
+#define T_WAIT_MS       15000   /* one state, value or log line (a clock sync takes up to 3 s) */
+#define T_REPLY_MS      10000
+#define T_STOP_MS       10000
+#define CONFIG_MAX      4096
+#define REPLY_MAX       1024
+#define PATH_BUF        512
+#define OUT_MAX         4096
+#define NS_PER_MS       1000000ull
+
+#define KEY_READY       "32768"
+#define SPEC_START_MS   5000    /* the specification's example session */
+#define SPEC_FINISH_MS  32000
+#define SPEC_RUN_MS     (SPEC_FINISH_MS - SPEC_START_MS)
+
+struct fx {
+        struct harness h;               /* sharedlinkd */
+        struct harness a;               /* sharedlink-agility: its notify socket, log, pid */
+        struct sl_client *cl;
+        int ctl;
+        char conf[HARNESS_PATH_MAX];
+        char db[PATH_BUF];
+        sqlite3 *lock;                  /* the test's own connection holding the write lock */
+};
+
+static const char *agility_path(void)
+{
+        static char path[HARNESS_PATH_MAX];
+        const char *b = getenv("SHAREDLINK_BUILD");
+
+        snprintf(path, sizeof(path), "%s/sharedlink-agility", b ? b : "build/asan");
+        return path;
+}
+
+static int setup(void **state)
+{
+        struct fx *f = calloc(1, sizeof(*f));
+
+        if (!f || harness_init(&f->h, "agility") < 0 || harness_init(&f->a, "agilityd") < 0)
+                return -1;
+        f->ctl = -1;
+        snprintf(f->db, sizeof(f->db), "%s/results.db", f->a.dir);
+        *state = f;
+        return 0;
+}
+
+static int teardown(void **state)
+{
+        struct fx *f = *state;
+
+        sl_close(f->cl);
+        sqlite3_close(f->lock);
+        harness_close_fd(&f->ctl);
+        harness_cleanup(&f->a);
+        harness_cleanup(&f->h);
+        free(f);
+        return 0;
+}
+
+/* ---- the pieces ------------------------------------------------------------------------------ */
+
+static const char competitors_csv[] =
+        "CompetitorNumber;HandlerName;DogName;CountryCode\n"
+        "1;Anna Smith;Rex;NL\n"
+        "2;Bert Jones;Fly;BE\n"
+        "3;Cora Diaz;Zip;ES\n";
+
+/* The class file; extra: more top-level keys. */
+static void write_conf(struct fx *f, const char *extra)
+{
+        char text[CONFIG_MAX], csv[HARNESS_PATH_MAX];
+
+        assert_int_equal(harness_write_file(&f->a, "dogs.csv", competitors_csv, csv), 0);
+        snprintf(text, sizeof(text),
+                 "instance: %s\n"
+                 "link: agility\n"
+                 "class: {name: \"Jumping A\", standard_course_time_ms: 40000, "
+                 "max_course_time_ms: 80000, intermediates: 0}\n"
+                 "gates: {start: E1E1E1, finish: E2E2E2}\n"
+                 "keypads: [AAAAAA]\n"
+                 "displays: [D15D15]\n"
+                 "competitors: %s\n"
+                 "database: %s\n"
+                 "http: \"127.0.0.1:0\"\n%s",
+                 f->h.instance, csv, f->db, extra ? extra : "");
+        assert_int_equal(harness_write_file(&f->a, "agility.yaml", text, f->conf), 0);
+}
+
+static void start_sharedlinkd(struct fx *f)
+{
+        char links[CONFIG_MAX], why[HARNESS_WHY_MAX], sock[PATH_BUF];
+        const char *const subst[] = { "@DIR@", f->h.dir, NULL };
+        int r;
+
+        assert_true(testdata_load("agility_links.yaml", subst, links, sizeof(links)) > 0);
+        f->h.capture_log = 1;
+        r = harness_start_config(&f->h, "circe.yaml", links, T_START_MS, why, sizeof(why));
+        if (r == -ENOTSUP)
+                skip();
+        if (r < 0)
+                fail_msg("sharedlinkd did not start: %s", why);
+        assert_int_equal(sl_open(f->h.instance, &f->cl), 0);
+        snprintf(sock, sizeof(sock), "%s/%s.sock", f->h.dir, f->h.instance);
+        f->ctl = harness_connect_unix(sock);
+        assert_true(f->ctl >= 0);
+}
+
+static void start_agility(struct fx *f)
+{
+        const char *argv[] = { agility_path(), "-c", f->conf, "-v", NULL };
+        int st = 0, r;
+
+        f->a.capture_log = 1;
+        r = harness_start_program(&f->a, &f->h, argv, T_START_MS, &st);
+        if (r < 0)
+                fail_msg("sharedlink-agility did not start (%d, status %d); log %s", r, st,
+                         f->a.log_path);
+}
+
+static const char *request(struct fx *f, const char *line)
+{
+        static char reply[REPLY_MAX];
+
+        if (harness_control_request(f->ctl, line, reply, sizeof(reply), T_REPLY_MS) < 0)
+                fail_msg("no reply to \"%s\"", line);
+        return reply;
+}
+
+static void emulate(struct fx *f, const char *addr, const char *what)
+{
+        char line[REPLY_MAX];
+
+        snprintf(line, sizeof(line), "circe arena emulate action %s %s", addr, what);
+        assert_string_equal(request(f, line), "OK\n");
+}
+
+/* A key pressed and released on the remote. */
+static void press(struct fx *f, const char *keys)
+{
+        char k[32];
+
+        snprintf(k, sizeof(k), "keys=%s", keys);
+        emulate(f, "AAAAAA", k);
+        emulate(f, "AAAAAA", "keys=0");
+}
+
+static void passage(struct fx *f, const char *gate, unsigned sensor_ms)
+{
+        char st[32];
+
+        snprintf(st, sizeof(st), "sensor-time=%u", sensor_ms);
+        emulate(f, gate, st);
+}
+
+/* Waits for sharedlink-agility's STATUS= to say "STATE, competitor N". */
+static void wait_state(struct fx *f, const char *state, unsigned competitor)
+{
+        char needle[128];
+
+        snprintf(needle, sizeof(needle), "STATUS=class Jumping A: %s, competitor %u", state,
+                 competitor);
+        if (harness_wait_notify(&f->a, needle, T_WAIT_MS) < 0)
+                fail_msg("sharedlink-agility never reported \"%s\"; last \"%s\"; log %s", needle,
+                         f->a.last_notify, f->a.log_path);
+}
+
+static void wait_value(struct fx *f, const char *name, const char *want)
+{
+        char last[SL_VALUE_SIZE];
+
+        if (slwait_value(f->cl, name, want, T_WAIT_MS, last, sizeof(last)) < 0)
+                fail_msg("%s never became \"%s\" (last \"%s\")", name, want, last);
+}
+
+/* The course is up: every emulated device is online at the controller. */
+static void wait_course(struct fx *f)
+{
+        wait_value(f, "agility.state", "connected");
+        wait_value(f, "agility.device.E1E1E1.online", "1");
+        wait_value(f, "agility.device.E2E2E2.online", "1");
+        wait_value(f, "agility.device.AAAAAA.online", "1");
+        wait_value(f, "agility.device.D15D15.online", "1");
+}
+
+/* sharedlinkd, then sharedlink-agility on the class file, in SetupCompleted with competitor 1
+ * and every device of the course online. */
+static void bring_up(struct fx *f)
+{
+        start_sharedlinkd(f);
+        write_conf(f, NULL);
+        start_agility(f);
+        wait_state(f, "SetupCompleted", 1);
+        wait_course(f);
+}
+
+static void wait_until_ms(uint64_t at_ns)
+{
+        for (uint64_t now = harness_now_ns(); now < at_ns; now = harness_now_ns())
+                poll(NULL, 0, (int)((at_ns - now + NS_PER_MS - 1) / NS_PER_MS));
+}
+
+/* ---- the database, read as a user would -------------------------------------------------------- */
+
+struct row {
+        bool found;
+        int finished, eliminated, faults, refusals, placement;
+        long long finish_ms, penalty_ms;
+        char precision[8];
+};
+
+static struct row db_row(struct fx *f, int competitor)
+{
+        struct row r = { 0 };
+        sqlite3 *db;
+        sqlite3_stmt *st;
+
+        assert_int_equal(sqlite3_open_v2(f->db, &db, SQLITE_OPEN_READONLY, NULL), SQLITE_OK);
+        assert_int_equal(sqlite3_prepare_v2(db, "SELECT finished, eliminated, faults, refusals, "
+                                            "IFNULL(placement, 0), IFNULL(finish_ms, -1), "
+                                            "IFNULL(finish_precision, ''), penalty_ms FROM runs "
+                                            "WHERE class = 'Jumping A' AND competitor = ?1",
+                                            -1, &st, NULL), SQLITE_OK);
+        sqlite3_bind_int(st, 1, competitor);
+        if (sqlite3_step(st) == SQLITE_ROW) {
+                r.found = true;
+                r.finished = sqlite3_column_int(st, 0);
+                r.eliminated = sqlite3_column_int(st, 1);
+                r.faults = sqlite3_column_int(st, 2);
+                r.refusals = sqlite3_column_int(st, 3);
+                r.placement = sqlite3_column_int(st, 4);
+                r.finish_ms = sqlite3_column_int64(st, 5);
+                snprintf(r.precision, sizeof(r.precision), "%s", sqlite3_column_text(st, 6));
+                r.penalty_ms = sqlite3_column_int64(st, 7);
+        }
+        sqlite3_finalize(st);
+        sqlite3_close(db);
+        return r;
+}
+
+static int db_count(struct fx *f)
+{
+        sqlite3 *db;
+        sqlite3_stmt *st;
+        int n = -1;
+
+        assert_int_equal(sqlite3_open_v2(f->db, &db, SQLITE_OPEN_READONLY, NULL), SQLITE_OK);
+        assert_int_equal(sqlite3_prepare_v2(db, "SELECT COUNT(*) FROM runs", -1, &st, NULL),
+                         SQLITE_OK);
+        if (sqlite3_step(st) == SQLITE_ROW)
+                n = sqlite3_column_int(st, 0);
+        sqlite3_finalize(st);
+        sqlite3_close(db);
+        return n;
+}
+
+/* ---- tests ----------------------------------------------------------------------------------- */
+
+static void test_check(void **state)
+{
+        struct fx *f = *state;
+        char out[OUT_MAX], err[OUT_MAX], csv[HARNESS_PATH_MAX], bad[PATH_BUF];
+        const char *argv[] = { agility_path(), "-n", "-c", f->conf, NULL };
+
+        write_conf(f, NULL);
+        assert_int_equal(harness_run_capture(&f->h, out, sizeof(out), err, sizeof(err),
+                                             T_REPLY_MS, argv), 0);
+        assert_string_equal(out, "configuration OK\n");
+
+        /* The class file: FILE:LINE:COL. */
+        write_conf(f, "keypads: [AAAAAA]\n");
+        assert_int_equal(harness_run_capture(&f->h, out, sizeof(out), err, sizeof(err),
+                                             T_REPLY_MS, argv), 1);
+        snprintf(bad, sizeof(bad), "%s:10:1: duplicate key \"keypads\"", f->conf);
+        if (!strstr(err, bad))
+                fail_msg("got \"%s\", expected \"%s\"", err, bad);
+
+        /* The competitor list: FILE:LINE. */
+        write_conf(f, NULL);
+        assert_int_equal(harness_write_file(&f->a, "dogs.csv",
+                                            "CompetitorNumber,HandlerName,DogName,CountryCode\n"
+                                            "1,A,B,NL\n1,C,D,BE\n", csv), 0);
+        assert_int_equal(harness_run_capture(&f->h, out, sizeof(out), err, sizeof(err),
+                                             T_REPLY_MS, argv), 1);
+        snprintf(bad, sizeof(bad), "%s:3: competitor number 1 is already on line 2", csv);
+        if (!strstr(err, bad))
+                fail_msg("got \"%s\", expected \"%s\"", err, bad);
+}
+
+/* Ready, start at sensor time 5000, finish at 32000: 27.000 s, high precision. The sensor
+ * difference is checked against the received times (within 4 s, docs/agility.md §4), so the
+ * finish is sent 27 s after the start, as a dog would run it. */
+static void test_spec_run(void **state)
+{
+        struct fx *f = *state;
+        struct row r;
+        uint64_t started;
+
+        bring_up(f);
+        wait_value(f, "arena.device.D15D15.current_competitor", "1");
+        wait_value(f, "arena.device.D15D15.next_competitor", "2");
+
+        press(f, KEY_READY);
+        wait_state(f, "ReadyToStart", 1);
+        started = harness_now_ns();
+        passage(f, "E1E1E1", SPEC_START_MS);
+        wait_state(f, "StartPassed", 1);
+        wait_value(f, "arena.device.D15D15.timer_running", "1");
+        wait_until_ms(started + (uint64_t)SPEC_RUN_MS * NS_PER_MS);
+        passage(f, "E2E2E2", SPEC_FINISH_MS);
+        wait_state(f, "FinishPassed", 1);
+        wait_value(f, "arena.device.D15D15.primary_time", "27000");
+        assert_int_equal(db_count(f), 0);       /* stored when the run completes: Ready */
+
+        press(f, KEY_READY);
+        wait_state(f, "RunCompleted", 1);
+        r = db_row(f, 1);
+        assert_true(r.found);
+        assert_int_equal(r.finished, 1);
+        assert_int_equal(r.eliminated, 0);
+        assert_int_equal(r.finish_ms, SPEC_RUN_MS);
+        assert_string_equal(r.precision, "high");
+        assert_int_equal(r.placement, 1);
+        assert_int_equal(r.penalty_ms, 0);
+        wait_value(f, "arena.device.D15D15.placement", "1");
+        /* The next Ready moves on to the next competitor; the previous placement stays. */
+        press(f, KEY_READY);
+        wait_state(f, "ReadyToStart", 2);
+        wait_value(f, "arena.device.D15D15.current_competitor", "2");
+        assert_true(slwait_value_is(f->cl, "arena.device.D15D15.placement", "1"));
+        assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
+}
+
+/* One quick run of competitor n with faults: start, finish 1.5 s later by the sensors. From
+ * SetupCompleted or RunCompleted (the previous competitor's) to FinishPassed. */
+static void quick_run(struct fx *f, unsigned n, unsigned start_ms)
+{
+        press(f, KEY_READY);
+        wait_state(f, "ReadyToStart", n);
+        passage(f, "E1E1E1", start_ms);
+        wait_state(f, "StartPassed", n);
+        press(f, "256");        /* faults + 5 */
+        passage(f, "E2E2E2", start_ms + 1500);
+        wait_state(f, "FinishPassed", n);
+}
+
+static void test_sigkill(void **state)
+{
+        struct fx *f = *state;
+        struct row r;
+
+        bring_up(f);
+
+        /* Competitor 1 completes; the daemon is killed right after the Ready that stored it. */
+        quick_run(f, 1, 100000);
+        press(f, KEY_READY);
+        wait_state(f, "RunCompleted", 1);
+        assert_int_equal(harness_stop_daemon(&f->a, SIGKILL, T_STOP_MS), SIGKILL);
+        r = db_row(f, 1);
+        assert_true(r.found);
+        assert_int_equal(r.finish_ms, 1500);
+        assert_int_equal(r.faults, 5);
+        assert_int_equal(r.penalty_ms, 5000);
+
+        /* The restart resumes the class with competitor 2; killed in the middle of its run. */
+        start_agility(f);
+        wait_state(f, "SetupCompleted", 2);
+        wait_value(f, "arena.device.D15D15.current_competitor", "2");
+        wait_value(f, "arena.device.D15D15.placement", "1");
+        press(f, KEY_READY);
+        wait_state(f, "ReadyToStart", 2);
+        passage(f, "E1E1E1", 200000);
+        wait_state(f, "StartPassed", 2);
+        assert_int_equal(harness_stop_daemon(&f->a, SIGKILL, T_STOP_MS), SIGKILL);
+        assert_int_equal(db_count(f), 1);
+        assert_true(db_row(f, 1).found);
+
+        /* Again: competitor 2 runs from the start, and both runs are there, ranked. */
+        start_agility(f);
+        wait_state(f, "SetupCompleted", 2);
+        quick_run(f, 2, 300000);
+        press(f, KEY_READY);
+        wait_state(f, "RunCompleted", 2);
+        assert_int_equal(db_count(f), 2);
+        assert_int_equal(db_row(f, 1).placement, 1);
+        assert_int_equal(db_row(f, 2).placement, 1);    /* the same result: a shared place */
+        assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
+}
+
+/* Another process holds the database's write lock while a run completes. */
+static void test_database_locked(void **state)
+{
+        struct fx *f = *state;
+
+        bring_up(f);
+        quick_run(f, 1, 100000);
+
+        assert_int_equal(sqlite3_open_v2(f->db, &f->lock, SQLITE_OPEN_READWRITE, NULL),
+                         SQLITE_OK);
+        assert_int_equal(sqlite3_exec(f->lock, "BEGIN EXCLUSIVE", NULL, NULL, NULL), SQLITE_OK);
+        press(f, KEY_READY);
+        if (harness_wait_notify(&f->a, "STATUS=class Jumping A: RunCompleted, competitor 1, "
+                                "DATABASE NOT WRITABLE", T_WAIT_MS) < 0)
+                fail_msg("no loud error; last \"%s\"", f->a.last_notify);
+        assert_int_equal(harness_wait_log(&f->a, "competitor 1: the run is NOT stored",
+                                          T_WAIT_MS), 0);
+        /* The run goes on: the display shows its result, the class moves on. */
+        wait_value(f, "arena.device.D15D15.placement", "1");
+        press(f, KEY_READY);
+        wait_state(f, "ReadyToStart", 2);
+
+        assert_int_equal(sqlite3_exec(f->lock, "ROLLBACK", NULL, NULL, NULL), SQLITE_OK);
+        f->lock = sqlite3_close(f->lock) == SQLITE_OK ? NULL : f->lock;
+        assert_int_equal(harness_wait_log(&f->a, "every completed run stored", T_WAIT_MS), 0);
+        assert_int_equal(db_row(f, 1).finish_ms, 1500);
+        assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
+}
+
+int main(void)
+{
+        const struct CMUnitTest tests[] = {
+                cmocka_unit_test_setup_teardown(test_check, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_spec_run, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_sigkill, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_database_locked, setup, teardown),
+        };
+
+        return cmocka_run_group_tests(tests, NULL, NULL);
+}

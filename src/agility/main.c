@@ -32,6 +32,7 @@
 
 #include "agility/agility_run.h"
 #include "agility/agilityd_config.h"
+#include "agility/agilityd_http.h"
 #include "agility/agilityd_store.h"
 #include "svc/log.h"
 #include "svc/notify.h"
@@ -57,6 +58,7 @@ struct main_ctx {
         bool unsaved[AGILITY_COMPETITORS_MAX];  /* completed, the database refused it */
         struct agility_run run;
         struct agilityd_store *store;
+        struct agilityd_http *http;
         struct sl_client *cl;
         uint64_t ev_cursor;
         char display_addr[AGILITYD_DISPLAYS_MAX][SL_CIRCE_ADDRESS_SIZE];
@@ -277,6 +279,7 @@ static void handle(struct main_ctx *ctx, struct agility_actions *acts)
         }
         if (acts->overflow)
                 log_msg(LOG_PRIO_WARNING, "some notices were dropped (too many at once)");
+        agilityd_http_publish(ctx->http, &ctx->run, ctx->last_ms);
         status_update(ctx);
 }
 
@@ -529,6 +532,7 @@ static int setup(struct main_ctx *ctx, const char *path)
                  AGILITYD_STORE_ERROR_MAX];
         uint16_t last = 0;
         unsigned skipped = 0, stored = 0;
+        uint16_t port = 0;
         sigset_t set;
         int r;
 
@@ -583,6 +587,14 @@ static int setup(struct main_ctx *ctx, const char *path)
                 return r;
         }
         ctx->watchdog_interval_ms = notify_watchdog_interval_ms(ctx->notify);
+        r = agilityd_http_start(&ctx->cfg, &ctx->http, &port, err, sizeof(err));
+        if (r < 0) {
+                log_msg(LOG_PRIO_ERR, "%s", err);
+                return r;
+        }
+        log_msg(LOG_PRIO_INFO, "scoreboard at http://%s%s%s:%u/",
+                strchr(ctx->cfg.http_host, ':') ? "[" : "", ctx->cfg.http_host,
+                strchr(ctx->cfg.http_host, ':') ? "]" : "", (unsigned)port);
         log_msg(LOG_PRIO_INFO, "sharedlink-agility %s: %s: class %s, %zu competitors, %u runs "
                 "stored in %s", SHAREDLINK_VERSION, path, ctx->cfg.class_name,
                 ctx->run.count, stored, ctx->cfg.database);
@@ -599,6 +611,7 @@ static void teardown(struct main_ctx *ctx)
                 if (ctx->unsaved[i])
                         log_msg(LOG_PRIO_ERR, "competitor %u: stopping with the run NOT stored",
                                 (unsigned)ctx->results[i].competitor);
+        ctx->http = agilityd_http_stop(ctx->http);
         ctx->cl = sl_close(ctx->cl);
         ctx->store = agilityd_store_close(ctx->store);
         ctx->notify = notify_free(ctx->notify);

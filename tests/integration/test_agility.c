@@ -27,6 +27,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -45,6 +49,8 @@
 #define REPLY_MAX       1024
 #define PATH_BUF        512
 #define OUT_MAX         4096
+#define HTTP_MAX        65536   /* one response */
+#define LOG_MAX         (1 << 20)
 #define NS_PER_MS       1000000ull
 
 #define KEY_READY       "32768"
@@ -60,6 +66,8 @@ struct fx {
         char conf[HARNESS_PATH_MAX];
         char db[PATH_BUF];
         sqlite3 *lock;                  /* the test's own connection holding the write lock */
+        int port;                       /* the scoreboard's, from the log */
+        int sse;                        /* an open /events stream, -1 when none */
 };
 
 static const char *agility_path(void)
@@ -78,6 +86,7 @@ static int setup(void **state)
         if (!f || harness_init(&f->h, "agility") < 0 || harness_init(&f->a, "agilityd") < 0)
                 return -1;
         f->ctl = -1;
+        f->sse = -1;
         snprintf(f->db, sizeof(f->db), "%s/results.db", f->a.dir);
         *state = f;
         return 0;
@@ -90,6 +99,7 @@ static int teardown(void **state)
         sl_close(f->cl);
         sqlite3_close(f->lock);
         harness_close_fd(&f->ctl);
+        harness_close_fd(&f->sse);
         harness_cleanup(&f->a);
         harness_cleanup(&f->h);
         free(f);
@@ -144,6 +154,31 @@ static void start_sharedlinkd(struct fx *f)
         assert_true(f->ctl >= 0);
 }
 
+/* The port of the last "scoreboard at http://127.0.0.1:PORT/" in the log (the class file asks
+ * for any free port). */
+static int scoreboard_port(struct fx *f)
+{
+        static const char needle[] = "scoreboard at http://127.0.0.1:";
+        char *log = malloc(LOG_MAX + 1), *p, *last = NULL;
+        int fd = open(f->a.log_path, O_RDONLY | O_CLOEXEC), port = -1;
+        ssize_t n;
+
+        assert_non_null(log);
+        assert_true(fd >= 0);
+        n = read(fd, log, LOG_MAX);
+        close(fd);
+        assert_true(n > 0);
+        log[n] = '\0';
+        for (p = strstr(log, needle); p; p = strstr(p + 1, needle))
+                last = p;
+        if (last)
+                port = atoi(last + strlen(needle));
+        free(log);
+        if (port <= 0)
+                fail_msg("no scoreboard address in %s", f->a.log_path);
+        return port;
+}
+
 static void start_agility(struct fx *f)
 {
         const char *argv[] = { agility_path(), "-c", f->conf, "-v", NULL };
@@ -154,6 +189,7 @@ static void start_agility(struct fx *f)
         if (r < 0)
                 fail_msg("sharedlink-agility did not start (%d, status %d); log %s", r, st,
                          f->a.log_path);
+        f->port = scoreboard_port(f);
 }
 
 static const char *request(struct fx *f, const char *line)
@@ -236,6 +272,86 @@ static void wait_until_ms(uint64_t at_ns)
 {
         for (uint64_t now = harness_now_ns(); now < at_ns; now = harness_now_ns())
                 poll(NULL, 0, (int)((at_ns - now + NS_PER_MS - 1) / NS_PER_MS));
+}
+
+/* ---- HTTP, with a plain client ----------------------------------------------------------------- */
+
+static int http_connect(struct fx *f)
+{
+        struct sockaddr_in sa = { .sin_family = AF_INET, .sin_port = htons((uint16_t)f->port),
+                                  .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
+        int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+
+        assert_true(fd >= 0);
+        assert_int_equal(connect(fd, (struct sockaddr *)&sa, sizeof(sa)), 0);
+        return fd;
+}
+
+/* Reads what fd sends into buf[*len..] until needle is in it (NULL: until EOF), or the time
+ * is up. */
+static bool read_until(int fd, char *buf, size_t size, size_t *len, const char *needle)
+{
+        uint64_t deadline = harness_now_ns() + (uint64_t)T_WAIT_MS * NS_PER_MS;
+
+        for (;;) {
+                struct pollfd p = { .fd = fd, .events = POLLIN };
+                uint64_t now = harness_now_ns();
+                ssize_t n;
+
+                if (needle && strstr(buf, needle))
+                        return true;
+                if (now >= deadline || *len + 1 >= size)
+                        return false;
+                if (poll(&p, 1, (int)((deadline - now) / NS_PER_MS) + 1) <= 0)
+                        continue;
+                n = read(fd, buf + *len, size - 1 - *len);
+                if (n <= 0)
+                        return needle == NULL;
+                *len += (size_t)n;
+                buf[*len] = '\0';
+        }
+}
+
+/* METHOD path: the status line, headers and body (the server closes after an HTTP/1.0 reply). */
+static const char *http_get(struct fx *f, const char *method, const char *path)
+{
+        static char buf[HTTP_MAX];
+        char req[256];
+        size_t len = 0;
+        int fd = http_connect(f);
+
+        buf[0] = '\0';
+        snprintf(req, sizeof(req), "%s %s HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n", method, path);
+        assert_int_equal(harness_write_all(fd, req, strlen(req), T_WAIT_MS), 0);
+        assert_true(read_until(fd, buf, sizeof(buf), &len, NULL));
+        close(fd);
+        return buf;
+}
+
+static void assert_has(const char *text, const char *needle)
+{
+        if (!strstr(text, needle))
+                fail_msg("\"%s\" not in:\n%s", needle, text);
+}
+
+/* Opens /events; the first update comes at once. */
+static void sse_open(struct fx *f)
+{
+        static const char req[] = "GET /events HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
+
+        f->sse = http_connect(f);
+        assert_int_equal(harness_write_all(f->sse, req, strlen(req), T_WAIT_MS), 0);
+}
+
+/* Reads the stream until an update contains needle. */
+static void sse_wait(struct fx *f, const char *needle)
+{
+        static char buf[HTTP_MAX * 4];
+        size_t len = 0;
+
+        buf[0] = '\0';
+        if (!read_until(f->sse, buf, sizeof(buf), &len, needle))
+                fail_msg("no update with %s on /events; got:\n%.2000s", needle, buf);
 }
 
 /* ---- the database, read as a user would -------------------------------------------------------- */
@@ -333,8 +449,11 @@ static void test_spec_run(void **state)
         struct fx *f = *state;
         struct row r;
         uint64_t started;
+        const char *body;
 
         bring_up(f);
+        sse_open(f);
+        sse_wait(f, "\"state\":\"SetupCompleted\"");
         wait_value(f, "arena.device.D15D15.current_competitor", "1");
         wait_value(f, "arena.device.D15D15.next_competitor", "2");
 
@@ -344,6 +463,12 @@ static void test_spec_run(void **state)
         passage(f, "E1E1E1", SPEC_START_MS);
         wait_state(f, "StartPassed", 1);
         wait_value(f, "arena.device.D15D15.timer_running", "1");
+        sse_wait(f, "\"state\":\"StartPassed\"");
+        body = http_get(f, "GET", "/api/state");
+        assert_has(body, "HTTP/1.1 200 OK");
+        assert_has(body, "\"elapsed_ms\":null");
+        assert_has(body, "\"current\":1,\"next\":2");
+        assert_has(body, "\"handler\":\"Anna Smith\"");
         wait_until_ms(started + (uint64_t)SPEC_RUN_MS * NS_PER_MS);
         passage(f, "E2E2E2", SPEC_FINISH_MS);
         wait_state(f, "FinishPassed", 1);
@@ -361,6 +486,29 @@ static void test_spec_run(void **state)
         assert_int_equal(r.placement, 1);
         assert_int_equal(r.penalty_ms, 0);
         wait_value(f, "arena.device.D15D15.placement", "1");
+        sse_wait(f, "\"state\":\"RunCompleted\"");
+
+        /* The scoreboard: state, results, CSV, the page; read-only. */
+        body = http_get(f, "GET", "/api/state");
+        assert_has(body, "\"state\":\"RunCompleted\"");
+        assert_has(body, "\"faults\":0,\"refusals\":0,\"eliminated\":false");
+        assert_has(body, "\"elapsed_ms\":27000,\"precision\":\"high\"");
+        body = http_get(f, "GET", "/api/results");
+        assert_has(body, "Content-Type: application/json");
+        assert_has(body, "[{\"competitor\":1,\"handler\":\"Anna Smith\",\"dog\":\"Rex\","
+                   "\"country\":\"NL\",\"intermediate_ms\":[],\"finish_ms\":27000,"
+                   "\"precision\":\"high\",\"faults\":0,\"refusals\":0,"
+                   "\"eliminated\":false,\"penalty\":0,\"placement\":1}]");
+        body = http_get(f, "GET", "/api/results.csv");
+        assert_has(body, "CompetitorNumber,HandlerName,DogName,CountryCode,IntermediateTime1,");
+        assert_has(body, "\r\n1,Anna Smith,Rex,NL,,,,27.000,0,0,False,1\r\n");
+        assert_has(body, "\r\n2,Bert Jones,Fly,BE,,,,,,,,\r\n");
+        body = http_get(f, "GET", "/");
+        assert_has(body, "new EventSource('/events')");
+        assert_true(strstr(body, "http://") == NULL && strstr(body, "https://") == NULL);
+        assert_has(http_get(f, "POST", "/api/state"), "HTTP/1.1 405");
+        assert_has(http_get(f, "GET", "/nosuch"), "HTTP/1.1 404");
+
         /* The next Ready moves on to the next competitor; the previous placement stays. */
         press(f, KEY_READY);
         wait_state(f, "ReadyToStart", 2);

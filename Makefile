@@ -435,11 +435,13 @@ mandir_of     = $(DESTDIR)$(MANDIR)/man$(subst .,,$(suffix $(1)))
 # One alias page per exported function, so that `man sl_read` opens libsharedlink(3).
 MAN_ALIASES   = $(shell sed -n $(LIBSL_SYM_SED) $(LIBSL_SYM))
 UNIT_FILES   := $(wildcard systemd/*.service)
-UNIT_SED     := -e 's@^ExecStart=/usr/local/sbin/\(sharedlinkd\|sharedlink-mqtt\) @ExecStart=$(SBINDIR)/\1 @' \
+UNIT_SED     := -e 's@^ExecStart=/usr/local/sbin/\(sharedlinkd\|sharedlink-mqtt\|sharedlink-agility\) @ExecStart=$(SBINDIR)/\1 @' \
                 -e 's|^\(ExecStart=.* -c \)/etc/sharedlink/|\1$(SYSCONFDIR)/sharedlink/|'
 TMPFILES_SED := -e 's|^d /etc/sharedlink |d $(SYSCONFDIR)/sharedlink |'
 CONF_DEST    := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlinkd.yaml
 MQTT_CONF_DEST := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlink-mqtt.yaml
+AGILITY_CONF_DEST := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlink-agility.yaml
+AGILITY_CSV_DEST  := $(DESTDIR)$(SYSCONFDIR)/sharedlink/agility-competitors.csv
 PC_STAMP     := $(O)/install-paths
 
 ifneq ($(filter install,$(MAKECMDGOALS)),)
@@ -465,6 +467,7 @@ install: all
 	$(INSTALL) -m 0755 $(SHAREDLINKD) $(DESTDIR)$(SBINDIR)/sharedlinkd
 	$(if $(CLI_SRC),$(INSTALL) -m 0755 $(SLCTL) $(DESTDIR)$(BINDIR)/slctl)
 	$(if $(MQTT_MAIN),$(INSTALL) -m 0755 $(MQTT_BRIDGE) $(DESTDIR)$(SBINDIR)/sharedlink-mqtt)
+	$(if $(AGILITYD_MAIN),$(INSTALL) -m 0755 $(AGILITYD) $(DESTDIR)$(SBINDIR)/sharedlink-agility)
 	$(INSTALL) -m 0755 $(LIBSL_SO) $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION)
 	ln -sf libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so
 	$(INSTALL) -m 0644 $(LIBSL_A) $(DESTDIR)$(LIBDIR)/libsharedlink.a
@@ -478,9 +481,10 @@ install: all
 	    d=$(DESTDIR)$(UNITDIR)/$${u##*/}; \
 	    sed $(UNIT_SED) $$u > $$d.tmp; \
 	    if ! grep -qF 'ExecStart=$(SBINDIR)/sharedlinkd ' $$d.tmp && \
-	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-mqtt ' $$d.tmp; then \
-	        echo "make install: $$u: ExecStart= does not name /usr/local/sbin/sharedlinkd" \
-	             "or sharedlink-mqtt" >&2; \
+	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-mqtt ' $$d.tmp && \
+	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-agility ' $$d.tmp; then \
+	        echo "make install: $$u: ExecStart= does not name /usr/local/sbin/sharedlinkd," \
+	             "sharedlink-mqtt or sharedlink-agility" >&2; \
 	        rm -f $$d.tmp; exit 1; \
 	    fi; \
 	    chmod 0644 $$d.tmp; mv -f $$d.tmp $$d; echo "$$d: $$(grep '^ExecStart=' $$d)"; \
@@ -505,6 +509,9 @@ install: all
 	@if [ -e $(MQTT_CONF_DEST) ]; then echo "$(MQTT_CONF_DEST): exists, kept"; \
 	else $(INSTALL) -m 0640 conf/sharedlink-mqtt.yaml $(MQTT_CONF_DEST) && \
 	    echo "$(MQTT_CONF_DEST): installed"; fi
+	@for f in sharedlink-agility.yaml:$(AGILITY_CONF_DEST) agility-competitors.csv:$(AGILITY_CSV_DEST); do \
+	    d=$${f#*:}; if [ -e $$d ]; then echo "$$d: exists, kept"; \
+	    else $(INSTALL) -m 0644 conf/$${f%%:*} $$d && echo "$$d: installed"; fi; done
 	@# A library installed straight into the system is found by the loader only after this.
 	@if [ -z "$(DESTDIR)" ] && [ "$$(id -u)" = 0 ] && command -v $(LDCONFIG) >/dev/null; then \
 	    echo $(LDCONFIG); $(LDCONFIG); fi
@@ -512,7 +519,7 @@ install: all
 # Removes what install put there; the configuration only when it is still the one shipped.
 uninstall:
 	rm -f $(DESTDIR)$(SBINDIR)/sharedlinkd $(DESTDIR)$(BINDIR)/slctl \
-	    $(DESTDIR)$(SBINDIR)/sharedlink-mqtt \
+	    $(DESTDIR)$(SBINDIR)/sharedlink-mqtt $(DESTDIR)$(SBINDIR)/sharedlink-agility \
 	    $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so \
 	    $(DESTDIR)$(LIBDIR)/libsharedlink.a $(DESTDIR)$(PKGCONFIGDIR)/sharedlink.pc \
 	    $(DESTDIR)$(INCDIR)/sharedlink.h \
@@ -524,6 +531,9 @@ uninstall:
 	@if [ -n '$(PYTHONDIR)' ]; then d='$(DESTDIR)$(PYTHONDIR)/sharedlink'; \
 	    rm -f $(addprefix "$$d"/,$(notdir $(PY_SRC)) _paths.py); rm -rf "$$d/__pycache__"; \
 	    [ ! -d "$$d" ] || rmdir "$$d"; fi
+	@for f in sharedlink-agility.yaml:$(AGILITY_CONF_DEST) agility-competitors.csv:$(AGILITY_CSV_DEST); do \
+	    d=$${f#*:}; if cmp -s conf/$${f%%:*} $$d; then rm -f $$d; \
+	    elif [ -e $$d ]; then echo "$$d: changed since install, kept"; fi; done
 	@if cmp -s conf/sharedlink-mqtt.yaml $(MQTT_CONF_DEST); then rm -f $(MQTT_CONF_DEST); \
 	elif [ -e $(MQTT_CONF_DEST) ]; then echo "$(MQTT_CONF_DEST): changed since install, kept"; fi
 	@if cmp -s conf/sharedlinkd.yaml $(CONF_DEST); then rm -f $(CONF_DEST); \

@@ -413,15 +413,12 @@ static enum MHD_Result serve_copy(struct agilityd_http *h, struct MHD_Connection
 static enum MHD_Result serve_state(struct agilityd_http *h, struct MHD_Connection *conn)
 {
         char buf[STATE_MAX];
-        struct agility_run_view v;
-        uint64_t at;
         int n;
 
+        /* Under the lock: a reload may replace the configuration (the names). */
         pthread_mutex_lock(&h->lock);
-        v = h->view;
-        at = h->view_ms;
+        n = agilityd_json_state(buf, sizeof(buf), h->cfg, &h->view, h->view_ms, mono_ms());
         pthread_mutex_unlock(&h->lock);
-        n = agilityd_json_state(buf, sizeof(buf), h->cfg, &v, at, mono_ms());
         if (n < 0)
                 return reply(conn, MHD_HTTP_INTERNAL_SERVER_ERROR, "text/plain", "", 0);
         return reply(conn, MHD_HTTP_OK, "application/json", buf, (size_t)n);
@@ -507,14 +504,15 @@ int agilityd_http_start(const struct agilityd_config *cfg, struct agilityd_http 
         return 0;
 }
 
-void agilityd_http_publish(struct agilityd_http *h, const struct agility_run *run,
-                           uint64_t now_ms)
+void agilityd_http_publish(struct agilityd_http *h, const struct agilityd_config *cfg,
+                           const struct agility_run *run, uint64_t now_ms)
 {
         int n;
 
         if (!h)
                 return;
         pthread_mutex_lock(&h->lock);
+        h->cfg = cfg;
         agility_run_view(run, now_ms, &h->view);
         h->view_ms = now_ms;
         n = agilityd_json_results(h->results, AGILITYD_JSON_MAX, h->cfg, run);

@@ -29,14 +29,16 @@
 
 struct agilityd_http;
 
-/* Starts serving on cfg's http_host:http_port (port 0: any free one, in *ret_port). cfg (the
- * class name, the competitor names) must outlive the server. 0, or -errno with err set. */
+/* Starts serving on cfg's http_host:http_port (port 0: any free one, in *ret_port); cfg as in
+ * agilityd_http_publish. 0, or -errno with err set. */
 int agilityd_http_start(const struct agilityd_config *cfg, struct agilityd_http **ret,
                         uint16_t *ret_port, char *err, size_t err_size);
 
-/* Publishes the engine's state at now_ms (its monotonic clock) to every reader and stream. */
-void agilityd_http_publish(struct agilityd_http *h, const struct agility_run *run,
-                           uint64_t now_ms);
+/* Publishes the engine's state at now_ms (its monotonic clock) to every reader and stream;
+ * cfg (the class name and the competitors' names, which a reload replaces) must stay valid
+ * until the next publish or the stop. */
+void agilityd_http_publish(struct agilityd_http *h, const struct agilityd_config *cfg,
+                           const struct agility_run *run, uint64_t now_ms);
 
 /* Stops serving (open streams end); NULL-safe; returns NULL. */
 struct agilityd_http *agilityd_http_stop(struct agilityd_http *h);

@@ -53,7 +53,8 @@
 #endif
 
 struct main_ctx {
-        struct agilityd_config cfg;
+        struct agilityd_config *cfg;    /* the running class; a reload replaces it whole */
+        const char *path;               /* -c */
         struct agility_result results[AGILITY_COMPETITORS_MAX];
         bool unsaved[AGILITY_COMPETITORS_MAX];  /* completed, the database refused it */
         struct agility_run run;
@@ -82,6 +83,7 @@ struct main_ctx {
 };
 
 static void handle(struct main_ctx *ctx, struct agility_actions *acts);
+static void reload(struct main_ctx *ctx);
 
 static uint64_t now_ms(void)
 {
@@ -110,7 +112,7 @@ static void status_update(struct main_ctx *ctx)
                 return;
         /* States and reasons only (sd_notify may block when nobody reads): no counts. */
         snprintf(s, sizeof(s), "STATUS=class %s: %s, competitor %u%s%s",
-                 ctx->cfg.class_name, agility_run_state_name(ctx->run.state),
+                 ctx->cfg->class_name, agility_run_state_name(ctx->run.state),
                  (unsigned)ctx->run.current, ctx->cl ? "" : ", sharedlinkd not found",
                  ctx->db_error ? ", DATABASE NOT WRITABLE: completed runs kept in memory" : "");
         if (strcmp(s, ctx->status) != 0) {
@@ -128,10 +130,10 @@ static void displays_update(struct main_ctx *ctx)
         struct agility_display want;
         char reply[REPLY_MAX];
 
-        if (!ctx->cl || ctx->cfg.display_count == 0)
+        if (!ctx->cl || ctx->cfg->display_count == 0)
                 return;
         agility_run_display(&ctx->run, &want);
-        for (unsigned i = 0; i < ctx->cfg.display_count; i++) {
+        for (unsigned i = 0; i < ctx->cfg->display_count; i++) {
                 struct sl_circe_visualize vis = { .size = sizeof(vis) };
                 struct agility_display next;
                 const char *dest = ctx->display_addr[i];
@@ -141,7 +143,7 @@ static void displays_update(struct main_ctx *ctx)
                         continue;
                 vis.dests = &dest;
                 vis.dest_count = 1;
-                r = sl_circe_visualize(ctx->cl, ctx->cfg.link, &vis, reply, sizeof(reply));
+                r = sl_circe_visualize(ctx->cl, ctx->cfg->link, &vis, reply, sizeof(reply));
                 if (r == 0) {
                         ctx->shown[i] = next;
                         continue;
@@ -154,8 +156,8 @@ static void displays_update(struct main_ctx *ctx)
 
 static int display_index(const struct main_ctx *ctx, uint32_t addr)
 {
-        for (unsigned i = 0; i < ctx->cfg.display_count; i++)
-                if (ctx->cfg.displays[i] == addr)
+        for (unsigned i = 0; i < ctx->cfg->display_count; i++)
+                if (ctx->cfg->displays[i] == addr)
                         return (int)i;
         return -1;
 }
@@ -230,10 +232,10 @@ static void sync_clocks(struct main_ctx *ctx)
 
         ctx->sync_wanted = false;
         if (ctx->cl)
-                r = sl_circe_sync_clocks(ctx->cl, ctx->cfg.link, on_sync_result, ctx, reply,
+                r = sl_circe_sync_clocks(ctx->cl, ctx->cfg->link, on_sync_result, ctx, reply,
                                          sizeof(reply));
         if (r < 0)
-                log_msg(LOG_PRIO_WARNING, "clock sync on link %s: %s", ctx->cfg.link,
+                log_msg(LOG_PRIO_WARNING, "clock sync on link %s: %s", ctx->cfg->link,
                         reply[0] ? reply : sl_strerror(r));
         agility_run_sync_done(&ctx->run, engine_ms(ctx, now_ms()), &acts);
         handle(ctx, &acts);
@@ -279,7 +281,7 @@ static void handle(struct main_ctx *ctx, struct agility_actions *acts)
         }
         if (acts->overflow)
                 log_msg(LOG_PRIO_WARNING, "some notices were dropped (too many at once)");
-        agilityd_http_publish(ctx->http, &ctx->run, ctx->last_ms);
+        agilityd_http_publish(ctx->http, ctx->cfg, &ctx->run, ctx->last_ms);
         status_update(ctx);
 }
 
@@ -329,7 +331,7 @@ static void on_event(struct main_ctx *ctx, const struct sl_event *ev)
         uint32_t dev;
         int di;
 
-        if (strcmp(ev->link_name, ctx->cfg.link) != 0 ||
+        if (strcmp(ev->link_name, ctx->cfg->link) != 0 ||
             !event_field(ev->text, "device", addr, sizeof(addr)) ||
             agilityd_address_parse(addr, &dev) < 0)
                 return;
@@ -395,7 +397,7 @@ static void *waker_main(void *arg)
 
 static void attach_due(struct main_ctx *ctx, uint64_t now)
 {
-        const char *inst = ctx->cfg.instance[0] ? ctx->cfg.instance : NULL;
+        const char *inst = ctx->cfg->instance[0] ? ctx->cfg->instance : NULL;
         int r;
 
         if (ctx->cl || now < ctx->attach_at_ms)
@@ -419,8 +421,8 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
                 ctx->waker_running = true;
         else
                 log_msg(LOG_PRIO_ERR, "waker thread: %s", strerror(errno));
-        log_msg(LOG_PRIO_INFO, "attached to sharedlinkd, link %s", ctx->cfg.link);
-        for (unsigned i = 0; i < ctx->cfg.display_count; i++)
+        log_msg(LOG_PRIO_INFO, "attached to sharedlinkd, link %s", ctx->cfg->link);
+        for (unsigned i = 0; i < ctx->cfg->display_count; i++)
                 agility_display_unknown(&ctx->shown[i]);
         displays_update(ctx);
 }
@@ -448,6 +450,10 @@ static void on_signal(struct main_ctx *ctx)
 
         if (read(ctx->sig_fd, &si, sizeof(si)) != sizeof(si))
                 return;
+        if (si.ssi_signo == SIGHUP) {
+                reload(ctx);
+                return;
+        }
         log_msg(LOG_PRIO_NOTICE, "%s: stopping", strsignal((int)si.ssi_signo));
         notify_stopping(ctx->notify);
         ctx->stopping = true;
@@ -526,54 +532,157 @@ static int check_only(const char *path)
         return service_check_ok();
 }
 
-static int setup(struct main_ctx *ctx, const char *path)
+/* A class ready to run: its file, its database, its stored results. */
+struct class_load {
+        struct agilityd_config *cfg;
+        struct agilityd_store *store;
+        struct agility_result results[AGILITY_COMPETITORS_MAX];
+        uint16_t last;
+        struct agility_run check;       /* the class checked against the engine's rules */
+};
+
+static struct class_load *class_load_free(struct class_load *cl)
+{
+        if (cl) {
+                agilityd_store_close(cl->store);
+                free(cl->cfg);
+                free(cl);
+        }
+        return NULL;
+}
+
+/* Reads the class file path, opens its database and loads its runs; NULL after logging why. */
+static struct class_load *class_prepare(const char *path)
 {
         char err[AGILITYD_ERROR_MAX > AGILITYD_STORE_ERROR_MAX ? AGILITYD_ERROR_MAX :
                  AGILITYD_STORE_ERROR_MAX];
-        uint16_t last = 0;
-        unsigned skipped = 0, stored = 0;
+        struct class_load *cl = calloc(1, sizeof(*cl));
+        unsigned skipped = 0;
+        int r = -ENOMEM;
+
+        if (!cl || !(cl->cfg = malloc(sizeof(*cl->cfg)))) {
+                log_msg(LOG_PRIO_ERR, "%s: out of memory", path);
+                return class_load_free(cl);
+        }
+        r = agilityd_config_load(path, cl->cfg, err, sizeof(err));
+        if (r == 0)
+                r = agilityd_store_open(cl->cfg->database, cl->cfg->class_name, &cl->store, err,
+                                        sizeof(err));
+        if (r == 0)
+                r = agilityd_store_load(cl->store, cl->cfg->competitors,
+                                        cl->cfg->competitor_count, cl->results, &cl->last,
+                                        &skipped, err, sizeof(err));
+        if (r < 0) {
+                log_msg(LOG_PRIO_ERR, "%s", err);
+                return class_load_free(cl);
+        }
+        if (skipped)
+                log_msg(LOG_PRIO_WARNING, "%s: %u stored runs of class %s are of competitors "
+                        "no longer in %s: not shown", cl->cfg->database, skipped,
+                        cl->cfg->class_name, cl->cfg->competitors_path);
+        if (agility_run_init(&cl->check, &cl->cfg->cls, cl->cfg->competitors,
+                             cl->cfg->competitor_count, cl->results, cl->last) < 0) {
+                log_msg(LOG_PRIO_ERR, "%s: the class breaks a rule of docs/agility.md §1", path);
+                return class_load_free(cl);
+        }
+        return cl;
+}
+
+/* Makes cl the running class (Offline: the caller starts it); cl is consumed. */
+static void class_install(struct main_ctx *ctx, struct class_load *cl)
+{
+        struct agilityd_config *old = ctx->cfg;
+        unsigned stored = 0;
+
+        agilityd_store_close(ctx->store);
+        ctx->cfg = cl->cfg;
+        ctx->store = cl->store;
+        cl->cfg = NULL;
+        cl->store = NULL;
+        memcpy(ctx->results, cl->results, sizeof(ctx->results));
+        memset(ctx->unsaved, 0, sizeof(ctx->unsaved));
+        /* Checked in class_prepare: the same class, competitors and results pass again. */
+        agility_run_init(&ctx->run, &ctx->cfg->cls, ctx->cfg->competitors,
+                         ctx->cfg->competitor_count, ctx->results, cl->last);
+        class_load_free(cl);
+        /* The scoreboard's threads read the names under its lock: they move to the new class
+         * before the old one is freed. */
+        agilityd_http_publish(ctx->http, ctx->cfg, &ctx->run, ctx->last_ms);
+        free(old);
+        for (size_t i = 0; i < ctx->run.count; i++)
+                stored += ctx->results[i].completed;
+        for (unsigned i = 0; i < ctx->cfg->display_count; i++) {
+                agilityd_address_format(ctx->cfg->displays[i], ctx->display_addr[i]);
+                agility_display_unknown(&ctx->shown[i]);
+        }
+        log_msg(LOG_PRIO_INFO, "%s: class %s, %zu competitors, %u runs stored in %s", ctx->path,
+                ctx->cfg->class_name, ctx->run.count, stored, ctx->cfg->database);
+}
+
+/* SIGHUP: the next class. A file that does not load leaves the running class as it is; so does
+ * a run in progress or a completed run the database has not taken yet (they would be lost). */
+static void reload(struct main_ctx *ctx)
+{
+        struct agility_actions acts;
+        struct class_load *cl;
+        char old_host[AGILITYD_HOST_MAX], old_instance[AGILITYD_NAME_MAX];
+        uint16_t old_port = ctx->cfg->http_port;
+
+        if (ctx->run.state >= AGILITY_START_PASSED && ctx->run.state <= AGILITY_FINISH_PASSED) {
+                log_msg(LOG_PRIO_WARNING, "SIGHUP: a run is in progress (%s): complete or reset "
+                        "it, then reload; the class %s stays",
+                        agility_run_state_name(ctx->run.state), ctx->cfg->class_name);
+                return;
+        }
+        for (size_t i = 0; i < ctx->run.count; i++)
+                if (ctx->unsaved[i]) {
+                        log_msg(LOG_PRIO_ERR, "SIGHUP: competitor %u's run is not stored yet: "
+                                "the class %s stays", (unsigned)ctx->results[i].competitor,
+                                ctx->cfg->class_name);
+                        return;
+                }
+        notify_reloading(ctx->notify);
+        cl = class_prepare(ctx->path);
+        if (!cl) {
+                log_msg(LOG_PRIO_ERR, "SIGHUP: %s not loaded: the class %s stays", ctx->path,
+                        ctx->cfg->class_name);
+                notify_ready(ctx->notify);
+                return;
+        }
+        snprintf(old_host, sizeof(old_host), "%s", ctx->cfg->http_host);
+        snprintf(old_instance, sizeof(old_instance), "%s", ctx->cfg->instance);
+        if (strcmp(old_host, cl->cfg->http_host) != 0 || old_port != cl->cfg->http_port ||
+            strcmp(old_instance, cl->cfg->instance) != 0)
+                log_msg(LOG_PRIO_WARNING, "SIGHUP: instance and http take effect at the next "
+                        "start only");
+        log_msg(LOG_PRIO_NOTICE, "SIGHUP: class %s ends, class %s loaded", ctx->cfg->class_name,
+                cl->cfg->class_name);
+        class_install(ctx, cl);
+        agility_run_start_class(&ctx->run, engine_ms(ctx, now_ms()), &acts);
+        handle(ctx, &acts);
+        notify_ready(ctx->notify);
+}
+
+static int setup(struct main_ctx *ctx, const char *path)
+{
+        char err[AGILITYD_ERROR_MAX];
+        struct class_load *cl;
         uint16_t port = 0;
         sigset_t set;
         int r;
 
-        if (agilityd_config_load(path, &ctx->cfg, err, sizeof(err)) < 0) {
-                log_msg(LOG_PRIO_ERR, "%s", err);
+        ctx->path = path;
+        cl = class_prepare(path);
+        if (!cl)
                 return -EINVAL;
-        }
-        r = agilityd_store_open(ctx->cfg.database, ctx->cfg.class_name, &ctx->store, err,
-                                sizeof(err));
-        if (r == 0)
-                r = agilityd_store_load(ctx->store, ctx->cfg.competitors,
-                                        ctx->cfg.competitor_count, ctx->results, &last,
-                                        &skipped, err, sizeof(err));
-        if (r < 0) {
-                log_msg(LOG_PRIO_ERR, "%s", err);
-                return r;
-        }
-        if (skipped)
-                log_msg(LOG_PRIO_WARNING, "%s: %u stored runs of class %s are of competitors "
-                        "no longer in %s: not shown", ctx->cfg.database, skipped,
-                        ctx->cfg.class_name, ctx->cfg.competitors_path);
-        r = agility_run_init(&ctx->run, &ctx->cfg.cls, ctx->cfg.competitors,
-                             ctx->cfg.competitor_count, ctx->results, last);
-        if (r < 0) {
-                log_msg(LOG_PRIO_ERR, "%s: the class breaks a rule of docs/agility.md §1", path);
-                return r;
-        }
-        for (size_t i = 0; i < ctx->run.count; i++)
-                stored += ctx->results[i].completed;
-        for (unsigned i = 0; i < ctx->cfg.display_count; i++) {
-                agilityd_address_format(ctx->cfg.displays[i], ctx->display_addr[i]);
-                agility_display_unknown(&ctx->shown[i]);
-        }
+        class_install(ctx, cl);
         log_ratelimit_init(&ctx->display_rl, "displays", LOG_RATELIMIT_INTERVAL_MS,
                            LOG_RATELIMIT_BURST);
         sigemptyset(&set);
         sigaddset(&set, SIGTERM);
         sigaddset(&set, SIGINT);
-        sigaddset(&set, SIGHUP);        /* no reload yet: a restart; ignored, not fatal */
+        sigaddset(&set, SIGHUP);        /* the next class */
         pthread_sigmask(SIG_BLOCK, &set, NULL);
-        sigdelset(&set, SIGHUP);
         ctx->sig_fd = signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK);
         ctx->wake_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
         if (ctx->sig_fd < 0 || ctx->wake_fd < 0) {
@@ -587,17 +696,16 @@ static int setup(struct main_ctx *ctx, const char *path)
                 return r;
         }
         ctx->watchdog_interval_ms = notify_watchdog_interval_ms(ctx->notify);
-        r = agilityd_http_start(&ctx->cfg, &ctx->http, &port, err, sizeof(err));
+        r = agilityd_http_start(ctx->cfg, &ctx->http, &port, err, sizeof(err));
         if (r < 0) {
                 log_msg(LOG_PRIO_ERR, "%s", err);
                 return r;
         }
         log_msg(LOG_PRIO_INFO, "scoreboard at http://%s%s%s:%u/",
-                strchr(ctx->cfg.http_host, ':') ? "[" : "", ctx->cfg.http_host,
-                strchr(ctx->cfg.http_host, ':') ? "]" : "", (unsigned)port);
-        log_msg(LOG_PRIO_INFO, "sharedlink-agility %s: %s: class %s, %zu competitors, %u runs "
-                "stored in %s", SHAREDLINK_VERSION, path, ctx->cfg.class_name,
-                ctx->run.count, stored, ctx->cfg.database);
+                strchr(ctx->cfg->http_host, ':') ? "[" : "", ctx->cfg->http_host,
+                strchr(ctx->cfg->http_host, ':') ? "]" : "", (unsigned)port);
+        log_msg(LOG_PRIO_INFO, "sharedlink-agility %s: link %s of instance %s", SHAREDLINK_VERSION,
+                ctx->cfg->link, ctx->cfg->instance[0] ? ctx->cfg->instance : "(default)");
         return 0;
 }
 
@@ -615,6 +723,7 @@ static void teardown(struct main_ctx *ctx)
         ctx->cl = sl_close(ctx->cl);
         ctx->store = agilityd_store_close(ctx->store);
         ctx->notify = notify_free(ctx->notify);
+        free(ctx->cfg);
         if (ctx->wake_fd >= 0)
                 close(ctx->wake_fd);
         if (ctx->sig_fd >= 0)

@@ -68,6 +68,7 @@ struct fx {
         sqlite3 *lock;                  /* the test's own connection holding the write lock */
         int port;                       /* the scoreboard's, from the log */
         int sse;                        /* an open /events stream, -1 when none */
+        const char *class_name;         /* what write_conf writes */
 };
 
 static const char *agility_path(void)
@@ -87,6 +88,7 @@ static int setup(void **state)
                 return -1;
         f->ctl = -1;
         f->sse = -1;
+        f->class_name = "Jumping A";
         snprintf(f->db, sizeof(f->db), "%s/results.db", f->a.dir);
         *state = f;
         return 0;
@@ -123,7 +125,7 @@ static void write_conf(struct fx *f, const char *extra)
         snprintf(text, sizeof(text),
                  "instance: %s\n"
                  "link: agility\n"
-                 "class: {name: \"Jumping A\", standard_course_time_ms: 40000, "
+                 "class: {name: \"%s\", standard_course_time_ms: 40000, "
                  "max_course_time_ms: 80000, intermediates: 0}\n"
                  "gates: {start: E1E1E1, finish: E2E2E2}\n"
                  "keypads: [AAAAAA]\n"
@@ -131,7 +133,7 @@ static void write_conf(struct fx *f, const char *extra)
                  "competitors: %s\n"
                  "database: %s\n"
                  "http: \"127.0.0.1:0\"\n%s",
-                 f->h.instance, csv, f->db, extra ? extra : "");
+                 f->h.instance, f->class_name, csv, f->db, extra ? extra : "");
         assert_int_equal(harness_write_file(&f->a, "agility.yaml", text, f->conf), 0);
 }
 
@@ -232,8 +234,8 @@ static void wait_state(struct fx *f, const char *state, unsigned competitor)
 {
         char needle[128];
 
-        snprintf(needle, sizeof(needle), "STATUS=class Jumping A: %s, competitor %u", state,
-                 competitor);
+        snprintf(needle, sizeof(needle), "STATUS=class %s: %s, competitor %u", f->class_name,
+                 state, competitor);
         if (harness_wait_notify(&f->a, needle, T_WAIT_MS) < 0)
                 fail_msg("sharedlink-agility never reported \"%s\"; last \"%s\"; log %s", needle,
                          f->a.last_notify, f->a.log_path);
@@ -602,6 +604,45 @@ static void test_database_locked(void **state)
         assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
 }
 
+/* SIGHUP loads the next class; a run in progress or a file that does not load keeps the one
+ * that runs. */
+static void test_reload(void **state)
+{
+        struct fx *f = *state;
+        char conf[HARNESS_PATH_MAX];
+
+        bring_up(f);
+        quick_run(f, 1, 100000);
+        assert_int_equal(kill(f->a.pid, SIGHUP), 0);
+        assert_int_equal(harness_wait_log(&f->a, "SIGHUP: a run is in progress (FinishPassed)",
+                                          T_WAIT_MS), 0);
+        press(f, KEY_READY);
+        wait_state(f, "RunCompleted", 1);
+
+        f->class_name = "Agility B";
+        write_conf(f, NULL);
+        assert_int_equal(kill(f->a.pid, SIGHUP), 0);
+        wait_state(f, "SetupCompleted", 1);
+        assert_has(http_get(f, "GET", "/api/state"), "\"class\":\"Agility B\"");
+        assert_has(http_get(f, "GET", "/api/results"), "[]");
+        wait_value(f, "arena.device.D15D15.placement", "0");
+
+        assert_int_equal(harness_write_file(&f->a, "agility.yaml", "link: [\n", conf), 0);
+        assert_int_equal(kill(f->a.pid, SIGHUP), 0);
+        assert_int_equal(harness_wait_log(&f->a, "not loaded: the class Agility B stays",
+                                          T_WAIT_MS), 0);
+        assert_int_equal(harness_log_contains(&f->a, "agility.yaml:2:1: "), 1);
+        assert_has(http_get(f, "GET", "/api/state"), "\"class\":\"Agility B\"");
+
+        /* Back to the first class: its stored run is there, the next competitor is called. */
+        f->class_name = "Jumping A";
+        write_conf(f, NULL);
+        assert_int_equal(kill(f->a.pid, SIGHUP), 0);
+        wait_state(f, "SetupCompleted", 2);
+        assert_has(http_get(f, "GET", "/api/results"), "[{\"competitor\":1,");
+        assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -609,6 +650,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_spec_run, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_sigkill, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_database_locked, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_reload, setup, teardown),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

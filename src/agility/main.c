@@ -8,9 +8,11 @@
  * synchronisation and displays through sl_circe_*. The rules are the pure engine's
  * (agility_run.h); this file feeds it and carries out what it asks (docs/agility.md §9).
  *
- * One thread runs the engine from one poll loop (signals, a wake-up eventfd, the engine's next
- * deadline). A second, tiny thread only sleeps in sl_wait (a futex, which poll cannot watch) and
- * rings the eventfd when the tables changed, as sharedlink-mqtt does. Always in the foreground,
+ * One thread runs the engine on the service's loop (svc/service.h: signals, SIGHUP the next
+ * class, the watchdog, READY/STATUS), woken by an eventfd and by one timer at the next thing
+ * due (the engine's deadline, a retry). A second, tiny thread only sleeps in sl_wait (a futex,
+ * which poll cannot watch) and rings the eventfd when the tables changed, as sharedlink-mqtt
+ * does; libmicrohttpd's threads serve the scoreboard (agilityd_http.h). Always in the foreground,
  * logging to stderr with <N> priority prefixes. Exit status: 0 after a clean stop (SIGTERM,
  * SIGINT) or a good -n check, 1 on a bad configuration or a failed start, 2 on a usage error.
  */
@@ -18,13 +20,11 @@
 #include <inttypes.h>
 #include <poll.h>
 #include <pthread.h>
-#include <signal.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/eventfd.h>
-#include <sys/signalfd.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -34,8 +34,8 @@
 #include "agility/agilityd_config.h"
 #include "agility/agilityd_http.h"
 #include "agility/agilityd_store.h"
+#include "svc/evloop.h"
 #include "svc/log.h"
-#include "svc/notify.h"
 #include "svc/service.h"
 
 #define NS_PER_MS               1000000ull
@@ -64,21 +64,20 @@ struct main_ctx {
         uint64_t ev_cursor;
         char display_addr[AGILITYD_DISPLAYS_MAX][SL_CIRCE_ADDRESS_SIZE];
         struct agility_display shown[AGILITYD_DISPLAYS_MAX];
-        struct notify *notify;
-        int sig_fd, wake_fd;
+        struct service *svc;
+        struct evloop *loop;
+        struct evloop_timer step;       /* the next thing due (see turn()) */
+        int wake_fd;
         pthread_t waker;
         bool waker_running;
         atomic_bool stop_waker;
-        bool stopping;
         bool sync_wanted;
         bool db_error;                  /* the last store failed: said in STATUS= */
-        bool ready;                     /* READY=1 sent: STATUS= follows it */
+        bool ready;                     /* READY=1 sent */
         uint64_t last_ms;               /* the engine's clock never goes back */
         unsigned attach_ms;
         uint64_t attach_at_ms;          /* next sl_open attempt */
         uint64_t retry_at_ms;           /* next store retry, 0: none due */
-        uint64_t watchdog_at_ms, watchdog_interval_ms;
-        char status[STATUS_MAX];
         struct log_ratelimit display_rl;
 };
 
@@ -104,21 +103,34 @@ static uint64_t engine_ms(struct main_ctx *ctx, uint64_t t)
 
 /* ---- status ---------------------------------------------------------------------------------- */
 
+/* The status text: states and reasons only, no counts (sd_notify blocks when nobody reads). */
+static void status_text(struct main_ctx *ctx, char *s, size_t size)
+{
+        snprintf(s, size, "class %s: %s, competitor %u%s%s",
+                 ctx->cfg->class_name, agility_run_state_name(ctx->run.state),
+                 (unsigned)ctx->run.current, ctx->cl ? "" : ", sharedlinkd not found",
+                 ctx->db_error ? ", DATABASE NOT WRITABLE: completed runs kept in memory" : "");
+}
+
+/* READY=1 with the status: at start (the class is in, sharedlinkd was tried: one that is not
+ * running is retried, not fatal) and after a reload. */
+static void ready(struct main_ctx *ctx)
+{
+        char s[STATUS_MAX];
+
+        status_text(ctx, s, sizeof(s));
+        service_ready(ctx->svc, s);
+        ctx->ready = true;
+}
+
 static void status_update(struct main_ctx *ctx)
 {
         char s[STATUS_MAX];
 
         if (!ctx->ready)
                 return;
-        /* States and reasons only (sd_notify may block when nobody reads): no counts. */
-        snprintf(s, sizeof(s), "STATUS=class %s: %s, competitor %u%s%s",
-                 ctx->cfg->class_name, agility_run_state_name(ctx->run.state),
-                 (unsigned)ctx->run.current, ctx->cl ? "" : ", sharedlinkd not found",
-                 ctx->db_error ? ", DATABASE NOT WRITABLE: completed runs kept in memory" : "");
-        if (strcmp(s, ctx->status) != 0) {
-                memcpy(ctx->status, s, sizeof(s));
-                notify_send(ctx->notify, s);
-        }
+        status_text(ctx, s, sizeof(s));
+        service_status(ctx->svc, s);
 }
 
 /* ---- displays -------------------------------------------------------------------------------- */
@@ -429,7 +441,7 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
 
 /* ---- the loop -------------------------------------------------------------------------------- */
 
-static int timeout_ms(struct main_ctx *ctx, uint64_t now)
+static uint64_t timeout_ms(struct main_ctx *ctx, uint64_t now)
 {
         uint64_t at = agility_run_next_deadline(&ctx->run);
 
@@ -437,78 +449,65 @@ static int timeout_ms(struct main_ctx *ctx, uint64_t now)
                 at = ctx->attach_at_ms;
         if (ctx->retry_at_ms && ctx->retry_at_ms < at)
                 at = ctx->retry_at_ms;
-        if (ctx->watchdog_interval_ms && ctx->watchdog_at_ms < at)
-                at = ctx->watchdog_at_ms;
         if (at == UINT64_MAX)
-                return -1;
-        return at <= now ? 0 : at - now > INT32_MAX ? INT32_MAX : (int)(at - now);
+                return UINT64_MAX;
+        return at <= now ? 0 : at - now;
 }
 
-static void on_signal(struct main_ctx *ctx)
-{
-        struct signalfd_siginfo si;
-
-        if (read(ctx->sig_fd, &si, sizeof(si)) != sizeof(si))
-                return;
-        if (si.ssi_signo == SIGHUP) {
-                reload(ctx);
-                return;
-        }
-        log_msg(LOG_PRIO_NOTICE, "%s: stopping", strsignal((int)si.ssi_signo));
-        notify_stopping(ctx->notify);
-        ctx->stopping = true;
-}
-
-static int run(struct main_ctx *ctx)
+/* What the loop does whenever something happened (the tables changed) or came due: attach to
+ * sharedlinkd, the events into the engine, the engine's timers, a clock sync it asked for, a
+ * store retry, the status; then the step timer at the next thing due. */
+static void turn(struct main_ctx *ctx)
 {
         struct agility_actions acts;
+        uint64_t now = now_ms(), wait;
+        int r;
 
-        agility_run_start_class(&ctx->run, engine_ms(ctx, now_ms()), &acts);
-        handle(ctx, &acts);
-        /* Ready once the class is in and sharedlinkd was tried: a daemon that is not running
-         * yet is retried, not fatal. */
-        attach_due(ctx, now_ms());
-        notify_ready(ctx->notify);
-        ctx->ready = true;
-        status_update(ctx);
-        while (!ctx->stopping) {
-                struct pollfd p[2] = {
-                        { .fd = ctx->sig_fd, .events = POLLIN },
-                        { .fd = ctx->wake_fd, .events = POLLIN },
-                };
-                uint64_t now = now_ms();
-                int n;
-
-                if (ctx->watchdog_interval_ms && now >= ctx->watchdog_at_ms) {
-                        notify_watchdog(ctx->notify);
-                        ctx->watchdog_at_ms = now + ctx->watchdog_interval_ms;
-                }
-                n = poll(p, 2, timeout_ms(ctx, now));
-                if (n < 0 && errno != EINTR) {
-                        log_msg(LOG_PRIO_ERR, "poll: %s", strerror(errno));
-                        return 1;
-                }
-                if (n > 0 && p[0].revents)
-                        on_signal(ctx);
-                if (n > 0 && p[1].revents) {
-                        uint64_t v;
-
-                        if (read(ctx->wake_fd, &v, sizeof(v)) < 0 && errno != EAGAIN)
-                                log_msg(LOG_PRIO_WARNING, "eventfd: %s", strerror(errno));
-                }
-                now = now_ms();
-                attach_due(ctx, now);
-                events_pump(ctx);
-                if (agility_run_next_deadline(&ctx->run) <= now) {
-                        agility_run_tick(&ctx->run, engine_ms(ctx, now), &acts);
-                        handle(ctx, &acts);
-                }
-                if (ctx->sync_wanted)
-                        sync_clocks(ctx);
-                store_retry(ctx, now);
-                status_update(ctx);
+        attach_due(ctx, now);
+        events_pump(ctx);
+        if (agility_run_next_deadline(&ctx->run) <= now) {
+                agility_run_tick(&ctx->run, engine_ms(ctx, now), &acts);
+                handle(ctx, &acts);
         }
-        return 0;
+        if (ctx->sync_wanted)
+                sync_clocks(ctx);
+        store_retry(ctx, now);
+        status_update(ctx);
+        wait = timeout_ms(ctx, now_ms());
+        r = 0;
+        if (wait == UINT64_MAX)
+                evloop_timer_cancel(&ctx->step);        /* nothing due: the tables wake us */
+        else
+                r = evloop_timer_arm(&ctx->step, wait, 0);
+        if (r < 0) {
+                log_msg(LOG_PRIO_ERR, "event loop: %s", strerror(-r));
+                service_exit(ctx->svc, SERVICE_EXIT_FAILURE);
+        }
+}
+
+static void on_step(struct evloop *loop, struct evloop_timer *t, void *arg)
+{
+        (void)loop;
+        (void)t;
+        turn(arg);
+}
+
+/* The tables changed: a turn in the next round. */
+static void on_wake(struct evloop *loop, int fd, unsigned revents, void *arg)
+{
+        struct main_ctx *ctx = arg;
+        uint64_t v;
+
+        (void)loop;
+        (void)revents;
+        if (read(fd, &v, sizeof(v)) < 0 && errno != EAGAIN)
+                log_msg(LOG_PRIO_WARNING, "eventfd: %s", strerror(errno));
+        evloop_timer_arm(&ctx->step, 0, 0);
+}
+
+static void on_reload(void *arg)
+{
+        reload(arg);
 }
 
 /* ---- start and stop -------------------------------------------------------------------------- */
@@ -632,6 +631,7 @@ static void reload(struct main_ctx *ctx)
                 log_msg(LOG_PRIO_WARNING, "SIGHUP: a run is in progress (%s): complete or reset "
                         "it, then reload; the class %s stays",
                         agility_run_state_name(ctx->run.state), ctx->cfg->class_name);
+                ready(ctx);
                 return;
         }
         for (size_t i = 0; i < ctx->run.count; i++)
@@ -639,14 +639,14 @@ static void reload(struct main_ctx *ctx)
                         log_msg(LOG_PRIO_ERR, "SIGHUP: competitor %u's run is not stored yet: "
                                 "the class %s stays", (unsigned)ctx->results[i].competitor,
                                 ctx->cfg->class_name);
+                        ready(ctx);
                         return;
                 }
-        notify_reloading(ctx->notify);
         cl = class_prepare(ctx->path);
         if (!cl) {
                 log_msg(LOG_PRIO_ERR, "SIGHUP: %s not loaded: the class %s stays", ctx->path,
                         ctx->cfg->class_name);
-                notify_ready(ctx->notify);
+                ready(ctx);
                 return;
         }
         snprintf(old_host, sizeof(old_host), "%s", ctx->cfg->http_host);
@@ -660,15 +660,16 @@ static void reload(struct main_ctx *ctx)
         class_install(ctx, cl);
         agility_run_start_class(&ctx->run, engine_ms(ctx, now_ms()), &acts);
         handle(ctx, &acts);
-        notify_ready(ctx->notify);
+        ready(ctx);
+        evloop_timer_arm(&ctx->step, 0, 0);     /* the new class's timers */
 }
 
-static int setup(struct main_ctx *ctx, const char *path)
+static int setup(struct main_ctx *ctx, const struct service_desc *desc, const char *path)
 {
+        static const struct service_ops ops = { .reload = on_reload };   /* stop: at once */
         char err[AGILITYD_ERROR_MAX];
         struct class_load *cl;
         uint16_t port = 0;
-        sigset_t set;
         int r;
 
         ctx->path = path;
@@ -678,24 +679,23 @@ static int setup(struct main_ctx *ctx, const char *path)
         class_install(ctx, cl);
         log_ratelimit_init(&ctx->display_rl, "displays", LOG_RATELIMIT_INTERVAL_MS,
                            LOG_RATELIMIT_BURST);
-        sigemptyset(&set);
-        sigaddset(&set, SIGTERM);
-        sigaddset(&set, SIGINT);
-        sigaddset(&set, SIGHUP);        /* the next class */
-        pthread_sigmask(SIG_BLOCK, &set, NULL);
-        ctx->sig_fd = signalfd(-1, &set, SFD_CLOEXEC | SFD_NONBLOCK);
+        /* The signals are blocked from here on: the threads below inherit the mask. */
+        r = service_new(desc, &ops, ctx, &ctx->svc);
+        if (r < 0)
+                return r;
+        ctx->loop = service_loop(ctx->svc);
         ctx->wake_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
-        if (ctx->sig_fd < 0 || ctx->wake_fd < 0) {
-                log_msg(LOG_PRIO_ERR, "signalfd/eventfd: %s", strerror(errno));
+        if (ctx->wake_fd < 0) {
+                log_msg(LOG_PRIO_ERR, "eventfd: %s", strerror(errno));
                 return -errno;
         }
-        ctx->attach_ms = ATTACH_MIN_MS;
-        r = notify_new(&ctx->notify);
+        r = evloop_add_fd(ctx->loop, ctx->wake_fd, POLLIN, on_wake, ctx);
         if (r < 0) {
-                log_msg(LOG_PRIO_ERR, "%s", strerror(-r));
+                log_msg(LOG_PRIO_ERR, "event loop: %s", strerror(-r));
                 return r;
         }
-        ctx->watchdog_interval_ms = notify_watchdog_interval_ms(ctx->notify);
+        evloop_timer_init(&ctx->step, ctx->loop, on_step, ctx);
+        ctx->attach_ms = ATTACH_MIN_MS;
         r = agilityd_http_start(ctx->cfg, &ctx->http, &port, err, sizeof(err));
         if (r < 0) {
                 log_msg(LOG_PRIO_ERR, "%s", err);
@@ -709,11 +709,29 @@ static int setup(struct main_ctx *ctx, const char *path)
         return 0;
 }
 
+/* The class starts (SetupCompleted, the displays), sharedlinkd is tried, READY=1. */
+static void start(struct main_ctx *ctx)
+{
+        struct agility_actions acts;
+
+        agility_run_start_class(&ctx->run, engine_ms(ctx, now_ms()), &acts);
+        handle(ctx, &acts);
+        attach_due(ctx, now_ms());
+        ready(ctx);
+        turn(ctx);
+}
+
 static void teardown(struct main_ctx *ctx)
 {
+        if (ctx->loop)
+                evloop_timer_cancel(&ctx->step);
         if (ctx->waker_running) {
                 atomic_store(&ctx->stop_waker, true);
                 pthread_join(ctx->waker, NULL);
+        }
+        if (ctx->wake_fd >= 0) {
+                evloop_del_fd(ctx->loop, ctx->wake_fd);
+                close(ctx->wake_fd);
         }
         for (size_t i = 0; i < ctx->run.count; i++)
                 if (ctx->unsaved[i])
@@ -722,12 +740,8 @@ static void teardown(struct main_ctx *ctx)
         ctx->http = agilityd_http_stop(ctx->http);
         ctx->cl = sl_close(ctx->cl);
         ctx->store = agilityd_store_close(ctx->store);
-        ctx->notify = notify_free(ctx->notify);
+        ctx->svc = service_free(ctx->svc);
         free(ctx->cfg);
-        if (ctx->wake_fd >= 0)
-                close(ctx->wake_fd);
-        if (ctx->sig_fd >= 0)
-                close(ctx->sig_fd);
 }
 
 int main(int argc, char **argv)
@@ -736,14 +750,18 @@ int main(int argc, char **argv)
                 .name = "sharedlink-agility", .version = SHAREDLINK_VERSION,
                 .config_default = AGILITYD_CONFIG_DEFAULT, .check = check_only,
         };
-        static struct main_ctx ctx = { .sig_fd = -1, .wake_fd = -1 };
+        static struct main_ctx ctx = { .wake_fd = -1 };
         struct service_args args;
         int r = service_args(&desc, argc, argv, &args);
 
         if (r != SERVICE_CONTINUE)
                 return r;
         service_start(&args);
-        r = setup(&ctx, args.config) < 0 ? SERVICE_EXIT_FAILURE : run(&ctx);
+        r = SERVICE_EXIT_FAILURE;
+        if (setup(&ctx, &desc, args.config) == 0) {
+                start(&ctx);
+                r = service_run(ctx.svc);
+        }
         teardown(&ctx);
         return r;
 }

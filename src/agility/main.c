@@ -47,6 +47,9 @@
 #define REPLY_MAX               512
 #define STATUS_MAX              256
 #define COMMAND_WAIT_MS         0       /* a command to a link that is down fails at once */
+#define CLOCK_SYNC_REQUIRED     "1"     /* 027:1, as the link publishes it */
+/* "LINK.device.ADDR.FIELD" with any link name; one longer than a variable name finds nothing. */
+#define VAR_NAME_BUF            (AGILITYD_NAME_MAX + 32)
 
 #ifndef SHAREDLINK_VERSION
 #define SHAREDLINK_VERSION      "unknown"
@@ -64,6 +67,10 @@ struct main_ctx {
         uint64_t ev_cursor;
         char display_addr[AGILITYD_DISPLAYS_MAX][SL_CIRCE_ADDRESS_SIZE];
         struct agility_display shown[AGILITYD_DISPLAYS_MAX];
+        /* Each gate's LINK.device.ADDR.clock_sync variable (-1: not found yet) and its last
+         * value: a change to 027:1 (a restarted device) is a lost synchronisation. */
+        int sync_var[AGILITY_GATES_MAX];
+        char sync_last[AGILITY_GATES_MAX][SL_VALUE_SIZE];
         struct service *svc;
         struct evloop *loop;
         struct evloop_timer step;       /* the next thing due (see turn()) */
@@ -257,10 +264,17 @@ static void sync_clocks(struct main_ctx *ctx)
 
 static void notice(struct main_ctx *ctx, const struct agility_action *a)
 {
-        char dev[SL_CIRCE_ADDRESS_SIZE] = "-";
+        char dev[SL_CIRCE_ADDRESS_SIZE] = "-", name[VAR_NAME_BUF];
 
         if (a->device)
                 agilityd_address_format(a->device, dev);
+        snprintf(name, sizeof(name), "%s.device.%s.online", ctx->cfg->link, dev);
+        /* A gate the link has never heard of is a wrong address in the class file, or a
+         * device that is off: say so, rather than only that its sync failed. */
+        if (a->notice == AGILITY_NOTICE_SYNC_FAILED && ctx->cl && sl_find(ctx->cl, name) < 0)
+                log_msg(LOG_PRIO_ERR, "gate %s is not in the network of link %s: no device "
+                        "with that address has reported (check gates: in %s)", dev,
+                        ctx->cfg->link, ctx->path);
         log_msg(a->notice == AGILITY_NOTICE_SYNC_FAILED ? LOG_PRIO_WARNING : LOG_PRIO_NOTICE,
                 "%s (device %s, competitor %u, state %s)", agility_run_notice_name(a->notice),
                 dev, (unsigned)a->number, agility_run_state_name(ctx->run.state));
@@ -295,6 +309,47 @@ static void handle(struct main_ctx *ctx, struct agility_actions *acts)
                 log_msg(LOG_PRIO_WARNING, "some notices were dropped (too many at once)");
         agilityd_http_publish(ctx->http, ctx->cfg, &ctx->run, ctx->last_ms);
         status_update(ctx);
+}
+
+/* ---- a gate that needs a sync ---------------------------------------------------------------- */
+
+static void sync_watch_reset(struct main_ctx *ctx)
+{
+        for (unsigned g = 0; g < AGILITY_GATES_MAX; g++) {
+                ctx->sync_var[g] = -1;
+                ctx->sync_last[g][0] = '\0';
+        }
+}
+
+/* A gate whose Notify Status now says 027:1 (it restarted, or left and joined the network)
+ * needs a clock sync: its passages are low precision until the next one (docs/agility.md §2). */
+static void sync_watch(struct main_ctx *ctx)
+{
+        struct agility_actions acts;
+        char name[VAR_NAME_BUF], addr[SL_CIRCE_ADDRESS_SIZE], v[SL_VALUE_SIZE];
+
+        if (!ctx->cl)
+                return;
+        for (unsigned g = 0; g < ctx->run.gate_count; g++) {
+                agilityd_address_format(ctx->run.gates[g], addr);
+                if (ctx->sync_var[g] < 0) {
+                        snprintf(name, sizeof(name), "%s.device.%s.clock_sync", ctx->cfg->link,
+                                 addr);
+                        ctx->sync_var[g] = sl_find(ctx->cl, name);
+                        if (ctx->sync_var[g] < 0)
+                                continue;       /* the gate has not reported yet */
+                }
+                if (sl_read(ctx->cl, ctx->sync_var[g], v, sizeof(v), NULL) < 0)
+                        continue;
+                if (strcmp(v, CLOCK_SYNC_REQUIRED) == 0 &&
+                    strcmp(ctx->sync_last[g], CLOCK_SYNC_REQUIRED) != 0) {
+                        log_msg(LOG_PRIO_INFO, "gate %s needs a clock sync", addr);
+                        agility_run_sync_lost(&ctx->run, engine_ms(ctx, now_ms()),
+                                              ctx->run.gates[g], &acts);
+                        handle(ctx, &acts);
+                }
+                memcpy(ctx->sync_last[g], v, sizeof(v));
+        }
 }
 
 /* ---- events ---------------------------------------------------------------------------------- */
@@ -464,6 +519,8 @@ static void turn(struct main_ctx *ctx)
         int r;
 
         attach_due(ctx, now);
+        /* Before the events: a passage after a restart counts as unsynchronised. */
+        sync_watch(ctx);
         events_pump(ctx);
         if (agility_run_next_deadline(&ctx->run) <= now) {
                 agility_run_tick(&ctx->run, engine_ms(ctx, now), &acts);
@@ -614,6 +671,7 @@ static void class_install(struct main_ctx *ctx, struct class_load *cl)
                 agilityd_address_format(ctx->cfg->displays[i], ctx->display_addr[i]);
                 agility_display_unknown(&ctx->shown[i]);
         }
+        sync_watch_reset(ctx);
         log_msg(LOG_PRIO_INFO, "%s: class %s, %zu competitors, %u runs stored in %s", ctx->path,
                 ctx->cfg->class_name, ctx->run.count, stored, ctx->cfg->database);
 }

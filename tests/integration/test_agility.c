@@ -69,6 +69,7 @@ struct fx {
         int port;                       /* the scoreboard's, from the log */
         int sse;                        /* an open /events stream, -1 when none */
         const char *class_name;         /* what write_conf writes */
+        const char *gates;
 };
 
 static const char *agility_path(void)
@@ -89,6 +90,7 @@ static int setup(void **state)
         f->ctl = -1;
         f->sse = -1;
         f->class_name = "Jumping A";
+        f->gates = "{start: E1E1E1, finish: E2E2E2}";
         snprintf(f->db, sizeof(f->db), "%s/results.db", f->a.dir);
         *state = f;
         return 0;
@@ -127,13 +129,13 @@ static void write_conf(struct fx *f, const char *extra)
                  "link: agility\n"
                  "class: {name: \"%s\", standard_course_time_ms: 40000, "
                  "max_course_time_ms: 80000, intermediates: 0}\n"
-                 "gates: {start: E1E1E1, finish: E2E2E2}\n"
+                 "gates: %s\n"
                  "keypads: [AAAAAA]\n"
                  "displays: [D15D15]\n"
                  "competitors: %s\n"
                  "database: %s\n"
                  "http: \"127.0.0.1:0\"\n%s",
-                 f->h.instance, f->class_name, csv, f->db, extra ? extra : "");
+                 f->h.instance, f->class_name, f->gates, csv, f->db, extra ? extra : "");
         assert_int_equal(harness_write_file(&f->a, "agility.yaml", text, f->conf), 0);
 }
 
@@ -615,6 +617,51 @@ static void test_database_locked(void **state)
         assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
 }
 
+/* A gate that reports 027:1 after the sync (here: it joined the network again, as a restarted
+ * device does) has lost it: the run is timed from the received times, low precision. */
+static void test_sync_lost(void **state)
+{
+        struct fx *f = *state;
+        struct row r;
+
+        bring_up(f);
+        press(f, KEY_READY);
+        wait_state(f, "ReadyToStart", 1);
+        wait_value(f, "agility.device.E2E2E2.clock_sync", "2");
+        assert_string_equal(request(f, "circe agility network-setup E2E2E2 join 2"), "OK\n");
+        wait_value(f, "agility.device.E2E2E2.clock_sync", "1");
+        passage(f, "E1E1E1", 100000);
+        wait_state(f, "StartPassed", 1);
+        passage(f, "E2E2E2", 101500);
+        wait_state(f, "FinishPassed", 1);
+        press(f, KEY_READY);
+        wait_state(f, "RunCompleted", 1);
+        r = db_row(f, 1);
+        assert_true(r.found);
+        assert_string_equal(r.precision, "low");
+        assert_true(r.finish_ms != 1500);       /* not the sensor difference */
+        assert_int_equal(harness_log_contains(&f->a, "gate E2E2E2 needs a clock sync"), 1);
+        assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
+}
+
+/* A gate address that no device of the network has: the sync fails naming it, and the log says
+ * that the address is not in the network. */
+static void test_gate_not_in_network(void **state)
+{
+        struct fx *f = *state;
+
+        f->gates = "{start: E1E1E1, finish: E3E3E3}";
+        bring_up(f);
+        press(f, KEY_READY);
+        wait_state(f, "WaitingForSync", 1);
+        wait_state(f, "SetupCompleted", 1);
+        assert_int_equal(harness_wait_log(&f->a, "gate E3E3E3 is not in the network of link "
+                                          "agility", T_WAIT_MS), 0);
+        assert_int_equal(harness_log_contains(&f->a, "sync-failed (device E3E3E3"), 1);
+        assert_int_equal(harness_log_contains(&f->a, "gate E1E1E1 is not in the network"), 0);
+        assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
+}
+
 /* SIGHUP loads the next class; a run in progress or a file that does not load keeps the one
  * that runs. */
 static void test_reload(void **state)
@@ -662,6 +709,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_sigkill, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_database_locked, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_reload, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_sync_lost, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_gate_not_in_network, setup, teardown),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

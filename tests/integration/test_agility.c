@@ -70,6 +70,7 @@ struct fx {
         int sse;                        /* an open /events stream, -1 when none */
         const char *class_name;         /* what write_conf writes */
         const char *gates;
+        const char *times;              /* the class's course times */
 };
 
 static const char *agility_path(void)
@@ -91,6 +92,7 @@ static int setup(void **state)
         f->sse = -1;
         f->class_name = "Jumping A";
         f->gates = "{start: E1E1E1, finish: E2E2E2}";
+        f->times = "standard_course_time_ms: 40000, max_course_time_ms: 80000";
         snprintf(f->db, sizeof(f->db), "%s/results.db", f->a.dir);
         *state = f;
         return 0;
@@ -127,15 +129,14 @@ static void write_conf(struct fx *f, const char *extra)
         snprintf(text, sizeof(text),
                  "instance: %s\n"
                  "link: agility\n"
-                 "class: {name: \"%s\", standard_course_time_ms: 40000, "
-                 "max_course_time_ms: 80000, intermediates: 0}\n"
+                 "class: {name: \"%s\", %s, intermediates: 0}\n"
                  "gates: %s\n"
                  "keypads: [AAAAAA]\n"
                  "displays: [D15D15]\n"
                  "competitors: %s\n"
                  "database: %s\n"
                  "http: \"127.0.0.1:0\"\n%s",
-                 f->h.instance, f->class_name, f->gates, csv, f->db, extra ? extra : "");
+                 f->h.instance, f->class_name, f->times, f->gates, csv, f->db, extra ? extra : "");
         assert_int_equal(harness_write_file(&f->a, "agility.yaml", text, f->conf), 0);
 }
 
@@ -644,6 +645,28 @@ static void test_sync_lost(void **state)
         assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
 }
 
+/* The maximum course time passes with the dog still on the course: the engine's timer (armed at
+ * agility_run_next_deadline) eliminates the run with nothing else happening. */
+static void test_max_course_time(void **state)
+{
+        struct fx *f = *state;
+
+        f->times = "standard_course_time_ms: 1000, max_course_time_ms: 1500";
+        bring_up(f);
+        sse_open(f);
+        press(f, KEY_READY);
+        wait_state(f, "ReadyToStart", 1);
+        passage(f, "E1E1E1", 100000);
+        wait_state(f, "StartPassed", 1);
+        sse_wait(f, "\"eliminated\":true");
+        assert_int_equal(harness_wait_log(&f->a, "max-course-time", T_WAIT_MS), 0);
+        wait_value(f, "arena.device.D15D15.eliminated", "1");
+        press(f, KEY_READY);            /* an eliminated run completes on Ready */
+        wait_state(f, "RunCompleted", 1);
+        assert_int_equal(db_row(f, 1).eliminated, 1);
+        assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
+}
+
 /* A gate address that no device of the network has: the sync fails naming it, and the log says
  * that the address is not in the network. */
 static void test_gate_not_in_network(void **state)
@@ -711,6 +734,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_reload, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_sync_lost, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_gate_not_in_network, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_max_course_time, setup, teardown),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

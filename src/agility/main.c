@@ -30,6 +30,7 @@
 
 #include <sharedlink.h>
 
+#include "agility/agility_export.h"
 #include "agility/agility_run.h"
 #include "agility/agilityd_config.h"
 #include "agility/agilityd_http.h"
@@ -192,9 +193,16 @@ static void store_result(struct main_ctx *ctx, size_t index)
                                     sizeof(err));
 
         if (r == 0) {
+                const struct agility_result *res = &ctx->results[index];
+                char t[AGILITY_EXPORT_TIME_MAX] = "no finish";
+
                 ctx->unsaved[index] = false;
-                log_msg(LOG_PRIO_INFO, "competitor %u: run stored",
-                        (unsigned)ctx->results[index].competitor);
+                if (res->finished)
+                        agility_export_time(t, sizeof(t), res->finish_ms, res->finish_precision);
+                log_msg(LOG_PRIO_INFO, "competitor %u: run stored: %s, faults %u, refusals %u%s, "
+                        "placement %u", (unsigned)res->competitor, t, (unsigned)res->faults,
+                        (unsigned)res->refusals, res->eliminated ? ", eliminated" : "",
+                        (unsigned)res->placement);
                 return;
         }
         ctx->unsaved[index] = true;

@@ -501,6 +501,8 @@ static void test_spec_run(void **state)
         assert_string_equal(r.precision, "high");
         assert_int_equal(r.placement, 1);
         assert_int_equal(r.penalty_ms, 0);
+        assert_int_equal(harness_log_contains(&f->a, "competitor 1: run stored: 27.000, faults 0, "
+                                              "refusals 0, placement 1"), 1);
         wait_value(f, "arena.device.D15D15.placement", "1");
         sse_wait(f, "\"state\":\"RunCompleted\"");
 

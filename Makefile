@@ -12,8 +12,11 @@
 #                                  archived for unit tests)
 #   src/mqtt/*.c                   sharedlink-mqtt (main.c holds main(), the rest is archived for
 #                                  tests), linked against libsharedlink.so and libmosquitto only
-#   src/agility/*.c                sharedlink-agility's pure core (run state machine, timing, keys,
+#   src/agility/agility_*.c        sharedlink-agility's pure core (run state machine, timing, keys,
 #                                  ranking, display model, competitor CSV), archived for tests
+#   src/agility/agilityd_*.c       sharedlink-agility's daemon modules (class file, SQLite, HTTP,
+#     + src/agility/main.c         the loop), archived for tests; linked against libsharedlink.so,
+#                                  libsqlite3 and libmicrohttpd
 #   tests/common/*.c               helpers linked into every test binary
 #   tests/unit/test_*.c            one cmocka binary per module, run by `make check`
 #   tests/integration/test_*.c     cmocka binaries that start the real daemon, run by `make check`
@@ -74,15 +77,17 @@ endif
 
 # python3: the Python binding (python/tests) and tests/peers/ (the Pronto4 test peer), in `make check`.
 # mosquitto: the MQTT bridge's tests start a broker of their own (and mosquitto_passwd); openssl
-# makes their throwaway TLS certificates.
+# makes their throwaway TLS certificates. sqlite3 and libmicrohttpd: sharedlink-agility's results
+# database and scoreboard.
 DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev python3 \
-                  libmosquitto-dev mosquitto mosquitto-clients openssl
+                  libmosquitto-dev mosquitto mosquitto-clients openssl libsqlite3-dev \
+                  libmicrohttpd-dev
 DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
 
 # ---------------------------------------------------------------------------------------------
 # Dependencies: when pkg-config cannot find one, run `make deps` once before anything else.
 
-PC_REQUIRED := yaml-0.1 cmocka libmosquitto
+PC_REQUIRED := yaml-0.1 cmocka libmosquitto sqlite3 libmicrohttpd
 ifeq ($(WITH_SYSTEMD),1)
 PC_REQUIRED += libsystemd
 endif
@@ -107,6 +112,10 @@ CMOCKA_CFLAGS := $(shell pkg-config --cflags cmocka 2>/dev/null)
 CMOCKA_LIBS   := $(shell pkg-config --libs cmocka 2>/dev/null)
 MOSQ_CFLAGS   := $(shell pkg-config --cflags libmosquitto 2>/dev/null)
 MOSQ_LIBS     := $(shell pkg-config --libs libmosquitto 2>/dev/null)
+SQLITE_CFLAGS := $(shell pkg-config --cflags sqlite3 2>/dev/null)
+SQLITE_LIBS   := $(shell pkg-config --libs sqlite3 2>/dev/null)
+MHD_CFLAGS    := $(shell pkg-config --cflags libmicrohttpd 2>/dev/null)
+MHD_LIBS      := $(shell pkg-config --libs libmicrohttpd 2>/dev/null)
 ifeq ($(WITH_SYSTEMD),1)
 SYSTEMD_CFLAGS := $(shell pkg-config --cflags libsystemd 2>/dev/null) -DHAVE_LIBSYSTEMD=1
 SYSTEMD_LIBS   := $(shell pkg-config --libs libsystemd 2>/dev/null)
@@ -149,7 +158,8 @@ CPPFLAGS_ALL := -Iinclude -Isrc -D_DEFAULT_SOURCE -DSHAREDLINK_VERSION='"$(VERSI
 # daemon code); the code itself is the same, so nothing else gets slower.
 CFLAGS_ALL   := -std=c11 $(OPT) $(WARN) $(HARDEN) $(SANFLAGS) -fPIC -fvisibility=hidden \
                 -ffunction-sections -fdata-sections \
-                -MMD -MP $(YAML_CFLAGS) $(SYSTEMD_CFLAGS) $(MOSQ_CFLAGS) $(CFLAGS)
+                -MMD -MP $(YAML_CFLAGS) $(SYSTEMD_CFLAGS) $(MOSQ_CFLAGS) $(SQLITE_CFLAGS) \
+                $(MHD_CFLAGS) $(CFLAGS)
 LDFLAGS_ALL  := $(SANFLAGS) -Wl,-z,relro,-z,now $(LDFLAGS)
 LDFLAGS_EXE  := $(LDFLAGS_ALL) -pie
 TEST_CFLAGS  := $(CMOCKA_CFLAGS) -Itests
@@ -176,7 +186,9 @@ DAEMON_SRC := $(filter-out src/daemon/main.c,$(wildcard src/daemon/*.c))
 CLI_SRC    := $(wildcard src/cli/*.c)
 MQTT_MAIN  := $(wildcard src/mqtt/main.c)
 MQTT_SRC   := $(filter-out src/mqtt/main.c,$(wildcard src/mqtt/*.c))
-AGILITY_SRC:= $(wildcard src/agility/*.c)
+AGILITY_SRC:= $(wildcard src/agility/agility_*.c)
+AGILITYD_MAIN := $(wildcard src/agility/main.c)
+AGILITYD_SRC  := $(wildcard src/agility/agilityd_*.c)
 TCOMMON_SRC:= $(wildcard tests/common/*.c)
 UNIT_SRC   := $(wildcard tests/unit/test_*.c)
 INTEG_SRC  := $(wildcard tests/integration/test_*.c)
@@ -200,8 +212,9 @@ A_CLI    := $(O)/internal/libcli.a
 A_MQTT   := $(O)/internal/libmqtt.a
 A_SVC    := $(O)/internal/libsvc.a
 A_AGILITY:= $(O)/internal/libagility.a
-INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_AGILITY) $(A_CLIENT) $(A_CLI) $(A_SVC) \
-                     $(A_PROTO) $(A_SHM)
+A_AGILITYD := $(O)/internal/libagilityd.a
+INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_AGILITYD) $(A_AGILITY) $(A_CLIENT) \
+                     $(A_CLI) $(A_SVC) $(A_PROTO) $(A_SHM)
 SYS_LIBS := $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lutil -lm
 
 LIBSL_SO   := $(O)/libsharedlink.so.$(SOVERSION)
@@ -212,6 +225,7 @@ LIBSL_SYM_SED := 's/^[[:space:]]*\(sl_[a-z0-9_]*\);$$/\1/p'
 SHAREDLINKD:= $(O)/sharedlinkd
 SLCTL      := $(O)/slctl
 MQTT_BRIDGE:= $(O)/sharedlink-mqtt
+AGILITYD   := $(O)/sharedlink-agility
 PCFILE     := $(O)/sharedlink.pc
 
 UNIT_BIN   := $(patsubst tests/%.c,$(O)/tests/%,$(UNIT_SRC))
@@ -222,7 +236,8 @@ EXAMPLE_BIN:= $(patsubst examples/%.c,$(O)/examples/%,$(EXAMPLE_SRC))
 PYHELP_BIN := $(patsubst tests/%.c,$(O)/tests/%,$(PYHELP_SRC))
 
 PROGRAMS := $(if $(DAEMON_MAIN),$(SHAREDLINKD)) $(if $(CLI_SRC),$(SLCTL)) \
-            $(if $(LIB_SRC),$(LIBSL_SO) $(LIBSL_A) $(PCFILE)) $(if $(MQTT_MAIN),$(MQTT_BRIDGE))
+            $(if $(LIB_SRC),$(LIBSL_SO) $(LIBSL_A) $(PCFILE)) $(if $(MQTT_MAIN),$(MQTT_BRIDGE)) \
+            $(if $(AGILITYD_MAIN),$(AGILITYD))
 
 # ---------------------------------------------------------------------------------------------
 # Top-level targets
@@ -323,6 +338,7 @@ $(A_CLI): $(call obj,$(filter-out src/cli/main.c,$(CLI_SRC)))
 $(A_MQTT): $(call obj,$(MQTT_SRC))
 $(A_SVC): $(call obj,$(SVC_SRC))
 $(A_AGILITY): $(call obj,$(AGILITY_SRC))
+$(A_AGILITYD): $(call obj,$(AGILITYD_SRC))
 
 # An archive with no members still needs one object to be a valid archive.
 $(INTERNAL_ARCHIVES): | $(O)/obj/empty.o
@@ -396,6 +412,12 @@ $(MQTT_BRIDGE): $(call obj,$(MQTT_MAIN)) $(A_MQTT) $(A_SVC) $(LIBSL_SO)
 	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) $(A_MQTT) $(A_SVC) -L$(O) -lsharedlink \
 	    -Wl,-rpath,'$$ORIGIN' $(MOSQ_LIBS) $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread
 
+# sharedlink-agility the same way: its data only through the public library.
+$(AGILITYD): $(call obj,$(AGILITYD_MAIN)) $(A_AGILITYD) $(A_AGILITY) $(A_SVC) $(LIBSL_SO)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) $(A_AGILITYD) $(A_AGILITY) $(A_SVC) \
+	    -L$(O) -lsharedlink -Wl,-rpath,'$$ORIGIN' $(SQLITE_LIBS) $(MHD_LIBS) $(YAML_LIBS) \
+	    $(SYSTEMD_LIBS) -lpthread
+
 # ---------------------------------------------------------------------------------------------
 # Install (DESIGN.md §2.1): `make install PREFIX=/usr/local DESTDIR=`, and `make uninstall`.
 # Paths come from the variables at the top; DESTDIR is prepended to each and recorded nowhere.
@@ -413,11 +435,13 @@ mandir_of     = $(DESTDIR)$(MANDIR)/man$(subst .,,$(suffix $(1)))
 # One alias page per exported function, so that `man sl_read` opens libsharedlink(3).
 MAN_ALIASES   = $(shell sed -n $(LIBSL_SYM_SED) $(LIBSL_SYM))
 UNIT_FILES   := $(wildcard systemd/*.service)
-UNIT_SED     := -e 's@^ExecStart=/usr/local/sbin/\(sharedlinkd\|sharedlink-mqtt\) @ExecStart=$(SBINDIR)/\1 @' \
+UNIT_SED     := -e 's@^ExecStart=/usr/local/sbin/\(sharedlinkd\|sharedlink-mqtt\|sharedlink-agility\) @ExecStart=$(SBINDIR)/\1 @' \
                 -e 's|^\(ExecStart=.* -c \)/etc/sharedlink/|\1$(SYSCONFDIR)/sharedlink/|'
 TMPFILES_SED := -e 's|^d /etc/sharedlink |d $(SYSCONFDIR)/sharedlink |'
 CONF_DEST    := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlinkd.yaml
 MQTT_CONF_DEST := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlink-mqtt.yaml
+AGILITY_CONF_DEST := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlink-agility.yaml
+AGILITY_CSV_DEST  := $(DESTDIR)$(SYSCONFDIR)/sharedlink/agility-competitors.csv
 PC_STAMP     := $(O)/install-paths
 
 ifneq ($(filter install,$(MAKECMDGOALS)),)
@@ -443,6 +467,7 @@ install: all
 	$(INSTALL) -m 0755 $(SHAREDLINKD) $(DESTDIR)$(SBINDIR)/sharedlinkd
 	$(if $(CLI_SRC),$(INSTALL) -m 0755 $(SLCTL) $(DESTDIR)$(BINDIR)/slctl)
 	$(if $(MQTT_MAIN),$(INSTALL) -m 0755 $(MQTT_BRIDGE) $(DESTDIR)$(SBINDIR)/sharedlink-mqtt)
+	$(if $(AGILITYD_MAIN),$(INSTALL) -m 0755 $(AGILITYD) $(DESTDIR)$(SBINDIR)/sharedlink-agility)
 	$(INSTALL) -m 0755 $(LIBSL_SO) $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION)
 	ln -sf libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so
 	$(INSTALL) -m 0644 $(LIBSL_A) $(DESTDIR)$(LIBDIR)/libsharedlink.a
@@ -456,9 +481,10 @@ install: all
 	    d=$(DESTDIR)$(UNITDIR)/$${u##*/}; \
 	    sed $(UNIT_SED) $$u > $$d.tmp; \
 	    if ! grep -qF 'ExecStart=$(SBINDIR)/sharedlinkd ' $$d.tmp && \
-	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-mqtt ' $$d.tmp; then \
-	        echo "make install: $$u: ExecStart= does not name /usr/local/sbin/sharedlinkd" \
-	             "or sharedlink-mqtt" >&2; \
+	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-mqtt ' $$d.tmp && \
+	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-agility ' $$d.tmp; then \
+	        echo "make install: $$u: ExecStart= does not name /usr/local/sbin/sharedlinkd," \
+	             "sharedlink-mqtt or sharedlink-agility" >&2; \
 	        rm -f $$d.tmp; exit 1; \
 	    fi; \
 	    chmod 0644 $$d.tmp; mv -f $$d.tmp $$d; echo "$$d: $$(grep '^ExecStart=' $$d)"; \
@@ -483,6 +509,9 @@ install: all
 	@if [ -e $(MQTT_CONF_DEST) ]; then echo "$(MQTT_CONF_DEST): exists, kept"; \
 	else $(INSTALL) -m 0640 conf/sharedlink-mqtt.yaml $(MQTT_CONF_DEST) && \
 	    echo "$(MQTT_CONF_DEST): installed"; fi
+	@for f in sharedlink-agility.yaml:$(AGILITY_CONF_DEST) agility-competitors.csv:$(AGILITY_CSV_DEST); do \
+	    d=$${f#*:}; if [ -e $$d ]; then echo "$$d: exists, kept"; \
+	    else $(INSTALL) -m 0644 conf/$${f%%:*} $$d && echo "$$d: installed"; fi; done
 	@# A library installed straight into the system is found by the loader only after this.
 	@if [ -z "$(DESTDIR)" ] && [ "$$(id -u)" = 0 ] && command -v $(LDCONFIG) >/dev/null; then \
 	    echo $(LDCONFIG); $(LDCONFIG); fi
@@ -490,7 +519,7 @@ install: all
 # Removes what install put there; the configuration only when it is still the one shipped.
 uninstall:
 	rm -f $(DESTDIR)$(SBINDIR)/sharedlinkd $(DESTDIR)$(BINDIR)/slctl \
-	    $(DESTDIR)$(SBINDIR)/sharedlink-mqtt \
+	    $(DESTDIR)$(SBINDIR)/sharedlink-mqtt $(DESTDIR)$(SBINDIR)/sharedlink-agility \
 	    $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so \
 	    $(DESTDIR)$(LIBDIR)/libsharedlink.a $(DESTDIR)$(PKGCONFIGDIR)/sharedlink.pc \
 	    $(DESTDIR)$(INCDIR)/sharedlink.h \
@@ -502,6 +531,9 @@ uninstall:
 	@if [ -n '$(PYTHONDIR)' ]; then d='$(DESTDIR)$(PYTHONDIR)/sharedlink'; \
 	    rm -f $(addprefix "$$d"/,$(notdir $(PY_SRC)) _paths.py); rm -rf "$$d/__pycache__"; \
 	    [ ! -d "$$d" ] || rmdir "$$d"; fi
+	@for f in sharedlink-agility.yaml:$(AGILITY_CONF_DEST) agility-competitors.csv:$(AGILITY_CSV_DEST); do \
+	    d=$${f#*:}; if cmp -s conf/$${f%%:*} $$d; then rm -f $$d; \
+	    elif [ -e $$d ]; then echo "$$d: changed since install, kept"; fi; done
 	@if cmp -s conf/sharedlink-mqtt.yaml $(MQTT_CONF_DEST); then rm -f $(MQTT_CONF_DEST); \
 	elif [ -e $(MQTT_CONF_DEST) ]; then echo "$(MQTT_CONF_DEST): changed since install, kept"; fi
 	@if cmp -s conf/sharedlinkd.yaml $(CONF_DEST); then rm -f $(CONF_DEST); \
@@ -516,6 +548,11 @@ MQTT_TESTS := $(O)/tests/integration/test_mqtt $(O)/bench/bench_mqtt
 $(MQTT_TESTS): EXTRA_LIBS := $(MOSQ_LIBS)
 # The integration test runs the bridge under test.
 $(O)/tests/integration/test_mqtt: | $(MQTT_BRIDGE)
+# sharedlink-agility's tests read its database themselves; the integration test runs it.
+AGILITYD_TESTS := $(O)/tests/integration/test_agility $(patsubst tests/%.c,$(O)/tests/%,\
+                  $(wildcard tests/unit/test_agilityd_*.c))
+$(AGILITYD_TESTS): EXTRA_LIBS := $(SQLITE_LIBS) $(MHD_LIBS)
+$(O)/tests/integration/test_agility: | $(AGILITYD)
 
 $(O)/tests/%: $(O)/obj/tests/%.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)

@@ -9,6 +9,8 @@
 #               section below.
 #   MQTT:       when mosquitto and its clients are installed, sharedlink-mqtt bridges the instance
 #               to a private broker on 127.0.0.1 (marked section below); skipped otherwise.
+#   Agility:    when sharedlink-agility is built, it times two runs on the CIRCE pair (one clean,
+#               one with a fault and a refusal) and prints the results and the scoreboard URL.
 #   Pronto4:    pronto_host (a SharedLink host, node A) <-> pronto (the vehicle side, node B,
 #               learning the host's lists) over UDP on loopback, through a relay that prints
 #               every datagram; see the marked section below.
@@ -38,6 +40,7 @@ fi
 wait_s=10                       # how long a step may take before the demo gives up
 pid=
 mqtt_pids=()
+agility_pid=
 
 export SHAREDLINK_INSTANCE=$instance SHAREDLINK_RUNTIME_DIR=$rundir
 
@@ -51,6 +54,10 @@ cleanup() {
                 kill -TERM "$p" 2>/dev/null || true
                 wait "$p" 2>/dev/null || true
         done
+        if [ -n "$agility_pid" ]; then
+                kill -TERM "$agility_pid" 2>/dev/null || true
+                wait "$agility_pid" 2>/dev/null || true
+        fi
         pronto4_cleanup
         if [ -n "$pid" ] && kill -0 "$pid" 2>/dev/null; then
                 kill -TERM "$pid" 2>/dev/null || true
@@ -318,6 +325,83 @@ EOC
         echo "sharedlink-mqtt and the broker stopped"
 fi
 # --- end of the MQTT part -----------------------------------------------------------------------
+
+# --- Agility: sharedlink-agility times two runs on the CIRCE pair --------------------------------
+# The emulated gate E1E1E1 is one combined start/finish gate, AAAAAA the remote, D15D15 the
+# display. Ready on the remote synchronises the clocks; the gate is passed twice, the second time
+# 2 s later by its sensor clock and by ours (the time counts as high precision only when the two
+# agree). The scoreboard's JSON and CSV are read with bash's /dev/tcp: no HTTP client needed.
+agility=$build/sharedlink-agility
+agility_dir=$rundir/agility
+# A subshell: a refused connection ends it, not the demo.
+http_body() (   # path: the body of GET path from the scoreboard
+        exec 3<>"/dev/tcp/127.0.0.1/$aport" || exit 1
+        printf 'GET %s HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n' "$1" >&3
+        sed '1,/^\r$/d' <&3 | tr -d '\r'
+)
+state_is() { http_body /api/state | grep -q "\"state\":\"$1\",\"current\":$2,"; }
+remote()   { "$slctl" circe arena emulate action AAAAAA --keys "$1" >/dev/null &&
+             "$slctl" circe arena emulate action AAAAAA --keys 0 >/dev/null; }
+gate()     { run "$slctl" circe arena emulate action E1E1E1 --sensor-time "$1"; }
+# Ready on the remote, then waits for the state with that competitor.
+ready()    { echo "(remote: Ready)"; remote 32768; until_ok state_is "$1" "$2" ||
+             fail "sharedlink-agility never reached $1 with competitor $2"; }
+agility_run() {   # competitor start_ms, then the keys pressed during the run
+        local n=$1 t=$2 k
+        shift 2
+        ready ReadyToStart "$n"
+        gate "$t"
+        until_ok state_is StartPassed "$n" || fail "the start passage did not count"
+        for k in "$@"; do echo "(remote: key $k)"; remote "$k"; done
+        sleep 2
+        gate $((t + 2000))
+        until_ok state_is FinishPassed "$n" || fail "the finish passage did not count"
+        ready RunCompleted "$n"
+}
+if [ ! -x "$agility" ]; then
+        say "Agility: skipped ($agility is not built)"
+else
+        mkdir -p "$agility_dir"
+        rm -f "$agility_dir"/results.db*
+        cp conf/agility-competitors.csv "$agility_dir/competitors.csv"
+        aport=8431
+        while ! port_free "$aport"; do aport=$((aport + 1)); done
+        cat > "$agility_dir/agility.yaml" <<EOC
+instance: $instance
+link: agility
+class: {name: "Demo jumping", standard_course_time_ms: 40000, max_course_time_ms: 80000,
+        intermediates: 0}
+gates: {start_finish: E1E1E1, min_delay_ms: 1000}
+keypads: [AAAAAA]
+displays: [D15D15]
+competitors: $agility_dir/competitors.csv
+database: $agility_dir/results.db
+http: "127.0.0.1:$aport"
+EOC
+        say "Agility: sharedlink-agility on the controller link (log: $agility_dir/agility.log)"
+        run "$agility" -n -c "$agility_dir/agility.yaml"
+        "$agility" -c "$agility_dir/agility.yaml" 2>"$agility_dir/agility.log" &
+        agility_pid=$!
+        until_ok state_is SetupCompleted 1 || fail "sharedlink-agility did not start"
+
+        say "Agility: competitor 1 runs clean (gate at sensor time 5000, then 7000)"
+        agility_run 1 5000
+        say "Agility: competitor 2 runs with a fault (key 9) and a refusal (key 6)"
+        agility_run 2 20000 256 32
+        run "$slctl" get arena.device.D15D15.current_competitor arena.device.D15D15.primary_time \
+                arena.device.D15D15.faults arena.device.D15D15.refusals arena.device.D15D15.placement
+
+        say "Agility: the results (GET /api/results.csv; stored in $agility_dir/results.db)"
+        http_body /api/results.csv
+        echo "scoreboard: http://127.0.0.1:$aport/ (live while the demo runs; /api/state, /api/results)"
+        kill -TERM "$agility_pid"
+        status=0
+        wait "$agility_pid" || status=$?
+        agility_pid=
+        [ "$status" = 0 ] || fail "sharedlink-agility exited with status $status"
+        echo "sharedlink-agility stopped"
+fi
+# --- end of the Agility part --------------------------------------------------------------------
 pronto4_step
 
 say "link statistics"

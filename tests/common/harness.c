@@ -260,7 +260,6 @@ int harness_start_daemon(struct harness *h, const char *config, int timeout_ms, 
 {
         const char *argv[HARNESS_ARGV_MAX];
         size_t n = 0;
-        pid_t pid;
 
         argv[n++] = harness_daemon_path();
         argv[n++] = "-c";
@@ -268,6 +267,13 @@ int harness_start_daemon(struct harness *h, const char *config, int timeout_ms, 
         for (size_t i = 0; extra_args && extra_args[i] && n < HARNESS_ARGV_MAX - 1; i++)
                 argv[n++] = extra_args[i];
         argv[n] = NULL;
+        return harness_start_program(h, NULL, argv, timeout_ms, ret_status);
+}
+
+int harness_start_program(struct harness *h, const struct harness *env, const char *const *argv,
+                          int timeout_ms, int *ret_status)
+{
+        pid_t pid;
 
         drain_notify(h, "\x01");   /* forget datagrams of an earlier daemon */
         pid = fork();
@@ -277,6 +283,10 @@ int harness_start_daemon(struct harness *h, const char *config, int timeout_ms, 
                 /* A test that dies (timeout, crash) must not leave its daemon behind. */
                 prctl(PR_SET_PDEATHSIG, SIGTERM);
                 child_env(h);
+                if (env) {
+                        setenv("SHAREDLINK_RUNTIME_DIR", env->dir, 1);
+                        setenv("SHAREDLINK_INSTANCE", env->instance, 1);
+                }
                 if (h->capture_log) {
                         int fd = open(h->log_path, O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
 

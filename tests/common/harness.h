@@ -46,6 +46,12 @@ const char *harness_slctl_path(void);
 int harness_start_daemon(struct harness *h, const char *config, int timeout_ms, int *ret_status,
                          const char *const *extra_args);
 
+/* Starts another daemon of the house, argv (NULL-terminated, argv[0] the path), the way
+ * harness_start_daemon() starts sharedlinkd: h's NOTIFY_SOCKET and capture_log; the instance
+ * and runtime directory of env (the harness running sharedlinkd; NULL: h's). */
+int harness_start_program(struct harness *h, const struct harness *env, const char *const *argv,
+                          int timeout_ms, int *ret_status);
+
 /* The message harness_start_config() leaves: the outcome and what this start wrote to the log. */
 #define HARNESS_WHY_MAX 2048
 

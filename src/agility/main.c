@@ -9,22 +9,19 @@
  * (agility_run.h); this file feeds it and carries out what it asks (docs/agility.md §9).
  *
  * One thread runs the engine on the service's loop (svc/service.h: signals, SIGHUP the next
- * class, the watchdog, READY/STATUS), woken by an eventfd and by one timer at the next thing
- * due (the engine's deadline, a retry). A second, tiny thread only sleeps in sl_wait (a futex,
- * which poll cannot watch) and rings the eventfd when the tables changed, as sharedlink-mqtt
- * does; libmicrohttpd's threads serve the scoreboard (agilityd_http.h). Always in the foreground,
- * logging to stderr with <N> priority prefixes. Exit status: 0 after a clean stop (SIGTERM,
- * SIGINT) or a good -n check, 1 on a bad configuration or a failed start, 2 on a usage error.
+ * class, the watchdog, READY/STATUS), woken by the toolkit's waker when the tables changed
+ * (svc/waker.h, as sharedlink-mqtt is) and by one timer at the next thing due (the engine's
+ * deadline, a retry); libmicrohttpd's threads serve the scoreboard (agilityd_http.h). Always
+ * in the foreground, logging to stderr with <N> priority prefixes. Exit status: 0 after a clean
+ * stop (SIGTERM, SIGINT) or a good -n check, 1 on a bad configuration or a failed start, 2 on a
+ * usage error.
  */
 #include <errno.h>
 #include <inttypes.h>
 #include <poll.h>
-#include <pthread.h>
-#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/eventfd.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -38,9 +35,9 @@
 #include "svc/evloop.h"
 #include "svc/log.h"
 #include "svc/service.h"
+#include "svc/waker.h"
 
 #define NS_PER_MS               1000000ull
-#define WAKER_SLICE_MS          250     /* sl_wait slice: how soon the waker sees a stop */
 #define ATTACH_MIN_MS           100u    /* sl_open retries while no daemon runs ... */
 #define ATTACH_MAX_MS           5000u   /* ... doubling to this */
 #define STORE_RETRY_MS          5000u   /* a run the database refused is tried again */
@@ -75,10 +72,7 @@ struct main_ctx {
         struct service *svc;
         struct evloop *loop;
         struct evloop_timer step;       /* the next thing due (see turn()) */
-        int wake_fd;
-        pthread_t waker;
-        bool waker_running;
-        atomic_bool stop_waker;
+        struct waker *waker;            /* once attached */
         bool sync_wanted;
         bool db_error;                  /* the last store failed: said in STATUS= */
         bool ready;                     /* READY=1 sent */
@@ -453,21 +447,12 @@ static void events_pump(struct main_ctx *ctx)
 
 /* ---- attaching to sharedlinkd ---------------------------------------------------------------- */
 
-static void *waker_main(void *arg)
+/* The waker: the tables changed. */
+static void on_change(void *arg)
 {
         struct main_ctx *ctx = arg;
-        uint32_t cursor = 0;
-        uint64_t one = 1;
 
-        while (!atomic_load(&ctx->stop_waker)) {
-                int r = sl_wait(ctx->cl, &cursor, WAKER_SLICE_MS);
-
-                if (r == 1 && write(ctx->wake_fd, &one, sizeof(one)) < 0 && errno != EAGAIN)
-                        break;
-                if (r < 0)
-                        poll(NULL, 0, WAKER_SLICE_MS);  /* e.g. -ENOMEM: do not spin */
-        }
-        return NULL;
+        evloop_timer_arm(&ctx->step, 0, 0);
 }
 
 static void attach_due(struct main_ctx *ctx, uint64_t now)
@@ -491,11 +476,8 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
                 return;
         }
         sl_set_command_wait(ctx->cl, COMMAND_WAIT_MS);
-        atomic_store(&ctx->stop_waker, false);
-        if (pthread_create(&ctx->waker, NULL, waker_main, ctx) == 0)
-                ctx->waker_running = true;
-        else
-                log_msg(LOG_PRIO_ERR, "waker thread: %s", strerror(errno));
+        if (waker_start(ctx->loop, ctx->cl, on_change, ctx, &ctx->waker) < 0)
+                log_msg(LOG_PRIO_ERR, "no waker: changes are seen only at the next timer");
         log_msg(LOG_PRIO_INFO, "attached to sharedlinkd, link %s", ctx->cfg->link);
         for (unsigned i = 0; i < ctx->cfg->display_count; i++)
                 agility_display_unknown(&ctx->shown[i]);
@@ -558,18 +540,6 @@ static void on_step(struct evloop *loop, struct evloop_timer *t, void *arg)
 }
 
 /* The tables changed: a turn in the next round. */
-static void on_wake(struct evloop *loop, int fd, unsigned revents, void *arg)
-{
-        struct main_ctx *ctx = arg;
-        uint64_t v;
-
-        (void)loop;
-        (void)revents;
-        if (read(fd, &v, sizeof(v)) < 0 && errno != EAGAIN)
-                log_msg(LOG_PRIO_WARNING, "eventfd: %s", strerror(errno));
-        evloop_timer_arm(&ctx->step, 0, 0);
-}
-
 static void on_reload(void *arg)
 {
         reload(arg);
@@ -750,16 +720,6 @@ static int setup(struct main_ctx *ctx, const struct service_desc *desc, const ch
         if (r < 0)
                 return r;
         ctx->loop = service_loop(ctx->svc);
-        ctx->wake_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
-        if (ctx->wake_fd < 0) {
-                log_msg(LOG_PRIO_ERR, "eventfd: %s", strerror(errno));
-                return -errno;
-        }
-        r = evloop_add_fd(ctx->loop, ctx->wake_fd, POLLIN, on_wake, ctx);
-        if (r < 0) {
-                log_msg(LOG_PRIO_ERR, "event loop: %s", strerror(-r));
-                return r;
-        }
         evloop_timer_init(&ctx->step, ctx->loop, on_step, ctx);
         ctx->attach_ms = ATTACH_MIN_MS;
         r = agilityd_http_start(ctx->cfg, &ctx->http, &port, err, sizeof(err));
@@ -791,14 +751,7 @@ static void teardown(struct main_ctx *ctx)
 {
         if (ctx->loop)
                 evloop_timer_cancel(&ctx->step);
-        if (ctx->waker_running) {
-                atomic_store(&ctx->stop_waker, true);
-                pthread_join(ctx->waker, NULL);
-        }
-        if (ctx->wake_fd >= 0) {
-                evloop_del_fd(ctx->loop, ctx->wake_fd);
-                close(ctx->wake_fd);
-        }
+        ctx->waker = waker_stop(ctx->waker);
         for (size_t i = 0; i < ctx->run.count; i++)
                 if (ctx->unsaved[i])
                         log_msg(LOG_PRIO_ERR, "competitor %u: stopping with the run NOT stored",
@@ -816,7 +769,7 @@ int main(int argc, char **argv)
                 .name = "sharedlink-agility", .version = SHAREDLINK_VERSION,
                 .config_default = AGILITYD_CONFIG_DEFAULT, .check = check_only,
         };
-        static struct main_ctx ctx = { .wake_fd = -1 };
+        static struct main_ctx ctx = { 0 };
         struct service_args args;
         int r = service_args(&desc, argc, argv, &args);
 

@@ -5,21 +5,18 @@
  *   sharedlink-mqtt [-c FILE] [-n] [-v] [-V]
  *
  * One thread runs everything (the tables, libmosquitto, the cursor) on the service's event loop
- * (svc/service.h, svc/evloop.h). A second, tiny thread only sleeps in sl_wait (a futex, which
- * poll cannot watch) and rings an eventfd when the tables changed. Init: log, configuration,
- * service (loop, notify, signals, watchdog), bridge, MQTT client, eventfd; teardown in reverse.
+ * (svc/service.h, svc/evloop.h); the toolkit's waker (svc/waker.h) tells it when the tables
+ * changed. Init: log, configuration, service (loop, notify, signals, watchdog), bridge, MQTT
+ * client, the waker once attached; teardown in reverse.
  * A stop drains (drain_ms); SIGHUP has no reload here (logged). Always in the foreground,
  * logging to stderr with <N> priority prefixes. Exit status: 0 after a clean stop (SIGTERM,
  * SIGINT) or a good -n check, 1 on a bad configuration or a failed start, 2 on a usage error.
  */
 #include <errno.h>
 #include <poll.h>
-#include <pthread.h>
-#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include <mosquitto.h>
@@ -31,9 +28,9 @@
 #include "mqtt/bridge_mqtt.h"
 #include "svc/log.h"
 #include "svc/service.h"
+#include "svc/waker.h"
 
 #define NS_PER_MS               1000000ull
-#define WAKER_SLICE_MS          250     /* sl_wait slice: how soon the waker sees a stop */
 #define TICK_MS                 1000u   /* rescan anyway (staleness by heartbeat), stats */
 #define ATTACH_MIN_MS           100u    /* sl_open retries while no daemon runs ... */
 #define ATTACH_MAX_MS           5000u   /* ... doubling to this */
@@ -49,12 +46,9 @@ struct main_ctx {
         struct evloop *loop;            /* the service's */
         struct bridge *b;
         struct bridge_mqtt *bm;
-        int wake_fd;
         int sock_fd;                    /* libmosquitto's socket as watched on the loop, or -1 */
         struct evloop_timer step;       /* the next thing due (see turn()) */
-        pthread_t waker;
-        bool waker_running;
-        atomic_bool stop_waker;
+        struct waker *waker;            /* once attached */
         bool ready;
         uint64_t stop_deadline_ns;
         unsigned attach_ms;
@@ -65,23 +59,13 @@ struct main_ctx {
         bool dirty;                     /* the tables changed since the last scan */
 };
 
-/* Sleeps on the change word; every change rings the eventfd the loop watches. */
-static void *waker_main(void *arg)
+/* The waker: the tables changed. */
+static void on_change(void *arg)
 {
         struct main_ctx *ctx = arg;
-        struct sl_client *cl = bridge_client(ctx->b);
-        uint32_t cursor = 0;
-        uint64_t one = 1;
 
-        while (!atomic_load(&ctx->stop_waker)) {
-                int r = sl_wait(cl, &cursor, WAKER_SLICE_MS);
-
-                if (r == 1 && write(ctx->wake_fd, &one, sizeof(one)) < 0 && errno != EAGAIN)
-                        break;
-                if (r < 0)
-                        poll(NULL, 0, WAKER_SLICE_MS);  /* e.g. -ENOMEM: do not spin */
-        }
-        return NULL;
+        ctx->dirty = true;
+        evloop_timer_arm(&ctx->step, 0, 0);
 }
 
 static void attach_due(struct main_ctx *ctx, uint64_t now)
@@ -100,12 +84,8 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
                                  ctx->attach_ms * 2u;
                 return;
         }
-        atomic_store(&ctx->stop_waker, false);
-        if (pthread_create(&ctx->waker, NULL, waker_main, ctx) == 0)
-                ctx->waker_running = true;
-        else
-                log_msg(LOG_PRIO_WARNING, "waker thread: %s: rescanning every %u ms only",
-                        strerror(errno), TICK_MS);
+        if (waker_start(ctx->loop, bridge_client(ctx->b), on_change, ctx, &ctx->waker) < 0)
+                log_msg(LOG_PRIO_WARNING, "rescanning every %u ms only", TICK_MS);
         ctx->dirty = true;
 }
 
@@ -229,7 +209,7 @@ static int watch_socket(struct main_ctx *ctx)
  * broker, publish, flush the cursor, end a drained stop, report the status; then watch the
  * socket and sleep until the next thing due (tick, attach retry, broker keepalive or backoff,
  * drain deadline). It runs after every socket event (step()) and from the step timer; the
- * eventfd and the stop signal only arm that timer, so the socket's readiness is never used
+ * waker and the stop signal only arm that timer, so the socket's readiness is never used
  * after a turn that may have replaced the socket.
  */
 static void turn(struct main_ctx *ctx)
@@ -280,18 +260,6 @@ static void on_step(struct evloop *loop, struct evloop_timer *t, void *arg)
 }
 
 /* The tables changed: a scan at the next turn (the next round). */
-static void on_wake(struct evloop *loop, int fd, unsigned revents, void *arg)
-{
-        struct main_ctx *ctx = arg;
-        uint64_t v;
-
-        (void)loop;
-        (void)revents;
-        if (read(fd, &v, sizeof(v)) == sizeof(v))
-                ctx->dirty = true;
-        evloop_timer_arm(&ctx->step, 0, 0);
-}
-
 /* SIGTERM/SIGINT: stop reading events, wait up to drain_ms for the acknowledgements. */
 static int on_stop(void *arg, char *note, size_t note_size)
 {
@@ -340,16 +308,6 @@ static int setup(struct main_ctx *ctx, const struct service_desc *desc, const ch
                 log_msg(LOG_PRIO_ERR, "%s: %s", path, err);
                 return r;
         }
-        ctx->wake_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
-        if (ctx->wake_fd < 0) {
-                log_msg(LOG_PRIO_ERR, "eventfd: %s", strerror(errno));
-                return -errno;
-        }
-        r = evloop_add_fd(ctx->loop, ctx->wake_fd, POLLIN, on_wake, ctx);
-        if (r < 0) {
-                log_msg(LOG_PRIO_ERR, "event loop: %s", strerror(-r));
-                return r;
-        }
         evloop_timer_init(&ctx->step, ctx->loop, on_step, ctx);
         ctx->attach_ms = ATTACH_MIN_MS;
         log_msg(LOG_PRIO_INFO, "sharedlink-mqtt %s: %s -> %s:%d, topics %s/...",
@@ -364,14 +322,7 @@ static void teardown(struct main_ctx *ctx)
                 if (ctx->sock_fd >= 0)
                         evloop_del_fd(ctx->loop, ctx->sock_fd);
         }
-        if (ctx->waker_running) {
-                atomic_store(&ctx->stop_waker, true);
-                pthread_join(ctx->waker, NULL);
-        }
-        if (ctx->wake_fd >= 0) {
-                evloop_del_fd(ctx->loop, ctx->wake_fd);
-                close(ctx->wake_fd);
-        }
+        ctx->waker = waker_stop(ctx->waker);
         if (ctx->bm)
                 bridge_mqtt_disconnect(ctx->bm);
         if (ctx->b && bridge_unacked(ctx->b))
@@ -390,7 +341,7 @@ int main(int argc, char **argv)
                 .name = "sharedlink-mqtt", .version = SHAREDLINK_VERSION,
                 .config_default = BRIDGE_CONFIG_DEFAULT, .check = check_only,
         };
-        static struct main_ctx ctx = { .wake_fd = -1, .sock_fd = -1 };
+        static struct main_ctx ctx = { .sock_fd = -1 };
         struct service_args args;
         int r = service_args(&desc, argc, argv, &args);
 

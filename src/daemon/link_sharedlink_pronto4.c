@@ -374,11 +374,14 @@ static size_t declaration_read(struct link_sharedlink_session *s, const struct s
         return n;
 }
 
-/* Whether the declaration in the scratch (n positions) names `name`. */
+/* Whether the declaration in the scratch (n positions) maps `name`: a good entry, or a kept
+ * position that has a variable. A bad entry keeps its name but no variable (declaration_read),
+ * so it does not keep a learned one alive: that one would be reached by no position. */
 static bool scratch_names(const struct sls_scratch *sc, size_t n, const char *name)
 {
         for (size_t k = 0; k < n; k++)
-                if (strcmp(sc->names[k], name) == 0)
+                if ((sc->named[k] || sc->ids[k] != SLS_UNMAPPED) &&
+                    strcmp(sc->names[k], name) == 0)
                         return true;
         return false;
 }
@@ -429,6 +432,8 @@ static void declaration_in(struct link_sharedlink_session *s, struct sls_peer *p
                 memcpy(sc->ids, l->ids, keep * sizeof(*sc->ids));
                 memcpy(sc->types, l->types, keep * sizeof(*sc->types));
                 memcpy(sc->names, l->names, keep * sizeof(*sc->names));
+                /* Kept positions are resolved already: their ids say what they map. */
+                memset(sc->named, 0, n * sizeof(*sc->named));
                 for (size_t k = keep; k < n; k++) {
                         sc->ids[k] = SLS_UNMAPPED;
                         sc->types[k] = SLP_TYPE_DOUBLE;

@@ -36,6 +36,7 @@ struct fvar {
         unsigned type;                  /* added at run time: its shm type, direction, place */
         bool outbound;
         int32_t position;
+        bool retired;                   /* retire()d: its name is gone */
 };
 
 struct answer {
@@ -87,7 +88,7 @@ static int h_find(void *arg, const char *name)
 {
         (void)arg;
         for (unsigned i = 0; i < rec.n_vars; i++)
-                if (strcmp(rec.vars[i].name, name) == 0)
+                if (!rec.vars[i].retired && strcmp(rec.vars[i].name, name) == 0)
                         return (int)i;
         return -ENOENT;
 }
@@ -105,6 +106,15 @@ static int h_add(void *arg, const char *name, unsigned type, char peer, bool out
         rec.vars[rec.n_vars].outbound = outbound;
         rec.vars[rec.n_vars].position = position;
         return (int)rec.n_vars++;
+}
+
+static int h_retire(void *arg, uint32_t id)
+{
+        (void)arg;
+        assert_true(id < rec.n_vars);
+        assert_false(rec.vars[id].retired);
+        rec.vars[id].retired = true;
+        return 0;
 }
 
 static int h_get(void *arg, uint32_t id, char *buf, size_t size)
@@ -194,7 +204,8 @@ static int h_local_address(void *arg, char *buf, size_t size, unsigned *ret_remo
 }
 
 static const struct link_sharedlink_hooks hooks = {
-        .send = h_send, .find = h_find, .add = h_add, .get = h_get, .publish = h_publish,
+        .send = h_send, .find = h_find, .add = h_add, .retire = h_retire, .get = h_get,
+        .publish = h_publish,
         .stale = h_stale, .batch = h_batch, .event = h_event, .count = h_count,
         .answer = h_answer, .alive = h_alive, .local_address = h_local_address,
 };
@@ -998,6 +1009,49 @@ static void test_p4_command(void **state)
         link_sharedlink_session_free(s);
 }
 
+/* Learned variables that are not retired: those no position of a list refers to. */
+static unsigned learned_live(void)
+{
+        unsigned n = 0;
+
+        for (unsigned i = 0; i < rec.n_vars; i++)
+                n += rec.vars[i].position != SHM_POSITION_NONE && !rec.vars[i].retired;
+        return n;
+}
+
+/* A learned name re-declared with a bad type keeps its place unmapped: its variable, which no
+ * position reaches any more, is retired like one the declaration no longer names, so learned
+ * variables never outnumber learn_max (found by fuzz_udp_link: declaring a name, then the same
+ * name with a bad type, then another name, left the first one behind each round). */
+static void test_p4_bad_type_retires(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        cfg.sl.peers[0].learn_max = 1;
+        s = start(T0);
+        feed(s, T0, ":BA|N0|T0|Qa");
+        assert_int_equal(rec.n_vars, 1);
+        assert_string_equal(rec.vars[0].name, "veh.A.a");
+        feed(s, T0, ":BA|N0|T7|Qa");
+        assert_int_equal(rec.counters[SHM_COUNTER_BAD_TYPE], 1);
+        assert_true(rec.vars[0].retired);
+        /* Its place is still listed (with no value) in the acknowledgement. */
+        EXPECT_RAW(1, "[:AB|N0|Ra|D|C65]\r\n");
+        for (unsigned round = 0; round < 3; round++) {
+                char decl[32];
+
+                snprintf(decl, sizeof(decl), ":BA|N0|T0|Qb%u", round);
+                feed(s, T0, decl);
+                snprintf(decl, sizeof(decl), ":BA|N0|T7|Qb%u", round);
+                feed(s, T0, decl);
+                assert_int_equal(learned_live(), 0);
+        }
+        feed(s, T0, ":BA|N0|T0|Qc");
+        assert_int_equal(learned_live(), 1);
+        link_sharedlink_session_free(s);
+}
+
 /* Issue 8's bad input, each counted by reason, the rest of the frame applied. */
 static void test_p4_bad_input(void **state)
 {
@@ -1134,6 +1188,7 @@ int main(void)
                 cmocka_unit_test_setup(test_p4_outbound_types, setup_host),
                 cmocka_unit_test_setup(test_p4_command, setup_host),
                 cmocka_unit_test_setup(test_p4_bad_input, setup_vehicle),
+                cmocka_unit_test_setup(test_p4_bad_type_retires, setup_vehicle),
                 cmocka_unit_test_setup(test_p4_configured_by_name, setup_host),
                 cmocka_unit_test_setup(test_p4_crlf, setup_host),
         };

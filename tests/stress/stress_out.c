@@ -15,7 +15,9 @@
  * and the reader that fault (SIGBUS: documented for a truncated .out) are restarted.
  *
  * Bounded by work: ROUNDS attacks (STRESS_ROUNDS), each waited out by events (the wake eventfd,
- * the checker's pidfd), however long a busy machine takes. STRESS_SEED repeats a run.
+ * the checker's pidfd), however long a busy machine takes. STRESS_SEED repeats a run;
+ * STRESS_ATTACKS, a bit mask of enum attack (1 truncate, 2 shorten, 4 scribble, 8 forge), limits
+ * it to some kinds. A failure prints the first bad value, the round's attack and its .out slot.
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -48,6 +50,7 @@
 #define PROBE_WRITER            9999u   /* shmtest_value_make's writer number of probe values */
 #define FORGED_PID              0x7ffffff0u     /* above any pid_max: no such process */
 #define EXIT_SIGBUS             77      /* a client that faulted on a truncated .out */
+#define ATTACK_TEXT_SIZE        160     /* the attack of a round, as the report names it */
 
 enum attack {
         ATTACK_TRUNCATE_EMPTY,
@@ -57,11 +60,36 @@ enum attack {
         ATTACK_COUNT,
 };
 
+/* What a failure leaves behind for the report: the first bad read (or acceptance), the .out slot
+ * it came from as a fresh mapping shows it just after, and the attack of the round it fell in. */
+struct bad_record {
+        _Atomic int taken;              /* the first one only */
+        int id;
+        int length;
+        uint32_t flags;
+        uint64_t sequence;
+        uint32_t writer_pid;            /* the daemon's: the lock word's pid */
+        uint64_t round;
+        char attack[ATTACK_TEXT_SIZE];
+        char value[SL_VALUE_SIZE];
+        int have_slot;                  /* 0: .out could not be mapped (being recreated) */
+        uint64_t slot_seq;
+        uint32_t slot_flags;
+        uint32_t slot_length;
+        uint32_t slot_dir_stamp;
+        char slot_value[SHM_VALUE_SIZE];
+};
+
 struct shared {
         _Atomic int stop;
         _Atomic uint64_t reads;
         _Atomic uint64_t valid_reads;
         _Atomic uint64_t bad_reads;     /* a valid read that is not a complete value: must be 0 */
+        _Atomic uint64_t cancelled;     /* writes whose slot was taken from under the writer */
+        _Atomic uint64_t round;         /* the round under way, and its attack (for the report) */
+        char attack[ATTACK_TEXT_SIZE];
+        struct bad_record bad_read;
+        struct bad_record bad_accept;
 };
 
 struct stats {
@@ -116,9 +144,87 @@ static void client_setup(void)
 
 struct client_arg {
         const char *instance;
+        const char *out_name;
         unsigned index;
         struct shared *sh;
 };
+
+/*
+ * Keeps the first bad value for the report, with the round's attack and the .out slot it came
+ * from (slot = id here) as a fresh mapping shows it now. The mapping may fault (.out truncated
+ * meanwhile): the record is complete but for the slot, which comes last.
+ */
+static void bad_keep(struct shared *sh, struct bad_record *b, const char *out_name, int id,
+                     const char *value, int length, uint32_t flags, uint64_t sequence,
+                     uint32_t writer_pid)
+{
+        struct shmtest_view v;
+        int expected = 0;
+
+        if (!atomic_compare_exchange_strong(&b->taken, &expected, 1))
+                return;
+        b->id = id;
+        b->length = length;
+        b->flags = flags;
+        b->sequence = sequence;
+        b->writer_pid = writer_pid;
+        b->round = atomic_load(&sh->round);
+        memcpy(b->attack, sh->attack, sizeof(b->attack));
+        b->attack[sizeof(b->attack) - 1] = '\0';
+        memcpy(b->value, value, length > 0 && length < SL_VALUE_SIZE ? (size_t)length : 0u);
+        v = shmtest_view_open(out_name, false);
+        if (v.base && v.size >= sizeof(struct shm_out_header) +
+                                (size_t)(id + 1) * sizeof(struct shm_slot)) {
+                const struct shm_slot *slot = shmtest_out_slot(&v, (unsigned)id);
+
+                b->slot_seq = atomic_load(&slot->seq);
+                b->slot_flags = atomic_load(&slot->flags);
+                b->slot_length = atomic_load(&slot->length);
+                b->slot_dir_stamp = atomic_load(&slot->dir_stamp);
+                for (unsigned i = 0; i < SHM_VALUE_WORDS; i++) {
+                        uint64_t w = atomic_load(&slot->value[i]);
+
+                        memcpy(b->slot_value + 8u * i, &w, sizeof(w));
+                }
+                b->have_slot = 1;
+        }
+        shmtest_view_close(&v);
+}
+
+/* Bytes as C would spell them: what a bad value holds may be anything. */
+static void print_bytes(const char *what, const char *v, size_t len)
+{
+        printf("%s \"", what);
+        for (size_t i = 0; i < len; i++) {
+                unsigned char ch = (unsigned char)v[i];
+
+                if (ch >= 0x20 && ch < 0x7f && ch != '"' && ch != '\\')
+                        putchar(ch);
+                else
+                        printf("\\x%02x", ch);
+        }
+        printf("\" (%zu bytes)\n", len);
+}
+
+static void bad_print(const char *who, const struct bad_record *b)
+{
+        if (!atomic_load(&b->taken))
+                return;
+        printf("stress_out: first bad %s: id=%d length=%d flags=0x%" PRIx32 " sequence=%" PRIu64
+               " writer_pid=%" PRIu32 " round=%" PRIu64 " (%s)\n", who, b->id, b->length, b->flags,
+               b->sequence, b->writer_pid, b->round, b->attack);
+        print_bytes("stress_out:   value", b->value,
+                    b->length > 0 && b->length < SL_VALUE_SIZE ? (size_t)b->length : 0u);
+        if (!b->have_slot) {
+                printf("stress_out:   .out slot: not mappable just after\n");
+                return;
+        }
+        printf("stress_out:   .out slot just after: seq=0x%016" PRIx64 " (pid %" PRIu32 ", %s)"
+               " flags=0x%" PRIx32 " length=%" PRIu32 " dir_stamp=%" PRIu32 "\n", b->slot_seq,
+               shm_seqlock_pid(b->slot_seq), shm_seqlock_odd(b->slot_seq) ? "odd" : "even",
+               b->slot_flags, b->slot_length, b->slot_dir_stamp);
+        print_bytes("stress_out:   .out slot value", b->slot_value, SHM_VALUE_SIZE);
+}
 
 static int writer_main(void *arg)
 {
@@ -131,8 +237,11 @@ static int writer_main(void *arg)
                 return 1;
         for (uint64_t n = 0; !atomic_load_explicit(&a->sh->stop, memory_order_relaxed); n++) {
                 shmtest_value_make(a->index, n, value);
-                /* -EAGAIN / -EBUSY while .out is broken: the library rang, just go on. */
-                sl_write(c, (int)(n % NVARS), value);
+                /* -EAGAIN / -EBUSY while .out is broken: the library rang, just go on.
+                 * -ECANCELED: the slot's word was changed under this write (forged, scribbled,
+                 * or repaired by the daemon after a forgery), counted for the report. */
+                if (sl_write(c, (int)(n % NVARS), value) == -ECANCELED)
+                        atomic_fetch_add(&a->sh->cancelled, 1);
         }
         sl_close(c);
         return 0;
@@ -156,7 +265,12 @@ static int reader_main(void *arg)
                 if (len <= 0 || !(meta.flags & SL_FLAG_VALID))
                         continue;
                 valid++;
-                bad += !shmtest_value_ok(buf, (size_t)len);
+                if (!shmtest_value_ok(buf, (size_t)len)) {
+                        bad++;
+                        bad_keep(a->sh, &a->sh->bad_read, a->out_name,
+                                 (int)((reads - 1) % (NVARS + 1)), buf, len, meta.flags,
+                                 meta.sequence, 0);
+                }
                 if (reads % 1024 == 0) {        /* published as it goes: it may fault later */
                         atomic_fetch_add(&a->sh->reads, reads);
                         atomic_fetch_add(&a->sh->valid_reads, valid);
@@ -200,6 +314,8 @@ static int checker_main(void *arg)
 
 struct daemon {
         struct shm_table *t;
+        struct shared *sh;
+        const char *out_name;
         int wake_fd;
         struct stats st;
         uint64_t probe;                 /* the probe of this round */
@@ -215,8 +331,11 @@ static void on_change(void *userdata, const struct shm_out_change *ch)
         switch (ch->status) {
         case SHM_OUT_CHANGED:
                 d->st.accepted++;
-                if (!shmtest_value_ok(ch->value, ch->length))
+                if (!shmtest_value_ok(ch->value, ch->length)) {
                         d->st.bad++;
+                        bad_keep(d->sh, &d->sh->bad_accept, d->out_name, (int)ch->id, ch->value,
+                                 (int)ch->length, 0, 0, ch->writer_pid);
+                }
                 len = shmtest_value_make(PROBE_WRITER, d->probe, probe);
                 if (ch->length == len && memcmp(ch->value, probe, len) == 0) {
                         d->probe_seen = 1;
@@ -249,11 +368,23 @@ static void daemon_scan(struct daemon *d)
 
 /* ---- attacks ----------------------------------------------------------------------------------- */
 
-static void attack_bytes(void *base, size_t size, enum attack kind)
+/* Slot index of byte offset at of .out (-1: the header). */
+static long slot_of(size_t at)
+{
+        if (at < sizeof(struct shm_out_header))
+                return -1;
+        return (long)((at - sizeof(struct shm_out_header)) / sizeof(struct shm_slot));
+}
+
+static void attack_bytes(void *base, size_t size, enum attack kind, char *text, size_t text_size)
 {
         if (kind == ATTACK_SCRIBBLE) {
                 size_t at = (size_t)(rng() % (uint64_t)size);
                 size_t n = 1u + (size_t)(rng() % 256u);
+                size_t end = at + n < size ? at + n : size;
+
+                snprintf(text, text_size, "scribble [%zu, %zu) of %zu: slots %ld..%ld", at, end,
+                         size, slot_of(at), slot_of(end - 1u));
 
                 /* Bytes 0x80-0xff: no value holds them. A scribble of valid characters would
                  * be a write, which a member may make anyway; these are garbage the daemon
@@ -261,32 +392,41 @@ static void attack_bytes(void *base, size_t size, enum attack kind)
                 for (size_t i = at; i < at + n && i < size; i++)
                         ((volatile unsigned char *)base)[i] = (unsigned char)(rng() | 0x80u);
         } else if (size >= sizeof(struct shm_out_header) + (NVARS + 1) * sizeof(struct shm_slot)) {
+                unsigned i = (unsigned)(rng() % (NVARS + 1));
                 struct shm_slot *slot = (struct shm_slot *)((char *)base +
-                                        sizeof(struct shm_out_header)) + rng() % (NVARS + 1);
+                                        sizeof(struct shm_out_header)) + i;
 
+                snprintf(text, text_size, "forge slot %u odd", i);
                 atomic_store(&slot->seq, ((uint64_t)FORGED_PID << 32) | 1u);
         }
 }
 
-static void attack(const char *out_name, enum attack kind)
+/* Attacks .out once; says how in text. */
+static void attack(const char *out_name, enum attack kind, char *text, size_t text_size)
 {
         int fd = shm_open(out_name, O_RDWR, 0);
         struct stat st;
         void *base;
         int r = 0;
 
+        snprintf(text, text_size, "no attack: .out missing or empty");
         if (fd < 0)
                 return;         /* being recreated right now: nothing to attack */
         if (fstat(fd, &st) == 0 && st.st_size > 0) {
                 if (kind == ATTACK_TRUNCATE_EMPTY) {
+                        snprintf(text, text_size, "truncate to 0");
                         r = ftruncate(fd, 0);
                 } else if (kind == ATTACK_TRUNCATE_SHORT) {
-                        r = ftruncate(fd, (off_t)(rng() % (uint64_t)st.st_size));
+                        off_t to = (off_t)(rng() % (uint64_t)st.st_size);
+
+                        snprintf(text, text_size, "truncate to %lld of %lld", (long long)to,
+                                 (long long)st.st_size);
+                        r = ftruncate(fd, to);
                 } else {
                         base = mmap(NULL, (size_t)st.st_size, PROT_READ | PROT_WRITE, MAP_SHARED,
                                     fd, 0);
                         if (base != MAP_FAILED) {
-                                attack_bytes(base, (size_t)st.st_size, kind);
+                                attack_bytes(base, (size_t)st.st_size, kind, text, text_size);
                                 munmap(base, (size_t)st.st_size);
                         }
                 }
@@ -300,6 +440,7 @@ static void attack(const char *out_name, enum attack kind)
 
 struct crew {
         const char *instance;
+        const char *out_name;
         struct shared *sh;
         struct client_arg args[WRITERS + 1];
         pid_t pids[WRITERS + 1];        /* writers, then the reader */
@@ -307,7 +448,7 @@ struct crew {
 
 static void crew_start(struct crew *w, unsigned i)
 {
-        w->args[i] = (struct client_arg){ w->instance, i, w->sh };
+        w->args[i] = (struct client_arg){ w->instance, w->out_name, i, w->sh };
         w->pids[i] = shmtest_fork(i < WRITERS ? writer_main : reader_main, &w->args[i]);
 }
 
@@ -335,7 +476,7 @@ static int pidfd_of(pid_t pid)
 /* Runs the daemon until the checker for this round exited and its probe was accepted. */
 static int round_run(struct daemon *d, struct crew *w, uint64_t round)
 {
-        struct client_arg ca = { w->instance, (unsigned)round, w->sh };
+        struct client_arg ca = { w->instance, w->out_name, (unsigned)round, w->sh };
         pid_t checker = shmtest_fork(checker_main, &ca);
         int pfd = pidfd_of(checker), exited = 0;
 
@@ -380,6 +521,10 @@ static int run(void)
 {
         uint64_t rounds = env_u64("STRESS_ROUNDS", DEFAULT_ROUNDS);
         uint64_t seed = env_u64("STRESS_SEED", (uint64_t)getpid() * UINT64_C(0x9e3779b97f4a7c15));
+        /* Bit k: attack kind k (enum attack order); to hammer one kind while hunting a failure. */
+        uint64_t all = (UINT64_C(1) << ATTACK_COUNT) - 1u;
+        uint64_t kinds = env_u64("STRESS_ATTACKS", all) & all ? env_u64("STRESS_ATTACKS", all) & all
+                                                             : all;
         struct shared *sh = mmap(NULL, sizeof(*sh), PROT_READ | PROT_WRITE,
                                  MAP_SHARED | MAP_ANONYMOUS, -1, 0);
         char instance[64], out_name[SHM_OBJECT_NAME_SIZE];
@@ -399,7 +544,10 @@ static int run(void)
         if (d.wake_fd < 0)
                 return 2;
         shm_layout_object_name(instance, "out", out_name, sizeof(out_name));
+        d.sh = sh;
+        d.out_name = out_name;
         w.instance = instance;
+        w.out_name = out_name;
         w.sh = sh;
         for (unsigned i = 0; i <= WRITERS; i++)
                 crew_start(&w, i);
@@ -407,8 +555,16 @@ static int run(void)
         for (; round < rounds && !failed; round++) {
                 enum attack kind = (enum attack)(rng() % ATTACK_COUNT);
 
+                while (!(kinds & (UINT64_C(1) << kind)))
+                        kind = (enum attack)((kind + 1) % ATTACK_COUNT);
+
+                char text[ATTACK_TEXT_SIZE];
+
                 attacks[kind]++;
-                attack(out_name, kind);
+                /* The report's view of the round: stale by a round at worst (a diagnostic). */
+                attack(out_name, kind, text, sizeof(text));
+                memcpy(sh->attack, text, sizeof(text));
+                atomic_store(&sh->round, round);
                 failed = round_run(&d, &w, round) < 0;
         }
 
@@ -421,7 +577,7 @@ static int run(void)
         daemon_scan(&d);
         failed |= d.st.bad || d.st.bad_mirror || d.st.stalled || d.st.probes < round ||
                   atomic_load(&sh->bad_reads) || atomic_load(&sh->valid_reads) == 0 ||
-                  d.st.recreated == 0;
+                  (d.st.recreated == 0 && attacks[ATTACK_TRUNCATE_EMPTY] > 0);
         printf("stress_out: seed=0x%" PRIx64 " rounds=%" PRIu64 " truncated=%" PRIu64
                " shortened=%" PRIu64 " scribbled=%" PRIu64 " forged=%" PRIu64 "\n", seed, round,
                attacks[ATTACK_TRUNCATE_EMPTY], attacks[ATTACK_TRUNCATE_SHORT],
@@ -431,9 +587,12 @@ static int run(void)
                " stalled=%" PRIu64 " clients_restarted=%" PRIu64 "\n", d.st.accepted, d.st.bad,
                d.st.invalid, d.st.repaired, d.st.recreated, d.st.probes, d.st.bad_mirror,
                d.st.stalled, d.st.respawned);
-        printf("stress_out: reader reads=%" PRIu64 " valid=%" PRIu64 " bad=%" PRIu64 "\n",
-               atomic_load(&sh->reads), atomic_load(&sh->valid_reads),
-               atomic_load(&sh->bad_reads));
+        printf("stress_out: reader reads=%" PRIu64 " valid=%" PRIu64 " bad=%" PRIu64
+               " writes_cancelled=%" PRIu64 "\n", atomic_load(&sh->reads),
+               atomic_load(&sh->valid_reads), atomic_load(&sh->bad_reads),
+               atomic_load(&sh->cancelled));
+        bad_print("read", &sh->bad_read);
+        bad_print("acceptance", &sh->bad_accept);
         printf("stress_out: %s\n", failed ? "FAILED" : "ok, recovered every time, nothing "
                "half-written accepted or read");
         shm_table_destroy(d.t);

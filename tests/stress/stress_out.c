@@ -11,8 +11,10 @@
  * waiting on sl_wait while .out is unusable; the round ends once the daemon accepted the probe.
  * Checked: the daemon never faults or stalls (the checker always gets through, within a bound of
  * heartbeats), every value it accepts or publishes in .in is a complete value a writer wrote
- * (never half-written, never scribbled bytes), and no reader ever reads anything else. Writers
- * and the reader that fault (SIGBUS: documented for a truncated .out) are restarted.
+ * (never half-written, never scribbled bytes) or the empty value (see value_fine), and no reader
+ * ever reads anything else. Writers and the reader that fault (SIGBUS: documented for a truncated
+ * .out) are restarted. An attack that rewrites a slot's lock word (a forgery, a scribble over it,
+ * a shortening that zeroes it) waits until the writers are between writes: see writers_pause.
  *
  * Bounded by work: ROUNDS attacks (STRESS_ROUNDS), each waited out by events (the wake eventfd,
  * the checker's pidfd), however long a busy machine takes. STRESS_SEED repeats a run;
@@ -37,6 +39,7 @@
 #include <sharedlink.h>
 
 #include "common/shmtest.h"
+#include "shm/futex.h"
 #include "shm/seqlock.h"
 #include "shm/table.h"
 
@@ -86,10 +89,14 @@ struct shared {
         _Atomic uint64_t valid_reads;
         _Atomic uint64_t bad_reads;     /* a valid read that is not a complete value: must be 0 */
         _Atomic uint64_t cancelled;     /* writes whose slot was taken from under the writer */
+        _Atomic uint32_t pause;         /* 1: writers park between writes (see writers_pause) */
+        _Atomic uint32_t parks;         /* bumped by each writer that parks: the daemon waits on it */
+        _Atomic uint32_t parked[WRITERS];       /* writer i is parked, outside any write */
         _Atomic uint64_t round;         /* the round under way, and its attack (for the report) */
         char attack[ATTACK_TEXT_SIZE];
         struct bad_record bad_read;
         struct bad_record bad_accept;
+        struct bad_record cancel;       /* the first write refused -ECANCELED */
 };
 
 struct stats {
@@ -226,6 +233,24 @@ static void bad_print(const char *who, const struct bad_record *b)
         print_bytes("stress_out:   .out slot value", b->slot_value, SHM_VALUE_SIZE);
 }
 
+/*
+ * Parks writer i between two writes while the daemon asks it to (seq_cst on both words: a writer
+ * that clears parked[i] and then finds pause clear cannot miss a pause the daemon set before it
+ * read parked[i] as still set; see writers_pause).
+ */
+static void writer_park(struct shared *sh, unsigned i)
+{
+        if (!atomic_load(&sh->pause))
+                return;
+        atomic_store(&sh->parked[i], 1u);
+        atomic_fetch_add(&sh->parks, 1u);
+        shm_futex_wake(&sh->parks, 1);
+        while (atomic_load(&sh->pause))
+                shm_futex_wait(&sh->pause, 1u, -1);
+        atomic_store(&sh->parked[i], 0u);
+        writer_park(sh, i);     /* paused again meanwhile: park again (once per pause) */
+}
+
 static int writer_main(void *arg)
 {
         struct client_arg *a = arg;
@@ -236,12 +261,16 @@ static int writer_main(void *arg)
         if (sl_open(a->instance, &c) < 0)
                 return 1;
         for (uint64_t n = 0; !atomic_load_explicit(&a->sh->stop, memory_order_relaxed); n++) {
+                writer_park(a->sh, a->index);
                 shmtest_value_make(a->index, n, value);
                 /* -EAGAIN / -EBUSY while .out is broken: the library rang, just go on.
                  * -ECANCELED: the slot's word was changed under this write (forged, scribbled,
                  * or repaired by the daemon after a forgery), counted for the report. */
-                if (sl_write(c, (int)(n % NVARS), value) == -ECANCELED)
+                if (sl_write(c, (int)(n % NVARS), value) == -ECANCELED) {
                         atomic_fetch_add(&a->sh->cancelled, 1);
+                        bad_keep(a->sh, &a->sh->cancel, a->out_name, (int)(n % NVARS), value,
+                                 (int)strlen(value), 0, 0, 0);
+                }
         }
         sl_close(c);
         return 0;
@@ -322,6 +351,17 @@ struct daemon {
         int probe_seen;
 };
 
+/*
+ * What the daemon may accept and publish: a complete writer value, or the empty value. A slot
+ * holds "" after a repair or a recreation (zeroed), and a scribble that sets SHM_SLOT_VALID in its
+ * flags and leaves length and value as they are turns it into a valid empty value: a member could
+ * write that one as well, and not one scribbled byte is in it. (The reader skips empty reads.)
+ */
+static int value_fine(const char *v, size_t len)
+{
+        return len == 0 || shmtest_value_ok(v, len);
+}
+
 static void on_change(void *userdata, const struct shm_out_change *ch)
 {
         struct daemon *d = userdata;
@@ -331,7 +371,7 @@ static void on_change(void *userdata, const struct shm_out_change *ch)
         switch (ch->status) {
         case SHM_OUT_CHANGED:
                 d->st.accepted++;
-                if (!shmtest_value_ok(ch->value, ch->length)) {
+                if (!value_fine(ch->value, ch->length)) {
                         d->st.bad++;
                         bad_keep(d->sh, &d->sh->bad_accept, d->out_name, (int)ch->id, ch->value,
                                  (int)ch->length, 0, 0, ch->writer_pid);
@@ -361,12 +401,76 @@ static void daemon_scan(struct daemon *d)
                 uint32_t flags = 0;
                 int len = shm_table_get(d->t, id, buf, sizeof(buf), &flags);
 
-                if ((flags & SHM_SLOT_VALID) && (len < 0 || !shmtest_value_ok(buf, (size_t)len)))
+                if ((flags & SHM_SLOT_VALID) && (len < 0 || !value_fine(buf, (size_t)len)))
                         d->st.bad_mirror++;
         }
 }
 
 /* ---- attacks ----------------------------------------------------------------------------------- */
+
+struct crew {
+        const char *instance;
+        const char *out_name;
+        struct shared *sh;
+        struct client_arg args[WRITERS + 1];
+        pid_t pids[WRITERS + 1];        /* writers, then the reader */
+};
+
+/* A writer that has not exited (a dead one, not yet reaped, is left for crew_tend). */
+static int writer_alive(pid_t pid)
+{
+        siginfo_t si;
+
+        memset(&si, 0, sizeof(si));
+        return waitid(P_PID, (id_t)pid, &si, WEXITED | WNOHANG | WNOWAIT) == 0 && si.si_pid == 0;
+}
+
+/*
+ * Parks the writers between two writes, for an attack that changes the lock word of a slot.
+ * Rewritten under a writer that holds the slot, the word no longer excludes anybody: a second
+ * writer claims the slot (straight away if the word is now even, or once the daemon repaired a
+ * forged odd word), and the two writers' stores interleave under an even word; a reader may also
+ * copy the first writer's half-stored value under it. That is a value a member wrote (every byte
+ * is some writer's), not one a defect made, and nothing downstream can tell it from one: test_lib
+ * shows it. The check below is the strict one (every value complete), so these attacks wait for
+ * the writers to be outside their writes. A writer that dies meanwhile wakes nobody: looked at
+ * again each heartbeat. -1 when one does not park within HEARTBEATS_MAX.
+ */
+static int writers_pause(struct crew *w)
+{
+        struct shared *sh = w->sh;
+
+        atomic_store(&sh->pause, 1u);
+        for (unsigned beats = 0; beats <= HEARTBEATS_MAX; beats++) {
+                uint32_t seen = atomic_load(&sh->parks);
+                int all = 1;
+
+                for (unsigned i = 0; i < WRITERS; i++)
+                        all &= atomic_load(&sh->parked[i]) || !writer_alive(w->pids[i]);
+                if (all)
+                        return 0;
+                shm_futex_wait(&sh->parks, seen, HEARTBEAT_MS);
+        }
+        return -1;
+}
+
+static void writers_resume(struct crew *w)
+{
+        atomic_store(&w->sh->pause, 0u);
+        shm_futex_wake(&w->sh->pause, INT32_MAX);
+}
+
+/* Whether bytes [from, to) of .out hold (part of) a slot's lock word. */
+static int touches_lock(size_t from, size_t to)
+{
+        for (unsigned i = 0; i <= NVARS; i++) {
+                size_t at = sizeof(struct shm_out_header) + i * sizeof(struct shm_slot);
+
+                if (from < at + sizeof(uint64_t) && to > at)
+                        return 1;
+        }
+        return 0;
+}
 
 /* Slot index of byte offset at of .out (-1: the header). */
 static long slot_of(size_t at)
@@ -376,8 +480,11 @@ static long slot_of(size_t at)
         return (long)((at - sizeof(struct shm_out_header)) / sizeof(struct shm_slot));
 }
 
-static void attack_bytes(void *base, size_t size, enum attack kind, char *text, size_t text_size)
+static int attack_bytes(struct crew *w, void *base, size_t size, enum attack kind, char *text,
+                        size_t text_size)
 {
+        int parked = 0;
+
         if (kind == ATTACK_SCRIBBLE) {
                 size_t at = (size_t)(rng() % (uint64_t)size);
                 size_t n = 1u + (size_t)(rng() % 256u);
@@ -385,6 +492,11 @@ static void attack_bytes(void *base, size_t size, enum attack kind, char *text, 
 
                 snprintf(text, text_size, "scribble [%zu, %zu) of %zu: slots %ld..%ld", at, end,
                          size, slot_of(at), slot_of(end - 1u));
+                if (touches_lock(at, end)) {
+                        if (writers_pause(w) < 0)
+                                return -1;
+                        parked = 1;
+                }
 
                 /* Bytes 0x80-0xff: no value holds them. A scribble of valid characters would
                  * be a write, which a member may make anyway; these are garbage the daemon
@@ -397,21 +509,27 @@ static void attack_bytes(void *base, size_t size, enum attack kind, char *text, 
                                         sizeof(struct shm_out_header)) + i;
 
                 snprintf(text, text_size, "forge slot %u odd", i);
+                if (writers_pause(w) < 0)
+                        return -1;
+                parked = 1;
                 atomic_store(&slot->seq, ((uint64_t)FORGED_PID << 32) | 1u);
         }
+        if (parked)
+                writers_resume(w);
+        return 0;
 }
 
-/* Attacks .out once; says how in text. */
-static void attack(const char *out_name, enum attack kind, char *text, size_t text_size)
+/* Attacks .out once; says how in text. -1 when the writers would not park. */
+static int attack(struct crew *w, enum attack kind, char *text, size_t text_size)
 {
-        int fd = shm_open(out_name, O_RDWR, 0);
+        int fd = shm_open(w->out_name, O_RDWR, 0);
         struct stat st;
         void *base;
         int r = 0;
 
         snprintf(text, text_size, "no attack: .out missing or empty");
         if (fd < 0)
-                return;         /* being recreated right now: nothing to attack */
+                return 0;       /* being recreated right now: nothing to attack */
         if (fstat(fd, &st) == 0 && st.st_size > 0) {
                 if (kind == ATTACK_TRUNCATE_EMPTY) {
                         snprintf(text, text_size, "truncate to 0");
@@ -421,33 +539,34 @@ static void attack(const char *out_name, enum attack kind, char *text, size_t te
 
                         snprintf(text, text_size, "truncate to %lld of %lld", (long long)to,
                                  (long long)st.st_size);
-                        r = ftruncate(fd, to);
+                        /* The rest of the last page stays mapped, zeroed: lock words too. */
+                        if (touches_lock((size_t)to, (size_t)st.st_size) && writers_pause(w) < 0)
+                                r = -2;
+                        else
+                                r = ftruncate(fd, to);
+                        writers_resume(w);
                 } else {
                         base = mmap(NULL, (size_t)st.st_size, PROT_READ | PROT_WRITE, MAP_SHARED,
                                     fd, 0);
                         if (base != MAP_FAILED) {
-                                attack_bytes(base, (size_t)st.st_size, kind, text, text_size);
+                                r = attack_bytes(w, base, (size_t)st.st_size, kind, text,
+                                                 text_size) < 0 ? -2 : 0;
                                 munmap(base, (size_t)st.st_size);
                         }
                 }
         }
-        if (r < 0)
+        if (r == -1)
                 perror("stress_out: ftruncate");
         close(fd);
+        return r == -2 ? -1 : 0;
 }
 
 /* ---- the run ----------------------------------------------------------------------------------- */
 
-struct crew {
-        const char *instance;
-        const char *out_name;
-        struct shared *sh;
-        struct client_arg args[WRITERS + 1];
-        pid_t pids[WRITERS + 1];        /* writers, then the reader */
-};
-
 static void crew_start(struct crew *w, unsigned i)
 {
+        if (i < WRITERS)
+                atomic_store(&w->sh->parked[i], 0u);
         w->args[i] = (struct client_arg){ w->instance, w->out_name, i, w->sh };
         w->pids[i] = shmtest_fork(i < WRITERS ? writer_main : reader_main, &w->args[i]);
 }
@@ -562,7 +681,11 @@ static int run(void)
 
                 attacks[kind]++;
                 /* The report's view of the round: stale by a round at worst (a diagnostic). */
-                attack(out_name, kind, text, sizeof(text));
+                if (attack(&w, kind, text, sizeof(text)) < 0) {
+                        d.st.stalled++;
+                        failed = 1;
+                        break;
+                }
                 memcpy(sh->attack, text, sizeof(text));
                 atomic_store(&sh->round, round);
                 failed = round_run(&d, &w, round) < 0;
@@ -593,6 +716,9 @@ static int run(void)
                atomic_load(&sh->cancelled));
         bad_print("read", &sh->bad_read);
         bad_print("acceptance", &sh->bad_accept);
+        /* With the writers parked for every attack on a lock word, nothing should take a slot
+         * from a writer any more: the first such write says where, should one happen. */
+        bad_print("(cancelled) write", &sh->cancel);
         printf("stress_out: %s\n", failed ? "FAILED" : "ok, recovered every time, nothing "
                "half-written accepted or read");
         shm_table_destroy(d.t);

@@ -90,7 +90,7 @@ struct shared {
         _Atomic uint64_t bad_reads;     /* a valid read that is not a complete value: must be 0 */
         _Atomic uint64_t cancelled;     /* writes whose slot was taken from under the writer */
         _Atomic uint32_t pause;         /* 1: writers park between writes (see writers_pause) */
-        _Atomic uint32_t parks;         /* bumped by each writer that parks: the daemon waits on it */
+        _Atomic uint32_t parks;         /* bumped by each writer that parks: waited on */
         _Atomic uint32_t parked[WRITERS];       /* writer i is parked, outside any write */
         _Atomic uint64_t round;         /* the round under way, and its attack (for the report) */
         char attack[ATTACK_TEXT_SIZE];

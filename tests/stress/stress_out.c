@@ -40,6 +40,7 @@
 
 #include "common/shmtest.h"
 #include "shm/futex.h"
+#include "shm/guard.h"
 #include "shm/seqlock.h"
 #include "shm/table.h"
 
@@ -156,33 +157,26 @@ struct client_arg {
         struct shared *sh;
 };
 
-/*
- * Keeps the first bad value for the report, with the round's attack and the .out slot it came
- * from (slot = id here) as a fresh mapping shows it now. The mapping may fault (.out truncated
- * meanwhile): the record is complete but for the slot, which comes last.
- */
-static void bad_keep(struct shared *sh, struct bad_record *b, const char *out_name, int id,
-                     const char *value, int length, uint32_t flags, uint64_t sequence,
-                     uint32_t writer_pid)
-{
-        struct shmtest_view v;
-        int expected = 0;
+/* bad_snapshot's arguments. */
+struct snapshot {
+        struct bad_record *b;
+        const char *out_name;
+};
 
-        if (!atomic_compare_exchange_strong(&b->taken, &expected, 1))
-                return;
-        b->id = id;
-        b->length = length;
-        b->flags = flags;
-        b->sequence = sequence;
-        b->writer_pid = writer_pid;
-        b->round = atomic_load(&sh->round);
-        memcpy(b->attack, sh->attack, sizeof(b->attack));
-        b->attack[sizeof(b->attack) - 1] = '\0';
-        memcpy(b->value, value, length > 0 && length < SL_VALUE_SIZE ? (size_t)length : 0u);
-        v = shmtest_view_open(out_name, false);
+/*
+ * The .out slot of b (slot = id here) as a fresh mapping shows it now, into b. The mapping may
+ * fault (.out truncated meanwhile): clients then exit on SIGBUS, the daemon's side runs this
+ * under its guard; either way the record is complete but for the slot, which comes last.
+ */
+static void bad_snapshot(void *arg)
+{
+        struct snapshot *snap = arg;
+        struct bad_record *b = snap->b;
+        struct shmtest_view v = shmtest_view_open(snap->out_name, false);
+
         if (v.base && v.size >= sizeof(struct shm_out_header) +
-                                (size_t)(id + 1) * sizeof(struct shm_slot)) {
-                const struct shm_slot *slot = shmtest_out_slot(&v, (unsigned)id);
+                                (size_t)(b->id + 1) * sizeof(struct shm_slot)) {
+                const struct shm_slot *slot = shmtest_out_slot(&v, (unsigned)b->id);
 
                 b->slot_seq = atomic_load(&slot->seq);
                 b->slot_flags = atomic_load(&slot->flags);
@@ -196,6 +190,37 @@ static void bad_keep(struct shared *sh, struct bad_record *b, const char *out_na
                 b->have_slot = 1;
         }
         shmtest_view_close(&v);
+}
+
+/* Keeps the first bad value for the report, with the round's attack; 1 when this was the first
+ * (the caller takes its bad_snapshot then). */
+static int bad_keep(struct shared *sh, struct bad_record *b, int id, const char *value, int length,
+                    uint32_t flags, uint64_t sequence, uint32_t writer_pid)
+{
+        int expected = 0;
+
+        if (!atomic_compare_exchange_strong(&b->taken, &expected, 1))
+                return 0;
+        b->id = id;
+        b->length = length;
+        b->flags = flags;
+        b->sequence = sequence;
+        b->writer_pid = writer_pid;
+        b->round = atomic_load(&sh->round);
+        memcpy(b->attack, sh->attack, sizeof(b->attack));
+        b->attack[sizeof(b->attack) - 1] = '\0';
+        memcpy(b->value, value, length > 0 && length < SL_VALUE_SIZE ? (size_t)length : 0u);
+        return 1;
+}
+
+/* A client's bad_keep and bad_snapshot (its SIGBUS handler ends it should the snapshot fault). */
+static void bad_keep_client(struct client_arg *a, struct bad_record *b, int id, const char *value,
+                            int length, uint32_t flags, uint64_t sequence)
+{
+        struct snapshot snap = { b, a->out_name };
+
+        if (bad_keep(a->sh, b, id, value, length, flags, sequence, 0))
+                bad_snapshot(&snap);
 }
 
 /* Bytes as C would spell them: what a bad value holds may be anything. */
@@ -268,8 +293,8 @@ static int writer_main(void *arg)
                  * or repaired by the daemon after a forgery), counted for the report. */
                 if (sl_write(c, (int)(n % NVARS), value) == -ECANCELED) {
                         atomic_fetch_add(&a->sh->cancelled, 1);
-                        bad_keep(a->sh, &a->sh->cancel, a->out_name, (int)(n % NVARS), value,
-                                 (int)strlen(value), 0, 0, 0);
+                        bad_keep_client(a, &a->sh->cancel, (int)(n % NVARS), value,
+                                        (int)strlen(value), 0, 0);
                 }
         }
         sl_close(c);
@@ -296,9 +321,8 @@ static int reader_main(void *arg)
                 valid++;
                 if (!shmtest_value_ok(buf, (size_t)len)) {
                         bad++;
-                        bad_keep(a->sh, &a->sh->bad_read, a->out_name,
-                                 (int)((reads - 1) % (NVARS + 1)), buf, len, meta.flags,
-                                 meta.sequence, 0);
+                        bad_keep_client(a, &a->sh->bad_read, (int)((reads - 1) % (NVARS + 1)),
+                                        buf, len, meta.flags, meta.sequence);
                 }
                 if (reads % 1024 == 0) {        /* published as it goes: it may fault later */
                         atomic_fetch_add(&a->sh->reads, reads);
@@ -345,6 +369,7 @@ struct daemon {
         struct shm_table *t;
         struct shared *sh;
         const char *out_name;
+        int snapshot;                   /* 1: bad_accept kept, its slot still to be looked at */
         int wake_fd;
         struct stats st;
         uint64_t probe;                 /* the probe of this round */
@@ -373,8 +398,10 @@ static void on_change(void *userdata, const struct shm_out_change *ch)
                 d->st.accepted++;
                 if (!value_fine(ch->value, ch->length)) {
                         d->st.bad++;
-                        bad_keep(d->sh, &d->sh->bad_accept, d->out_name, (int)ch->id, ch->value,
-                                 (int)ch->length, 0, 0, ch->writer_pid);
+                        /* The slot is looked at after the scan (see daemon_scan). */
+                        d->snapshot |= bad_keep(d->sh, &d->sh->bad_accept, (int)ch->id,
+                                                ch->value, (int)ch->length, 0, 0,
+                                                ch->writer_pid);
                 }
                 len = shmtest_value_make(PROBE_WRITER, d->probe, probe);
                 if (ch->length == len && memcmp(ch->value, probe, len) == 0) {
@@ -396,6 +423,13 @@ static void daemon_scan(struct daemon *d)
 {
         if (shm_table_out_scan(d->t, on_change, d) == -EBADMSG)
                 d->st.recreated++;
+        if (d->snapshot) {
+                struct snapshot snap = { &d->sh->bad_accept, d->out_name };
+
+                /* Outside the scan: guarded calls do not nest. The table installed the guard. */
+                shm_guard_run(bad_snapshot, &snap);
+                d->snapshot = 0;
+        }
         for (uint32_t id = 0; id <= PROBE_ID; id++) {
                 char buf[SL_VALUE_SIZE];
                 uint32_t flags = 0;

@@ -11,11 +11,15 @@
  * waiting on sl_wait while .out is unusable; the round ends once the daemon accepted the probe.
  * Checked: the daemon never faults or stalls (the checker always gets through, within a bound of
  * heartbeats), every value it accepts or publishes in .in is a complete value a writer wrote
- * (never half-written, never scribbled bytes), and no reader ever reads anything else. Writers
- * and the reader that fault (SIGBUS: documented for a truncated .out) are restarted.
+ * (never half-written, never scribbled bytes) or the empty value (see value_fine), and no reader
+ * ever reads anything else. Writers and the reader that fault (SIGBUS: documented for a truncated
+ * .out) are restarted. An attack that rewrites a slot's lock word (a forgery, a scribble over it,
+ * a shortening that zeroes it) waits until the writers are between writes: see writers_pause.
  *
  * Bounded by work: ROUNDS attacks (STRESS_ROUNDS), each waited out by events (the wake eventfd,
- * the checker's pidfd), however long a busy machine takes. STRESS_SEED repeats a run.
+ * the checker's pidfd), however long a busy machine takes. STRESS_SEED repeats a run;
+ * STRESS_ATTACKS, a bit mask of enum attack (1 truncate, 2 shorten, 4 scribble, 8 forge), limits
+ * it to some kinds. A failure prints the first bad value, the round's attack and its .out slot.
  */
 #include <errno.h>
 #include <fcntl.h>
@@ -35,6 +39,8 @@
 #include <sharedlink.h>
 
 #include "common/shmtest.h"
+#include "shm/futex.h"
+#include "shm/guard.h"
 #include "shm/seqlock.h"
 #include "shm/table.h"
 
@@ -48,6 +54,7 @@
 #define PROBE_WRITER            9999u   /* shmtest_value_make's writer number of probe values */
 #define FORGED_PID              0x7ffffff0u     /* above any pid_max: no such process */
 #define EXIT_SIGBUS             77      /* a client that faulted on a truncated .out */
+#define ATTACK_TEXT_SIZE        160     /* the attack of a round, as the report names it */
 
 enum attack {
         ATTACK_TRUNCATE_EMPTY,
@@ -57,11 +64,40 @@ enum attack {
         ATTACK_COUNT,
 };
 
+/* What a failure leaves behind for the report: the first bad read (or acceptance), the .out slot
+ * it came from as a fresh mapping shows it just after, and the attack of the round it fell in. */
+struct bad_record {
+        _Atomic int taken;              /* the first one only */
+        int id;
+        int length;
+        uint32_t flags;
+        uint64_t sequence;
+        uint32_t writer_pid;            /* the daemon's: the lock word's pid */
+        uint64_t round;
+        char attack[ATTACK_TEXT_SIZE];
+        char value[SL_VALUE_SIZE];
+        int have_slot;                  /* 0: .out could not be mapped (being recreated) */
+        uint64_t slot_seq;
+        uint32_t slot_flags;
+        uint32_t slot_length;
+        uint32_t slot_dir_stamp;
+        char slot_value[SHM_VALUE_SIZE];
+};
+
 struct shared {
         _Atomic int stop;
         _Atomic uint64_t reads;
         _Atomic uint64_t valid_reads;
         _Atomic uint64_t bad_reads;     /* a valid read that is not a complete value: must be 0 */
+        _Atomic uint64_t cancelled;     /* writes whose slot was taken from under the writer */
+        _Atomic uint32_t pause;         /* 1: writers park between writes (see writers_pause) */
+        _Atomic uint32_t parks;         /* bumped by each writer that parks: waited on */
+        _Atomic uint32_t parked[WRITERS];       /* writer i is parked, outside any write */
+        _Atomic uint64_t round;         /* the round under way, and its attack (for the report) */
+        char attack[ATTACK_TEXT_SIZE];
+        struct bad_record bad_read;
+        struct bad_record bad_accept;
+        struct bad_record cancel;       /* the first write refused -ECANCELED */
 };
 
 struct stats {
@@ -116,9 +152,129 @@ static void client_setup(void)
 
 struct client_arg {
         const char *instance;
+        const char *out_name;
         unsigned index;
         struct shared *sh;
 };
+
+/* bad_snapshot's arguments. */
+struct snapshot {
+        struct bad_record *b;
+        const char *out_name;
+};
+
+/*
+ * The .out slot of b (slot = id here) as a fresh mapping shows it now, into b. The mapping may
+ * fault (.out truncated meanwhile): clients then exit on SIGBUS, the daemon's side runs this
+ * under its guard; either way the record is complete but for the slot, which comes last.
+ */
+static void bad_snapshot(void *arg)
+{
+        struct snapshot *snap = arg;
+        struct bad_record *b = snap->b;
+        struct shmtest_view v = shmtest_view_open(snap->out_name, false);
+
+        if (v.base && v.size >= sizeof(struct shm_out_header) +
+                                (size_t)(b->id + 1) * sizeof(struct shm_slot)) {
+                const struct shm_slot *slot = shmtest_out_slot(&v, (unsigned)b->id);
+
+                b->slot_seq = atomic_load(&slot->seq);
+                b->slot_flags = atomic_load(&slot->flags);
+                b->slot_length = atomic_load(&slot->length);
+                b->slot_dir_stamp = atomic_load(&slot->dir_stamp);
+                for (unsigned i = 0; i < SHM_VALUE_WORDS; i++) {
+                        uint64_t w = atomic_load(&slot->value[i]);
+
+                        memcpy(b->slot_value + 8u * i, &w, sizeof(w));
+                }
+                b->have_slot = 1;
+        }
+        shmtest_view_close(&v);
+}
+
+/* Keeps the first bad value for the report, with the round's attack; 1 when this was the first
+ * (the caller takes its bad_snapshot then). */
+static int bad_keep(struct shared *sh, struct bad_record *b, int id, const char *value, int length,
+                    uint32_t flags, uint64_t sequence, uint32_t writer_pid)
+{
+        int expected = 0;
+
+        if (!atomic_compare_exchange_strong(&b->taken, &expected, 1))
+                return 0;
+        b->id = id;
+        b->length = length;
+        b->flags = flags;
+        b->sequence = sequence;
+        b->writer_pid = writer_pid;
+        b->round = atomic_load(&sh->round);
+        memcpy(b->attack, sh->attack, sizeof(b->attack));
+        b->attack[sizeof(b->attack) - 1] = '\0';
+        memcpy(b->value, value, length > 0 && length < SL_VALUE_SIZE ? (size_t)length : 0u);
+        return 1;
+}
+
+/* A client's bad_keep and bad_snapshot (its SIGBUS handler ends it should the snapshot fault). */
+static void bad_keep_client(struct client_arg *a, struct bad_record *b, int id, const char *value,
+                            int length, uint32_t flags, uint64_t sequence)
+{
+        struct snapshot snap = { b, a->out_name };
+
+        if (bad_keep(a->sh, b, id, value, length, flags, sequence, 0))
+                bad_snapshot(&snap);
+}
+
+/* Bytes as C would spell them: what a bad value holds may be anything. */
+static void print_bytes(const char *what, const char *v, size_t len)
+{
+        printf("%s \"", what);
+        for (size_t i = 0; i < len; i++) {
+                unsigned char ch = (unsigned char)v[i];
+
+                if (ch >= 0x20 && ch < 0x7f && ch != '"' && ch != '\\')
+                        putchar(ch);
+                else
+                        printf("\\x%02x", ch);
+        }
+        printf("\" (%zu bytes)\n", len);
+}
+
+static void bad_print(const char *who, const struct bad_record *b)
+{
+        if (!atomic_load(&b->taken))
+                return;
+        printf("stress_out: first bad %s: id=%d length=%d flags=0x%" PRIx32 " sequence=%" PRIu64
+               " writer_pid=%" PRIu32 " round=%" PRIu64 " (%s)\n", who, b->id, b->length, b->flags,
+               b->sequence, b->writer_pid, b->round, b->attack);
+        print_bytes("stress_out:   value", b->value,
+                    b->length > 0 && b->length < SL_VALUE_SIZE ? (size_t)b->length : 0u);
+        if (!b->have_slot) {
+                printf("stress_out:   .out slot: not mappable just after\n");
+                return;
+        }
+        printf("stress_out:   .out slot just after: seq=0x%016" PRIx64 " (pid %" PRIu32 ", %s)"
+               " flags=0x%" PRIx32 " length=%" PRIu32 " dir_stamp=%" PRIu32 "\n", b->slot_seq,
+               shm_seqlock_pid(b->slot_seq), shm_seqlock_odd(b->slot_seq) ? "odd" : "even",
+               b->slot_flags, b->slot_length, b->slot_dir_stamp);
+        print_bytes("stress_out:   .out slot value", b->slot_value, SHM_VALUE_SIZE);
+}
+
+/*
+ * Parks writer i between two writes while the daemon asks it to (seq_cst on both words: a writer
+ * that clears parked[i] and then finds pause clear cannot miss a pause the daemon set before it
+ * read parked[i] as still set; see writers_pause).
+ */
+static void writer_park(struct shared *sh, unsigned i)
+{
+        if (!atomic_load(&sh->pause))
+                return;
+        atomic_store(&sh->parked[i], 1u);
+        atomic_fetch_add(&sh->parks, 1u);
+        shm_futex_wake(&sh->parks, 1);
+        while (atomic_load(&sh->pause))
+                shm_futex_wait(&sh->pause, 1u, -1);
+        atomic_store(&sh->parked[i], 0u);
+        writer_park(sh, i);     /* paused again meanwhile: park again (once per pause) */
+}
 
 static int writer_main(void *arg)
 {
@@ -130,9 +286,16 @@ static int writer_main(void *arg)
         if (sl_open(a->instance, &c) < 0)
                 return 1;
         for (uint64_t n = 0; !atomic_load_explicit(&a->sh->stop, memory_order_relaxed); n++) {
+                writer_park(a->sh, a->index);
                 shmtest_value_make(a->index, n, value);
-                /* -EAGAIN / -EBUSY while .out is broken: the library rang, just go on. */
-                sl_write(c, (int)(n % NVARS), value);
+                /* -EAGAIN / -EBUSY while .out is broken: the library rang, just go on.
+                 * -ECANCELED: the slot's word was changed under this write (forged, scribbled,
+                 * or repaired by the daemon after a forgery), counted for the report. */
+                if (sl_write(c, (int)(n % NVARS), value) == -ECANCELED) {
+                        atomic_fetch_add(&a->sh->cancelled, 1);
+                        bad_keep_client(a, &a->sh->cancel, (int)(n % NVARS), value,
+                                        (int)strlen(value), 0, 0);
+                }
         }
         sl_close(c);
         return 0;
@@ -156,7 +319,11 @@ static int reader_main(void *arg)
                 if (len <= 0 || !(meta.flags & SL_FLAG_VALID))
                         continue;
                 valid++;
-                bad += !shmtest_value_ok(buf, (size_t)len);
+                if (!shmtest_value_ok(buf, (size_t)len)) {
+                        bad++;
+                        bad_keep_client(a, &a->sh->bad_read, (int)((reads - 1) % (NVARS + 1)),
+                                        buf, len, meta.flags, meta.sequence);
+                }
                 if (reads % 1024 == 0) {        /* published as it goes: it may fault later */
                         atomic_fetch_add(&a->sh->reads, reads);
                         atomic_fetch_add(&a->sh->valid_reads, valid);
@@ -200,11 +367,25 @@ static int checker_main(void *arg)
 
 struct daemon {
         struct shm_table *t;
+        struct shared *sh;
+        const char *out_name;
+        int snapshot;                   /* 1: bad_accept kept, its slot still to be looked at */
         int wake_fd;
         struct stats st;
         uint64_t probe;                 /* the probe of this round */
         int probe_seen;
 };
+
+/*
+ * What the daemon may accept and publish: a complete writer value, or the empty value. A slot
+ * holds "" after a repair or a recreation (zeroed), and a scribble that sets SHM_SLOT_VALID in its
+ * flags and leaves length and value as they are turns it into a valid empty value: a member could
+ * write that one as well, and not one scribbled byte is in it. (The reader skips empty reads.)
+ */
+static int value_fine(const char *v, size_t len)
+{
+        return len == 0 || shmtest_value_ok(v, len);
+}
 
 static void on_change(void *userdata, const struct shm_out_change *ch)
 {
@@ -215,8 +396,13 @@ static void on_change(void *userdata, const struct shm_out_change *ch)
         switch (ch->status) {
         case SHM_OUT_CHANGED:
                 d->st.accepted++;
-                if (!shmtest_value_ok(ch->value, ch->length))
+                if (!value_fine(ch->value, ch->length)) {
                         d->st.bad++;
+                        /* The slot is looked at after the scan (see daemon_scan). */
+                        d->snapshot |= bad_keep(d->sh, &d->sh->bad_accept, (int)ch->id,
+                                                ch->value, (int)ch->length, 0, 0,
+                                                ch->writer_pid);
+                }
                 len = shmtest_value_make(PROBE_WRITER, d->probe, probe);
                 if (ch->length == len && memcmp(ch->value, probe, len) == 0) {
                         d->probe_seen = 1;
@@ -237,23 +423,114 @@ static void daemon_scan(struct daemon *d)
 {
         if (shm_table_out_scan(d->t, on_change, d) == -EBADMSG)
                 d->st.recreated++;
+        if (d->snapshot) {
+                struct snapshot snap = { &d->sh->bad_accept, d->out_name };
+
+                /* Outside the scan: guarded calls do not nest. The table installed the guard. */
+                shm_guard_run(bad_snapshot, &snap);
+                d->snapshot = 0;
+        }
         for (uint32_t id = 0; id <= PROBE_ID; id++) {
                 char buf[SL_VALUE_SIZE];
                 uint32_t flags = 0;
                 int len = shm_table_get(d->t, id, buf, sizeof(buf), &flags);
 
-                if ((flags & SHM_SLOT_VALID) && (len < 0 || !shmtest_value_ok(buf, (size_t)len)))
+                if ((flags & SHM_SLOT_VALID) && (len < 0 || !value_fine(buf, (size_t)len)))
                         d->st.bad_mirror++;
         }
 }
 
 /* ---- attacks ----------------------------------------------------------------------------------- */
 
-static void attack_bytes(void *base, size_t size, enum attack kind)
+struct crew {
+        const char *instance;
+        const char *out_name;
+        struct shared *sh;
+        struct client_arg args[WRITERS + 1];
+        pid_t pids[WRITERS + 1];        /* writers, then the reader */
+};
+
+/* A writer that has not exited (a dead one, not yet reaped, is left for crew_tend). */
+static int writer_alive(pid_t pid)
 {
+        siginfo_t si;
+
+        memset(&si, 0, sizeof(si));
+        return waitid(P_PID, (id_t)pid, &si, WEXITED | WNOHANG | WNOWAIT) == 0 && si.si_pid == 0;
+}
+
+/*
+ * Parks the writers between two writes, for an attack that changes the lock word of a slot.
+ * Rewritten under a writer that holds the slot, the word no longer excludes anybody: a second
+ * writer claims the slot (straight away if the word is now even, or once the daemon repaired a
+ * forged odd word), and the two writers' stores interleave under an even word; a reader may also
+ * copy the first writer's half-stored value under it. That is a value a member wrote (every byte
+ * is some writer's), not one a defect made, and nothing downstream can tell it from one: test_lib
+ * shows it. The check below is the strict one (every value complete), so these attacks wait for
+ * the writers to be outside their writes. A writer that dies meanwhile wakes nobody: looked at
+ * again each heartbeat. -1 when one does not park within HEARTBEATS_MAX.
+ */
+static int writers_pause(struct crew *w)
+{
+        struct shared *sh = w->sh;
+
+        atomic_store(&sh->pause, 1u);
+        for (unsigned beats = 0; beats <= HEARTBEATS_MAX; beats++) {
+                uint32_t seen = atomic_load(&sh->parks);
+                int all = 1;
+
+                for (unsigned i = 0; i < WRITERS; i++)
+                        all &= atomic_load(&sh->parked[i]) || !writer_alive(w->pids[i]);
+                if (all)
+                        return 0;
+                shm_futex_wait(&sh->parks, seen, HEARTBEAT_MS);
+        }
+        return -1;
+}
+
+static void writers_resume(struct crew *w)
+{
+        atomic_store(&w->sh->pause, 0u);
+        shm_futex_wake(&w->sh->pause, INT32_MAX);
+}
+
+/* Whether bytes [from, to) of .out hold (part of) a slot's lock word. */
+static int touches_lock(size_t from, size_t to)
+{
+        for (unsigned i = 0; i <= NVARS; i++) {
+                size_t at = sizeof(struct shm_out_header) + i * sizeof(struct shm_slot);
+
+                if (from < at + sizeof(uint64_t) && to > at)
+                        return 1;
+        }
+        return 0;
+}
+
+/* Slot index of byte offset at of .out (-1: the header). */
+static long slot_of(size_t at)
+{
+        if (at < sizeof(struct shm_out_header))
+                return -1;
+        return (long)((at - sizeof(struct shm_out_header)) / sizeof(struct shm_slot));
+}
+
+static int attack_bytes(struct crew *w, void *base, size_t size, enum attack kind, char *text,
+                        size_t text_size)
+{
+        int parked = 0;
+
         if (kind == ATTACK_SCRIBBLE) {
                 size_t at = (size_t)(rng() % (uint64_t)size);
                 size_t n = 1u + (size_t)(rng() % 256u);
+                size_t end = at + n < size ? at + n : size;
+
+                snprintf(text, text_size, "scribble [%zu, %zu) of %zu: slots %ld..%ld", at, end,
+                         size, slot_of(at), slot_of(end - 1u));
+                if (touches_lock(at, end)) {
+                        if (writers_pause(w) < 0)
+                                return -1;
+                        parked = 1;
+                }
 
                 /* Bytes 0x80-0xff: no value holds them. A scribble of valid characters would
                  * be a write, which a member may make anyway; these are garbage the daemon
@@ -261,53 +538,70 @@ static void attack_bytes(void *base, size_t size, enum attack kind)
                 for (size_t i = at; i < at + n && i < size; i++)
                         ((volatile unsigned char *)base)[i] = (unsigned char)(rng() | 0x80u);
         } else if (size >= sizeof(struct shm_out_header) + (NVARS + 1) * sizeof(struct shm_slot)) {
+                unsigned i = (unsigned)(rng() % (NVARS + 1));
                 struct shm_slot *slot = (struct shm_slot *)((char *)base +
-                                        sizeof(struct shm_out_header)) + rng() % (NVARS + 1);
+                                        sizeof(struct shm_out_header)) + i;
 
+                snprintf(text, text_size, "forge slot %u odd", i);
+                if (writers_pause(w) < 0)
+                        return -1;
+                parked = 1;
                 atomic_store(&slot->seq, ((uint64_t)FORGED_PID << 32) | 1u);
         }
+        if (parked)
+                writers_resume(w);
+        return 0;
 }
 
-static void attack(const char *out_name, enum attack kind)
+/* Attacks .out once; says how in text. -1 when the writers would not park. */
+static int attack(struct crew *w, enum attack kind, char *text, size_t text_size)
 {
-        int fd = shm_open(out_name, O_RDWR, 0);
+        int fd = shm_open(w->out_name, O_RDWR, 0);
         struct stat st;
         void *base;
         int r = 0;
 
+        snprintf(text, text_size, "no attack: .out missing or empty");
         if (fd < 0)
-                return;         /* being recreated right now: nothing to attack */
+                return 0;       /* being recreated right now: nothing to attack */
         if (fstat(fd, &st) == 0 && st.st_size > 0) {
                 if (kind == ATTACK_TRUNCATE_EMPTY) {
+                        snprintf(text, text_size, "truncate to 0");
                         r = ftruncate(fd, 0);
                 } else if (kind == ATTACK_TRUNCATE_SHORT) {
-                        r = ftruncate(fd, (off_t)(rng() % (uint64_t)st.st_size));
+                        off_t to = (off_t)(rng() % (uint64_t)st.st_size);
+
+                        snprintf(text, text_size, "truncate to %lld of %lld", (long long)to,
+                                 (long long)st.st_size);
+                        /* The rest of the last page stays mapped, zeroed: lock words too. */
+                        if (touches_lock((size_t)to, (size_t)st.st_size) && writers_pause(w) < 0)
+                                r = -2;
+                        else
+                                r = ftruncate(fd, to);
+                        writers_resume(w);
                 } else {
                         base = mmap(NULL, (size_t)st.st_size, PROT_READ | PROT_WRITE, MAP_SHARED,
                                     fd, 0);
                         if (base != MAP_FAILED) {
-                                attack_bytes(base, (size_t)st.st_size, kind);
+                                r = attack_bytes(w, base, (size_t)st.st_size, kind, text,
+                                                 text_size) < 0 ? -2 : 0;
                                 munmap(base, (size_t)st.st_size);
                         }
                 }
         }
-        if (r < 0)
+        if (r == -1)
                 perror("stress_out: ftruncate");
         close(fd);
+        return r == -2 ? -1 : 0;
 }
 
 /* ---- the run ----------------------------------------------------------------------------------- */
 
-struct crew {
-        const char *instance;
-        struct shared *sh;
-        struct client_arg args[WRITERS + 1];
-        pid_t pids[WRITERS + 1];        /* writers, then the reader */
-};
-
 static void crew_start(struct crew *w, unsigned i)
 {
-        w->args[i] = (struct client_arg){ w->instance, i, w->sh };
+        if (i < WRITERS)
+                atomic_store(&w->sh->parked[i], 0u);
+        w->args[i] = (struct client_arg){ w->instance, w->out_name, i, w->sh };
         w->pids[i] = shmtest_fork(i < WRITERS ? writer_main : reader_main, &w->args[i]);
 }
 
@@ -335,7 +629,7 @@ static int pidfd_of(pid_t pid)
 /* Runs the daemon until the checker for this round exited and its probe was accepted. */
 static int round_run(struct daemon *d, struct crew *w, uint64_t round)
 {
-        struct client_arg ca = { w->instance, (unsigned)round, w->sh };
+        struct client_arg ca = { w->instance, w->out_name, (unsigned)round, w->sh };
         pid_t checker = shmtest_fork(checker_main, &ca);
         int pfd = pidfd_of(checker), exited = 0;
 
@@ -380,6 +674,10 @@ static int run(void)
 {
         uint64_t rounds = env_u64("STRESS_ROUNDS", DEFAULT_ROUNDS);
         uint64_t seed = env_u64("STRESS_SEED", (uint64_t)getpid() * UINT64_C(0x9e3779b97f4a7c15));
+        /* Bit k: attack kind k (enum attack order); to hammer one kind while hunting a failure. */
+        uint64_t all = (UINT64_C(1) << ATTACK_COUNT) - 1u;
+        uint64_t kinds = env_u64("STRESS_ATTACKS", all) & all ? env_u64("STRESS_ATTACKS", all) & all
+                                                             : all;
         struct shared *sh = mmap(NULL, sizeof(*sh), PROT_READ | PROT_WRITE,
                                  MAP_SHARED | MAP_ANONYMOUS, -1, 0);
         char instance[64], out_name[SHM_OBJECT_NAME_SIZE];
@@ -399,7 +697,10 @@ static int run(void)
         if (d.wake_fd < 0)
                 return 2;
         shm_layout_object_name(instance, "out", out_name, sizeof(out_name));
+        d.sh = sh;
+        d.out_name = out_name;
         w.instance = instance;
+        w.out_name = out_name;
         w.sh = sh;
         for (unsigned i = 0; i <= WRITERS; i++)
                 crew_start(&w, i);
@@ -407,8 +708,20 @@ static int run(void)
         for (; round < rounds && !failed; round++) {
                 enum attack kind = (enum attack)(rng() % ATTACK_COUNT);
 
+                while (!(kinds & (UINT64_C(1) << kind)))
+                        kind = (enum attack)((kind + 1) % ATTACK_COUNT);
+
+                char text[ATTACK_TEXT_SIZE];
+
                 attacks[kind]++;
-                attack(out_name, kind);
+                /* The report's view of the round: stale by a round at worst (a diagnostic). */
+                if (attack(&w, kind, text, sizeof(text)) < 0) {
+                        d.st.stalled++;
+                        failed = 1;
+                        break;
+                }
+                memcpy(sh->attack, text, sizeof(text));
+                atomic_store(&sh->round, round);
                 failed = round_run(&d, &w, round) < 0;
         }
 
@@ -421,7 +734,7 @@ static int run(void)
         daemon_scan(&d);
         failed |= d.st.bad || d.st.bad_mirror || d.st.stalled || d.st.probes < round ||
                   atomic_load(&sh->bad_reads) || atomic_load(&sh->valid_reads) == 0 ||
-                  d.st.recreated == 0;
+                  (d.st.recreated == 0 && attacks[ATTACK_TRUNCATE_EMPTY] > 0);
         printf("stress_out: seed=0x%" PRIx64 " rounds=%" PRIu64 " truncated=%" PRIu64
                " shortened=%" PRIu64 " scribbled=%" PRIu64 " forged=%" PRIu64 "\n", seed, round,
                attacks[ATTACK_TRUNCATE_EMPTY], attacks[ATTACK_TRUNCATE_SHORT],
@@ -431,9 +744,15 @@ static int run(void)
                " stalled=%" PRIu64 " clients_restarted=%" PRIu64 "\n", d.st.accepted, d.st.bad,
                d.st.invalid, d.st.repaired, d.st.recreated, d.st.probes, d.st.bad_mirror,
                d.st.stalled, d.st.respawned);
-        printf("stress_out: reader reads=%" PRIu64 " valid=%" PRIu64 " bad=%" PRIu64 "\n",
-               atomic_load(&sh->reads), atomic_load(&sh->valid_reads),
-               atomic_load(&sh->bad_reads));
+        printf("stress_out: reader reads=%" PRIu64 " valid=%" PRIu64 " bad=%" PRIu64
+               " writes_cancelled=%" PRIu64 "\n", atomic_load(&sh->reads),
+               atomic_load(&sh->valid_reads), atomic_load(&sh->bad_reads),
+               atomic_load(&sh->cancelled));
+        bad_print("read", &sh->bad_read);
+        bad_print("acceptance", &sh->bad_accept);
+        /* With the writers parked for every attack on a lock word, nothing should take a slot
+         * from a writer any more: the first such write says where, should one happen. */
+        bad_print("(cancelled) write", &sh->cancel);
         printf("stress_out: %s\n", failed ? "FAILED" : "ok, recovered every time, nothing "
                "half-written accepted or read");
         shm_table_destroy(d.t);

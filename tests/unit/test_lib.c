@@ -40,6 +40,8 @@
 
 enum { LAT, LON, THROTTLE, STEER, STATE, NOTE, NVARS };
 
+#define TEST_FORGED_PID         0x7ffffff0u     /* above any pid_max: no such process */
+
 static const struct shm_var vars[NVARS] = {
         { "AutoGpsLat", SHM_DIR_IN, SHM_TYPE_DOUBLE, 0, "A", 0 },
         { "AutoGpsLon", SHM_DIR_IN, SHM_TYPE_DOUBLE, 0, "A", 1 },
@@ -523,6 +525,47 @@ static void test_write_read_after_repair(void **state)
         assert_int_equal(meta.flags, SL_FLAG_VALID | SL_FLAG_OUTBOUND);
         assert_int_equal(sl_write(f->c, NOTE, "again"), 0);
         assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), NULL), 5);
+}
+
+/*
+ * What a member that rewrites a lock word under a writer can make of the slot (stress_out's attacks
+ * did this by chance): once the word no longer says "held", a second writer takes the slot, the
+ * first one's remaining stores land in the second one's value, and the mix is published under an
+ * even word. Every byte is a writer's and the value is well-formed, so neither the library nor
+ * the daemon can tell it from a value written whole; the first writer learns only at its publish
+ * (-ECANCELED). The lock keeps honest writers apart; it cannot keep a member from writing, and
+ * this is one more way to write. stress_out therefore rewrites lock words only while its writers
+ * are between writes, and holds everything read to be a complete value.
+ */
+static void test_write_lock_rewritten_under_writer(void **state)
+{
+        struct fixture *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->tb.out_name, true);
+        char buf[SL_VALUE_SIZE];
+        struct shm_slot *slot;
+        uint64_t first, w;
+        struct seen s;
+
+        assert_non_null(v.base);
+        slot = shmtest_out_slot(&v, 2);                         /* NOTE's */
+        /* The first writer (a live pid, not the daemon's) takes the slot and is preempted. */
+        assert_int_equal(shm_slot_claim(slot, (uint32_t)getppid(), &first), 0);
+        /* A member forges the word: odd, of a pid no process has; the daemon repairs it. */
+        atomic_store(&slot->seq, ((uint64_t)TEST_FORGED_PID << 32) | 1u);
+        assert_int_equal(scan(f, &s), 1);
+        assert_int_equal(s.last.status, SHM_OUT_REPAIRED);
+        /* A second writer writes a whole value. */
+        assert_int_equal(sl_write(f->c, NOTE, "BBBBBBBBbbbbbbbb"), 0);
+        /* The first one runs again: its next store lands in the published value. */
+        memcpy(&w, "AAAAAAAA", sizeof(w));
+        shm_slot_store_word(slot, 1, w);
+        assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), NULL), 16);
+        assert_string_equal(buf, "BBBBBBBBAAAAAAAA");           /* nobody wrote this whole */
+        assert_int_equal(shm_slot_publish(slot, first), -ECANCELED);
+        assert_int_equal(scan(f, &s), 1);
+        assert_int_equal(s.last.status, SHM_OUT_CHANGED);
+        assert_string_equal(s.last.value, "BBBBBBBBAAAAAAAA");
+        shmtest_view_close(&v);
 }
 
 /* ---- waiting ---------------------------------------------------------------------------------- */
@@ -1653,6 +1696,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_write_refused, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_numbers, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_read_after_repair, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_lock_rewritten_under_writer, setup,
+                                                teardown),
                 cmocka_unit_test_setup_teardown(test_read_waits_out_writer, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wait_thread, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wait_process, setup, teardown),

@@ -792,7 +792,7 @@ static void run_with(struct fx *f, unsigned n, unsigned start_ms, unsigned run_m
  * the clock, its faults and refusals, and both placements in the ranking. */
 static void test_browser(void **state)
 {
-        static const char *const faulty[] = { "256", "32", NULL };      /* faults +5, refusals +1 */
+        static const char *const faulty[] = { "256", "32", NULL };  /* faults +5, refusals +1 */
         struct fx *f = *state;
         static char dom[DOM_MAX];
         char row[64], png[8] = "";

@@ -78,10 +78,10 @@ endif
 # python3: the Python binding (python/tests) and tests/peers/ (the Pronto4 test peer), in `make check`.
 # mosquitto: the MQTT bridge's tests start a broker of their own (and mosquitto_passwd); openssl
 # makes their throwaway TLS certificates. sqlite3 and libmicrohttpd: sharedlink-agility's results
-# database and scoreboard.
+# database and scoreboard; chromium: test_agility renders that scoreboard in a headless browser.
 DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev python3 \
                   libmosquitto-dev mosquitto mosquitto-clients openssl libsqlite3-dev \
-                  libmicrohttpd-dev
+                  libmicrohttpd-dev chromium
 DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
 
 # ---------------------------------------------------------------------------------------------

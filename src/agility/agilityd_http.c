@@ -220,32 +220,51 @@ int agilityd_csv_results(char *buf, size_t size, const struct agility_run *run)
 
 /* ---- the page -------------------------------------------------------------------------------- */
 
-/* The whole scoreboard: no file, no CDN, no framework; EventSource and a little DOM. */
-static const char page[] =
+/* The whole scoreboard: no file, no CDN, no framework; EventSource and a little DOM. The page
+ * is served in two halves with the update of the moment between them (page_top's last element
+ * opens <script type="application/json">): the page shows the run as it is from its first
+ * paint, without waiting for a request of its own, and /events brings every change after. A
+ * browser that reloads the page, or one that renders it headless and dumps it, sees the same. */
+static const char page_top[] =
 "<!DOCTYPE html>\n"
 "<html lang=\"en\"><head><meta charset=\"utf-8\">\n"
 "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n"
 "<title>Agility scoreboard</title>\n"
 "<style>\n"
 "body{font-family:system-ui,sans-serif;margin:0;background:#111;color:#eee}\n"
-"header{padding:.5em 1em;background:#246;font-size:1.4em}\n"
+"header{display:flex;justify-content:space-between;padding:.4em .8em;background:#246;"
+"font-size:1.6em}\n"
 "main{display:flex;flex-wrap:wrap;gap:1em;padding:1em}\n"
-"section{background:#222;border-radius:.5em;padding:1em;flex:1 1 20em}\n"
-"#clock{font-size:4em;font-variant-numeric:tabular-nums}\n"
-".big{font-size:1.6em}.elim{color:#f55;font-weight:bold}.low{color:#fc6}\n"
-"table{border-collapse:collapse;width:100%}td,th{padding:.2em .5em;text-align:left}\n"
+"section{background:#222;border-radius:.5em;padding:1em 1.2em;flex:1 1 24em}\n"
+"h2{margin:0 0 .4em;font-size:1.2em;color:#9bd}\n"
+".label{color:#9bd;font-size:1.1em}\n"
+"#current{font-size:2.2em;font-weight:bold}\n"
+"#clock{font-size:7em;font-weight:bold;font-variant-numeric:tabular-nums;"
+"line-height:1.1;margin:.1em 0}\n"
+".counts{display:flex;gap:1.5em;font-size:1.8em;align-items:baseline}\n"
+".counts b{font-size:1.4em;font-variant-numeric:tabular-nums}\n"
+".elim{color:#f55;font-weight:bold}.low{color:#fc6}\n"
+"#next{font-size:1.3em}\n"
+"table{border-collapse:collapse;width:100%;font-size:1.3em}\n"
+"td,th{padding:.25em .5em;text-align:left}th{color:#9bd;border-bottom:1px solid #444}\n"
+"td.place{font-weight:bold}td.time,td.penalty{font-variant-numeric:tabular-nums}\n"
 "tr:nth-child(even){background:#2a2a2a}\n"
 "</style></head><body>\n"
-"<header><span id=\"class\"></span> &middot; <span id=\"state\"></span></header>\n"
+"<header><span id=\"class\"></span><span id=\"state\"></span></header>\n"
 "<main><section>\n"
-"<div>Current: <span class=\"big\" id=\"current\">-</span></div>\n"
+"<div class=\"label\">Current competitor</div><div id=\"current\">-</div>\n"
 "<div id=\"clock\">0.000</div>\n"
-"<div class=\"big\">Faults <span id=\"faults\">0</span> &middot; Refusals "
-"<span id=\"refusals\">0</span> <span id=\"eliminated\" class=\"elim\"></span></div>\n"
-"<div>Next: <span id=\"next\">-</span></div>\n"
+"<div class=\"counts\"><span>Faults <b id=\"faults\">0</b></span>"
+"<span>Refusals <b id=\"refusals\">0</b></span><span id=\"eliminated\" class=\"elim\"></span>"
+"</div>\n"
+"<p><span class=\"label\">Next</span> <span id=\"next\">-</span></p>\n"
 "</section><section><h2>Ranking</h2><table><thead><tr><th>#</th><th>No</th><th>Handler</th>"
 "<th>Dog</th><th>Time</th><th>F</th><th>R</th><th>Penalty</th></tr></thead>\n"
 "<tbody id=\"ranking\"></tbody></table></section></main>\n"
+"<script type=\"application/json\" id=\"initial\">";
+
+static const char page_bottom[] =
+"</script>\n"
 "<script>\n"
 "'use strict';\n"
 "let st=null,at=0;\n"
@@ -270,13 +289,17 @@ static const char page[] =
 " for(const r of u.results){\n"
 "  const tr=document.createElement('tr');\n"
 "  const t=r.finish_ms===null?'-':secs(r.finish_ms)+(r.precision==='low'?'~':'');\n"
-"  for(const v of [r.placement===null?(r.eliminated?'E':'-'):r.placement,r.competitor,"
-"r.handler,r.dog,t,r.faults,r.refusals,secs(r.penalty)]){\n"
-"   const td=document.createElement('td');td.textContent=v;tr.appendChild(td);}\n"
+"  const cells=[['place',r.placement===null?(r.eliminated?'E':'-'):r.placement],"
+"['number',r.competitor],['handler',r.handler],['dog',r.dog],['time',t],"
+"['faults',r.faults],['refusals',r.refusals],['penalty',secs(r.penalty)]];\n"
+"  for(const [c,v] of cells){\n"
+"   const td=document.createElement('td');td.className=c;td.textContent=v;"
+"tr.appendChild(td);}\n"
 "  tr.dataset.competitor=r.competitor;tb.appendChild(tr);\n"
 " }\n"
 " tick();\n"
 "}\n"
+"show(JSON.parse($('initial').textContent));\n"
 "const es=new EventSource('/events');\n"
 "es.addEventListener('update',e=>show(JSON.parse(e.data)));\n"
 "setInterval(tick,50);\n"
@@ -300,28 +323,39 @@ static enum MHD_Result reply(struct MHD_Connection *conn, unsigned status, const
         return r;
 }
 
-/* The update message of the current version ("event: update\ndata: {...}\n\n"), malloc'd;
- * called with the lock held. */
-static char *update_message(struct agilityd_http *h, size_t *ret_len)
+/* {"state":...,"results":...} of the current version between head and tail, malloc'd; called
+ * with the lock held. */
+static char *update_doc(struct agilityd_http *h, const char *head, const char *tail,
+                        size_t *ret_len)
 {
-        static const char head[] = "event: update\ndata: {\"state\":";
-        size_t cap = sizeof(head) + STATE_MAX + (size_t)h->results_len + 64;
+        static const char state_key[] = "{\"state\":";
+        size_t head_len = strlen(head);
+        size_t cap = head_len + sizeof(state_key) + STATE_MAX + (size_t)h->results_len +
+                     strlen(tail) + 32;
         char *m = malloc(cap);
-        size_t len = sizeof(head) - 1;
+        size_t len = head_len;
         int n;
 
         if (!m)
                 return NULL;
-        memcpy(m, head, len);
+        memcpy(m, head, head_len);
+        memcpy(m + len, state_key, sizeof(state_key) - 1);
+        len += sizeof(state_key) - 1;
         n = agilityd_json_state(m + len, cap - len, h->cfg, &h->view, h->view_ms, mono_ms());
         if (n < 0) {
                 free(m);
                 return NULL;
         }
         len += (size_t)n;
-        len += (size_t)snprintf(m + len, cap - len, ",\"results\":%s}\n\n", h->results);
+        len += (size_t)snprintf(m + len, cap - len, ",\"results\":%s}%s", h->results, tail);
         *ret_len = len;
         return m;
+}
+
+/* The update message of the current version ("event: update\ndata: {...}\n\n"); as update_doc. */
+static char *update_message(struct agilityd_http *h, size_t *ret_len)
+{
+        return update_doc(h, "event: update\ndata: ", "\n\n", ret_len);
 }
 
 static ssize_t sse_read(void *cls, uint64_t pos, char *buf, size_t max)
@@ -410,6 +444,51 @@ static enum MHD_Result serve_copy(struct agilityd_http *h, struct MHD_Connection
         return r;
 }
 
+char *agilityd_page(const char *doc, size_t doc_len, size_t *ret_len)
+{
+        static const char lt[] = "\\u003c";
+        size_t len, lts = 0;
+        char *page;
+
+        for (size_t i = 0; i < doc_len; i++)
+                lts += doc[i] == '<';
+        page = malloc(sizeof(page_top) + doc_len + lts * (sizeof(lt) - 2) + sizeof(page_bottom));
+        if (!page)
+                return NULL;
+        memcpy(page, page_top, sizeof(page_top) - 1);
+        len = sizeof(page_top) - 1;
+        for (size_t i = 0; i < doc_len; i++) {
+                if (doc[i] == '<') {
+                        memcpy(page + len, lt, sizeof(lt) - 1);
+                        len += sizeof(lt) - 1;
+                } else {
+                        page[len++] = doc[i];
+                }
+        }
+        memcpy(page + len, page_bottom, sizeof(page_bottom));
+        *ret_len = len + sizeof(page_bottom) - 1;
+        return page;
+}
+
+static enum MHD_Result serve_page(struct agilityd_http *h, struct MHD_Connection *conn)
+{
+        char *doc, *page = NULL;
+        size_t doc_len = 0, len = 0;
+        enum MHD_Result r;
+
+        pthread_mutex_lock(&h->lock);
+        doc = update_doc(h, "", "", &doc_len);
+        pthread_mutex_unlock(&h->lock);
+        if (doc)
+                page = agilityd_page(doc, doc_len, &len);
+        free(doc);
+        if (!page)
+                return reply(conn, MHD_HTTP_INTERNAL_SERVER_ERROR, "text/plain", "", 0);
+        r = reply(conn, MHD_HTTP_OK, "text/html; charset=utf-8", page, len);
+        free(page);
+        return r;
+}
+
 static enum MHD_Result serve_state(struct agilityd_http *h, struct MHD_Connection *conn)
 {
         char buf[STATE_MAX];
@@ -440,8 +519,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
                 return reply(conn, MHD_HTTP_METHOD_NOT_ALLOWED, "text/plain", not_allowed,
                              sizeof(not_allowed) - 1);
         if (strcmp(url, "/") == 0 || strcmp(url, "/index.html") == 0)
-                return reply(conn, MHD_HTTP_OK, "text/html; charset=utf-8", page,
-                             sizeof(page) - 1);
+                return serve_page(h, conn);
         if (strcmp(url, "/api/state") == 0)
                 return serve_state(h, conn);
         if (strcmp(url, "/api/results") == 0)

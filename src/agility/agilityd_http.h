@@ -4,7 +4,8 @@
  * for the next change without holding up anything else):
  *
  *   GET /                  the scoreboard page: one self-contained HTML file (no CDN, no
- *                          framework: venues have no internet), updated by /events
+ *                          framework: venues have no internet) with the update of the moment
+ *                          inside it, updated by /events
  *   GET /api/state         the run in progress (JSON)
  *   GET /api/results       the completed runs in ranking order (JSON list)
  *   GET /api/results.csv   every competitor in the reference controller's export format
@@ -53,6 +54,11 @@ int agilityd_json_state(char *buf, size_t size, const struct agilityd_config *cf
 /* /api/results: the completed runs of run, in ranking order. The length, or -ENOBUFS. */
 int agilityd_json_results(char *buf, size_t size, const struct agilityd_config *cfg,
                           const struct agility_run *run);
+
+/* The page around doc (the {"state":...,"results":...} of an update), malloc'd and
+ * NUL-terminated, its length in *ret_len; NULL without memory. The JSON goes into a <script>
+ * element: each '<' is written \u003c, so no name in it can end that element. */
+char *agilityd_page(const char *doc, size_t doc_len, size_t *ret_len);
 
 /* /api/results.csv. The length, or -ENOBUFS. */
 int agilityd_csv_results(char *buf, size_t size, const struct agility_run *run);

@@ -12,7 +12,11 @@
  *  - SIGKILL after a completed run and in the middle of the next one: nothing completed is lost,
  *    and the restarted daemon resumes the class with the next competitor;
  *  - a database another process keeps locked: the run stays in memory and on the display, the
- *    error is loud (STATUS=, the log), and it is stored once the lock goes.
+ *    error is loud (STATUS=, the log), and it is stored once the lock goes;
+ *  - the scoreboard page in a real headless Chromium (Debian chromium, `make deps`; skipped when
+ *    it is not installed): after two competitors' runs its DOM has the final time and both
+ *    placements. SHAREDLINK_SCREENSHOT=FILE also saves a screenshot of that page there (how
+ *    docs/agility-scoreboard.png is made).
  */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -52,6 +56,9 @@
 #define HTTP_MAX        65536   /* one response */
 #define LOG_MAX         (1 << 20)
 #define NS_PER_MS       1000000ull
+#define DOM_MAX         (256 * 1024)
+#define T_BROWSER_MS    60000   /* one Chromium run, start to exit, on a busy machine */
+#define CHROMIUM        "/usr/bin/chromium"
 
 #define KEY_READY       "32768"
 #define SPEC_START_MS   5000    /* the specification's example session */
@@ -726,6 +733,111 @@ static void test_reload(void **state)
         assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
 }
 
+/* Chromium, headless, on the scoreboard: what it prints (the DOM, or nothing for a screenshot)
+ * into out. Its profile is a fresh directory of the test's; nothing reaches beyond 127.0.0.1.
+ * It dumps (or shoots) the page once loaded: what the page's script rendered from the update
+ * served inside it. No --virtual-time-budget: the /events stream the page then opens never
+ * ends, and virtual time does not move while a request is open. */
+static void chromium(struct fx *f, const char *what, char *out, size_t size)
+{
+        char url[64], profile[PATH_BUF], err[OUT_MAX];
+        const char *argv[] = { CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu",
+                               "--disable-quic", "--no-first-run",
+                               "--disable-background-networking", "--disable-component-update",
+                               "--disable-sync", "--window-size=1280,800", profile, what,
+                               url, NULL };
+        int r;
+
+        snprintf(url, sizeof(url), "http://127.0.0.1:%d/", f->port);
+        snprintf(profile, sizeof(profile), "--user-data-dir=%s/chromium", f->a.dir);
+        r = harness_run_capture(&f->a, out, size, err, sizeof(err), T_BROWSER_MS, argv);
+        if (r != 0)
+                fail_msg("chromium %s: status %d; stderr:\n%s", what, r, err);
+}
+
+/* The text of the first element after from with the attribute attr ("class=\"place\"") must be
+ * want; dom is the whole page, for the message. */
+static void dom_expect(const char *dom, const char *from, const char *attr, const char *want)
+{
+        const char *p = strstr(from, attr), *end = NULL;
+
+        if (p && (p = strchr(p, '>')))
+                end = strchr(++p, '<');
+        if (!end)
+                fail_msg("no element with %s in the page:\n%s", attr, dom);
+        if ((size_t)(end - p) != strlen(want) || strncmp(p, want, strlen(want)) != 0)
+                fail_msg("%s: \"%.*s\", expected \"%s\", in the page:\n%s", attr, (int)(end - p),
+                         p, want, dom);
+}
+
+/* The run of competitor n: start at sensor time start_ms, finish run_ms later; faults and
+ * refusals pressed on the remote during it. From SetupCompleted or RunCompleted to the
+ * completed run. */
+static void run_with(struct fx *f, unsigned n, unsigned start_ms, unsigned run_ms,
+                     const char *const *keys)
+{
+        press(f, KEY_READY);
+        wait_state(f, "ReadyToStart", n);
+        passage(f, "E1E1E1", start_ms);
+        wait_state(f, "StartPassed", n);
+        for (; keys && *keys; keys++)
+                press(f, *keys);
+        passage(f, "E2E2E2", start_ms + run_ms);
+        wait_state(f, "FinishPassed", n);
+        press(f, KEY_READY);
+        wait_state(f, "RunCompleted", n);
+}
+
+/* Two competitors' runs, then the page as a browser renders it: the last run's final time in
+ * the clock, its faults and refusals, and both placements in the ranking. */
+static void test_browser(void **state)
+{
+        static const char *const faulty[] = { "256", "32", NULL };  /* faults +5, refusals +1 */
+        struct fx *f = *state;
+        static char dom[DOM_MAX];
+        char row[64], png[8] = "";
+        const char *shot = getenv("SHAREDLINK_SCREENSHOT"), *p;
+
+        if (access(CHROMIUM, X_OK) != 0) {
+                print_message("chromium is not installed (make deps): the browser test skips\n");
+                skip();
+        }
+        bring_up(f);
+        run_with(f, 1, 100000, 1500, NULL);
+        run_with(f, 2, 200000, 2250, faulty);
+        /* The page reads what the API serves: both runs are there before Chromium starts. */
+        assert_has(http_get(f, "GET", "/api/results"), "\"competitor\":2,");
+
+        chromium(f, "--dump-dom", dom, sizeof(dom));
+        dom_expect(dom, dom, "id=\"clock\"", "2.250");
+        dom_expect(dom, dom, "id=\"faults\"", "5");
+        dom_expect(dom, dom, "id=\"refusals\"", "5");   /* one refusal: 5 */
+        dom_expect(dom, dom, "id=\"state\"", "RunCompleted");
+        dom_expect(dom, dom, "id=\"next\"", "3 Cora Diaz / Zip");
+        for (unsigned n = 1; n <= 2; n++) {
+                snprintf(row, sizeof(row), "<tr data-competitor=\"%u\">", n);
+                p = strstr(dom, row);
+                if (!p)
+                        fail_msg("no ranking row for competitor %u in:\n%s", n, dom);
+                dom_expect(dom, p, "class=\"place\"", n == 1 ? "1" : "2");
+                dom_expect(dom, p, "class=\"time\"", n == 1 ? "1.500" : "2.250");
+        }
+
+        if (shot) {
+                char arg[PATH_BUF + 16];
+                int fd;
+
+                snprintf(arg, sizeof(arg), "--screenshot=%s", shot);
+                chromium(f, arg, dom, sizeof(dom));
+                fd = open(shot, O_RDONLY | O_CLOEXEC);
+                assert_true(fd >= 0);
+                assert_int_equal(read(fd, png, 4), 4);
+                close(fd);
+                assert_memory_equal(png, "\x89PNG", 4);
+        }
+        assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -737,6 +849,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_sync_lost, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_gate_not_in_network, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_max_course_time, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_browser, setup, teardown),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

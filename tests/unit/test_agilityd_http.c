@@ -2,7 +2,8 @@
  * Unit tests for the scoreboard's documents (src/agility/agilityd_http.c): /api/state with the
  * nulls of item 9 (elapsed_ms and precision until the finish, running_ms only while the run is
  * on, moving with the clock), /api/results in ranking order with names escaped as JSON, the CSV
- * export, and a buffer too small.
+ * export, a buffer too small, and the page with an update inside it that no name can break out
+ * of.
  */
 #include <errno.h>
 #include <setjmp.h>
@@ -111,12 +112,38 @@ static void test_csv(void **state)
         assert_int_equal(agilityd_csv_results(buf, 200, &run), -ENOBUFS);
 }
 
+/* The update goes into the page's <script type="application/json">: a "</script>" in a name
+ * must not end that element, and the JSON must read back the same (\u003c is '<'). */
+static void test_page(void **state)
+{
+        static const char doc[] = "{\"state\":{\"class\":\"A </script><b>x\"},\"results\":[]}";
+        static const char inside[] = "{\"state\":{\"class\":\"A \\u003c/script>\\u003cb>x\"},"
+                                     "\"results\":[]}</script>";
+        size_t len = 0;
+        char *page = agilityd_page(doc, sizeof(doc) - 1, &len);
+        const char *json;
+
+        (void)state;
+        assert_non_null(page);
+        assert_int_equal(strlen(page), len);
+        json = strstr(page, "<script type=\"application/json\" id=\"initial\">");
+        assert_non_null(json);
+        json = strchr(json, '>') + 1;
+        assert_memory_equal(json, inside, sizeof(inside) - 1);
+        /* Before it, no script; after it, the page's own, and the end of the page. */
+        assert_null(strstr(json + sizeof(inside) - 1, "</script><b>"));
+        assert_non_null(strstr(json, "new EventSource('/events')"));
+        assert_non_null(strstr(json, "</html>\n"));
+        free(page);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
                 cmocka_unit_test_setup(test_state, setup),
                 cmocka_unit_test_setup(test_results, setup),
                 cmocka_unit_test_setup(test_csv, setup),
+                cmocka_unit_test(test_page),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

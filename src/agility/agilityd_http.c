@@ -48,6 +48,9 @@ struct sse {
         size_t len, off;
 };
 
+_Static_assert(AGILITYD_HTTP_KEEPALIVE_MS < AGILITYD_HTTP_IDLE_S * 1000u,
+               "an SSE stream sends before the idle timeout");
+
 static uint64_t mono_ms(void)
 {
         struct timespec ts;
@@ -569,7 +572,9 @@ int agilityd_http_start(const struct agilityd_config *cfg, struct agilityd_http 
         h->mhd = MHD_start_daemon(flags, cfg->http_port, NULL, NULL, on_request, h,
                                   MHD_OPTION_SOCK_ADDR, sa,
                                   MHD_OPTION_CONNECTION_LIMIT,
-                                  (unsigned)AGILITYD_HTTP_CONNECTIONS_MAX, MHD_OPTION_END);
+                                  (unsigned)AGILITYD_HTTP_CONNECTIONS_MAX,
+                                  MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)AGILITYD_HTTP_IDLE_S,
+                                  MHD_OPTION_END);
         if (!h->mhd) {
                 snprintf(err, err_size, "http: cannot listen on %s port %u (in use, or not an "
                          "address of this machine)", cfg->http_host, (unsigned)cfg->http_port);

@@ -26,6 +26,10 @@
 
 #define AGILITYD_HTTP_CONNECTIONS_MAX 64        /* at once; SSE streams included */
 #define AGILITYD_HTTP_KEEPALIVE_MS 15000u       /* an SSE comment when nothing changed */
+/* A connection that neither sends nor receives for this long is closed, so that clients holding
+ * idle sockets cannot take every one of AGILITYD_HTTP_CONNECTIONS_MAX; an SSE stream always
+ * sends within AGILITYD_HTTP_KEEPALIVE_MS, so it is never cut. */
+#define AGILITYD_HTTP_IDLE_S    60u
 #define AGILITYD_JSON_MAX       (512u * 1024u)  /* results of 999 competitors, with names */
 
 struct agilityd_http;

@@ -1058,22 +1058,24 @@ static void test_p4_bad_input(void **state)
         struct link_sharedlink_session *s;
 
         (void)state;
-        cfg.sl.peers[0].learn_max = 3;
+        cfg.sl.peers[0].learn_max = 2;
         var_add(&(struct config_var){ 0 }, "veh.A.taken");             /* id 0: not ours */
         s = start(T0);
         /* A data frame before any declaration. */
         feed(s, T0, ":BA|N0|D1|D2");
         assert_int_equal(rec.counters[SHM_COUNTER_UNDECLARED_DATA], 1);
-        /* A declaration longer than the table (learn_max 3), with a type letter other than
-         * 0/2/4 (its position kept, unmapped) and a name held by another variable. */
+        /* A declaration longer than learn_max 2, with a type letter other than 0/2/4 (its
+         * position kept, unmapped) and a name held by another variable: a and taken are the
+         * two it maps (taken left unmapped); b and c keep their places, unmapped (issue 21.7:
+         * the list keeps its declared length). */
         feed(s, T0, ":BA|N0|T7|Qbad|T0|Qa|T0|Qtaken|T0|Qb|T0|Qc");
         assert_int_equal(rec.counters[SHM_COUNTER_BAD_TYPE], 1);
         assert_int_equal(rec.counters[SHM_COUNTER_LEARN_CONFLICT], 1);
         assert_int_equal(rec.counters[SHM_COUNTER_LEARN_FULL], 2);
         assert_int_equal(rec.n_vars, 2);
         assert_string_equal(rec.vars[1].name, "veh.A.a");
-        EXPECT_RAW(0, "[:AB|N0|Rbad|D|Ra|D|Rtaken|D|CBB]\r\n");
-        /* Positions: 0 unmapped (dropped), 1 = a, 2 unmapped, 3 beyond the list. */
+        EXPECT_RAW(0, "[:AB|N0|Rbad|D|Ra|D|Rtaken|D|Rb|D|Rc|D|C9C]\r\n");
+        /* Positions: 0 unmapped (dropped), 1 = a, 2 and 3 unmapped. */
         feed(s, T0, ":BA|N0|D9|D5|D6|D7");
         assert_string_equal(rec.vars[1].value, "5");
         assert_false(rec.vars[0].valid);

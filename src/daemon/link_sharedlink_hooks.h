@@ -20,6 +20,8 @@
 #define LINK_SHAREDLINK_NEVER           UINT64_MAX
 /* Longest one-line diagnostic the session hands to the diag hook. */
 #define LINK_SHAREDLINK_DIAG_MAX        256u
+/* Refused input after a reason's first warning is summed up in one line this often at most. */
+#define LINK_SHAREDLINK_REFUSAL_SUMMARY_MS      60000u
 /* Longest text the peer_state hook gets. */
 #define LINK_SHAREDLINK_PEER_STATE_MAX  96u
 /* Longest reason text the answer hook gets with an error. */

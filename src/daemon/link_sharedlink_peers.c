@@ -64,7 +64,7 @@ void sls_refuse(struct link_sharedlink_session *s, enum shm_counter c, uint64_t 
         if (r->warned[c]) {
                 r->pending[c] += n;
                 if (r->summary_at == LINK_SHAREDLINK_NEVER)
-                        r->summary_at = s->now + SLS_REFUSAL_SUMMARY_MS;
+                        r->summary_at = s->now + LINK_SHAREDLINK_REFUSAL_SUMMARY_MS;
                 return;
         }
         r->warned[c] = true;
@@ -94,7 +94,7 @@ void sls_refusals_summary(struct link_sharedlink_session *s)
         }
         if (used > 0)
                 sls_diagf(s, LOG_PRIO_WARNING, "refused in the last %u s: %s (slctl stats has "
-                          "the totals)", SLS_REFUSAL_SUMMARY_MS / 1000u, text);
+                          "the totals)", LINK_SHAREDLINK_REFUSAL_SUMMARY_MS / 1000u, text);
 }
 
 void sls_peer_state_update(struct link_sharedlink_session *s)

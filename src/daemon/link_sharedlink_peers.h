@@ -119,10 +119,9 @@ struct sls_scratch {
 /*
  * Refusals (docs/pronto4.md §11): each reason's first occurrence on a link is a warning that says
  * what to check; later ones are counted and summed up in one line at most every
- * SLS_REFUSAL_SUMMARY_MS, so a peer that sends nothing but refused frames never floods the log.
+ * LINK_SHAREDLINK_REFUSAL_SUMMARY_MS, so a peer that sends nothing but refused frames never
+ * floods the log.
  */
-#define SLS_REFUSAL_SUMMARY_MS  60000u
-
 struct sls_refusals {
         bool warned[SHM_COUNTER_COUNT];         /* its first occurrence was logged */
         uint64_t pending[SHM_COUNTER_COUNT];    /* since the last warning or summary */

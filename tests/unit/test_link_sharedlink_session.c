@@ -1066,7 +1066,8 @@ static void test_p4_bad_type_retires(void **state)
 
 /*
  * Issue 21.3: a refusal is warned once per reason on a link, saying what to check; the rest are
- * summed up in one line LINK_SHAREDLINK_REFUSAL_SUMMARY_MS after the first of them, never a line each.
+ * summed up in one line LINK_SHAREDLINK_REFUSAL_SUMMARY_MS after the first of them, never a line
+ * each.
  */
 static void test_refusals_summed_up(void **state)
 {
@@ -1087,7 +1088,8 @@ static void test_refusals_summed_up(void **state)
         assert_string_equal(rec.diags[1], "unknown_peer: frames from D, which is not a peer of "
                             "this link: check the peers' `address:`");
         feed(s, T0 + 1, ":BD|N0|D1");
-        assert_int_equal(link_sharedlink_session_deadline(s), T0 + LINK_SHAREDLINK_REFUSAL_SUMMARY_MS);
+        assert_int_equal(link_sharedlink_session_deadline(s),
+                         T0 + LINK_SHAREDLINK_REFUSAL_SUMMARY_MS);
         link_sharedlink_session_tick(s, T0 + LINK_SHAREDLINK_REFUSAL_SUMMARY_MS - 1);
         assert_int_equal(rec.n_diags, 2);
         link_sharedlink_session_tick(s, T0 + LINK_SHAREDLINK_REFUSAL_SUMMARY_MS);

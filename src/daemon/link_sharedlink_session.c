@@ -510,9 +510,15 @@ static void frame_apply(struct link_sharedlink_session *s, uint64_t now,
 
         sls_count(s, SHM_COUNTER_FRAMES_IN, 1);
         if (f->dst != s->addr) {
-                sls_refuse(s, SHM_COUNTER_NOT_FOR_US, 1, "frames for %c from %c, but this link "
-                           "is %c: check `address:` (ours, and the peer's)", f->dst, f->src,
-                           s->addr);
+                /* Traffic between two other nodes of a shared bus is no mistake of ours: only
+                 * counted. A peer talking to someone else, or a node using our own address,
+                 * is a swapped or wrong address: warned (issue 21.3). */
+                if (f->src != s->addr && s->peer_of_addr[f->src_index] < 0)
+                        sls_count(s, SHM_COUNTER_NOT_FOR_US, 1);
+                else
+                        sls_refuse(s, SHM_COUNTER_NOT_FOR_US, 1, "frames for %c from %c, but "
+                                   "this link is %c: check `address:` (ours, and the peer's)",
+                                   f->dst, f->src, s->addr);
                 return;
         }
         pi = s->peer_of_addr[f->src_index];

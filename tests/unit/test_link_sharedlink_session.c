@@ -1082,6 +1082,10 @@ static void test_refusals_summed_up(void **state)
         assert_int_equal(rec.n_diags, 1);
         assert_string_equal(rec.diags[0], "not_for_us: frames for A from C, but this link is B: "
                             "check `address:` (ours, and the peer's)");
+        /* Between two other nodes of a bus (E to D): counted, nothing to warn or sum up. */
+        feed(s, T0, ":DE|N0|D1");
+        assert_int_equal(rec.counters[SHM_COUNTER_NOT_FOR_US], 103);
+        assert_int_equal(rec.n_diags, 1);
         /* Another reason: its own first warning. */
         feed(s, T0, ":BD|N0|D1");
         assert_int_equal(rec.n_diags, 2);

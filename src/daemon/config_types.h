@@ -127,6 +127,12 @@ enum config_dialect {
         CONFIG_DIALECT_PRONTO4,         /* the Kairos Pronto4 field dialect */
 };
 
+/* Which end of a Pronto4 link we are toward a pronto4 peer (docs/pronto4.md §1, §9). */
+enum config_p4_role {
+        CONFIG_P4_HOST,                 /* node A: sends the connect sequence, declares */
+        CONFIG_P4_VEHICLE,              /* node B: answers, obeys ELink outbound/inbound */
+};
+
 struct config_var {
         char name[CONFIG_VAR_NAME_MAX + 1];
         enum config_var_type type;
@@ -148,6 +154,7 @@ struct config_peer {
         unsigned n_inbound;
         /* Pronto4 dialect; a bulletin peer has declare and both learns false, learn_max 0. */
         enum config_dialect dialect;
+        enum config_p4_role role;       /* role: host | vehicle (default from the addresses) */
         bool declare;                   /* send our typed N0/L0 declarations to this peer */
         bool outbound_learn;            /* outbound: learn (from the peer's L0 declaration) */
         bool inbound_learn;             /* inbound: learn (from the peer's N0 declaration) */

@@ -51,6 +51,7 @@ struct lsl {
 
         enum link_sharedlink_state state;
         char status[STATUS_MAX];
+        char peer_state[LINK_SHAREDLINK_PEER_STATE_MAX];   /* the session's, after "up; " */
         struct log_ratelimit rl;
 };
 static_assert(offsetof(struct lsl, env) == 0, "link_hook_*() take the engine as its link_env");
@@ -95,6 +96,8 @@ static void state_set(struct lsl *l, enum link_sharedlink_state s, const char *r
 
         if (s == LINK_SHAREDLINK_STATE_DOWN)
                 snprintf(status, sizeof(status), "down: %s", reason && *reason ? reason : "?");
+        else if (s == LINK_SHAREDLINK_STATE_UP && l->peer_state[0])
+                snprintf(status, sizeof(status), "up; %s", l->peer_state);
         else
                 snprintf(status, sizeof(status), "%s", state_word(s));
         if (!changed && strcmp(status, l->status) == 0)
@@ -208,6 +211,16 @@ static void hook_diag(void *arg, enum log_prio prio, const char *text)
         log_ratelimited(&l->rl, prio, "link %s: %s", l->cfg->name, text);
 }
 
+/* What the pronto4 peers asked of the link (outbound/inbound off), shown while it is up. */
+static void hook_peer_state(void *arg, const char *text)
+{
+        struct lsl *l = arg;
+
+        copy_cut(l->peer_state, sizeof(l->peer_state), text);
+        if (l->state == LINK_SHAREDLINK_STATE_UP)
+                state_set(l, LINK_SHAREDLINK_STATE_UP, NULL);
+}
+
 /* "<ip>:<port>" the peer reaches us at: the socket's own address, which for a socket connected
  * toward remote: is the source the kernel picked even when local: is a wildcard. */
 static int hook_local_address(void *arg, char *buf, size_t size, unsigned *ret_remote_port)
@@ -266,6 +279,7 @@ static const struct link_sharedlink_hooks session_hooks = {
         .alive = hook_alive,
         .diag = hook_diag,
         .local_address = hook_local_address,
+        .peer_state = hook_peer_state,
 };
 
 /* ---------------------------------------------------------------------------------------------

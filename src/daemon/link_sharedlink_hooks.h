@@ -19,7 +19,11 @@
 #define LINK_SHAREDLINK_RETRY_MS        10      /* a refused on-change frame: retry */
 #define LINK_SHAREDLINK_NEVER           UINT64_MAX
 /* Longest one-line diagnostic the session hands to the diag hook. */
-#define LINK_SHAREDLINK_DIAG_MAX        160u
+#define LINK_SHAREDLINK_DIAG_MAX        256u
+/* Refused input after a reason's first warning is summed up in one line this often at most. */
+#define LINK_SHAREDLINK_REFUSAL_SUMMARY_MS      60000u
+/* Longest text the peer_state hook gets. */
+#define LINK_SHAREDLINK_PEER_STATE_MAX  96u
 /* Longest reason text the answer hook gets with an error. */
 #define LINK_SHAREDLINK_WHY_MAX         96u
 
@@ -69,6 +73,9 @@ struct link_sharedlink_hooks {
          * port we send to: the text's length, or -errno when the link has no such address (not
          * UDP). For a pronto4 host's "SetIP" command. NULL: no address. */
         int (*local_address)(void *arg, char *buf, size_t size, unsigned *ret_remote_port);
+        /* What the link's pronto4 peers have asked of it, for the link's state text ("peer A:
+         * outbound off"; "" when nothing differs from normal). NULL: not shown. */
+        void (*peer_state)(void *arg, const char *text);
 };
 
 #endif

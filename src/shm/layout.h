@@ -220,7 +220,9 @@
         X(COMMANDS_IN,          "commands_in",          SHAREDLINK) \
         X(COMMANDS_OUT,         "commands_out",         SHAREDLINK) \
         X(BAD_COMMAND,          "bad_command",          SHAREDLINK) \
-        X(UDP_REFUSED,          "udp_refused",          LINKS)
+        X(UDP_REFUSED,          "udp_refused",          LINKS) \
+        X(LIST_UNKNOWN,         "list_unknown",         SHAREDLINK) \
+        X(INBOUND_OFF,          "inbound_off",          SHAREDLINK)
 
 #define SHM_COUNTER_ENUM(id, name, scope) SHM_COUNTER_##id,
 enum shm_counter {

@@ -1550,6 +1550,78 @@ static void test_pronto4_equal(void **state)
                 config_free(cfg[i]);
 }
 
+/* Issue 21.4: a pronto4 peer's role (docs/pronto4.md §1): host on node A, vehicle on node B,
+ * else from the lists; declare follows it (only a host with configured lists declares). */
+#define P4_ROLE_LINK(own, peer) \
+        "links:\n" \
+        "  - name: p4\n" \
+        "    protocol: sharedlink\n" \
+        "    transport: udp\n" \
+        "    local: '127.0.0.1:4220'\n" \
+        "    remote: '127.0.0.1:4000'\n" \
+        "    address: " own "\n" \
+        "    peers:\n" \
+        "      - address: " peer "\n" \
+        "        dialect: pronto4\n"
+
+static void test_pronto4_role(void **state)
+{
+        static const struct {
+                const char *name, *yaml;
+                enum config_p4_role role;
+                bool declare;
+        } cases[] = {
+                { "node A with configured lists: the host, declaring",
+                  P4_ROLE_LINK("A", "B") "        outbound: [x]\n", CONFIG_P4_HOST, true },
+                { "node B with configured lists: the vehicle, not declaring",
+                  P4_ROLE_LINK("B", "A") "        outbound: [x]\n        inbound: [y]\n",
+                  CONFIG_P4_VEHICLE, false },
+                { "node B told it is the host",
+                  P4_ROLE_LINK("B", "A") "        role: host\n        outbound: [x]\n",
+                  CONFIG_P4_HOST, true },
+                { "node A told it is the vehicle",
+                  P4_ROLE_LINK("A", "B") "        role: vehicle\n        outbound: [x]\n",
+                  CONFIG_P4_VEHICLE, false },
+                { "a vehicle that declares all the same",
+                  P4_ROLE_LINK("B", "A") "        declare: true\n        outbound: [x]\n",
+                  CONFIG_P4_VEHICLE, true },
+                { "node C with configured lists: the host",
+                  P4_ROLE_LINK("C", "D") "        outbound: [x]\n", CONFIG_P4_HOST, true },
+                { "node C that learns: the vehicle",
+                  P4_ROLE_LINK("C", "D") "        inbound: learn\n", CONFIG_P4_VEHICLE, false },
+        };
+        static struct bad_case bad[] = {
+                { "p4_role_unknown", P4_ROLE_LINK("A", "B") "        role: captain\n",
+                  "t.yaml:11:15: role: expected host or vehicle, got \"captain\"" },
+                { "p4_role_on_bulletin", P4_LINK("") "        role: host\n",
+                  "t.yaml:10:9: key \"role\" needs dialect: pronto4" },
+        };
+        struct config *host, *vehicle;
+
+        (void)state;
+        for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+                struct config *c = parse_ok(cases[i].yaml);
+
+                print_message("case: %s\n", cases[i].name);
+                assert_int_equal(c->links[0].sl.peers[0].role, cases[i].role);
+                assert_int_equal(c->links[0].sl.peers[0].declare, cases[i].declare);
+                config_free(c);
+        }
+        for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+                void *one = &bad[i];
+
+                print_message("case %s\n", bad[i].name);
+                test_bad(&one);
+        }
+        /* Part of the link's identity on reload. */
+        host = parse_ok(P4_ROLE_LINK("C", "D") "        role: host\n        inbound: learn\n");
+        vehicle = parse_ok(P4_ROLE_LINK("C", "D") "        inbound: learn\n");
+        assert_false(config_link_equal(&host->links[0], &vehicle->links[0]));
+        config_free(host);
+        config_free(vehicle);
+        assert_string_equal(config_p4_role_name(CONFIG_P4_VEHICLE), "vehicle");
+}
+
 int main(void)
 {
         static const struct CMUnitTest fixed[] = {
@@ -1573,6 +1645,7 @@ int main(void)
                 cmocka_unit_test(test_pronto4_one_frame),
                 cmocka_unit_test(test_pronto4_bad),
                 cmocka_unit_test(test_pronto4_equal),
+                cmocka_unit_test(test_pronto4_role),
         };
         size_t n_fixed = sizeof(fixed) / sizeof(fixed[0]);
         size_t n_bad = sizeof(bad_cases) / sizeof(bad_cases[0]);

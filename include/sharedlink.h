@@ -209,10 +209,24 @@ int sl_read_long(struct sl_client *c, int id, long *ret, struct sl_meta *meta);
 
 /*
  * Writes an outbound variable. Returns 0; -EPERM for an inbound variable; -EINVAL when the value
- * cannot go on the wire (bytes, length); -EACCES when this user may not write (not in the group);
- * -EBUSY when other writers kept the slot for every bounded attempt; -ENOTCONN when no daemon runs.
+ * cannot go on the wire (bytes, length) or is not of the variable's type (sl_var_info.type: a
+ * long takes [+-] decimal digits within 64 bits, a double a finite decimal number; the table
+ * keeps its value, sl_write_check says why); -EACCES when this user may not write (not in the
+ * group); -EBUSY when other writers kept the slot for every bounded attempt; -ENOTCONN when no
+ * daemon runs.
  */
 int sl_write(struct sl_client *c, int id, const char *value);
+
+/*
+ * Checks value for id as sl_write does, writing nothing: 0 when sl_write would take it, else the
+ * error it would return (-ENOENT, -EPERM, -EINVAL) with one line that says why in reason
+ * (reason_size bytes, NULL/0 allowed; "" on success), e.g. "\"abc\" is not a long: ...", ready
+ * to show to a user. Since SHAREDLINK_1.3.
+ */
+#define SL_WRITE_REASON_SIZE    160     /* always holds sl_write_check's whole reason + NUL */
+
+int sl_write_check(struct sl_client *c, int id, const char *value, char *reason,
+                   size_t reason_size);
 
 /* Writes v with that many decimals (0..17; < 0: the shortest text that reads back as v). */
 int sl_write_double(struct sl_client *c, int id, double v, int decimals);

@@ -404,7 +404,9 @@ class Client:
         """Writes an outbound variable: str/bytes as given, int in decimal, float with that many
         decimals (None: the shortest text that reads back as the same float). PermissionDenied
         for an inbound variable or a user outside the daemon's group; InvalidValue when the
-        value cannot go on the wire (printable ASCII except | [ ], at most 63 bytes)."""
+        value cannot go on the wire (printable ASCII except | [ ], at most 63 bytes) or is not
+        of the variable's type (a long or a double variable), its detail saying why; the
+        variable then keeps its value."""
         vid = (self._ids.get(name) or self._resolve(name))[0]
         h = self._handle()
         if isinstance(value, bool):
@@ -418,8 +420,21 @@ class Client:
             r = _lib_.sl_write_double(h, vid, value, -1 if decimals is None else decimals)
         else:
             r = _lib_.sl_write(h, vid, _word(value, "value"))
+        if r == -_errno.EINVAL:
+            _raise(r, "writing %s: %s" % (name, self._write_refusal(h, vid, value, decimals)))
         if r < 0:
             _raise(r, "writing %s" % name)
+
+    @staticmethod
+    def _write_refusal(h, vid, value, decimals):
+        """The library's reason for refusing value (sl_write_check), for the exception."""
+        if isinstance(value, float):
+            value = repr(value) if decimals is None else "%.*f" % (decimals, value)
+        elif isinstance(value, int):
+            value = str(value)
+        reason = ctypes.create_string_buffer(_lib.SL_WRITE_REASON_SIZE)
+        _lib_.sl_write_check(h, vid, _word(value, "value"), reason, len(reason))
+        return _text(reason.value) or "value refused"
 
     __setitem__ = write
 

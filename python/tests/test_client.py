@@ -284,6 +284,20 @@ class TestErrors(DaemonCase):
         # Nothing of it reached the table.
         self.assertNotIn(c.read("a.Label")[0], ("a", "a|b"))
 
+    def test_typed_write(self):
+        # b.CmdThrottle is a long: text of another type is refused where it is written, with
+        # the library's reason, and the variable keeps its value.
+        c = self.c
+        c.write("b.CmdThrottle", 5)
+        e = self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.write, "b.CmdThrottle",
+                             "abc")
+        self.assertIn('"abc" is not a long', str(e))
+        self.assertIn("b.CmdThrottle", str(e))
+        e = self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.write, "b.CmdThrottle",
+                             0.5)
+        self.assertIn('"0.5" is not a long', str(e))
+        self.assertEqual(c.read_long("b.CmdThrottle"), 5)
+
     def test_not_a_number(self):
         c = self.c
         e = self.assertError(sharedlink.InvalidValue, errno.EDOM, c.read_double, "agility.state")

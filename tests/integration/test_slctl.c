@@ -575,14 +575,26 @@ static void test_set(void **state)
         assert_int_equal(RUN(f, "set", "CmdThrottle", "-0.5"), 0);
         assert_int_equal(RUN(f, "get", "CmdThrottle"), 0);
         assert_string_equal(f->out, "-0.5\n");
-        assert_int_equal(RUN(f, "set", "--", "CmdThrottle", "-x"), 0);
+        assert_int_equal(RUN(f, "set", "--", "CmdThrottle", "-2e-3"), 0);
         assert_int_equal(RUN(f, "get", "CmdThrottle"), 0);
-        assert_string_equal(f->out, "-x\n");
-        /* Refusals, each explained. */
+        assert_string_equal(f->out, "-2e-3\n");
+        /* Refusals, each explained. A value its type refuses (CmdThrottle is a double) is
+         * refused before the table: it keeps the last value, the daemon hears nothing. */
+        s.n = 0;
+        assert_true(shm_table_out_scan(f->t, on_out, &s) >= 1);
+        assert_int_equal(RUN(f, "set", "--", "CmdThrottle", "-x"), 1);
+        assert_non_null(strstr(f->err, "\"-x\" is not a double"));
+        assert_int_equal(RUN(f, "set", "CmdThrottle", "abc"), 1);
+        assert_non_null(strstr(f->err, "CmdThrottle"));
+        assert_non_null(strstr(f->err, "\"abc\" is not a double"));
+        assert_int_equal(RUN(f, "get", "CmdThrottle"), 0);
+        assert_string_equal(f->out, "-2e-3\n");
+        s.n = 0;
+        assert_int_equal(shm_table_out_scan(f->t, on_out, &s), 0);
         assert_int_equal(RUN(f, "set", "AutoGpsLat", "1"), 1);
         assert_non_null(strstr(f->err, "inbound"));
         assert_int_equal(RUN(f, "set", "CmdThrottle", "a|b"), 1);
-        assert_non_null(strstr(f->err, "printable ASCII"));
+        assert_non_null(strstr(f->err, "printable ASCII except | [ ]"));
         memset(long_value, '7', 64);
         long_value[64] = '\0';
         assert_int_equal(RUN(f, "set", "CmdThrottle", long_value), 1);

@@ -408,7 +408,8 @@ int sl_query(struct sl_client *c, const char *link, const char *peer, const char
 
 /*
  * SharedLink module command (Pronto4 dialect, docs/pronto4.md §9): sends "E<module>|D<text>" to
- * the pronto4 peer(s) of link, e.g. module "ServoPod", text "0,TELEOP START". module: 1..63
+ * the pronto4 peer(s) of link, e.g. module "ServoPod", text "0,TELEOP START"; a bare module
+ * request (module "MUI", "MUO", "ML" or "MW", text NULL or "") goes out bare, "MUI". module: 1..63
  * letters, digits, '_', '.', '-'; text (NULL = ""): at most SL_COMMAND_TEXT_MAX bytes of
  * 0x20-0x7E without '|', '[' or ']', words separated by single spaces (no leading, trailing or
  * double space: the request line splits on spaces), at most SL_COMMAND_WORDS_MAX words. Returns

@@ -1750,6 +1750,13 @@ static void test_p4_udp_host(void **state)
         n = sync_peer(fx, 0, 'B', 'A');
         assert_string_equal(pe->rx[n - 1].text, "[:BA|EServoPod|D0,TELEOP START|C02]");
         assert_int_equal(ctr(fx, 0, SHM_COUNTER_COMMANDS_OUT), 4);
+        /* A bare module request goes out bare, as the clients send it (docs/pronto4.md §9). */
+        client_request(fx, &c, "command p4h MUI\n");
+        assert_string_equal(client_reply(fx, &c), "OK");
+        n = sync_peer(fx, 0, 'B', 'A');
+        assert_string_equal(pe->rx[n - 1].text, "[:BA|MUI|CE3]");
+        assert_int_equal(ctr(fx, 0, SHM_COUNTER_COMMANDS_OUT), 5);
+        expect_error(request(fx, &c, "command p4h MUI x\n"), EINVAL);
 
         /* Bad commands, and a link with no pronto4 peer: nothing on the wire. */
         expect_error(request(fx, &c, "command p4h\n"), EINVAL);

@@ -249,6 +249,8 @@ static const struct bad_case bad_cases[] = {
           "0123456789", "command text longer than 63 bytes" },
         { "command veh M a b c d e f g h i j k l m n o p q r s t u v w x y z 0 1 2",
           "command text has more than 28 words" },
+        { "command veh MUI x", "MUI is a bare module request: it takes no text" },
+        { "command veh MW 0 wait=5", "MW is a bare module request: it takes no text" },
         /* alert */
         { "circe a alert", "usage: circe LINK alert ADDR [wait=MS] (missing arguments)" },
         { "circe a alert E1E1E1 E2E2E2", "too many arguments" },
@@ -514,6 +516,13 @@ static void test_wait_escape(void **state)
         assert_string_equal(line, "command v Link a wait=x wait=0");
         assert_int_equal(decode_line(line, buf, &back, err, sizeof(err)), 0);
         assert_string_equal(back.u.command.text, "a wait=x");
+        /* The encoder holds a bare module request to the decoder's rule: no text. */
+        assert_int_equal(reqp_set_text(&r, "module", "MUO", err, sizeof(err)), 0);
+        assert_int_equal(reqp_encode(&r, line, sizeof(line), err, sizeof(err)), -EINVAL);
+        assert_string_equal(err, "MUO is a bare module request: it takes no text");
+        assert_int_equal(reqp_set_text(&r, "command text", "", err, sizeof(err)), 0);
+        assert_true(reqp_encode(&r, line, sizeof(line), err, sizeof(err)) > 0);
+        assert_string_equal(line, "command v MUO");
 }
 
 /* The longest of each fits a line, with the handle's wait. */

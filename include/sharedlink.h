@@ -407,6 +407,18 @@ int sl_query(struct sl_client *c, const char *link, const char *peer, const char
              int timeout_ms, char *reply, size_t reply_size);
 
 /*
+ * SharedLink ping: sends "P0" to peer (a node address, "A".."P") on link and waits at most
+ * timeout_ms (0: the daemon's default, 1000 ms; at most SL_QUERY_TIMEOUT_MAX_MS) for its "G0".
+ * Returns 0 with the round trip in *ret_rtt_ns (may be NULL; measured by the daemon, from before
+ * the send to the pong's arrival), -ETIMEDOUT when no pong came in time, -ENOTCONN (the link is
+ * down, or went down while waiting; see sl_set_command_wait), -EBUSY (too many pings pending on
+ * the link), -EINVAL (a bad argument, or not a peer of link), or another negative errno (above).
+ * Since SHAREDLINK_1.3.
+ */
+int sl_ping(struct sl_client *c, const char *link, const char *peer, int timeout_ms,
+            uint64_t *ret_rtt_ns, char *reply, size_t reply_size);
+
+/*
  * SharedLink module command (Pronto4 dialect, docs/pronto4.md §9): sends "E<module>|D<text>" to
  * the pronto4 peer(s) of link, e.g. module "ServoPod", text "0,TELEOP START"; a bare module
  * request (module "MUI", "MUO", "ML" or "MW", text NULL or "") goes out bare, "MUI". module: 1..63

@@ -628,9 +628,22 @@ class Client:
             _raise(r, "query %s %s %s: %s" % (link, peer, name, _text(reply.value)))
         return _text(reply.raw[:r])
 
+    def ping(self, link, peer, timeout=None):
+        """SharedLink ping: sends P0 to node peer ("A".."P") on link; the round trip until its
+        G0 in seconds (measured by the daemon). Timeout when no G0 comes within timeout seconds
+        (None: the daemon's, 1 s); NotRunning when the link is down or goes down meanwhile."""
+        reply = ctypes.create_string_buffer(_REPLY_SIZE)
+        rtt_ns = ctypes.c_uint64(0)
+        r = _lib_.sl_ping(self._handle(), _word(link, "link"), _word(peer, "peer"),
+                          _timeout_ms(timeout, 0), ctypes.byref(rtt_ns), reply, _REPLY_SIZE)
+        if r < 0:
+            _raise(r, "ping %s %s: %s" % (link, peer, _text(reply.value)))
+        return rtt_ns.value / 1e9
+
     def command(self, link, module, text=""):
         """Pronto4 module command: sends E<module>|D<text> to the pronto4 peer(s) of link, e.g.
-        command("vehicle", "ServoPod", "0,TELEOP START"). module: 1..63 letters, digits, _ . -;
+        command("vehicle", "ServoPod", "0,TELEOP START"); the bare requests MUI, MUO, ML, MW
+        (no text) go out bare. module: 1..63 letters, digits, _ . -;
         text: at most 63 bytes of printable ASCII without | [ ], words separated by single
         spaces. Returns once the frame is queued; NotConnected when the link is down."""
         r = _lib_.sl_command(self._handle(), _word(link, "link"), _word(module, "module"),

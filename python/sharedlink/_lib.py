@@ -219,6 +219,7 @@ PROTOTYPES = {
     "sl_request": (c_int, (_client_p, c_char_p, c_int, sl_data_fn, ctypes.c_void_p) + _REPLY),
     "sl_query": (c_int, (_client_p, c_char_p, c_char_p, c_char_p, c_int) + _REPLY),
     "sl_command": (c_int, (_client_p, c_char_p, c_char_p, c_char_p)),
+    "sl_ping": (c_int, (_client_p, c_char_p, c_char_p, c_int, _P(c_u64)) + _REPLY),
     "sl_circe_alert": (c_int, (_client_p, c_char_p, c_char_p) + _REPLY),
     "sl_circe_network_setup": (c_int, (_client_p, c_char_p, c_char_p, c_int, c_int) + _REPLY),
     "sl_circe_device_setup": (c_int, (_client_p, c_char_p, c_char_p, c_int, c_char_p, c_int,

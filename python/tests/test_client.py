@@ -176,6 +176,20 @@ class TestLinks(DaemonCase):
         until(c, "b.AutoGpsLat", lambda v: v == 12.5)
         self.assertEqual(c.query("node_b", "A", "a.AutoGpsLat", timeout=WAIT_S), "12.5")
 
+    def test_ping(self):
+        c = self.c
+        c.query("node_b", "A", "a.AutoGpsLat", timeout=WAIT_S)    # the link is up
+        rtt = c.ping("node_b", "A", timeout=WAIT_S)
+        self.assertIsInstance(rtt, float)
+        self.assertGreater(rtt, 0.0)
+        self.assertGreater(c.ping("node_a", "B", timeout=WAIT_S), 0.0)
+        # Node C is configured but not on the wire: no pong.
+        e = self.assertError(sharedlink.Timeout, errno.ETIMEDOUT, c.ping, "node_b", "C",
+                             timeout=0.1)
+        self.assertIn("no pong", str(e))
+        self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.ping, "node_b", "D")
+        self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.ping, "node_b", "Z")
+
 
 class TestPronto4(DaemonCase):
     def test_command_is_an_event_of_the_vehicle(self):

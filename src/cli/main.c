@@ -122,6 +122,19 @@ static const struct command commands[] = {
           "  --wait MS      if LINK is down, wait up to MS for it instead of failing at once\n"
           "\n"
           "Example: slctl query vehicle A AutoGpsLat\n" },
+        { "ping", cmd_daemon_ping, "ping [--timeout MS] [--wait MS] LINK PEER",
+          "Usage: slctl [-i INSTANCE] ping [--timeout MS] [--wait MS] LINK PEER\n"
+          "\n"
+          "Sends the ping P0 to the SharedLink node PEER (an address A..P) on LINK and prints\n"
+          "the round trip until its G0, measured by the daemon: \"G0 from PEER on LINK:\n"
+          "time=0.412 ms\". No G0 in time, a link that is down (or goes down while waiting) or\n"
+          "a PEER the link does not have is an error (exit 1).\n"
+          "\n"
+          "  --timeout MS   how long the peer has to answer (default: the daemon's, 1000 ms;\n"
+          "                 at most 60000)\n"
+          "  --wait MS      if LINK is down, wait up to MS for it instead of failing at once\n"
+          "\n"
+          "Example: slctl ping vehicle A\n" },
         { "command", cmd_daemon_command, "command [--wait MS] LINK MODULE [TEXT...]",
           "Usage: slctl [-i INSTANCE] command [--wait MS] LINK MODULE [TEXT...]\n"
           "\n"

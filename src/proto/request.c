@@ -102,6 +102,12 @@ static const struct field query_fields[] = {
                REQP_QUERY_TIMEOUT_MAX_MS),
 };
 
+static const struct field peer_ping_fields[] = {
+        CHARS("peer", T_PEER, u.ping.peer, REQP_PEER_SIZE),
+        NUMBER("timeout", FORM_OPTIONAL, S_U32, u.ping.timeout_ms, AT(u.ping.has_timeout), 1,
+               REQP_QUERY_TIMEOUT_MAX_MS),
+};
+
 static const struct field command_fields[] = {
         CHARS("module", T_MODULE, u.command.module, REQP_MODULE_SIZE),
         { .name = "command text", .type = T_TEXT, .form = FORM_REST, .store = S_CHARS,
@@ -194,6 +200,10 @@ static const struct spec specs[REQP_KIND_COUNT] = {
                            .reply = REQP_REPLY_OK,
                            .usage = "command LINK MODULE [TEXT...] [wait=MS]",
                            FIELDS(command_fields), .check = command_check },
+        [REQP_PEER_PING] = { .verb = "ping-peer", .link = true, .wait = true,
+                             .reply = REQP_REPLY_RTT,
+                             .usage = "ping-peer LINK PEER [TIMEOUT_MS] [wait=MS]",
+                             FIELDS(peer_ping_fields) },
         [REQP_CIRCE_ALERT] = { CIRCE("alert", CIRCE_OP_ALERT, true, " ADDR"),
                                .reply = REQP_REPLY_OK, FIELDS(alert_fields) },
         [REQP_CIRCE_NETWORK_SETUP] = { CIRCE("network-setup", CIRCE_OP_NETWORK_SETUP, true,

@@ -66,6 +66,8 @@ static const struct ok_case ok_cases[] = {
         { "command v ServoPod 0,TELEOP START", REQP_COMMAND, NULL, NULL, 0 },
         { "command v MUI", REQP_COMMAND, NULL, NULL, 0 },
         { "command v Link 0, SetIP, 1.2.3.4:4220, 4000 wait=5", REQP_COMMAND, NULL, NULL, 5 },
+        { "ping-peer veh A", REQP_PEER_PING, NULL, NULL, 0 },
+        { "ping-peer veh P 60000 wait=20", REQP_PEER_PING, NULL, NULL, 20 },
         { "circe a alert E1E1E1", REQP_CIRCE_ALERT, NULL, "<STX>03<TAB>014:E1E1E1<TAB><ETX>", 0 },
         { "circe a alert 000000 wait=500", REQP_CIRCE_ALERT, NULL,
           "<STX>03<TAB>014:000000<TAB><ETX>", 500 },
@@ -241,6 +243,11 @@ static const struct bad_case bad_cases[] = {
         { "query veh A X 0", "bad timeout \"0\": a decimal number 1..60000" },
         { "query veh A X 60001", "bad timeout \"60001\"" },
         { "query veh A X -", "bad timeout" },
+        /* ping-peer */
+        { "ping-peer veh", "usage: ping-peer LINK PEER [TIMEOUT_MS] [wait=MS]" },
+        { "ping-peer veh Q", "bad peer \"Q\": a node address A..P" },
+        { "ping-peer veh A 0", "bad timeout \"0\": a decimal number 1..60000" },
+        { "ping-peer veh A 5 6", "too many arguments" },
         /* command */
         { "command veh", "usage: command LINK MODULE" },
         { "command veh Servo,Pod x", "bad module \"Servo,Pod\"" },
@@ -562,6 +569,7 @@ static void test_table(void **state)
                 { REQP_RECORD, "record", "record", true, false, REQP_REPLY_RECORDING },
                 { REQP_QUERY, "query", "query", true, false, REQP_REPLY_VALUE },
                 { REQP_COMMAND, "command", "command", true, false, REQP_REPLY_OK },
+                { REQP_PEER_PING, "ping-peer", "ping-peer", true, false, REQP_REPLY_RTT },
                 { REQP_CIRCE_ALERT, "alert", "circe", true, true, REQP_REPLY_OK },
                 { REQP_CIRCE_NETWORK_SETUP, "network-setup", "circe", true, true, REQP_REPLY_OK },
                 { REQP_CIRCE_DEVICE_SETUP, "device-setup", "circe", true, true, REQP_REPLY_OK },

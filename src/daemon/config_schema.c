@@ -540,6 +540,10 @@ int cfg_parse_root(struct ctx *c, uint32_t root_index)
         if (vals[TK_GROUP] && (r = cfg_get_group(c, vals[TK_GROUP], cfg->group,
                                                  sizeof(cfg->group))) < 0)
                 return r;
+        if (vals[TK_GROUP]) {
+                cfg->group_line = vals[TK_GROUP]->line;
+                cfg->group_column = vals[TK_GROUP]->column;
+        }
         if (!vals[TK_LINKS])
                 return cfg_fail(c, root, "missing key \"links\"");
         r = parse_links(c, vals[TK_LINKS]);

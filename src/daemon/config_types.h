@@ -234,6 +234,8 @@ struct config {
         char runtime_dir[CONFIG_PATH_MAX];
         bool runtime_dir_set;           /* runtime_dir came from the file, not the default */
         char group[CONFIG_GROUP_MAX + 1];       /* "" = none */
+        unsigned group_line, group_column;      /* where group: is written (0: not given), for
+                                                 * the check that it exists (daemon_plan.c) */
         struct config_link links[CONFIG_LINKS_MAX];
         unsigned n_links;
         unsigned n_vars;                /* configured variables, all links and lists */

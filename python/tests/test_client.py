@@ -176,6 +176,20 @@ class TestLinks(DaemonCase):
         until(c, "b.AutoGpsLat", lambda v: v == 12.5)
         self.assertEqual(c.query("node_b", "A", "a.AutoGpsLat", timeout=WAIT_S), "12.5")
 
+    def test_ping(self):
+        c = self.c
+        c.query("node_b", "A", "a.AutoGpsLat", timeout=WAIT_S)    # the link is up
+        rtt = c.ping("node_b", "A", timeout=WAIT_S)
+        self.assertIsInstance(rtt, float)
+        self.assertGreater(rtt, 0.0)
+        self.assertGreater(c.ping("node_a", "B", timeout=WAIT_S), 0.0)
+        # Node C is configured but not on the wire: no pong.
+        e = self.assertError(sharedlink.Timeout, errno.ETIMEDOUT, c.ping, "node_b", "C",
+                             timeout=0.1)
+        self.assertIn("no pong", str(e))
+        self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.ping, "node_b", "D")
+        self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.ping, "node_b", "Z")
+
 
 class TestPronto4(DaemonCase):
     def test_command_is_an_event_of_the_vehicle(self):
@@ -283,6 +297,20 @@ class TestErrors(DaemonCase):
         self.assertRaises(TypeError, c.write, "b.CmdThrottle", [1])
         # Nothing of it reached the table.
         self.assertNotIn(c.read("a.Label")[0], ("a", "a|b"))
+
+    def test_typed_write(self):
+        # b.CmdThrottle is a long: text of another type is refused where it is written, with
+        # the library's reason, and the variable keeps its value.
+        c = self.c
+        c.write("b.CmdThrottle", 5)
+        e = self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.write, "b.CmdThrottle",
+                             "abc")
+        self.assertIn('"abc" is not a long', str(e))
+        self.assertIn("b.CmdThrottle", str(e))
+        e = self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.write, "b.CmdThrottle",
+                             0.5)
+        self.assertIn('"0.5" is not a long', str(e))
+        self.assertEqual(c.read_long("b.CmdThrottle"), 5)
 
     def test_not_a_number(self):
         c = self.c

@@ -163,11 +163,14 @@ static const struct peer_key {
 static int parse_peer_list(struct ctx *c, const char *key, const struct conf_node *n,
                            struct config_var **ret_vars, unsigned *ret_count, bool *ret_learn)
 {
+        int r;
+
         if (n->kind == CONF_NODE_SCALAR && cfg_scalar_is(n, "learn")) {
                 *ret_learn = true;
                 return 0;
         }
-        return parse_var_list(c, key, n, ret_vars, ret_count);
+        r = cfg_check_list_not_learn(c, key, n);
+        return r < 0 ? r : parse_var_list(c, key, n, ret_vars, ret_count);
 }
 
 /* The keys that only a pronto4 peer may have: refused, by name, on a bulletin peer. */
@@ -252,7 +255,8 @@ static int parse_peer_dialect(struct ctx *c, const struct conf_node *const *keys
                 if (r < 0)
                         return r;
         }
-        return cfg_check_pronto4_frames(c, p, crlf, vals[PK_OUTBOUND], vals[PK_INBOUND]);
+        return cfg_check_pronto4_frames(c, p, crlf, vals[PK_OUTBOUND], vals[PK_INBOUND],
+                                        vals[PK_MAX_FRAME]);
 }
 
 /* The rows PEER_KEY_UINT and PEER_KEY_BOOL of peer_keys: their defaults, then the values given. */

@@ -61,6 +61,8 @@
 #define CONFIG_MAX_FRAME_MIN            32u
 #define CONFIG_MAX_FRAME_MAX            4096u
 #define CONFIG_MAX_FRAME_DEFAULT        1024u
+/* pronto4: both public clients read a datagram into 1024 bytes (docs/pronto4.md §1). */
+#define CONFIG_P4_MAX_FRAME_MAX         1024u
 #define CONFIG_TIMEOUT_MS_MIN           100u            /* login_timeout_ms, idle_timeout_ms */
 #define CONFIG_TIMEOUT_MS_MAX           60000u
 #define CONFIG_LOGIN_TIMEOUT_MS_DEFAULT 1000u
@@ -239,6 +241,8 @@ struct config {
         char runtime_dir[CONFIG_PATH_MAX];
         bool runtime_dir_set;           /* runtime_dir came from the file, not the default */
         char group[CONFIG_GROUP_MAX + 1];       /* "" = none */
+        unsigned group_line, group_column;      /* where group: is written (0: not given), for
+                                                 * the check that it exists (daemon_plan.c) */
         struct config_link links[CONFIG_LINKS_MAX];
         unsigned n_links;
         unsigned n_vars;                /* configured variables, all links and lists */

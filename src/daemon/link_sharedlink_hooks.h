@@ -15,6 +15,7 @@
 #include "shm/layout.h"
 
 #define LINK_SHAREDLINK_QUERIES_MAX     16      /* pending control queries per link */
+#define LINK_SHAREDLINK_PINGS_MAX       8       /* pending control pings per link */
 #define LINK_SHAREDLINK_ADHOC_MAX       1024    /* ad hoc variables one link creates */
 #define LINK_SHAREDLINK_RETRY_MS        10      /* a refused on-change frame: retry */
 #define LINK_SHAREDLINK_NEVER           UINT64_MAX
@@ -67,6 +68,9 @@ struct link_sharedlink_hooks {
         void (*answer)(void *arg, void *token, int err, const char *text);
         /* Whether the client behind a query's token is still there (NULL: always). */
         bool (*alive)(void *arg, void *token);
+        /* A pong, G<value>, from the peer at address `peer` (NULL: a pong only shows the peer
+         * alive). For link_sharedlink_session_ping(). */
+        void (*pong)(void *arg, char peer, const char *value, size_t len);
         /* A one-line diagnostic worth a rate-limited log line. */
         void (*diag)(void *arg, enum log_prio prio, const char *text);
         /* Where the peer reaches us, "<ip>:<port>" (NUL-terminated in buf[size]), and the remote

@@ -311,6 +311,20 @@ int link_sharedlink_session_command(struct link_sharedlink_session *s, uint64_t 
         return sls_p4_command(s, peer, module, text);
 }
 
+int link_sharedlink_session_ping(struct link_sharedlink_session *s, int peer)
+{
+        static const struct slp_field ping = { .letter = 'P', .value = "0", .len = 1 };
+        int n;
+
+        if (peer < 0 || peer >= (int)s->n_peers)
+                return -EINVAL;
+        if (!s->up)
+                return -ENOTCONN;
+        n = slp_frame_encode(s->txbuf, sizeof(s->txbuf), s->peers[peer].cfg->address, s->addr,
+                             &ping, 1, sls_encode_flags(s));
+        return n < 0 ? n : sls_send_frame(s, s->txbuf, (size_t)n);
+}
+
 int link_sharedlink_session_peer(const struct link_sharedlink_session *s, const char *address)
 {
         if (!slp_address_text_valid(address, strnlen(address, 2)))
@@ -479,7 +493,10 @@ static void fields_apply(struct link_sharedlink_session *s, struct sls_peer *p,
                         break;
                 }
                 case SLP_FIELD_G:
-                        break;          /* a pong: the frame itself shows the peer is alive */
+                        /* A pong: the frame itself shows the peer is alive; a ping may wait. */
+                        if (s->h->pong)
+                                s->h->pong(s->arg, p->cfg->address, fl->value, fl->len);
+                        break;
                 case SLP_FIELD_T:
                         sls_count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
                         decl = true;

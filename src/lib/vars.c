@@ -14,6 +14,7 @@
 
 #include "lib/client.h"
 #include "lib/export.h"
+#include "proto/sharedlink.h"
 #include "shm/futex.h"
 #include "shm/seqlock.h"
 #include "shm/slot.h"
@@ -37,6 +38,9 @@ _Static_assert(SL_DIR_IN == SHM_DIR_IN && SL_DIR_OUT == SHM_DIR_OUT, "directions
 _Static_assert(SL_VAR_STRING == SHM_TYPE_STRING && SL_VAR_LONG == SHM_TYPE_LONG &&
                SL_VAR_DOUBLE == SHM_TYPE_DOUBLE, "types");
 _Static_assert(SL_VAR_ADHOC == SHM_DIR_ADHOC, "directory flags");
+
+/* sl_write_check quotes a value (up to 63 bytes) and adds at most 96 bytes of reason. */
+_Static_assert(SL_WRITE_REASON_SIZE >= SHM_VALUE_SIZE + 96, "reason size");
 
 /* Extensible structs: the caller's size must cover at least the first version. */
 #define SL_META_SIZE_V1         sizeof(struct sl_meta)
@@ -473,21 +477,75 @@ static int write_locked(struct sl_client *c, int id, const char *value, size_t l
         return 0;
 }
 
+/*
+ * Whether sl_write takes value for id (read lock held): 0, or its error with one line that says
+ * why in reason (reason_size bytes; NULL/0 for none). A long or double variable takes only what
+ * the daemon would send for that type (slp_value_check, the daemon's own rule): refused here,
+ * the table keeps its value, instead of a write that stays local and is counted type_mismatch.
+ */
+static int write_refusal(const struct sl_client *c, int id, const char *value, char *reason,
+                         size_t reason_size)
+{
+        const struct shm_dir_entry *e;
+        size_t len = strnlen(value, SHM_VALUE_SIZE);
+        const char *why = NULL;
+        int index = client_index(c, id), r = 0;
+
+        if (index < 0) {
+                r = index;
+                why = "no such variable";
+        } else if (c->map->dir[index].direction != SHM_DIR_OUT) {
+                r = -EPERM;
+                why = "an inbound variable: only the daemon writes it";
+        } else if (shm_layout_value_check(value, len) < 0) {
+                r = -EINVAL;
+                why = len >= SHM_VALUE_SIZE ? "longer than 63 bytes" :
+                      "a byte the wire cannot carry (printable ASCII except | [ ])";
+        } else {
+                e = &c->map->dir[index];
+                if (e->type == SHM_TYPE_LONG && slp_value_check(SLP_TYPE_LONG, value, len) < 0)
+                        why = "not a long: [+-] decimal digits within 64 bits";
+                else if (e->type == SHM_TYPE_DOUBLE &&
+                         slp_value_check(SLP_TYPE_DOUBLE, value, len) < 0)
+                        why = "not a double: a finite decimal number such as -1.5 or 2e-3";
+                if (why) {
+                        /* The value passed the wire's check: safe to quote. */
+                        if (reason && reason_size > 0)
+                                snprintf(reason, reason_size, "\"%s\" is %s", value, why);
+                        return -EINVAL;
+                }
+        }
+        if (reason && reason_size > 0 && why)
+                snprintf(reason, reason_size, "%s", why);
+        return r;
+}
+
+SL_EXPORT int sl_write_check(struct sl_client *c, int id, const char *value, char *reason,
+                             size_t reason_size)
+{
+        int r;
+
+        if (reason && reason_size > 0)
+                reason[0] = '\0';
+        if (!c || !value)
+                return -EINVAL;
+        client_rdlock(c);
+        r = write_refusal(c, id, value, reason, reason_size);
+        client_unlock(c);
+        return r;
+}
+
 SL_EXPORT int sl_write(struct sl_client *c, int id, const char *value)
 {
-        size_t len;
+        size_t len = 0;
         int r;
 
         if (!c || !value)
                 return -EINVAL;
         client_rdlock(c);
-        r = client_index(c, id);
-        if (r >= 0 && c->map->dir[r].direction != SHM_DIR_OUT)
-                r = -EPERM;
-        if (r >= 0) {
-                len = strnlen(value, SHM_VALUE_SIZE);
-                r = shm_layout_value_check(value, len);
-        }
+        r = write_refusal(c, id, value, NULL, 0);
+        if (r >= 0)
+                len = strlen(value);
         if (r >= 0)
                 r = write_locked(c, id, value, len);
         client_unlock(c);

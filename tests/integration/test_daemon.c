@@ -276,7 +276,13 @@ static const struct bad_case bad_cases[] = {
           "group: nosuchgroup-sl\nlinks:\n  - name: a\n    protocol: sharedlink\n"
           "    transport: pty\n    device: /tmp/x.tty\n    address: A\n    peers:\n"
           "      - address: B\n        outbound: [v1]\n",
-          NULL, "group \"nosuchgroup-sl\" does not exist" },
+          "2:8", "group \"nosuchgroup-sl\" does not exist" },
+        { "pronto4 max_frame over what the clients read",
+          "links:\n  - name: a\n    protocol: sharedlink\n    transport: pty\n"
+          "    device: /tmp/x.tty\n    address: A\n    peers:\n"
+          "      - address: B\n        dialect: pronto4\n        max_frame: 2048\n"
+          "        inbound: learn\n",
+          "11:20", "max_frame 2048 is more than a pronto4 peer reads" },
 };
 
 static void test_check_bad(void **state)

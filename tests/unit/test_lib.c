@@ -451,6 +451,56 @@ static void test_write_refused(void **state)
         assert_int_equal(shm_table_counter_get(f->tb.t, SHM_LINK_NONE, SHM_COUNTER_OUT_INVALID), 0);
 }
 
+/* A long or double variable takes only what the daemon would send for that type: refused where
+ * it is written, the table keeping its value, with a reason for the user. */
+static void test_write_typed(void **state)
+{
+        static const char *const not_long[] = { "abc", "", "1.5", "1e3", " 1", "0x10", "1 ",
+                                                "9223372036854775808", "+", "--1" };
+        static const char *const not_double[] = { "abc", "", "nan", "inf", "1,5", "0x1p3",
+                                                  "1e999", ".", "1e", " 1" };
+        struct fixture *f = *state;
+        char buf[SL_VALUE_SIZE], reason[128];
+        struct seen s;
+
+        assert_int_equal(sl_write(f->c, STEER, "1"), 0);
+        assert_int_equal(sl_write(f->c, THROTTLE, "0.5"), 0);
+        assert_int_equal(scan(f, &s), 2);
+        for (size_t i = 0; i < sizeof(not_long) / sizeof(not_long[0]); i++) {
+                assert_int_equal(sl_write(f->c, STEER, not_long[i]), -EINVAL);
+                assert_int_equal(sl_write_check(f->c, STEER, not_long[i], reason,
+                                                sizeof(reason)), -EINVAL);
+                assert_non_null(strstr(reason, "not a long"));
+        }
+        for (size_t i = 0; i < sizeof(not_double) / sizeof(not_double[0]); i++) {
+                assert_int_equal(sl_write(f->c, THROTTLE, not_double[i]), -EINVAL);
+                assert_int_equal(sl_write_check(f->c, THROTTLE, not_double[i], reason,
+                                                sizeof(reason)), -EINVAL);
+                assert_non_null(strstr(reason, "not a double"));
+        }
+        assert_int_equal(sl_write_check(f->c, STEER, "abc", reason, sizeof(reason)), -EINVAL);
+        assert_string_equal(reason, "\"abc\" is not a long: [+-] decimal digits within 64 bits");
+        /* The table kept its values and the daemon heard nothing more. */
+        assert_int_equal(sl_read(f->c, STEER, buf, sizeof(buf), NULL), 1);
+        assert_string_equal(buf, "1");
+        assert_int_equal(sl_read(f->c, THROTTLE, buf, sizeof(buf), NULL), 3);
+        assert_string_equal(buf, "0.5");
+        assert_int_equal(scan(f, &s), 0);
+        /* What the types take, and a string takes anything the wire carries. */
+        assert_int_equal(sl_write_check(f->c, STEER, "-42", reason, sizeof(reason)), 0);
+        assert_string_equal(reason, "");
+        assert_int_equal(sl_write(f->c, STEER, "+7"), 0);
+        assert_int_equal(sl_write(f->c, THROTTLE, "-1.5e-3"), 0);
+        assert_int_equal(sl_write(f->c, THROTTLE, "12"), 0);
+        assert_int_equal(sl_write(f->c, NOTE, "abc"), 0);
+        /* The other refusals say why too. */
+        assert_int_equal(sl_write_check(f->c, LAT, "1", reason, sizeof(reason)), -EPERM);
+        assert_non_null(strstr(reason, "inbound"));
+        assert_int_equal(sl_write_check(f->c, NOTE, "a|b", reason, sizeof(reason)), -EINVAL);
+        assert_non_null(strstr(reason, "cannot carry"));
+        assert_int_equal(sl_write_check(f->c, NVARS, "1", NULL, 0), -ENOENT);
+}
+
 static void test_write_numbers(void **state)
 {
         struct fixture *f = *state;
@@ -1694,7 +1744,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_reader_slots_close_first, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_refused, setup, teardown),
-                cmocka_unit_test_setup_teardown(test_write_numbers, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_write_typed, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_write_numbers, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_read_after_repair, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_lock_rewritten_under_writer, setup,
                                                 teardown),

@@ -1005,8 +1005,10 @@ static void test_p4_command(void **state)
                          0);
         assert_int_equal(link_sharedlink_session_command(s, T0, 0, "Physics", "0,Stop"), 0);
         assert_int_equal(link_sharedlink_session_command(s, T0, 0, "MUI", ""), 0);
+        assert_int_equal(link_sharedlink_session_command(s, T0, 0, "MUI", "x"), -EINVAL);
+        /* A bare module request goes out bare (§9), not as EMUI|D. */
         EXPECT_RAW(6, "[:BA|EServoPod|D0,TELEOP START|C02]\r\n", "[:BA|EPhysics|D0,Stop|CE2]\r\n",
-                   "[:BA|EMUI|D|CE8]\r\n");
+                   "[:BA|MUI|CE3]\r\n");
         assert_int_equal(rec.counters[SHM_COUNTER_COMMANDS_OUT], 6);
         rec.send_result = -ENOBUFS;
         assert_int_equal(link_sharedlink_session_command(s, T0, -1, "Link", "x"), -ENOBUFS);

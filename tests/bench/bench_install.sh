@@ -98,7 +98,7 @@ done
 # buffer on the stack (4 KiB aliasing), which no library code can rule out for every caller.
 # So one launch is a draw: the figure is the median over the launches of each launch's median,
 # and the slowest launch is printed next to it.
-LAUNCHES=5
+LAUNCHES=20
 
 # Reads read_latency's table on stdin: "NAME median" for the four rows.
 medians() {

@@ -3,6 +3,7 @@
  */
 #include "lib/client.h"
 
+#include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -661,6 +662,33 @@ void client_rdlock_slow(struct sl_client *c)
 
 /* ---- open / close -------------------------------------------------------------------------- */
 
+/* The vDSO's clock_gettime entry by its name on this architecture. */
+#if defined(__x86_64__)
+#define CLIENT_VDSO_CLOCK       "__vdso_clock_gettime"
+#elif defined(__aarch64__)
+#define CLIENT_VDSO_CLOCK       "__kernel_clock_gettime"
+#endif
+#define CLIENT_VDSO_NAME        "linux-vdso.so.1"
+
+/*
+ * The vDSO's clock_gettime (client_now_coarse), or NULL: none on this architecture, no vDSO, a
+ * program linked statically. RTLD_NOLOAD: the vDSO is already among the loaded objects, nothing is
+ * loaded; the handle only counts a reference, given back at once (the vDSO is never unloaded).
+ */
+static client_clock_fn vdso_clock(void)
+{
+        client_clock_fn fn = NULL;
+#if defined(CLIENT_VDSO_CLOCK)
+        void *h = dlopen(CLIENT_VDSO_NAME, RTLD_NOW | RTLD_NOLOAD);
+
+        if (!h)
+                return NULL;
+        *(void **)&fn = dlsym(h, CLIENT_VDSO_CLOCK);
+        dlclose(h);
+#endif
+        return fn;
+}
+
 SL_EXPORT int sl_open(const char *instance, struct sl_client **ret)
 {
         struct client_map *m;
@@ -690,6 +718,7 @@ SL_EXPORT int sl_open(const char *instance, struct sl_client **ret)
                 return -ENOMEM;
         }
         c->pid = (uint32_t)getpid();
+        c->vdso_clock_gettime = vdso_clock();
         r = map_open(c->in_name, &m);
         if (r < 0) {
                 freelocale(c->c_locale);

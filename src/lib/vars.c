@@ -251,7 +251,7 @@ static VARS_HOT int read_value(struct sl_client *c, int id, struct shm_slot_head
         }
         if (ret_now) {
                 /* Age and liveness from the coarse clock: see client_now_coarse. */
-                *ret_now = client_now_coarse();
+                *ret_now = client_now_coarse(c);
                 *ret_extra = client_alive(c, *ret_now, NULL) ? 0 : SL_FLAG_STALE;
         }
         client_unlock(c);

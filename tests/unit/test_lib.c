@@ -1481,6 +1481,28 @@ static void test_read_age_coarse(void **state)
 }
 
 /*
+ * The coarse clock sl_read counts ages to comes from the vDSO's own clock_gettime where there is
+ * one (client_now_coarse), and is the same clock as the C library's: never before a reading taken
+ * before it, never after one taken after.
+ */
+static void test_read_clock_vdso(void **state)
+{
+        struct fixture *f = *state;
+        struct timespec ts;
+        uint64_t before, now, after;
+
+#if defined(__x86_64__) || defined(__aarch64__)
+        assert_non_null(f->c->vdso_clock_gettime);
+#endif
+        clock_gettime(CLOCK_MONOTONIC_COARSE, &ts);
+        before = (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+        now = client_now_coarse(f->c);
+        clock_gettime(CLOCK_MONOTONIC_COARSE, &ts);
+        after = (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+        assert_true(before <= now && now <= after);
+}
+
+/*
  * A daemon killed with SIGKILL updates nothing any more, yet reads must say stale once its
  * heartbeat is CLIENT_HEARTBEAT_MISSES intervals old, without asking the kernel about its pid.
  */
@@ -1794,6 +1816,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_out_truncated_rings_daemon, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_scribbled_rings_daemon, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_age_coarse, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_read_clock_vdso, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_waiter_flag, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_outbound_mirror, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_wakes_wake_thread, setup, teardown),

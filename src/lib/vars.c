@@ -74,16 +74,16 @@ SL_EXPORT int sl_count(struct sl_client *c)
         return n;
 }
 
-/* The read lock and id's directory index (try `attempt` after a rewrite: layout 1.5), or -errno
- * with no lock held. */
-static VARS_HOT int lock_index(struct sl_client *c, int id, int attempt)
+/* The read lock and id's directory index with CLIENT_INDEX_LEARNED (try `attempt` after a
+ * rewrite: layout 1.5), or -errno with no lock held. */
+static VARS_HOT int lock_entry(struct sl_client *c, int id, int attempt)
 {
         int index;
 
         if (attempt == VARS_MOVED_TRIES)
                 return -EAGAIN;
         client_rdlock(c);
-        index = client_index(c, id);
+        index = client_index_entry(c, id);
         if (index < 0)
                 client_unlock(c);
         return index;
@@ -98,10 +98,10 @@ SL_EXPORT int sl_info(struct sl_client *c, int id, struct sl_var_info *ret)
         if (!c || !ret || ret->size < SL_VAR_INFO_SIZE_V1)
                 return -EINVAL;
         for (int attempt = 0;; attempt++) {
-                index = lock_index(c, id, attempt);
+                index = lock_entry(c, id, attempt);
                 if (index < 0)
                         return index;
-                e = &c->map->dir[index];
+                e = &c->map->dir[index & ~CLIENT_INDEX_LEARNED];
                 memset(&info, 0, sizeof(info));
                 client_copy_field(info.name, sizeof(info.name), e->name, sizeof(e->name));
                 client_copy_field(info.peer, sizeof(info.peer), e->peer, sizeof(e->peer));
@@ -166,13 +166,15 @@ static VARS_HOT void meta_fill(struct sl_meta *meta, const struct shm_slot_head 
  * daemon does before it is used.
  */
 static int read_out_slot(const struct sl_client *c, const struct shm_dir_entry *e,
-                         struct shm_slot_head *head, char *value, uint64_t *ret_sequence)
+                         struct shm_slot_head *head, char *value, unsigned fields,
+                         uint64_t *ret_sequence)
 {
         int r;
 
         if (!c->out || e->out_slot >= c->out_capacity)
                 return 0;
-        r = shm_slot_read_to(&c->out_slots[e->out_slot], head, value);
+        r = shm_slot_read_fields(&c->out_slots[e->out_slot], head, value,
+                                 fields | SHM_SLOT_HEAD_STAMP);
         if (r < 0)
                 return r;
         /* A value written for the entry's retired name (layout 1.5) is none of this one's. */
@@ -191,7 +193,7 @@ static int read_out_slot(const struct sl_client *c, const struct shm_dir_entry *
  */
 static VARS_HOT int read_outbound(const struct sl_client *c, const struct shm_dir_entry *e,
                                   int index, struct shm_slot_head *head, char *value,
-                                  uint64_t *ret_sequence)
+                                  unsigned fields, uint64_t *ret_sequence)
 {
         uint64_t word;
 
@@ -199,13 +201,14 @@ static VARS_HOT int read_outbound(const struct sl_client *c, const struct shm_di
                 return 0;
         word = atomic_load_explicit(&c->out_slots[e->out_slot].seq, memory_order_acquire);
         if (!shm_seqlock_odd(word) && word != 0 &&
-            shm_slot_read_to(&c->map->slots[index], head, value) == 0 && head->source == word &&
+            shm_slot_read_fields(&c->map->slots[index], head, value,
+                                 fields | SHM_SLOT_HEAD_SOURCE) == 0 && head->source == word &&
             (head->flags & SHM_SLOT_VALID) && head->length <= SHM_VALUE_MAX) {
                 head->flags |= SHM_SLOT_OUTBOUND;
                 *ret_sequence = shm_seqlock_sequence(word) / 2u;
                 return 1;
         }
-        return read_out_slot(c, e, head, value, ret_sequence);
+        return read_out_slot(c, e, head, value, fields, ret_sequence);
 }
 
 /*
@@ -218,22 +221,25 @@ static VARS_HOT int read_value(struct sl_client *c, int id, struct shm_slot_head
                                char *value, uint64_t *ret_sequence, uint32_t *ret_extra,
                                uint64_t *ret_now)
 {
+        /* The time stamps only for the metadata. */
+        unsigned fields = ret_now ? SHM_SLOT_HEAD_TIMES : 0u;
         const struct shm_dir_entry *e;
         uint64_t sequence = 0;
-        int index, r = 0;
+        int entry, index, r = 0;
 
         for (int attempt = 0;; attempt++) {
-                index = lock_index(c, id, attempt);
-                if (index < 0)
-                        return index;
+                entry = lock_entry(c, id, attempt);
+                if (entry < 0)
+                        return entry;
+                index = entry & ~CLIENT_INDEX_LEARNED;
                 e = &c->map->dir[index];
                 r = 0;
                 if (e->direction == SHM_DIR_OUT)
-                        r = read_outbound(c, e, index, head, value, &sequence);
+                        r = read_outbound(c, e, index, head, value, fields, &sequence);
                 if (r == 0) {
                         /* .in: the daemon's own value, or its mirror of the last accepted
                          * outbound one */
-                        r = shm_slot_read_to(&c->map->slots[index], head, value);
+                        r = shm_slot_read_fields(&c->map->slots[index], head, value, fields);
                         if (r == 0) {
                                 sequence = head->word / 2u;
                                 if (head->length > SHM_VALUE_MAX ||
@@ -241,14 +247,15 @@ static VARS_HOT int read_value(struct sl_client *c, int id, struct shm_slot_head
                                         head->length = 0;
                         }
                 }
-                /* The entry was given to another name meanwhile: the copy may be its value. */
-                if (!client_dir_moved(c))
+                /* A learned name's entry may have been given to another name meanwhile: the
+                 * copy may be its value. A configured name's never is (CLIENT_INDEX_LEARNED). */
+                if (!(entry & CLIENT_INDEX_LEARNED) || !client_dir_moved(c))
                         break;
                 client_unlock(c);
         }
         if (ret_now) {
                 /* Age and liveness from the coarse clock: see client_now_coarse. */
-                *ret_now = client_now_coarse();
+                *ret_now = client_now_coarse(c);
                 *ret_extra = client_alive(c, *ret_now, NULL) ? 0 : SL_FLAG_STALE;
         }
         client_unlock(c);
@@ -320,27 +327,40 @@ static int __attribute__((noinline)) read_small(struct sl_client *c, int id, cha
         return (int)head.length;
 }
 
-SL_EXPORT int sl_read(struct sl_client *c, int id, char *buf, size_t size, struct sl_meta *meta)
+/*
+ * sl_read into a buffer that holds any value: read into directly. with_meta is a constant, so
+ * that the read without metadata neither loads the time stamps nor reads the clock, and neither
+ * tests for it.
+ */
+static VARS_HOT int read_direct(struct sl_client *c, int id, char *buf, struct sl_meta *meta,
+                                int with_meta)
 {
         struct shm_slot_head head;
         uint64_t sequence, now = 0;
         uint32_t extra = 0;
         int r;
 
+        /* The clock only matters for the metadata: age, and stale by heartbeat. */
+        r = read_value(c, id, &head, buf, &sequence, &extra, with_meta ? &now : NULL);
+        if (__builtin_expect(r == -EAGAIN, 0))
+                r = read_busy(c, id, &head, buf, &sequence, &extra, with_meta ? &now : NULL);
+        if (r < 0)
+                return r;
+        if (with_meta)
+                meta_fill(meta, &head, sequence, extra, now);
+        return (int)head.length;
+}
+
+SL_EXPORT int sl_read(struct sl_client *c, int id, char *buf, size_t size, struct sl_meta *meta)
+{
         if (!c || !buf || (meta && meta->size < SL_META_SIZE_V1))
                 return -EINVAL;
         /* A buffer that holds any value is read into directly; a smaller one gets a copy. */
         if (size < SHM_VALUE_SIZE)
                 return read_small(c, id, buf, size, meta);
-        /* The clock only matters for the metadata: age, and stale by heartbeat. */
-        r = read_value(c, id, &head, buf, &sequence, &extra, meta ? &now : NULL);
-        if (__builtin_expect(r == -EAGAIN, 0))
-                r = read_busy(c, id, &head, buf, &sequence, &extra, meta ? &now : NULL);
-        if (r < 0)
-                return r;
         if (meta)
-                meta_fill(meta, &head, sequence, extra, now);
-        return (int)head.length;
+                return read_direct(c, id, buf, meta, 1);
+        return read_direct(c, id, buf, NULL, 0);
 }
 
 /* Reads a value into text; -ENODATA when it is not valid or empty. */

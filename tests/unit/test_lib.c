@@ -1017,6 +1017,85 @@ static void test_retired_names(void **state)
         assert_int_equal(sl_read(f->c, id, buf, sizeof(buf), NULL), 5);
 }
 
+/*
+ * A learned name's entry rewritten in the middle of a read, after the read lock's look at the
+ * directory and before the copy: the read must notice (client_dir_moved) and not hand the next
+ * name's value to the old name's id. The client skips that check for configured names only
+ * (CLIENT_INDEX_LEARNED, taken at the id sync), so a read of a learned one that skipped it would
+ * return "new" here. The moment is made exact by a fault: the client's view of the entry's
+ * directory and slot pages is made inaccessible, and the SIGSEGV handler plays the daemon (through
+ * its own mapping of the same object), gives the page back and lets the load run again. The fault
+ * is synchronous, in the middle of sl_read, which holds no lock the table's side takes.
+ */
+static struct {
+        struct shm_table *t;
+        uint32_t entry;
+        uintptr_t page;
+        size_t size;
+        int rewritten;
+} mid_read;
+
+static void mid_read_rewrite(int sig, siginfo_t *info, void *context)
+{
+        const struct shm_var next = { "veh.A.next", SHM_DIR_IN, SHM_TYPE_STRING, 0, "A", 0 };
+        uintptr_t addr = (uintptr_t)info->si_addr;
+
+        (void)context;
+        if (sig != SIGSEGV || addr < mid_read.page || addr >= mid_read.page + mid_read.size ||
+            mid_read.rewritten) {
+                signal(SIGSEGV, SIG_DFL);      /* a real fault: let it kill the test */
+                return;
+        }
+        mprotect((void *)mid_read.page, mid_read.size, PROT_READ);
+        mid_read.rewritten = shm_table_retire(mid_read.t, mid_read.entry) == 0 &&
+                             shm_table_add(mid_read.t, &next) == (int)mid_read.entry &&
+                             shm_table_set_str(mid_read.t, mid_read.entry, "new") == 0 ? 1 : -1;
+}
+
+static void test_learned_entry_rewritten_mid_read(void **state)
+{
+        struct fixture *f = *state;
+        const struct shm_var learned = { "veh.A.old", SHM_DIR_IN, SHM_TYPE_STRING, 0, "A", 0 };
+        struct sigaction sa = { .sa_sigaction = mid_read_rewrite, .sa_flags = SA_SIGINFO };
+        struct sigaction old_sa;
+        uintptr_t page = (uintptr_t)sysconf(_SC_PAGESIZE), first, last;
+        char buf[SL_VALUE_SIZE];
+        int a, old, id;
+
+        assert_int_equal(shmtest_table_create(&f->tb), 0);
+        assert_int_equal(sl_open(f->tb.instance, &f->c), 0);
+        a = shm_table_add(f->tb.t, &learned);
+        assert_int_equal(a, NVARS);
+        assert_int_equal(shm_table_set_str(f->tb.t, (uint32_t)a, "old"), 0);
+        old = sl_find(f->c, "veh.A.old");
+        assert_true(old >= 0);
+        assert_int_equal(sl_read(f->c, old, buf, sizeof(buf), NULL), 3);
+        assert_string_equal(buf, "old");
+        /* The id sync took a configured name for one and the learned one for learned. */
+        assert_int_equal(client_index_entry(f->c, LAT), LAT);
+        assert_int_equal(client_index_entry(f->c, old), a | CLIENT_INDEX_LEARNED);
+
+        /* The pages of the client's view that hold the entry and its slot, not the header the
+         * read lock looks at. */
+        first = (uintptr_t)&f->c->map->dir[a] & ~(page - 1);
+        last = ((uintptr_t)(&f->c->map->slots[a] + 1) - 1) & ~(page - 1);
+        assert_true(((uintptr_t)f->c->map->in & ~(page - 1)) < first);
+        mid_read.t = f->tb.t;
+        mid_read.entry = (uint32_t)a;
+        mid_read.page = first;
+        mid_read.size = last + page - first;
+        mid_read.rewritten = 0;
+        assert_int_equal(sigaction(SIGSEGV, &sa, &old_sa), 0);
+        assert_int_equal(mprotect((void *)mid_read.page, mid_read.size, PROT_NONE), 0);
+        assert_int_equal(sl_read(f->c, old, buf, sizeof(buf), NULL), -ENOENT);
+        assert_int_equal(sigaction(SIGSEGV, &old_sa, NULL), 0);
+        assert_int_equal(mid_read.rewritten, 1);
+        id = sl_find(f->c, "veh.A.next");
+        assert_true(id >= 0 && id != old);
+        assert_int_equal(sl_read(f->c, id, buf, sizeof(buf), NULL), 3);
+        assert_string_equal(buf, "new");
+}
+
 /* ---- daemon restarts --------------------------------------------------------------------------- */
 
 static void test_restart_clean(void **state)
@@ -1452,6 +1531,28 @@ static void test_read_age_coarse(void **state)
 }
 
 /*
+ * The coarse clock sl_read counts ages to comes from the vDSO's own clock_gettime where there is
+ * one (client_now_coarse), and is the same clock as the C library's: never before a reading taken
+ * before it, never after one taken after.
+ */
+static void test_read_clock_vdso(void **state)
+{
+        struct fixture *f = *state;
+        struct timespec ts;
+        uint64_t before, now, after;
+
+#if defined(__x86_64__) || defined(__aarch64__)
+        assert_non_null(f->c->vdso_clock_gettime);
+#endif
+        clock_gettime(CLOCK_MONOTONIC_COARSE, &ts);
+        before = (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+        now = client_now_coarse(f->c);
+        clock_gettime(CLOCK_MONOTONIC_COARSE, &ts);
+        after = (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+        assert_true(before <= now && now <= after);
+}
+
+/*
  * A daemon killed with SIGKILL updates nothing any more, yet reads must say stale once its
  * heartbeat is CLIENT_HEARTBEAT_MISSES intervals old, without asking the kernel about its pid.
  */
@@ -1757,6 +1858,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_links, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_adhoc_visible, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_retired_names, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_learned_entry_rewritten_mid_read, setup_bare,
+                                                teardown),
                 cmocka_unit_test_setup_teardown(test_restart_clean, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_restart_after_crash, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_events_restart_empty_ring, setup, teardown),
@@ -1764,6 +1867,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_out_truncated_rings_daemon, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_scribbled_rings_daemon, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_age_coarse, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_read_clock_vdso, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_waiter_flag, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_outbound_mirror, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_wakes_wake_thread, setup, teardown),

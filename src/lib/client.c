@@ -163,6 +163,7 @@ static void out_unmap(struct sl_client *c)
                 munmap(c->out, c->out_size);
         c->out = NULL;
         c->out_slots = NULL;
+        c->out_touched = NULL;
         c->out_size = 0;
         c->out_capacity = 0;
 }
@@ -227,6 +228,9 @@ static void out_map(struct sl_client *c)
         c->out_size = (size_t)st.st_size;
         c->out_slots = (struct shm_slot *)((char *)base + h->slots_offset);
         c->out_capacity = h->capacity;
+        /* Layout 1.6: writers mark their slot there (vars.c), so the daemon looks at it alone. */
+        if (shm_layout_has_touched(h, (uint64_t)st.st_size))
+                c->out_touched = (_Atomic uint64_t *)(void *)((char *)base + h->touched_offset);
         c->out_error = 0;
 }
 

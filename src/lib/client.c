@@ -215,9 +215,12 @@ static void out_map(struct sl_client *c)
         h = base;
         r = shm_layout_check_out(h, (uint64_t)st.st_size);
         /* Another client may have scribbled on it (-EPROTO too: .in told us the layout): the
-         * daemon will recreate it, so it is "try again". */
+         * daemon will recreate it, so it is "try again". Whatever the daemon's scan refuses
+         * (shm/table.c out_check) is refused here too, the exact version included, or a write
+         * could land in an object about to be thrown away. */
         if (r == -EPROTO || (r == 0 && (h->epoch != m->epoch || h->generation != generation ||
-                                        h->capacity != m->in->out_capacity)))
+                                        h->capacity != m->in->out_capacity ||
+                                        h->layout_version != m->in->layout_version)))
                 r = -EAGAIN;
         if (r < 0) {
                 munmap(base, (size_t)st.st_size);

@@ -131,6 +131,12 @@ int shm_layout_check_out(const struct shm_out_header *h, uint64_t object_size)
             h->slots_offset != sizeof(*h) ||
             h->total_size != shm_layout_out_size(h->capacity) || h->total_size > object_size)
                 return -EPROTO;
+        /* 1.6: a map that is not where the daemon made it means a scribbled header, which the
+         * daemon's scan refuses (and recreates the object): so must a client, or its write
+         * lands in an object about to be thrown away. */
+        if ((h->layout_version & 0xffffu) >= SHM_LAYOUT_MINOR_TOUCHED &&
+            !shm_layout_has_touched(h, object_size))
+                return -EPROTO;
         return 0;
 }
 

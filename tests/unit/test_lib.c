@@ -1465,6 +1465,37 @@ static void test_write_marks_touched(void **state)
 }
 
 /*
+ * What the daemon's scan refuses, a client refuses too: a .out whose touched map was moved in
+ * its header, or whose version is not the daemon's, is "try again" (the daemon recreates it),
+ * never an object to write into and lose the write with.
+ */
+static void test_write_refuses_scribbled_header(void **state)
+{
+        struct fixture *f = *state;
+        struct shm_out_header *h;
+        struct sl_client *c;
+        size_t size;
+        void *base;
+
+        out_change_map(f, &base, &size);
+        h = base;
+        h->touched_offset += SHM_CACHE_LINE;
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        assert_int_equal(sl_write(c, THROTTLE, "1"), -EAGAIN);
+        sl_close(c);
+        h->touched_offset -= SHM_CACHE_LINE;
+        h->layout_version = (SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR_RETIRE;
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        assert_int_equal(sl_write(c, THROTTLE, "1"), -EAGAIN);
+        sl_close(c);
+        h->layout_version = SHM_LAYOUT_VERSION;
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        assert_int_equal(sl_write(c, THROTTLE, "1"), 0);
+        sl_close(c);
+        munmap(base, size);
+}
+
+/*
  * Layout 1.1: a write adds its step (1.6: SHM_OUT_CHANGE_TOUCHED, it marked its slot) and leaves
  * the flag alone when nobody sleeps (no system call: nothing to wake), and clears the flag and
  * wakes the sleeper when it is set.
@@ -1908,6 +1939,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_read_age_coarse, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_clock_vdso, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_marks_touched, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_refuses_scribbled_header, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_waiter_flag, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_outbound_mirror, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_wakes_wake_thread, setup, teardown),

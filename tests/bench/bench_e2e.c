@@ -542,6 +542,22 @@ static long long stat_field(const char *text, const char *key)
 /* The outbound stages the daemon timed itself, from its `stats` reply ("outbound_stage NAME
  * samples=N p50_ns=N p99_ns=N max_ns=N"): the same cuts as the in-process run below, but in the
  * real daemon, over its last writes (all of this run's outbound samples, warm-up included). */
+/* One outbound stage of a `stats` reply: 0, or -ENOENT when the daemon did not report it. */
+static int daemon_stage(const char *reply, const char *key, unsigned long long *ret_n,
+                        unsigned long long *ret_p50, unsigned long long *ret_p99,
+                        unsigned long long *ret_max)
+{
+        char pat[64];
+        const char *p;
+
+        snprintf(pat, sizeof(pat), "outbound_stage %s ", key);
+        p = strstr(reply, pat);
+        if (!p || sscanf(p + strlen(pat), "samples=%llu p50_ns=%llu p99_ns=%llu max_ns=%llu",
+                         ret_n, ret_p50, ret_p99, ret_max) != 4)
+                return -ENOENT;
+        return 0;
+}
+
 static void print_daemon_stages(struct harness *h)
 {
         static const char *const keys[] = { "write_to_wake", "wake_to_loop", "loop_to_sent" };
@@ -549,7 +565,7 @@ static void print_daemon_stages(struct harness *h)
                 "sl_write -> wake thread signals", "eventfd -> poll loop runs",
                 "scan + frame handed to the link",
         };
-        char reply[LINE_MAX_BENCH * 4], pat[64];
+        char reply[LINE_MAX_BENCH * 4];
 
         if (control_request(h, "stats\n", reply, sizeof(reply)) < 0) {
                 printf("  (the daemon did not answer `stats`: no stages from the daemon)\n");
@@ -558,12 +574,8 @@ static void print_daemon_stages(struct harness *h)
         printf("outbound stage by stage, measured in the daemon (us)     median      p99      max\n");
         for (size_t k = 0; k < sizeof(keys) / sizeof(keys[0]); k++) {
                 unsigned long long n, p50, p99, max;
-                const char *p;
 
-                snprintf(pat, sizeof(pat), "outbound_stage %s ", keys[k]);
-                p = strstr(reply, pat);
-                if (!p || sscanf(p + strlen(pat), "samples=%llu p50_ns=%llu p99_ns=%llu max_ns=%llu",
-                                 &n, &p50, &p99, &max) != 4) {
+                if (daemon_stage(reply, keys[k], &n, &p50, &p99, &max) < 0) {
                         printf("  %-34s (not reported)\n", what[k]);
                         continue;
                 }
@@ -752,6 +764,21 @@ static int scale_side_start(struct scale_side *sd, const char *tag, unsigned nou
         return sd->wc.id < 0 ? sd->wc.id : 0;
 }
 
+/* The daemon's own "scan + frame handed to the link" stage (median, p99 in us); -1 when not
+ * reported. */
+static void scale_side_stage(struct scale_side *sd, double *ret_p50, double *ret_p99)
+{
+        char reply[LINE_MAX_BENCH * 4];
+        unsigned long long n, p50, p99, max;
+
+        *ret_p50 = *ret_p99 = -1.0;
+        if (control_request(&sd->h, "stats\n", reply, sizeof(reply)) == 0 &&
+            daemon_stage(reply, "loop_to_sent", &n, &p50, &p99, &max) == 0) {
+                *ret_p50 = (double)p50 / NS_PER_US;
+                *ret_p99 = (double)p99 / NS_PER_US;
+        }
+}
+
 static void scale_side_stop(struct scale_side *sd)
 {
         waiter_stop(&sd->w);
@@ -782,6 +809,7 @@ static int run_outscale(void)
         static struct sample_set small_s, large_s;
         static struct scale_side small, large;
         double smed, sp99, lmed, lp99, load0 = load_average();
+        double sdmed, sdp99, ldmed, ldp99;
         int r;
 
         r = scale_side_start(&small, "osmall", SCALE_SMALL);
@@ -809,6 +837,8 @@ static int run_outscale(void)
                 goto out;
         percentiles(&small_s, &smed, &sp99);
         percentiles(&large_s, &lmed, &lp99);
+        scale_side_stage(&small, &sdmed, &sdp99);
+        scale_side_stage(&large, &ldmed, &ldp99);
         printf("outbound by table size, %d samples each (us)   median      p99   (load average "
                "%.2f -> %.2f)\n", SAMPLES, load0, load_average());
         printf("  sl_write -> pty, %4u outbound variables %8.1f %8.1f\n", SCALE_SMALL, smed, sp99);
@@ -816,6 +846,12 @@ static int run_outscale(void)
         printf("  ratio %u / %u                         %8.2fx %7.2fx  (target <= %.1fx; p99 "
                "<= %.0f us)\n", SCALE_LARGE, SCALE_SMALL, lmed / smed, lp99 / sp99,
                SCALE_RATIO_MAX, SCALE_P99_MAX_US);
+        /* The part the table's size weighs on, without the pty and the scheduler around it. */
+        printf("  in the daemon: scan + frame handed to the link (median, p99)\n");
+        printf("                   %4u outbound variables %8.1f %8.1f\n", SCALE_SMALL, sdmed,
+               sdp99);
+        printf("                   %4u outbound variables %8.1f %8.1f\n", SCALE_LARGE, ldmed,
+               ldp99);
         printf("FIGURE|outbound_scale_p99|outbound sl_write -> pty, %u outbound (p99)|%.1f|us|"
                "<=%.0f\n", SCALE_LARGE, lp99, SCALE_P99_MAX_US);
         printf("FIGURE|outbound_scale_p50_ratio|outbound median, %u / %u outbound|%.2f|x|<=%.1f\n",

@@ -1465,6 +1465,43 @@ static void test_write_marks_touched(void **state)
 }
 
 /*
+ * A 1.6 client of a 1.5 daemon (both objects say 1.5, no map in the .out header): it marks
+ * nothing and adds the old step, which that daemon's full scan answers.
+ */
+static void test_write_old_daemon_no_mark(void **state)
+{
+        struct fixture *f = *state;
+        char name[SHM_OBJECT_NAME_SIZE];
+        struct shmtest_view in;
+        struct shm_out_header *h;
+        struct sl_client *c;
+        _Atomic uint32_t *change;
+        _Atomic uint64_t *map;
+        uint32_t before, old = (SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR_RETIRE;
+        size_t size;
+        void *base;
+
+        change = out_change_map(f, &base, &size);
+        h = base;
+        map = (_Atomic uint64_t *)(void *)((char *)base + h->touched_offset);
+        assert_int_equal(shm_layout_object_name(f->tb.instance, "in", name, sizeof(name)), 0);
+        in = shmtest_view_open(name, 1);
+        assert_non_null(in.base);
+        shmtest_in_header(&in)->layout_version = old;
+        h->layout_version = old;
+        h->touched_words = 0;
+        h->touched_offset = 0;
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        before = atomic_load(change);
+        assert_int_equal(sl_write(c, THROTTLE, "1"), 0);
+        assert_int_equal(atomic_load(change), before + SHM_OUT_CHANGE_STEP);
+        assert_int_equal(atomic_load(&map[0]), 0);
+        sl_close(c);
+        shmtest_view_close(&in);
+        munmap(base, size);
+}
+
+/*
  * What the daemon's scan refuses, a client refuses too: a .out whose touched map was moved in
  * its header, or whose version is not the daemon's, is "try again" (the daemon recreates it),
  * never an object to write into and lose the write with.
@@ -1939,6 +1976,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_read_age_coarse, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_clock_vdso, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_marks_touched, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_old_daemon_no_mark, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_refuses_scribbled_header, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_waiter_flag, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_outbound_mirror, setup, teardown),

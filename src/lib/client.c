@@ -163,6 +163,7 @@ static void out_unmap(struct sl_client *c)
                 munmap(c->out, c->out_size);
         c->out = NULL;
         c->out_slots = NULL;
+        c->out_touched = NULL;
         c->out_size = 0;
         c->out_capacity = 0;
 }
@@ -214,9 +215,12 @@ static void out_map(struct sl_client *c)
         h = base;
         r = shm_layout_check_out(h, (uint64_t)st.st_size);
         /* Another client may have scribbled on it (-EPROTO too: .in told us the layout): the
-         * daemon will recreate it, so it is "try again". */
+         * daemon will recreate it, so it is "try again". Whatever the daemon's scan refuses
+         * (shm/table.c out_check) is refused here too, the exact version included, or a write
+         * could land in an object about to be thrown away. */
         if (r == -EPROTO || (r == 0 && (h->epoch != m->epoch || h->generation != generation ||
-                                        h->capacity != m->in->out_capacity)))
+                                        h->capacity != m->in->out_capacity ||
+                                        h->layout_version != m->in->layout_version)))
                 r = -EAGAIN;
         if (r < 0) {
                 munmap(base, (size_t)st.st_size);
@@ -227,6 +231,9 @@ static void out_map(struct sl_client *c)
         c->out_size = (size_t)st.st_size;
         c->out_slots = (struct shm_slot *)((char *)base + h->slots_offset);
         c->out_capacity = h->capacity;
+        /* Layout 1.6: writers mark their slot there (vars.c), so the daemon looks at it alone. */
+        if (shm_layout_has_touched(h, (uint64_t)st.st_size))
+                c->out_touched = (_Atomic uint64_t *)(void *)((char *)base + h->touched_offset);
         c->out_error = 0;
 }
 

@@ -98,6 +98,7 @@ struct sl_client {
         size_t out_size;
         struct shm_slot *out_slots;
         uint32_t out_capacity;
+        _Atomic uint64_t *out_touched;  /* layout >= 1.6: the touched map, else NULL */
         uint32_t out_generation;
         int out_error;
         /* ids: stable for the life of the handle, resolved by name against the current map */

@@ -444,6 +444,8 @@ SL_EXPORT int sl_read_long(struct sl_client *c, int id, long *ret, struct sl_met
 static void out_notify(struct sl_client *c)
 {
         _Atomic uint32_t *change = &c->out->change;
+        /* A 1.6 daemon tells a marked write (high half) from an older client's (low half). */
+        uint32_t step = c->out_touched ? SHM_OUT_CHANGE_TOUCHED : SHM_OUT_CHANGE_STEP;
         uint32_t old;
 
         if (!c->map->waiter_flag) {
@@ -451,11 +453,26 @@ static void out_notify(struct sl_client *c)
                 shm_futex_wake(change, 1);
                 return;
         }
-        old = atomic_fetch_add_explicit(change, SHM_OUT_CHANGE_STEP, memory_order_release);
+        old = atomic_fetch_add_explicit(change, step, memory_order_release);
         if ((old & SHM_OUT_WAITING) &&
             (atomic_fetch_and_explicit(change, ~SHM_OUT_WAITING, memory_order_relaxed) &
              SHM_OUT_WAITING))
                 shm_futex_wake(change, 1);
+}
+
+/*
+ * Marks .out slot i in the touched map (layout 1.6; read lock held), so that the daemon's scan
+ * looks at it alone. After the publish and before the change word's bump: the release orders the
+ * value before the bit, which the daemon takes with an acquire exchange, and the bump after it
+ * wakes a daemon that took the map too early. A writer killed before it marks leaves the write to
+ * the daemon's full scan at its next heartbeat.
+ */
+static void out_touch(struct sl_client *c, uint32_t i)
+{
+        if (c->out_touched)
+                atomic_fetch_or_explicit(&c->out_touched[i / SHM_TOUCHED_WORD_BITS],
+                                         UINT64_C(1) << (i % SHM_TOUCHED_WORD_BITS),
+                                         memory_order_release);
 }
 
 /* Writes a checked value into the .out slot of id (read lock held). */
@@ -482,7 +499,8 @@ static int write_locked(struct sl_client *c, int id, const char *value, size_t l
         r = shm_slot_claim(slot, c->pid, &word);
         if (r < 0) {
                 /* Held for every bounded attempt: perhaps by a writer that died in it, or a
-                 * scribbled word; the daemon's scan repairs that, so have it scan now. */
+                 * scribbled word; the daemon's scan repairs that, so have it scan the slot now. */
+                out_touch(c, e->out_slot);
                 client_ring_daemon(c);
                 return r;
         }
@@ -493,6 +511,7 @@ static int write_locked(struct sl_client *c, int id, const char *value, size_t l
         r = shm_slot_publish(slot, word);
         if (r < 0)
                 return r;
+        out_touch(c, e->out_slot);
         out_notify(c);
         return 0;
 }

@@ -1427,8 +1427,115 @@ static void *flag_waiter_main(void *arg)
 }
 
 /*
- * Layout 1.1: a write adds SHM_OUT_CHANGE_STEP and leaves the flag alone when nobody sleeps (no
- * system call: nothing to wake), and clears the flag and wakes the sleeper when it is set.
+ * Layout 1.6: a write marks its .out slot in the touched map, so that the daemon's wake-up scan
+ * looks at it alone; a write that finds its slot held for every attempt (here by a forged word
+ * of no process) marks it too before it rings, so that scan repairs it.
+ */
+static void test_write_marks_touched(void **state)
+{
+        struct fixture *f = *state;
+        struct shm_out_header *h;
+        _Atomic uint64_t *map;
+        struct shm_slot *slot;
+        struct seen s;
+        size_t size;
+        void *base;
+
+        out_change_map(f, &base, &size);
+        h = base;
+        assert_true(shm_layout_has_touched(h, size));
+        map = (_Atomic uint64_t *)(void *)((char *)base + h->touched_offset);
+        slot = (struct shm_slot *)((char *)base + h->slots_offset);     /* THROTTLE's: slot 0 */
+        assert_int_equal(atomic_load(&map[0]), 0);
+        assert_int_equal(sl_write(f->c, THROTTLE, "0.5"), 0);
+        assert_int_equal(atomic_load(&map[0]), UINT64_C(1) << 0);
+        memset(&s, 0, sizeof(s));
+        assert_int_equal(shm_table_out_scan_touched(f->tb.t, on_change, &s), 1);
+        assert_string_equal(s.last.value, "0.5");
+        assert_int_equal(atomic_load(&map[0]), 0);
+
+        atomic_store(&slot->seq, ((uint64_t)UINT32_MAX << 32) | 1u);    /* pid of no process */
+        assert_int_equal(sl_write(f->c, THROTTLE, "0.75"), -EBUSY);
+        assert_int_equal(atomic_load(&map[0]), UINT64_C(1) << 0);
+        memset(&s, 0, sizeof(s));
+        assert_int_equal(shm_table_out_scan_touched(f->tb.t, on_change, &s), 1);
+        assert_int_equal(s.last.status, SHM_OUT_REPAIRED);
+        assert_int_equal(sl_write(f->c, THROTTLE, "0.75"), 0);
+        munmap(base, size);
+}
+
+/*
+ * A 1.6 client of a 1.5 daemon (both objects say 1.5, no map in the .out header): it marks
+ * nothing and adds the old step, which that daemon's full scan answers.
+ */
+static void test_write_old_daemon_no_mark(void **state)
+{
+        struct fixture *f = *state;
+        char name[SHM_OBJECT_NAME_SIZE];
+        struct shmtest_view in;
+        struct shm_out_header *h;
+        struct sl_client *c;
+        _Atomic uint32_t *change;
+        _Atomic uint64_t *map;
+        uint32_t before, old = (SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR_RETIRE;
+        size_t size;
+        void *base;
+
+        change = out_change_map(f, &base, &size);
+        h = base;
+        map = (_Atomic uint64_t *)(void *)((char *)base + h->touched_offset);
+        assert_int_equal(shm_layout_object_name(f->tb.instance, "in", name, sizeof(name)), 0);
+        in = shmtest_view_open(name, 1);
+        assert_non_null(in.base);
+        shmtest_in_header(&in)->layout_version = old;
+        h->layout_version = old;
+        h->touched_words = 0;
+        h->touched_offset = 0;
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        before = atomic_load(change);
+        assert_int_equal(sl_write(c, THROTTLE, "1"), 0);
+        assert_int_equal(atomic_load(change), before + SHM_OUT_CHANGE_STEP);
+        assert_int_equal(atomic_load(&map[0]), 0);
+        sl_close(c);
+        shmtest_view_close(&in);
+        munmap(base, size);
+}
+
+/*
+ * What the daemon's scan refuses, a client refuses too: a .out whose touched map was moved in
+ * its header, or whose version is not the daemon's, is "try again" (the daemon recreates it),
+ * never an object to write into and lose the write with.
+ */
+static void test_write_refuses_scribbled_header(void **state)
+{
+        struct fixture *f = *state;
+        struct shm_out_header *h;
+        struct sl_client *c;
+        size_t size;
+        void *base;
+
+        out_change_map(f, &base, &size);
+        h = base;
+        h->touched_offset += SHM_CACHE_LINE;
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        assert_int_equal(sl_write(c, THROTTLE, "1"), -EAGAIN);
+        sl_close(c);
+        h->touched_offset -= SHM_CACHE_LINE;
+        h->layout_version = (SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR_RETIRE;
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        assert_int_equal(sl_write(c, THROTTLE, "1"), -EAGAIN);
+        sl_close(c);
+        h->layout_version = SHM_LAYOUT_VERSION;
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        assert_int_equal(sl_write(c, THROTTLE, "1"), 0);
+        sl_close(c);
+        munmap(base, size);
+}
+
+/*
+ * Layout 1.1: a write adds its step (1.6: SHM_OUT_CHANGE_TOUCHED, it marked its slot) and leaves
+ * the flag alone when nobody sleeps (no system call: nothing to wake), and clears the flag and
+ * wakes the sleeper when it is set.
  */
 static void test_write_waiter_flag(void **state)
 {
@@ -1445,7 +1552,7 @@ static void test_write_waiter_flag(void **state)
         before = atomic_load(change);
         assert_int_equal(before & SHM_OUT_WAITING, 0);
         assert_int_equal(sl_write(f->c, THROTTLE, "1"), 0);
-        assert_int_equal(atomic_load(change), before + SHM_OUT_CHANGE_STEP);
+        assert_int_equal(atomic_load(change), before + SHM_OUT_CHANGE_TOUCHED);
         /* A sleeper: the write must wake it (it returns 0, or -EAGAIN when the write came
          * between its CAS and its sleep), never time out. */
         assert_int_equal(pthread_create(&th, NULL, flag_waiter_main, &w), 0);
@@ -1456,7 +1563,7 @@ static void test_write_waiter_flag(void **state)
         assert_int_equal(sl_write(f->c, THROTTLE, "2"), 0);
         pthread_join(th, NULL);
         assert_true(w.result == 0 || w.result == -EAGAIN);
-        assert_int_equal(atomic_load(change), (before & ~SHM_OUT_WAITING) + SHM_OUT_CHANGE_STEP);
+        assert_int_equal(atomic_load(change), (before & ~SHM_OUT_WAITING) + SHM_OUT_CHANGE_TOUCHED);
         munmap(base, size);
 }
 
@@ -1868,6 +1975,9 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_out_scribbled_rings_daemon, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_age_coarse, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_clock_vdso, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_marks_touched, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_old_daemon_no_mark, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_refuses_scribbled_header, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_waiter_flag, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_outbound_mirror, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_wakes_wake_thread, setup, teardown),

@@ -18,7 +18,8 @@
  *   CPU per frame   CPU clock in ns where /proc/PID/stat counts 10 ms ticks) over the write ->
  *                   wire rounds divided by their writes, and over the frame -> wait rounds
  *                   divided by their frames;
- *   RSS             the daemon's resident memory after the cell's work.
+ *   RSS, shm        the daemon's resident memory after the cell's work, and the size of the
+ *                   instance's two shm objects (/dev/shm/sharedlink.<instance>.{in,out}).
  *
  * Each cell's variables are split evenly over its links, and each link's half outbound, half
  * inbound; a link needs one of each, so 10 variables on 16 links are 32 (the table says so). A
@@ -26,7 +27,9 @@
  * B, C, ...), its lists split evenly between them. Variables change in turn: every round moves to
  * the next variable of each link, so the whole table is touched, not one hot slot.
  *
- * Every row is printed again as ratios to the first (10 variables, 1 link). Work is bounded by
+ * The cells run one after the other, PASSES times over; each figure is the median of its passes,
+ * so that a busy spell of the machine weighs on different cells in different passes. Every row
+ * is printed again as ratios to the first (10 variables, 1 link). Work is bounded by
  * counts (rounds, batches), never by time: a busy machine makes the run slower, not shorter. The
  * exit code is 0 unless something failed to run (a benchmark does not judge).
  *
@@ -721,7 +724,7 @@ static void print_row(const struct result *r, const struct result *base, int rat
                 else if (ratio)
                         printf(" %7.2fx", r->m[m] / base->m[m]);
                 else
-                        printf(" %8.1f", r->m[m]);
+                        printf(" %8.*f", m == M_RSS || m == M_SHM ? 0 : 1, r->m[m]);
         }
         printf("\n");
 }

@@ -74,6 +74,7 @@
 #define RXBUF           8192            /* per master: the bytes not yet matched */
 #define RX_KEEP         256             /* kept when the buffer is cut: a needle split by a read */
 #define YAML_MAX        (256 * 1024)
+#define LOG_TAIL        2048            /* bytes of the daemon's log shown when a cell fails */
 #define NS_PER_US       1000.0
 #define NS_PER_S        1000000000ull
 
@@ -596,6 +597,22 @@ static int measure_rounds(struct bench *b, int mode, unsigned rounds, double *re
         return r;
 }
 
+/* The end of the daemon's captured log, to stderr. */
+static void print_log_tail(const char *path)
+{
+        char buf[LOG_TAIL];
+        size_t n;
+        FILE *f = fopen(path, "re");
+
+        if (!f)
+                return;
+        if (fseek(f, -(long)sizeof(buf), SEEK_END) < 0)
+                rewind(f);
+        n = fread(buf, 1, sizeof(buf), f);
+        fclose(f);
+        fprintf(stderr, "bench_scale: the daemon's log (%s), its end:\n%.*s\n", path, (int)n, buf);
+}
+
 static void bench_free(struct bench *b)
 {
         if (b->started) {
@@ -639,6 +656,8 @@ static int run_cell(const struct cell *cell, struct result *res)
         r = harness_init(&b.h, "scale");
         if (r < 0)
                 goto out;
+        /* Thirty daemons' start and stop lines would bury the tables; shown when a cell fails. */
+        b.h.capture_log = 1;
         plan_links(&b, cell->vars);
         r = write_config(&b, path);
         if (r == 0)
@@ -698,9 +717,11 @@ static int run_cell(const struct cell *cell, struct result *res)
         res->m[M_SHM] = (double)shm_kib(b.h.instance);
         res->ok = r == 0;
 out:
-        if (r < 0)
+        if (r < 0) {
                 fprintf(stderr, "bench_scale: %u variables, %u links, %s: %s\n", cell->vars,
                         cell->links, phase, strerror(-r));
+                print_log_tail(b.h.log_path);
+        }
         free(all_ids);
         free(out_ids);
         bench_free(&b);

@@ -85,6 +85,16 @@ void daemon_out_scan(struct daemon *d)
         daemon_out_scanned(d, shm_table_out_scan(d->table, daemon_on_out_change, d));
 }
 
+/* The slots marked written, before a control request: the request sees every write its client
+ * (or any other) finished before sending it, whatever order the loop takes the wake-up and the
+ * request in. A query answered right after `slctl set` answers the value set. */
+void daemon_out_catch_up(struct daemon *d)
+{
+        if (d->table)
+                daemon_out_scanned(d, shm_table_out_scan_touched(d->table, daemon_on_out_change,
+                                                                 d));
+}
+
 static void daemon_on_wake(struct evloop *loop, int fd, unsigned revents, void *arg)
 {
         struct daemon *d = arg;

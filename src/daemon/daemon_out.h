@@ -25,6 +25,10 @@ int daemon_out_start(struct daemon *d);
  */
 void daemon_out_scan(struct daemon *d);
 
+/* Takes the slots marked written (layout 1.6's touched map) now, not at the next wake-up: done
+ * before each control request, so a request sees the writes finished before it was sent. */
+void daemon_out_catch_up(struct daemon *d);
+
 /* Takes the wake fd off the loop (the table owns and closes it). */
 void daemon_out_stop(struct daemon *d);
 

@@ -127,6 +127,7 @@ void daemon_on_request(struct control_request *req, int argc, char **argv, void 
                 control_reply_error(req, EINVAL, "%s", err);
                 return;
         }
+        daemon_out_catch_up(d);
         switch (r.kind) {
         case REQP_PING:
                 control_reply_ok(req, "%ld %" PRIu64, (long)getpid(),

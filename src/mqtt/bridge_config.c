@@ -6,13 +6,13 @@
 #include "mqtt/bridge_config.h"
 
 #include <errno.h>
-#include <fnmatch.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "svc/conf.h"
+#include "svc/globs.h"
 #include "svc/io.h"
 
 #define PORT_MAX                65535u
@@ -63,42 +63,16 @@ static int check_instance(struct conf *c, const struct conf_key *k, const struct
         return 0;
 }
 
-/* A list of name globs; an MQTT wildcard or a control character in one is refused. */
-static int get_globs(struct conf *c, const struct conf_key *k, const struct conf_node *n,
-                     struct bridge_globs *g)
-{
-        int r = conf_need_kind(c, k->name, n, CONF_NODE_SEQUENCE);
-
-        if (r < 0)
-                return r;
-        g->count = 0;
-        for (const struct conf_node *item = conf_child(c, n->first); item;
-             item = conf_next(c, item)) {
-                if (g->count >= BRIDGE_GLOBS_MAX)
-                        return conf_fail(c, item, "%s: more than %u entries", k->name,
-                                         BRIDGE_GLOBS_MAX);
-                r = conf_get_string(c, k->name, item, g->glob[g->count], sizeof(g->glob[0]));
-                if (r < 0)
-                        return r;
-                if (strpbrk(g->glob[g->count], "+#/"))
-                        return conf_fail(c, item, "%s: %s: '+', '#' and '/' are not allowed "
-                                         "(globs match variable names: * ? [...])", k->name,
-                                         conf_quote_node(c, item));
-                g->count++;
-        }
-        return 0;
-}
-
 static int parse_publish(struct conf *c, const struct conf_key *k, const struct conf_node *n,
                          void *obj)
 {
-        return get_globs(c, k, n, &((CFG *)obj)->publish);
+        return globs_read(c, k->name, n, &((CFG *)obj)->publish);
 }
 
 static int parse_writable(struct conf *c, const struct conf_key *k, const struct conf_node *n,
                           void *obj)
 {
-        return get_globs(c, k, n, &((CFG *)obj)->writable);
+        return globs_read(c, k->name, n, &((CFG *)obj)->writable);
 }
 
 /* ---- mappings -------------------------------------------------------------------------------- */
@@ -283,12 +257,4 @@ int bridge_config_load(const char *path, struct bridge_config *ret, char *err, s
         if (r == 0 && ret->password_file[0])
                 r = load_password(ret, path, err, err_size);
         return r;
-}
-
-bool bridge_globs_match(const struct bridge_globs *g, const char *name)
-{
-        for (unsigned i = 0; i < g->count; i++)
-                if (fnmatch(g->glob[i], name, 0) == 0)
-                        return true;
-        return false;
 }

@@ -24,6 +24,9 @@
 #   tests/fuzz/fuzz_*.c            libFuzzer targets; corpus in tests/fuzz/corpus/<name>/
 #   tests/bench/bench_*.c          benchmarks, built optimised by `make bench`
 #   tests/peers/test_*.py          self-tests of the Python test peers, run by `make check`
+#   src/ros2/*.c                   sharedlink-ros2 (main.c holds main(), the rest is archived for
+#     + src/ros2/idl/*.idl         tests, with the C that idlc makes of the IDL in build/.../gen/ros2/),
+#                                  linked against libsharedlink.so and Cyclone DDS (libddsc) only
 #   examples/*.c                   programs built only on <sharedlink.h> and pkg-config
 #   man/*.[1-8]                    man pages, installed by `make install` (section = suffix)
 #   python/sharedlink/*.py         the Python package (ctypes), installed into PYTHONDIR;
@@ -79,15 +82,16 @@ endif
 # mosquitto: the MQTT bridge's tests start a broker of their own (and mosquitto_passwd); openssl
 # makes their throwaway TLS certificates. sqlite3 and libmicrohttpd: sharedlink-agility's results
 # database and scoreboard; chromium: test_agility renders that scoreboard in a headless browser.
+# cyclonedds-dev and cyclonedds-tools (idlc): sharedlink-ros2 and its tests' DDS peer.
 DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev python3 \
                   libmosquitto-dev mosquitto mosquitto-clients openssl libsqlite3-dev \
-                  libmicrohttpd-dev chromium
+                  libmicrohttpd-dev chromium cyclonedds-dev cyclonedds-tools
 DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
 
 # ---------------------------------------------------------------------------------------------
 # Dependencies: when pkg-config cannot find one, run `make deps` once before anything else.
 
-PC_REQUIRED := yaml-0.1 cmocka libmosquitto sqlite3 libmicrohttpd
+PC_REQUIRED := yaml-0.1 cmocka libmosquitto sqlite3 libmicrohttpd CycloneDDS
 ifeq ($(WITH_SYSTEMD),1)
 PC_REQUIRED += libsystemd
 endif
@@ -116,6 +120,9 @@ SQLITE_CFLAGS := $(shell pkg-config --cflags sqlite3 2>/dev/null)
 SQLITE_LIBS   := $(shell pkg-config --libs sqlite3 2>/dev/null)
 MHD_CFLAGS    := $(shell pkg-config --cflags libmicrohttpd 2>/dev/null)
 MHD_LIBS      := $(shell pkg-config --libs libmicrohttpd 2>/dev/null)
+DDS_CFLAGS    := $(shell pkg-config --cflags CycloneDDS 2>/dev/null)
+DDS_LIBS      := $(shell pkg-config --libs CycloneDDS 2>/dev/null)
+IDLC          ?= idlc
 ifeq ($(WITH_SYSTEMD),1)
 SYSTEMD_CFLAGS := $(shell pkg-config --cflags libsystemd 2>/dev/null) -DHAVE_LIBSYSTEMD=1
 SYSTEMD_LIBS   := $(shell pkg-config --libs libsystemd 2>/dev/null)
@@ -159,7 +166,7 @@ CPPFLAGS_ALL := -Iinclude -Isrc -D_DEFAULT_SOURCE -DSHAREDLINK_VERSION='"$(VERSI
 CFLAGS_ALL   := -std=c11 $(OPT) $(WARN) $(HARDEN) $(SANFLAGS) -fPIC -fvisibility=hidden \
                 -ffunction-sections -fdata-sections \
                 -MMD -MP $(YAML_CFLAGS) $(SYSTEMD_CFLAGS) $(MOSQ_CFLAGS) $(SQLITE_CFLAGS) \
-                $(MHD_CFLAGS) $(CFLAGS)
+                $(MHD_CFLAGS) $(DDS_CFLAGS) $(CFLAGS)
 LDFLAGS_ALL  := $(SANFLAGS) -Wl,-z,relro,-z,now $(LDFLAGS)
 LDFLAGS_EXE  := $(LDFLAGS_ALL) -pie
 TEST_CFLAGS  := $(CMOCKA_CFLAGS) -Itests
@@ -189,6 +196,9 @@ MQTT_SRC   := $(filter-out src/mqtt/main.c,$(wildcard src/mqtt/*.c))
 AGILITY_SRC:= $(wildcard src/agility/agility_*.c)
 AGILITYD_MAIN := $(wildcard src/agility/main.c)
 AGILITYD_SRC  := $(wildcard src/agility/agilityd_*.c)
+ROS2_MAIN  := $(wildcard src/ros2/main.c)
+ROS2_SRC   := $(filter-out src/ros2/main.c,$(wildcard src/ros2/*.c))
+ROS2_IDL   := $(wildcard src/ros2/idl/*.idl)
 TCOMMON_SRC:= $(wildcard tests/common/*.c)
 UNIT_SRC   := $(wildcard tests/unit/test_*.c)
 INTEG_SRC  := $(wildcard tests/integration/test_*.c)
@@ -213,7 +223,8 @@ A_MQTT   := $(O)/internal/libmqtt.a
 A_SVC    := $(O)/internal/libsvc.a
 A_AGILITY:= $(O)/internal/libagility.a
 A_AGILITYD := $(O)/internal/libagilityd.a
-INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_AGILITYD) $(A_AGILITY) $(A_CLIENT) \
+A_ROS2   := $(O)/internal/libros2.a
+INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_ROS2) $(A_AGILITYD) $(A_AGILITY) $(A_CLIENT) \
                      $(A_CLI) $(A_SVC) $(A_PROTO) $(A_SHM)
 SYS_LIBS := $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lutil -lm
 
@@ -226,6 +237,7 @@ SHAREDLINKD:= $(O)/sharedlinkd
 SLCTL      := $(O)/slctl
 MQTT_BRIDGE:= $(O)/sharedlink-mqtt
 AGILITYD   := $(O)/sharedlink-agility
+ROS2_BRIDGE:= $(O)/sharedlink-ros2
 PCFILE     := $(O)/sharedlink.pc
 
 UNIT_BIN   := $(patsubst tests/%.c,$(O)/tests/%,$(UNIT_SRC))
@@ -237,7 +249,7 @@ PYHELP_BIN := $(patsubst tests/%.c,$(O)/tests/%,$(PYHELP_SRC))
 
 PROGRAMS := $(if $(DAEMON_MAIN),$(SHAREDLINKD)) $(if $(CLI_SRC),$(SLCTL)) \
             $(if $(LIB_SRC),$(LIBSL_SO) $(LIBSL_A) $(PCFILE)) $(if $(MQTT_MAIN),$(MQTT_BRIDGE)) \
-            $(if $(AGILITYD_MAIN),$(AGILITYD))
+            $(if $(AGILITYD_MAIN),$(AGILITYD)) $(if $(ROS2_MAIN),$(ROS2_BRIDGE))
 
 # ---------------------------------------------------------------------------------------------
 # Top-level targets
@@ -339,6 +351,19 @@ $(A_MQTT): $(call obj,$(MQTT_SRC))
 $(A_SVC): $(call obj,$(SVC_SRC))
 $(A_AGILITY): $(call obj,$(AGILITY_SRC))
 $(A_AGILITYD): $(call obj,$(AGILITYD_SRC))
+# sharedlink-ros2's types: idlc makes C of the IDL in the tree at build time (ros2_dds.c and
+# ros2_bridge.c include its header); the tests' DDS peer has IDL of its own (tests/integration/
+# ros2/), compiled the same way, so the bridge's types are checked against an independent copy.
+ROS2_GEN_DIR := $(O)/gen/ros2
+ROS2_GEN_C   := $(patsubst src/ros2/idl/%.idl,$(ROS2_GEN_DIR)/%.c,$(ROS2_IDL))
+$(ROS2_GEN_DIR)/%.c $(ROS2_GEN_DIR)/%.h: src/ros2/idl/%.idl
+	@mkdir -p $(@D)
+	$(call quiet,IDLC)$(IDLC) -o $(@D) $<
+# The types' object is linked into the program only, not archived: test_ros2 links its own
+# copy of the same symbols, and the archive would otherwise resolve them first.
+$(A_ROS2): $(call obj,$(ROS2_SRC))
+$(call obj,$(ROS2_SRC) $(ROS2_MAIN)): CPPFLAGS += -I$(ROS2_GEN_DIR)
+$(call obj,$(ROS2_SRC) $(ROS2_MAIN)): | $(ROS2_GEN_C)
 
 # An archive with no members still needs one object to be a valid archive.
 $(INTERNAL_ARCHIVES): | $(O)/obj/empty.o
@@ -418,6 +443,11 @@ $(AGILITYD): $(call obj,$(AGILITYD_MAIN)) $(A_AGILITYD) $(A_AGILITY) $(A_SVC) $(
 	    -L$(O) -lsharedlink -Wl,-rpath,'$$ORIGIN' $(SQLITE_LIBS) $(MHD_LIBS) $(YAML_LIBS) \
 	    $(SYSTEMD_LIBS) -lpthread
 
+# sharedlink-ros2 the same way: its data only through the public library, DDS through libddsc.
+$(ROS2_BRIDGE): $(call obj,$(ROS2_MAIN) $(ROS2_GEN_C)) $(A_ROS2) $(A_SVC) $(LIBSL_SO)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) $(A_ROS2) $(A_SVC) \
+	    -L$(O) -lsharedlink -Wl,-rpath,'$$ORIGIN' $(DDS_LIBS) $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread
+
 # ---------------------------------------------------------------------------------------------
 # Install (DESIGN.md §2.1): `make install PREFIX=/usr/local DESTDIR=`, and `make uninstall`.
 # Paths come from the variables at the top; DESTDIR is prepended to each and recorded nowhere.
@@ -435,12 +465,13 @@ mandir_of     = $(DESTDIR)$(MANDIR)/man$(subst .,,$(suffix $(1)))
 # One alias page per exported function, so that `man sl_read` opens libsharedlink(3).
 MAN_ALIASES   = $(shell sed -n $(LIBSL_SYM_SED) $(LIBSL_SYM))
 UNIT_FILES   := $(wildcard systemd/*.service)
-UNIT_SED     := -e 's@^ExecStart=/usr/local/sbin/\(sharedlinkd\|sharedlink-mqtt\|sharedlink-agility\) @ExecStart=$(SBINDIR)/\1 @' \
+UNIT_SED     := -e 's@^ExecStart=/usr/local/sbin/\(sharedlinkd\|sharedlink-mqtt\|sharedlink-agility\|sharedlink-ros2\) @ExecStart=$(SBINDIR)/\1 @' \
                 -e 's|^\(ExecStart=.* -c \)/etc/sharedlink/|\1$(SYSCONFDIR)/sharedlink/|'
 TMPFILES_SED := -e 's|^d /etc/sharedlink |d $(SYSCONFDIR)/sharedlink |'
 CONF_DEST    := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlinkd.yaml
 MQTT_CONF_DEST := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlink-mqtt.yaml
 AGILITY_CONF_DEST := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlink-agility.yaml
+ROS2_CONF_DEST    := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlink-ros2.yaml
 AGILITY_CSV_DEST  := $(DESTDIR)$(SYSCONFDIR)/sharedlink/agility-competitors.csv
 PC_STAMP     := $(O)/install-paths
 
@@ -468,6 +499,7 @@ install: all
 	$(if $(CLI_SRC),$(INSTALL) -m 0755 $(SLCTL) $(DESTDIR)$(BINDIR)/slctl)
 	$(if $(MQTT_MAIN),$(INSTALL) -m 0755 $(MQTT_BRIDGE) $(DESTDIR)$(SBINDIR)/sharedlink-mqtt)
 	$(if $(AGILITYD_MAIN),$(INSTALL) -m 0755 $(AGILITYD) $(DESTDIR)$(SBINDIR)/sharedlink-agility)
+	$(if $(ROS2_MAIN),$(INSTALL) -m 0755 $(ROS2_BRIDGE) $(DESTDIR)$(SBINDIR)/sharedlink-ros2)
 	$(INSTALL) -m 0755 $(LIBSL_SO) $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION)
 	ln -sf libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so
 	$(INSTALL) -m 0644 $(LIBSL_A) $(DESTDIR)$(LIBDIR)/libsharedlink.a
@@ -482,9 +514,10 @@ install: all
 	    sed $(UNIT_SED) $$u > $$d.tmp; \
 	    if ! grep -qF 'ExecStart=$(SBINDIR)/sharedlinkd ' $$d.tmp && \
 	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-mqtt ' $$d.tmp && \
-	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-agility ' $$d.tmp; then \
+	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-agility ' $$d.tmp && \
+	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-ros2 ' $$d.tmp; then \
 	        echo "make install: $$u: ExecStart= does not name /usr/local/sbin/sharedlinkd," \
-	             "sharedlink-mqtt or sharedlink-agility" >&2; \
+	             "sharedlink-mqtt, sharedlink-agility or sharedlink-ros2" >&2; \
 	        rm -f $$d.tmp; exit 1; \
 	    fi; \
 	    chmod 0644 $$d.tmp; mv -f $$d.tmp $$d; echo "$$d: $$(grep '^ExecStart=' $$d)"; \
@@ -509,7 +542,8 @@ install: all
 	@if [ -e $(MQTT_CONF_DEST) ]; then echo "$(MQTT_CONF_DEST): exists, kept"; \
 	else $(INSTALL) -m 0640 conf/sharedlink-mqtt.yaml $(MQTT_CONF_DEST) && \
 	    echo "$(MQTT_CONF_DEST): installed"; fi
-	@for f in sharedlink-agility.yaml:$(AGILITY_CONF_DEST) agility-competitors.csv:$(AGILITY_CSV_DEST); do \
+	@for f in sharedlink-agility.yaml:$(AGILITY_CONF_DEST) agility-competitors.csv:$(AGILITY_CSV_DEST) \
+	    sharedlink-ros2.yaml:$(ROS2_CONF_DEST); do \
 	    d=$${f#*:}; if [ -e $$d ]; then echo "$$d: exists, kept"; \
 	    else $(INSTALL) -m 0644 conf/$${f%%:*} $$d && echo "$$d: installed"; fi; done
 	@# A library installed straight into the system is found by the loader only after this.
@@ -520,6 +554,7 @@ install: all
 uninstall:
 	rm -f $(DESTDIR)$(SBINDIR)/sharedlinkd $(DESTDIR)$(BINDIR)/slctl \
 	    $(DESTDIR)$(SBINDIR)/sharedlink-mqtt $(DESTDIR)$(SBINDIR)/sharedlink-agility \
+	    $(DESTDIR)$(SBINDIR)/sharedlink-ros2 \
 	    $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so \
 	    $(DESTDIR)$(LIBDIR)/libsharedlink.a $(DESTDIR)$(PKGCONFIGDIR)/sharedlink.pc \
 	    $(DESTDIR)$(INCDIR)/sharedlink.h \
@@ -531,7 +566,8 @@ uninstall:
 	@if [ -n '$(PYTHONDIR)' ]; then d='$(DESTDIR)$(PYTHONDIR)/sharedlink'; \
 	    rm -f $(addprefix "$$d"/,$(notdir $(PY_SRC)) _paths.py); rm -rf "$$d/__pycache__"; \
 	    [ ! -d "$$d" ] || rmdir "$$d"; fi
-	@for f in sharedlink-agility.yaml:$(AGILITY_CONF_DEST) agility-competitors.csv:$(AGILITY_CSV_DEST); do \
+	@for f in sharedlink-agility.yaml:$(AGILITY_CONF_DEST) agility-competitors.csv:$(AGILITY_CSV_DEST) \
+	    sharedlink-ros2.yaml:$(ROS2_CONF_DEST); do \
 	    d=$${f#*:}; if cmp -s conf/$${f%%:*} $$d; then rm -f $$d; \
 	    elif [ -e $$d ]; then echo "$$d: changed since install, kept"; fi; done
 	@if cmp -s conf/sharedlink-mqtt.yaml $(MQTT_CONF_DEST); then rm -f $(MQTT_CONF_DEST); \
@@ -553,6 +589,21 @@ AGILITYD_TESTS := $(O)/tests/integration/test_agility $(patsubst tests/%.c,$(O)/
                   $(wildcard tests/unit/test_agilityd_*.c))
 $(AGILITYD_TESTS): EXTRA_LIBS := $(SQLITE_LIBS) $(MHD_LIBS)
 $(O)/tests/integration/test_agility: | $(AGILITYD)
+# test_ros2 is a DDS peer with its own copy of the types (tests/integration/ros2/*.idl through
+# idlc) and runs the bridge under test.
+ROS2_TEST_IDL   := $(wildcard tests/integration/ros2/*.idl)
+ROS2_TEST_GEN   := $(patsubst tests/integration/ros2/%.idl,$(O)/gen/tests/ros2/%.c,$(ROS2_TEST_IDL))
+ROS2_TEST_OBJ   := $(patsubst %.c,$(O)/obj/%.o,$(ROS2_TEST_GEN))
+$(O)/gen/tests/ros2/%.c $(O)/gen/tests/ros2/%.h: tests/integration/ros2/%.idl
+	@mkdir -p $(@D)
+	$(call quiet,IDLC)$(IDLC) -t -o $(@D) $<
+# The test reads serialized samples (dds/ddsi/ddsi_serdata.h), whose inline atomics spell the
+# GNU keyword asm, which -std=c11 does not have.
+$(O)/obj/tests/integration/test_ros2.o: CPPFLAGS += -I$(O)/gen/tests/ros2 -Dasm=__asm__
+$(O)/obj/tests/integration/test_ros2.o: | $(ROS2_TEST_GEN)
+$(O)/tests/integration/test_ros2: $(ROS2_TEST_OBJ)
+$(O)/tests/integration/test_ros2: EXTRA_LIBS := $(ROS2_TEST_OBJ) $(DDS_LIBS)
+$(O)/tests/integration/test_ros2: | $(ROS2_BRIDGE)
 
 $(O)/tests/%: $(O)/obj/tests/%.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)

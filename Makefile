@@ -199,7 +199,7 @@ EXAMPLE_SRC:= $(wildcard examples/*.c)
 PYHELP_SRC := $(wildcard tests/python/*.c)
 PY_SRC     := $(filter-out %/_paths.py,$(wildcard python/sharedlink/*.py))
 # Test peers (scripts, no build): each test_*.py prints cmocka's summary lines.
-PEER_TESTS := $(wildcard tests/peers/test_*.py)
+PEER_TESTS := $(wildcard tests/peers/test_*.py tests/ros2peer/test_*.py)
 
 obj = $(patsubst %.c,$(O)/obj/%.o,$(1))
 
@@ -553,6 +553,12 @@ AGILITYD_TESTS := $(O)/tests/integration/test_agility $(patsubst tests/%.c,$(O)/
                   $(wildcard tests/unit/test_agilityd_*.c))
 $(AGILITYD_TESTS): EXTRA_LIBS := $(SQLITE_LIBS) $(MHD_LIBS)
 $(O)/tests/integration/test_agility: | $(AGILITYD)
+
+# The ROS 2 type hashes (src/ros2/ros2_typehash.c) need nothing of DDS: their unit test links the
+# one object (tests/ros2peer/test_typehash.py recomputes the values themselves).
+ROS2_TYPEHASH_OBJ := $(call obj,src/ros2/ros2_typehash.c)
+$(O)/tests/unit/test_ros2_typehash: $(ROS2_TYPEHASH_OBJ)
+$(O)/tests/unit/test_ros2_typehash: EXTRA_LIBS := $(ROS2_TYPEHASH_OBJ)
 
 $(O)/tests/%: $(O)/obj/tests/%.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)

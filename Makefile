@@ -592,6 +592,13 @@ $(O)/obj/tests/ros2peer/peer_cyclone.o: $(ROS2PEER_GEN)/ros2peer_types.h
 $(O)/tests/ros2peer/peer_cyclone: $(O)/obj/tests/ros2peer/peer_cyclone.o \
                                   $(ROS2PEER_GEN)/ros2peer_types.o $(ROS2PEER_COMMON) $(A_SVC)
 	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $^ $(CYCLONE_LIBS)
+# bench_ros2 subscribes with the peers' copy of the types; without Cyclone it only says so.
+$(O)/obj/tests/bench/bench_ros2.o: TEST_CFLAGS += -I$(ROS2PEER_GEN) \
+                                   -DHAVE_CYCLONEDDS=$(if $(ROS2PEER_CYCLONE),1,0)
+$(O)/obj/tests/bench/bench_ros2.o: $(if $(ROS2PEER_CYCLONE),$(ROS2PEER_GEN)/ros2peer_types.h)
+$(O)/bench/bench_ros2: $(if $(ROS2PEER_CYCLONE),$(ROS2PEER_GEN)/ros2peer_types.o)
+$(O)/bench/bench_ros2: EXTRA_LIBS := $(if $(ROS2PEER_CYCLONE),$(ROS2PEER_GEN)/ros2peer_types.o \
+                                     $(CYCLONE_LIBS))
 $(O)/tests/ros2peer/peer_fastdds: tests/ros2peer/peer_fastdds.cpp tests/ros2peer/peer_common.h \
                                   $(ROS2PEER_COMMON) $(A_SVC)
 	@mkdir -p $(@D)

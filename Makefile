@@ -558,11 +558,13 @@ AGILITYD_TESTS := $(O)/tests/integration/test_agility $(patsubst tests/%.c,$(O)/
 $(AGILITYD_TESTS): EXTRA_LIBS := $(SQLITE_LIBS) $(MHD_LIBS)
 $(O)/tests/integration/test_agility: | $(AGILITYD)
 
-# The ROS 2 type hashes (src/ros2/ros2_typehash.c) need nothing of DDS: their unit test links the
-# one object (tests/ros2peer/test_typehash.py recomputes the values themselves).
-ROS2_TYPEHASH_OBJ := $(call obj,src/ros2/ros2_typehash.c)
-$(O)/tests/unit/test_ros2_typehash: $(ROS2_TYPEHASH_OBJ)
-$(O)/tests/unit/test_ros2_typehash: EXTRA_LIBS := $(ROS2_TYPEHASH_OBJ)
+# The ROS 2 type hashes (src/ros2/ros2_typehash.c) need nothing of DDS: their unit test links them
+# from an archive of their own, which adds nothing where another archive has them already
+# (tests/ros2peer/test_typehash.py recomputes the values themselves).
+ROS2_TYPEHASH_A := $(O)/internal/libros2typehash.a
+$(ROS2_TYPEHASH_A): $(call obj,src/ros2/ros2_typehash.c)
+$(O)/tests/unit/test_ros2_typehash: $(ROS2_TYPEHASH_A)
+$(O)/tests/unit/test_ros2_typehash: EXTRA_LIBS := $(ROS2_TYPEHASH_A)
 
 # The ROS 2 test peers (tests/ros2peer/README.md): peer_cyclone (C, Cyclone DDS, types compiled by
 # idlc from their own IDL) and peer_fastdds (C++, Fast DDS 2.9 and Fast CDR, which ship no .pc:
@@ -570,7 +572,7 @@ $(O)/tests/unit/test_ros2_typehash: EXTRA_LIBS := $(ROS2_TYPEHASH_OBJ)
 # optimised into build/tests/ros2peer/ and runs their self-test when both are there.
 ROS2PEER_CYCLONE := $(if $(shell pkg-config --exists CycloneDDS 2>/dev/null && \
                       command -v idlc >/dev/null && echo y),build/tests/ros2peer/peer_cyclone)
-ROS2PEER_FASTDDS := $(if $(shell printf '\#if !__has_include(<fastdds/dds/domain/DomainParticipant.hpp>)\n\#error\n\#endif\n' | \
+ROS2PEER_FASTDDS := $(if $(shell printf '\043if !__has_include(<fastdds/dds/domain/DomainParticipant.hpp>)\n\043error\n\043endif\n' | \
                       $(CXX) -x c++ -fsyntax-only - 2>/dev/null && echo y),build/tests/ros2peer/peer_fastdds)
 ROS2PEER_BINS    := $(ROS2PEER_CYCLONE) $(ROS2PEER_FASTDDS)
 PEER_TESTS       += $(if $(and $(ROS2PEER_CYCLONE),$(ROS2PEER_FASTDDS)),tests/ros2peer/test_peers.py)

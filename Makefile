@@ -82,10 +82,12 @@ endif
 # mosquitto: the MQTT bridge's tests start a broker of their own (and mosquitto_passwd); openssl
 # makes their throwaway TLS certificates. sqlite3 and libmicrohttpd: sharedlink-agility's results
 # database and scoreboard; chromium: test_agility renders that scoreboard in a headless browser.
-# cyclonedds-dev and cyclonedds-tools (idlc): sharedlink-ros2 and its tests' DDS peer.
 DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev python3 \
                   libmosquitto-dev mosquitto mosquitto-clients openssl libsqlite3-dev \
-                  libmicrohttpd-dev chromium cyclonedds-dev cyclonedds-tools
+                  libmicrohttpd-dev chromium
+# cyclonedds-dev and -tools (idlc): sharedlink-ros2 and the ROS 2 test peers; libfastrtps-dev,
+# libfastcdr-dev and g++: the Fast DDS test peer (tests/ros2peer/, built only where present).
+DEB_PKGS       += cyclonedds-dev cyclonedds-tools libfastrtps-dev libfastcdr-dev g++
 DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
 
 # ---------------------------------------------------------------------------------------------
@@ -209,7 +211,7 @@ EXAMPLE_SRC:= $(wildcard examples/*.c)
 PYHELP_SRC := $(wildcard tests/python/*.c)
 PY_SRC     := $(filter-out %/_paths.py,$(wildcard python/sharedlink/*.py))
 # Test peers (scripts, no build): each test_*.py prints cmocka's summary lines.
-PEER_TESTS := $(wildcard tests/peers/test_*.py)
+PEER_TESTS := $(wildcard tests/peers/test_*.py tests/ros2peer/test_typehash.py)
 
 obj = $(patsubst %.c,$(O)/obj/%.o,$(1))
 
@@ -281,6 +283,7 @@ check:
 	$(if $(STRESS_SRC),$(MAKE) --no-print-directory SAN=tsan test-build-tsan)
 	$(MAKE) --no-print-directory SAN= build/libsharedlink.so.$(SOVERSION) build/libsharedlink.a
 	$(if $(BENCH_SRC),$(MAKE) --no-print-directory SAN= bench-build)
+	$(if $(ROS2PEER_BINS),$(MAKE) --no-print-directory SAN= $(ROS2PEER_BINS))
 	@TEST_TIMEOUT=$(TEST_TIMEOUT) SHAREDLINK_BUILD=build/asan PYTHON=$(PYTHON) \
 	    SHAREDLINK_LIB=$(CURDIR)/build/libsharedlink.so.$(SOVERSION) \
 	    SHAREDLINK_LAYOUT=$(CURDIR)/build/asan/tests/python/layout tests/run-tests.sh \
@@ -604,6 +607,55 @@ $(O)/obj/tests/integration/test_ros2.o: | $(ROS2_TEST_GEN)
 $(O)/tests/integration/test_ros2: $(ROS2_TEST_OBJ)
 $(O)/tests/integration/test_ros2: EXTRA_LIBS := $(ROS2_TEST_OBJ) $(DDS_LIBS)
 $(O)/tests/integration/test_ros2: | $(ROS2_BRIDGE)
+
+# The ROS 2 type hashes (src/ros2/ros2_typehash.c) need nothing of DDS: their unit test links them
+# from an archive of their own, which adds nothing where another archive has them already
+# (tests/ros2peer/test_typehash.py recomputes the values themselves).
+ROS2_TYPEHASH_A := $(O)/internal/libros2typehash.a
+$(ROS2_TYPEHASH_A): $(call obj,src/ros2/ros2_typehash.c)
+$(O)/tests/unit/test_ros2_typehash: $(ROS2_TYPEHASH_A)
+$(O)/tests/unit/test_ros2_typehash: EXTRA_LIBS := $(ROS2_TYPEHASH_A)
+
+# The ROS 2 test peers (tests/ros2peer/README.md): peer_cyclone (C, Cyclone DDS, types compiled by
+# idlc from their own IDL) and peer_fastdds (C++, Fast DDS 2.9 and Fast CDR, which ship no .pc:
+# found by their header), each built only where its library is; `make check` builds them
+# optimised into build/tests/ros2peer/ and runs their self-test when both are there.
+ROS2PEER_CYCLONE := $(if $(shell pkg-config --exists CycloneDDS 2>/dev/null && \
+                      command -v idlc >/dev/null && echo y),build/tests/ros2peer/peer_cyclone)
+ROS2PEER_FASTDDS := $(if $(shell printf '\043if !__has_include(<fastdds/dds/domain/DomainParticipant.hpp>)\n\043error\n\043endif\n' | \
+                      $(CXX) -x c++ -fsyntax-only - 2>/dev/null && echo y),build/tests/ros2peer/peer_fastdds)
+ROS2PEER_BINS    := $(ROS2PEER_CYCLONE) $(ROS2PEER_FASTDDS)
+PEER_TESTS       += $(if $(and $(ROS2PEER_CYCLONE),$(ROS2PEER_FASTDDS)),tests/ros2peer/test_peers.py)
+ROS2PEER_GEN     := $(O)/gen/ros2peer
+ROS2PEER_COMMON  := $(call obj,tests/ros2peer/peer_common.c src/ros2/ros2_typehash.c)
+CYCLONE_LIBS     := $(shell pkg-config --libs CycloneDDS 2>/dev/null)
+FASTDDS_LIBS     := -lfastrtps -lfastcdr
+
+$(ROS2PEER_GEN)/ros2peer_types.c: tests/ros2peer/ros2peer_types.idl
+	@mkdir -p $(@D)
+	$(call quiet,IDLC)idlc -t -o $(@D) $<
+$(ROS2PEER_GEN)/ros2peer_types.h: $(ROS2PEER_GEN)/ros2peer_types.c
+$(ROS2PEER_GEN)/ros2peer_types.o: $(ROS2PEER_GEN)/ros2peer_types.c
+	$(call quiet,CC)$(CC) -std=gnu11 $(OPT) $(SANFLAGS) -fPIC -c -o $@ $<
+# Cyclone's serdata headers use GNU C (asm), hence gnu11 for the one file that includes them
+# (TEST_CFLAGS comes last on the compile line).
+$(O)/obj/tests/ros2peer/peer_cyclone.o: TEST_CFLAGS += -std=gnu11 -I$(ROS2PEER_GEN)
+$(O)/obj/tests/ros2peer/peer_cyclone.o: $(ROS2PEER_GEN)/ros2peer_types.h
+$(O)/tests/ros2peer/peer_cyclone: $(O)/obj/tests/ros2peer/peer_cyclone.o \
+                                  $(ROS2PEER_GEN)/ros2peer_types.o $(ROS2PEER_COMMON) $(A_SVC)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $^ $(CYCLONE_LIBS)
+# bench_ros2 subscribes with the peers' copy of the types; without Cyclone it only says so.
+$(O)/obj/tests/bench/bench_ros2.o: TEST_CFLAGS += -I$(ROS2PEER_GEN) \
+                                   -DHAVE_CYCLONEDDS=$(if $(ROS2PEER_CYCLONE),1,0)
+$(O)/obj/tests/bench/bench_ros2.o: $(if $(ROS2PEER_CYCLONE),$(ROS2PEER_GEN)/ros2peer_types.h)
+$(O)/bench/bench_ros2: $(if $(ROS2PEER_CYCLONE),$(ROS2PEER_GEN)/ros2peer_types.o)
+$(O)/bench/bench_ros2: EXTRA_LIBS := $(if $(ROS2PEER_CYCLONE),$(ROS2PEER_GEN)/ros2peer_types.o \
+                                     $(CYCLONE_LIBS))
+$(O)/tests/ros2peer/peer_fastdds: tests/ros2peer/peer_fastdds.cpp tests/ros2peer/peer_common.h \
+                                  $(ROS2PEER_COMMON) $(A_SVC)
+	@mkdir -p $(@D)
+	$(call quiet,CXX)$(CXX) -std=c++17 $(OPT) -Wall -Wextra -Wshadow $(if $(filter 1,$(WERROR)),-Werror) \
+	    $(HARDEN) $(SANFLAGS) -fPIE -Isrc -o $@ $< $(ROS2PEER_COMMON) $(A_SVC) $(LDFLAGS_EXE) $(FASTDDS_LIBS)
 
 $(O)/tests/%: $(O)/obj/tests/%.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)

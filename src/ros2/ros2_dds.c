@@ -4,9 +4,9 @@
 #include "ros2/ros2_dds.h"
 
 #include <stdbool.h>
-#include <stdio.h>
 #include <string.h>
 
+#include "ros2/ros2_typehash.h"
 #include "ros2_msgs.h"                  /* idlc's output, in the build tree */
 
 #define MS                      DDS_MSECS(1)
@@ -14,23 +14,16 @@
 struct type_row {
         const dds_topic_descriptor_t *desc;
         const char *ros;
-        /* The type's RIHS01 hash (docs/ros2.md §2).
-         * PLACEHOLDER until the hashes from the ROS type descriptions land: all zeros. */
-        const char *hash;
 };
 
-#define ZERO_HASH "RIHS01_0000000000000000000000000000000000000000000000000000000000000000"
-
 static const struct type_row types[ROS2_TYPE_COUNT] = {
-        [ROS2_TYPE_INT64] = { &std_msgs_msg_dds__Int64__desc, "std_msgs/msg/Int64", ZERO_HASH },
-        [ROS2_TYPE_FLOAT64] = { &std_msgs_msg_dds__Float64__desc, "std_msgs/msg/Float64",
-                                ZERO_HASH },
-        [ROS2_TYPE_STRING] = { &std_msgs_msg_dds__String__desc, "std_msgs/msg/String",
-                               ZERO_HASH },
+        [ROS2_TYPE_INT64] = { &std_msgs_msg_dds__Int64__desc, "std_msgs/msg/Int64" },
+        [ROS2_TYPE_FLOAT64] = { &std_msgs_msg_dds__Float64__desc, "std_msgs/msg/Float64" },
+        [ROS2_TYPE_STRING] = { &std_msgs_msg_dds__String__desc, "std_msgs/msg/String" },
         [ROS2_TYPE_DIAGNOSTICS] = { &diagnostic_msgs_msg_dds__DiagnosticArray__desc,
-                                    "diagnostic_msgs/msg/DiagnosticArray", ZERO_HASH },
+                                    "diagnostic_msgs/msg/DiagnosticArray" },
         [ROS2_TYPE_NAVSATFIX] = { &sensor_msgs_msg_dds__NavSatFix__desc,
-                                  "sensor_msgs/msg/NavSatFix", ZERO_HASH },
+                                  "sensor_msgs/msg/NavSatFix" },
 };
 
 const char *ros2_dds_ros_type(enum ros2_type t)
@@ -117,25 +110,23 @@ dds_entity_t ros2_dds_endpoint(dds_entity_t pp, enum ros2_type t, const char *na
                                enum ros2_qos q, const dds_listener_t *l,
                                dds_entity_t *ret_topic)
 {
-        char ud[ROS2_TYPEHASH_SIZE];
-        dds_qos_t *qos = dds_create_qos();
+        /* The type's RIHS01 hash as Iron and later nodes announce it (ros2_typehash.h). */
+        const char *ud = ros2_typehash_user_data(types[t].desc->m_typename);
+        dds_qos_t *qos;
         dds_entity_t topic, ep;
-        int n;
 
+        if (!ud)
+                return DDS_RETCODE_BAD_PARAMETER;
+        qos = dds_create_qos();
         if (!qos)
                 return DDS_RETCODE_OUT_OF_RESOURCES;
-        n = snprintf(ud, sizeof(ud), "typehash=%s;", types[t].hash);
-        if (n < 0 || (size_t)n >= sizeof(ud)) {
-                dds_delete_qos(qos);
-                return DDS_RETCODE_BAD_PARAMETER;
-        }
         topic = dds_create_topic(pp, types[t].desc, name, NULL, NULL);
         if (topic < 0) {
                 dds_delete_qos(qos);
                 return topic;
         }
         qos_fill(qos, q);
-        dds_qset_userdata(qos, ud, (size_t)n);
+        dds_qset_userdata(qos, ud, strlen(ud));
         if (q == ROS2_QOS_SET)
                 ep = dds_create_reader(pp, topic, qos, l);
         else

@@ -33,7 +33,6 @@ enum ros2_qos {
 #define ROS2_STATUS_DEPTH       16      /* /diagnostics and set_errors samples kept per writer */
 #define ROS2_SET_SAMPLES_MAX    256     /* writes held by a set reader before back-pressure */
 #define ROS2_ENCLAVE_USERDATA   "enclave=/;"
-#define ROS2_TYPEHASH_SIZE      (sizeof("typehash=RIHS01_;") + 64)      /* + 64 hex digits */
 
 /* The ROS name of a type ("std_msgs/msg/Int64") and its DDS name
  * ("std_msgs::msg::dds_::Int64_"). */

@@ -49,6 +49,7 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "ros2/ros2_typehash.h"
 #include "ros2_test_msgs.h"
 
 #define T_START_MS      15000   /* READY=1 (ASan build) */
@@ -490,7 +491,8 @@ static bool pp_is(const void *s, void *arg)
         return true;
 }
 
-static void check_value_pub(const char *rel, const char *type)
+/* The hash values are the published ones (ros2_typehash.h, held to them by test_typehash.py). */
+static void check_value_pub(const char *rel, const char *type, const char *user_data)
 {
         char topic[TOPIC_MAX];
         struct found_pub fp;
@@ -502,11 +504,7 @@ static void check_value_pub(const char *rel, const char *type)
         assert_int_equal(fp.dur, DDS_DURABILITY_TRANSIENT_LOCAL);
         assert_int_equal(fp.hist, DDS_HISTORY_KEEP_LAST);
         assert_int_equal(fp.depth, 1);
-        /* "typehash=RIHS01_" + 64 lower-case hex digits + ";" */
-        assert_int_equal(strlen(fp.userdata), strlen("typehash=RIHS01_;") + 64);
-        assert_memory_equal(fp.userdata, "typehash=RIHS01_", 16);
-        assert_int_equal(strspn(fp.userdata + 16, "0123456789abcdef"), 64);
-        assert_int_equal(fp.userdata[16 + 64], ';');
+        assert_string_equal(fp.userdata, user_data);
 }
 
 static void test_discovery(void **state)
@@ -517,12 +515,17 @@ static void test_discovery(void **state)
         struct found_pp pp;
 
         (void)state;
-        check_value_pub("a/Lat", "std_msgs::msg::dds_::Float64_");
-        check_value_pub("b/Count", "std_msgs::msg::dds_::Int64_");
-        check_value_pub("a/Name", "std_msgs::msg::dds_::String_");
-        check_value_pub("gps/fix", "sensor_msgs::msg::dds_::NavSatFix_");
+        check_value_pub("a/Lat", "std_msgs::msg::dds_::Float64_",
+                        ROS2_TYPEHASH_USER_DATA(ROS2_TYPEHASH_FLOAT64));
+        check_value_pub("b/Count", "std_msgs::msg::dds_::Int64_",
+                        ROS2_TYPEHASH_USER_DATA(ROS2_TYPEHASH_INT64));
+        check_value_pub("a/Name", "std_msgs::msg::dds_::String_",
+                        ROS2_TYPEHASH_USER_DATA(ROS2_TYPEHASH_STRING));
+        check_value_pub("gps/fix", "sensor_msgs::msg::dds_::NavSatFix_",
+                        ROS2_TYPEHASH_USER_DATA(ROS2_TYPEHASH_NAVSATFIX));
         find_pub("rt/diagnostics", &fp);
         assert_string_equal(fp.type, "diagnostic_msgs::msg::dds_::DiagnosticArray_");
+        assert_string_equal(fp.userdata, ROS2_TYPEHASH_USER_DATA(ROS2_TYPEHASH_DIAGNOSTIC_ARRAY));
         topic_of(topic, sizeof(topic), "events");
         find_pub(topic, &fp);
         assert_string_equal(fp.type, "std_msgs::msg::dds_::String_");
@@ -1105,6 +1108,74 @@ static void test_vanished_reader(void **state)
         dds_delete(rd);
 }
 
+/* ---- Fast DDS (the library of rmw_fastrtps_cpp) ------------------------------------------ */
+
+#define FASTDDS_PEER    "build/tests/ros2peer/peer_fastdds"     /* tests/ros2peer/README.md */
+#define FASTDDS_XML     "tests/ros2peer/fastdds.xml"            /* loopback unicast only */
+#define PEER_OUT_MAX    4096
+
+/* Runs the Fast DDS peer with args (then --domain and --config); its exit status, stdout in out. */
+static int fastdds(char *out, const char *const *args)
+{
+        char domain[16], err[PEER_OUT_MAX];
+        const char *argv[24];
+        size_t n = 0;
+
+        if (access(FASTDDS_PEER, X_OK) != 0 || access(FASTDDS_XML, R_OK) != 0) {
+                print_message("%s not built (no Fast DDS): skipped\n", FASTDDS_PEER);
+                skip();
+        }
+        snprintf(domain, sizeof(domain), "%u", F->domain);
+        argv[n++] = FASTDDS_PEER;
+        for (; *args && n < 18; args++)
+                argv[n++] = *args;
+        argv[n++] = "--domain";
+        argv[n++] = domain;
+        argv[n++] = "--config";
+        argv[n++] = FASTDDS_XML;
+        argv[n++] = "--timeout-ms";
+        argv[n++] = "15000";
+        argv[n] = NULL;
+        return harness_run_capture(&F->h, out, PEER_OUT_MAX, err, sizeof(err), 2 * T_WAIT_MS,
+                                   argv);
+}
+
+/* A Fast DDS late joiner gets the value with the bridge's type name, QoS, hash and CDR. */
+static void test_fastdds_reader(void **state)
+{
+        char topic[TOPIC_MAX], out[PEER_OUT_MAX];
+        const char *args[] = { "sub", topic, "Float64", "--durability", "transient_local",
+                               "--count", "1", NULL };
+
+        (void)state;
+        topic_of(topic, sizeof(topic), "b/Lat");
+        sl_set("a.Lat", "1.5");
+        wait_var("b.Lat", "1.5");
+        assert_int_equal(fastdds(out, args), 0);
+        if (!strstr(out, "type=std_msgs::msg::dds_::Float64_ reliability=reliable "
+                         "durability=transient_local user_data="
+                         ROS2_TYPEHASH_USER_DATA(ROS2_TYPEHASH_FLOAT64)) ||
+            !strstr(out, "cdr=00010000000000000000f83f value=1.5"))
+                fail_msg("Fast DDS saw: %s", out);
+}
+
+/* A Fast DDS writer's Int64 and String reach the wire. */
+static void test_fastdds_writer(void **state)
+{
+        char topic[TOPIC_MAX], topic2[TOPIC_MAX], out[PEER_OUT_MAX];
+        const char *args[] = { "pub", topic, "Int64", "4242", "--durability", "volatile", NULL };
+        const char *args2[] = { "pub", topic2, "String", "fastdds", "--durability", "volatile",
+                                NULL };
+
+        (void)state;
+        topic_of(topic, sizeof(topic), "set/a/Count");
+        topic_of(topic2, sizeof(topic2), "set/a/Name");
+        assert_int_equal(fastdds(out, args), 0);
+        wait_var("b.Count", "4242");
+        assert_int_equal(fastdds(out, args2), 0);
+        wait_var("b.Name", "fastdds");
+}
+
 /* The daemon stops: /diagnostics says STALE; it starts again: values flow again. */
 static void test_daemon_restart(void **state)
 {
@@ -1203,6 +1274,8 @@ int main(int argc, char **argv)
                 cmocka_unit_test(test_navsatfix),
                 cmocka_unit_test(test_vanished_reader),
                 cmocka_unit_test(test_check),
+                cmocka_unit_test(test_fastdds_reader),
+                cmocka_unit_test(test_fastdds_writer),
                 cmocka_unit_test(test_daemon_restart),
                 cmocka_unit_test(test_bad_domain),
         };

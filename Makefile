@@ -626,6 +626,8 @@ ROS2PEER_FASTDDS := $(if $(shell printf '\043if !__has_include(<fastdds/dds/doma
                       $(CXX) -x c++ -fsyntax-only - 2>/dev/null && echo y),build/tests/ros2peer/peer_fastdds)
 ROS2PEER_BINS    := $(ROS2PEER_CYCLONE) $(ROS2PEER_FASTDDS)
 PEER_TESTS       += $(if $(and $(ROS2PEER_CYCLONE),$(ROS2PEER_FASTDDS)),tests/ros2peer/test_peers.py)
+# make demo's ROS 2 step speaks to sharedlink-ros2 through the Cyclone peer.
+demo: $(ROS2PEER_CYCLONE)
 ROS2PEER_GEN     := $(O)/gen/ros2peer
 ROS2PEER_COMMON  := $(call obj,tests/ros2peer/peer_common.c src/ros2/ros2_typehash.c)
 CYCLONE_LIBS     := $(shell pkg-config --libs CycloneDDS 2>/dev/null)

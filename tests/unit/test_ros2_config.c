@@ -117,12 +117,30 @@ static void test_errors(void **state)
         }
 }
 
+/* The commented reference that make install puts in /etc parses, and says what an empty file
+ * says. */
+static void test_example(void **state)
+{
+        struct ros2_config c, d;
+        char err[ROS2_ERROR_MAX];
+
+        (void)state;
+        if (ros2_config_load("conf/sharedlink-ros2.yaml", &c, err, sizeof(err)) < 0)
+                fail_msg("%s", err);
+        ros2_config_defaults(&d);
+        assert_int_equal(c.publish.count, d.publish.count);
+        assert_int_equal(c.writable.count, 0);
+        assert_false(c.domain_set);
+        assert_int_equal(c.n_navsatfix, 0);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
                 cmocka_unit_test(test_defaults_and_keys),
                 cmocka_unit_test(test_domain_env),
                 cmocka_unit_test(test_errors),
+                cmocka_unit_test(test_example),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

@@ -182,35 +182,18 @@ void bridge_config_defaults(struct bridge_config *ret)
 int bridge_config_parse(const char *name, const char *text, size_t len, struct bridge_config *ret,
                         char *err, size_t err_size)
 {
-        struct conf *c = malloc(sizeof(*c));
         struct bridge_config *cfg = malloc(sizeof(*cfg));
-        const struct conf_node *root;
-        uint32_t root_index = CONF_NONE;
         int r;
 
-        if (err_size)
-                err[0] = '\0';
-        if (!c || !cfg) {
+        if (!cfg) {
                 snprintf(err, err_size, "%s: out of memory", name);
-                free(c);
-                free(cfg);
                 return -ENOMEM;
         }
         bridge_config_defaults(cfg);
-        r = conf_init(c, name, text, len, BRIDGE_FILE_MAX);
-        if (r == 0)
-                r = conf_tree_build(c, &root_index);
-        root = r == 0 ? conf_child(c, root_index) : NULL;
-        /* An empty file, or one that is only "~": every default. */
-        if (root && !conf_is_null(root))
-                r = conf_table_read(c, root, "configuration", "at top level", root_keys,
-                                    sizeof(root_keys) / sizeof(root_keys[0]), cfg);
+        r = conf_read_text(name, text, len, BRIDGE_FILE_MAX, root_keys,
+                           sizeof(root_keys) / sizeof(root_keys[0]), cfg, err, err_size);
         if (r == 0)
                 *ret = *cfg;
-        else
-                snprintf(err, err_size, "%s", c->err.message);
-        conf_free(c);
-        free(c);
         free(cfg);
         return r;
 }
@@ -243,18 +226,20 @@ static int load_password(struct bridge_config *cfg, const char *path, char *err,
 
 int bridge_config_load(const char *path, struct bridge_config *ret, char *err, size_t err_size)
 {
-        char *text;
-        size_t len;
-        int r = io_read_file(path, BRIDGE_FILE_MAX, &text, &len);
+        struct bridge_config *cfg = malloc(sizeof(*cfg));
+        int r;
 
-        if (r < 0) {
-                snprintf(err, err_size, "%s: %s", path,
-                         r == -EFBIG ? "file too large" : strerror(-r));
-                return r;
+        if (!cfg) {
+                snprintf(err, err_size, "%s: out of memory", path);
+                return -ENOMEM;
         }
-        r = bridge_config_parse(path, text, len, ret, err, err_size);
-        free(text);
-        if (r == 0 && ret->password_file[0])
-                r = load_password(ret, path, err, err_size);
+        bridge_config_defaults(cfg);
+        r = conf_read_file(path, BRIDGE_FILE_MAX, root_keys,
+                           sizeof(root_keys) / sizeof(root_keys[0]), cfg, err, err_size);
+        if (r == 0 && cfg->password_file[0])
+                r = load_password(cfg, path, err, err_size);
+        if (r == 0)
+                *ret = *cfg;
+        free(cfg);
         return r;
 }

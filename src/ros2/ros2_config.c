@@ -12,7 +12,6 @@
 #include <string.h>
 
 #include "svc/conf.h"
-#include "svc/io.h"
 
 #define INSTANCE_ENV            "SHAREDLINK_INSTANCE"
 #define INSTANCE_DEFAULT        "default"
@@ -171,6 +170,7 @@ static const struct conf_key root_keys[] = {
         CONF_KEY_STRING("cyclonedds_uri", CFG, cyclonedds_uri),
         CONF_KEY_CUSTOM("navsatfix", parse_navsatfix),
 };
+#define N_ROOT_KEYS             (sizeof(root_keys) / sizeof(root_keys[0]))
 
 void ros2_config_defaults(struct ros2_config *ret)
 {
@@ -182,52 +182,26 @@ void ros2_config_defaults(struct ros2_config *ret)
 int ros2_config_parse(const char *name, const char *text, size_t len, struct ros2_config *ret,
                       char *err, size_t err_size)
 {
-        struct conf *c = malloc(sizeof(*c));
-        struct ros2_config *cfg = malloc(sizeof(*cfg));
-        const struct conf_node *root;
-        uint32_t root_index = CONF_NONE;
+        struct ros2_config cfg;
         int r;
 
-        if (err_size)
-                err[0] = '\0';
-        if (!c || !cfg) {
-                snprintf(err, err_size, "%s: out of memory", name);
-                free(c);
-                free(cfg);
-                return -ENOMEM;
-        }
-        ros2_config_defaults(cfg);
-        r = conf_init(c, name, text, len, ROS2_FILE_MAX);
+        ros2_config_defaults(&cfg);
+        r = conf_read_text(name, text, len, ROS2_FILE_MAX, root_keys, N_ROOT_KEYS, &cfg, err,
+                           err_size);
         if (r == 0)
-                r = conf_tree_build(c, &root_index);
-        root = r == 0 ? conf_child(c, root_index) : NULL;
-        /* An empty file, or one that is only "~": every default. */
-        if (root && !conf_is_null(root))
-                r = conf_table_read(c, root, "configuration", "at top level", root_keys,
-                                    sizeof(root_keys) / sizeof(root_keys[0]), cfg);
-        if (r == 0)
-                *ret = *cfg;
-        else
-                snprintf(err, err_size, "%s", c->err.message);
-        conf_free(c);
-        free(c);
-        free(cfg);
+                *ret = cfg;
         return r;
 }
 
 int ros2_config_load(const char *path, struct ros2_config *ret, char *err, size_t err_size)
 {
-        char *text;
-        size_t len;
-        int r = io_read_file(path, ROS2_FILE_MAX, &text, &len);
+        struct ros2_config cfg;
+        int r;
 
-        if (r < 0) {
-                snprintf(err, err_size, "%s: %s", path,
-                         r == -EFBIG ? "file too large" : strerror(-r));
-                return r;
-        }
-        r = ros2_config_parse(path, text, len, ret, err, err_size);
-        free(text);
+        ros2_config_defaults(&cfg);
+        r = conf_read_file(path, ROS2_FILE_MAX, root_keys, N_ROOT_KEYS, &cfg, err, err_size);
+        if (r == 0)
+                *ret = cfg;
         return r;
 }
 

@@ -384,37 +384,6 @@ static void sl_set(const char *name, const char *value)
         assert_int_equal(sl_write(F->cl, id, value), 0);
 }
 
-/* Waits (bounded, on the tables' change futex) until variable name reads value. */
-static void wait_var(const char *name, const char *value)
-{
-        uint64_t deadline = harness_now_ns() + (uint64_t)T_WAIT_MS * 1000000u;
-        uint32_t cursor = 0;
-        char buf[SL_VALUE_SIZE];
-
-        for (;;) {
-                int id = sl_find(F->cl, name);
-
-                if (id >= 0 && sl_read(F->cl, id, buf, sizeof(buf), NULL) >= 0 &&
-                    !strcmp(buf, value))
-                        return;
-                if (harness_now_ns() >= deadline)
-                        fail_msg("%s never read \"%s\" (last \"%s\")", name, value, buf);
-                sl_wait(F->cl, &cursor, 200);
-        }
-}
-
-/* The value of an outbound a.X reached the peer as b.X: the bridge has seen it long before. */
-static void wait_published(const char *var)
-{
-        char peer[SL_NAME_SIZE], value[SL_VALUE_SIZE];
-        int id = sl_find(F->cl, var);
-
-        assert_true(id >= 0);
-        assert_true(sl_read(F->cl, id, value, sizeof(value), NULL) >= 0);
-        snprintf(peer, sizeof(peer), "b%s", var + 1);
-        wait_var(peer, value);
-}
-
 /* Whether variable name reads value within ms (bounded; on the tables' change futex). */
 static bool var_becomes(const char *name, const char *value, int ms)
 {
@@ -434,6 +403,20 @@ static bool var_becomes(const char *name, const char *value, int ms)
         }
 }
 
+/* Waits (bounded) until variable name reads value. */
+static void wait_var(const char *name, const char *value)
+{
+        char buf[SL_VALUE_SIZE] = "";
+        int id;
+
+        if (var_becomes(name, value, T_WAIT_MS))
+                return;
+        id = sl_find(F->cl, name);
+        if (id >= 0)
+                sl_read(F->cl, id, buf, sizeof(buf), NULL);
+        fail_msg("%s never read \"%s\" (last \"%s\")", name, value, buf);
+}
+
 /* Writes sample with w until variable var reads value: the first write after a match can be
  * lost (docs/ros2.md §4); after one arrived, w and the bridge's reader know each other. */
 static void write_until(dds_entity_t w, const void *sample, const char *var, const char *value)
@@ -444,6 +427,18 @@ static void write_until(dds_entity_t w, const void *sample, const char *var, con
                 if (var_becomes(var, value, RETRY_MS))
                         return;
         }
+}
+
+/* The value of an outbound a.X reached the peer as b.X: the bridge has seen it long before. */
+static void wait_published(const char *var)
+{
+        char peer[SL_NAME_SIZE], value[SL_VALUE_SIZE];
+        int id = sl_find(F->cl, var);
+
+        assert_true(id >= 0);
+        assert_true(sl_read(F->cl, id, value, sizeof(value), NULL) >= 0);
+        snprintf(peer, sizeof(peer), "b%s", var + 1);
+        wait_var(peer, value);
 }
 
 static void read_var(const char *name, char *buf)

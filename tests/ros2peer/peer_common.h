@@ -48,7 +48,7 @@ struct peer_args {
         int timeout_ms;                 /* bound on each wait */
         int domain;
         const char *config;             /* the network configuration file */
-        bool wait_stdin;                /* pub: write only after a line on stdin */
+        bool wait_stdin;                /* pub: write once per line on stdin */
         bool hold;                      /* pub: keep the writer until stdin ends */
 };
 
@@ -119,7 +119,7 @@ void peer_print_line(const char *fmt, ...) __attribute__((format(printf, 1, 2)))
 int64_t peer_now_ms(void);
 int64_t peer_left_ms(int64_t start_ms, int timeout_ms);
 
-/* Reads one line from stdin (the --wait-stdin go-ahead); 0, or -EIO at end of input. */
+/* Reads one line from stdin (a --wait-stdin go-ahead); 0, or -EIO at end of input. */
 int peer_wait_stdin(void);
 
 /* Reads stdin to its end (--hold: the writer stays, for late joiners, until the caller lets go). */

@@ -416,20 +416,30 @@ static int run_pub(const struct peer_args *a, dds_entity_t pp, dds_entity_t topi
                 peer_print_line("ready pub topic=%s type=%s", a->topic, desc->m_typename);
                 r = wait_matched(a, pp, writer, start);
         }
-        if (r == 0 && a->wait_stdin)
-                r = peer_wait_stdin();
         if (r == 0)
                 r = to_sample(&v, sample);
-        if (r == 0 && dds_write(writer, sample) < 0)
-                r = -EIO;
-        if (r == 0) {
+        /* Once, or (--wait-stdin) once for each line on stdin until its end. */
+        for (int n = 0; r == 0; n++) {
+                if (a->wait_stdin && peer_wait_stdin() < 0) {
+                        if (n == 0) {
+                                fprintf(stderr, "peer_cyclone: end of input, nothing written\n");
+                                r = -ENODATA;
+                        }
+                        break;
+                }
+                if (dds_write(writer, sample) < 0) {
+                        r = -EIO;
+                        break;
+                }
                 printf("wrote topic=%s type=%s value=", a->topic, desc->m_typename);
                 peer_value_print(stdout, &v);
                 peer_print_line("%s", "");
-                if (dds_wait_for_acks(writer, DDS_MSECS(peer_left_ms(start, a->timeout_ms))) < 0) {
-                        fprintf(stderr, "peer_cyclone: timeout waiting for acknowledgements\n");
-                        r = -ETIMEDOUT;
-                }
+                if (!a->wait_stdin)
+                        break;
+        }
+        if (r == 0 && dds_wait_for_acks(writer, DDS_MSECS(a->timeout_ms)) < 0) {
+                fprintf(stderr, "peer_cyclone: timeout waiting for acknowledgements\n");
+                r = -ETIMEDOUT;
         }
         if (r == 0) {
                 peer_print_line("acked");

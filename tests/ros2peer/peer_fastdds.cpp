@@ -607,20 +607,28 @@ int run_pub(const struct peer_args &a, State &s, fdds::DomainParticipant *p, fdd
                 }
                 peer_print_line("matched readers=%d", s.readers);
         }
-        if (a.wait_stdin && peer_wait_stdin() < 0)
-                goto out;
-        if (!w->write(&sample)) {
-                fprintf(stderr, "peer_fastdds: write failed\n");
-                goto out;
+        // Once, or (--wait-stdin) once for each line on stdin until its end.
+        for (int n = 0;; n++) {
+                if (a.wait_stdin && peer_wait_stdin() < 0) {
+                        if (n == 0) {
+                                fprintf(stderr, "peer_fastdds: end of input, nothing written\n");
+                                goto out;
+                        }
+                        break;
+                }
+                if (!w->write(&sample)) {
+                        fprintf(stderr, "peer_fastdds: write failed\n");
+                        goto out;
+                }
+                printf("wrote topic=%s type=%s value=", a.topic, peer_type_dds_name(a.type));
+                peer_value_print(stdout, &v);
+                peer_print_line("%s", "");
+                if (!a.wait_stdin)
+                        break;
         }
-        printf("wrote topic=%s type=%s value=", a.topic, peer_type_dds_name(a.type));
-        peer_value_print(stdout, &v);
-        peer_print_line("%s", "");
         {
-                auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-                        end - std::chrono::steady_clock::now()).count();
-                eprosima::fastrtps::Duration_t t(left > 0 ? left / 1000 : 0,
-                                                 left > 0 ? (uint32_t)(left % 1000) * 1000000 : 0);
+                eprosima::fastrtps::Duration_t t(a.timeout_ms / 1000,
+                                                 (uint32_t)(a.timeout_ms % 1000) * 1000000u);
 
                 if (w->wait_for_acknowledgments(t) != ReturnCode_t::RETCODE_OK) {
                         fprintf(stderr, "peer_fastdds: timeout waiting for acknowledgements\n");

@@ -8,7 +8,7 @@
 # `slctl stats`), with the -i INSTANCE already on the line; record's FILE from the file system.
 # Nothing is printed on errors: with no daemon running, only the fixed words complete.
 
-_slctl_commands="list get set watch events stats query command record circe help"
+_slctl_commands="list get set watch events stats query ping command record circe help"
 _slctl_circe_ops="alert network-setup device-setup sync-clocks visualize emulate"
 
 # _slctl_run PROG ARGS...: runs slctl quietly, stdout only.
@@ -113,7 +113,7 @@ _slctl()
         watch)  opts="--count --timeout" ;;
         events) opts="--follow --new --count --timeout" ;;
         stats)  opts="--json --all" ;;
-        query)  opts="--timeout --wait" ;;
+        query|ping) opts="--timeout --wait" ;;
         command) opts="--wait" ;;
         record) opts="--duration --count" ;;
         esac
@@ -140,7 +140,7 @@ _slctl()
                 [ ${#pos[@]} -eq 0 ] && _slctl_reply "$(_slctl_list 1 '$2 == "out"')" ;;
         help)
                 [ ${#pos[@]} -eq 0 ] && _slctl_reply "$_slctl_commands" ;;
-        query)
+        query|ping)
                 case ${#pos[@]} in
                 0)      _slctl_reply "$(_slctl_links sharedlink)" ;;
                 1)      _slctl_reply "$(_slctl_devices "${pos[0]}")" ;;     # its peers

@@ -209,10 +209,24 @@ int sl_read_long(struct sl_client *c, int id, long *ret, struct sl_meta *meta);
 
 /*
  * Writes an outbound variable. Returns 0; -EPERM for an inbound variable; -EINVAL when the value
- * cannot go on the wire (bytes, length); -EACCES when this user may not write (not in the group);
- * -EBUSY when other writers kept the slot for every bounded attempt; -ENOTCONN when no daemon runs.
+ * cannot go on the wire (bytes, length) or is not of the variable's type (sl_var_info.type: a
+ * long takes [+-] decimal digits within 64 bits, a double a finite decimal number; the table
+ * keeps its value, sl_write_check says why); -EACCES when this user may not write (not in the
+ * group); -EBUSY when other writers kept the slot for every bounded attempt; -ENOTCONN when no
+ * daemon runs.
  */
 int sl_write(struct sl_client *c, int id, const char *value);
+
+/*
+ * Checks value for id as sl_write does, writing nothing: 0 when sl_write would take it, else the
+ * error it would return (-ENOENT, -EPERM, -EINVAL) with one line that says why in reason
+ * (reason_size bytes, NULL/0 allowed; "" on success), e.g. "\"abc\" is not a long: ...", ready
+ * to show to a user. Since SHAREDLINK_1.3.
+ */
+#define SL_WRITE_REASON_SIZE    160     /* always holds sl_write_check's whole reason + NUL */
+
+int sl_write_check(struct sl_client *c, int id, const char *value, char *reason,
+                   size_t reason_size);
 
 /* Writes v with that many decimals (0..17; < 0: the shortest text that reads back as v). */
 int sl_write_double(struct sl_client *c, int id, double v, int decimals);
@@ -393,8 +407,21 @@ int sl_query(struct sl_client *c, const char *link, const char *peer, const char
              int timeout_ms, char *reply, size_t reply_size);
 
 /*
+ * SharedLink ping: sends "P0" to peer (a node address, "A".."P") on link and waits at most
+ * timeout_ms (0: the daemon's default, 1000 ms; at most SL_QUERY_TIMEOUT_MAX_MS) for its "G0".
+ * Returns 0 with the round trip in *ret_rtt_ns (may be NULL; measured by the daemon, from before
+ * the send to the pong's arrival), -ETIMEDOUT when no pong came in time, -ENOTCONN (the link is
+ * down, or went down while waiting; see sl_set_command_wait), -EBUSY (too many pings pending on
+ * the link), -EINVAL (a bad argument, or not a peer of link), or another negative errno (above).
+ * Since SHAREDLINK_1.3.
+ */
+int sl_ping(struct sl_client *c, const char *link, const char *peer, int timeout_ms,
+            uint64_t *ret_rtt_ns, char *reply, size_t reply_size);
+
+/*
  * SharedLink module command (Pronto4 dialect, docs/pronto4.md §9): sends "E<module>|D<text>" to
- * the pronto4 peer(s) of link, e.g. module "ServoPod", text "0,TELEOP START". module: 1..63
+ * the pronto4 peer(s) of link, e.g. module "ServoPod", text "0,TELEOP START"; a bare module
+ * request (module "MUI", "MUO", "ML" or "MW", text NULL or "") goes out bare, "MUI". module: 1..63
  * letters, digits, '_', '.', '-'; text (NULL = ""): at most SL_COMMAND_TEXT_MAX bytes of
  * 0x20-0x7E without '|', '[' or ']', words separated by single spaces (no leading, trailing or
  * double space: the request line splits on spaces), at most SL_COMMAND_WORDS_MAX words. Returns

@@ -404,7 +404,9 @@ class Client:
         """Writes an outbound variable: str/bytes as given, int in decimal, float with that many
         decimals (None: the shortest text that reads back as the same float). PermissionDenied
         for an inbound variable or a user outside the daemon's group; InvalidValue when the
-        value cannot go on the wire (printable ASCII except | [ ], at most 63 bytes)."""
+        value cannot go on the wire (printable ASCII except | [ ], at most 63 bytes) or is not
+        of the variable's type (a long or a double variable), its detail saying why; the
+        variable then keeps its value."""
         vid = (self._ids.get(name) or self._resolve(name))[0]
         h = self._handle()
         if isinstance(value, bool):
@@ -418,8 +420,21 @@ class Client:
             r = _lib_.sl_write_double(h, vid, value, -1 if decimals is None else decimals)
         else:
             r = _lib_.sl_write(h, vid, _word(value, "value"))
+        if r == -_errno.EINVAL:
+            _raise(r, "writing %s: %s" % (name, self._write_refusal(h, vid, value, decimals)))
         if r < 0:
             _raise(r, "writing %s" % name)
+
+    @staticmethod
+    def _write_refusal(h, vid, value, decimals):
+        """The library's reason for refusing value (sl_write_check), for the exception."""
+        if isinstance(value, float):
+            value = repr(value) if decimals is None else "%.*f" % (decimals, value)
+        elif isinstance(value, int):
+            value = str(value)
+        reason = ctypes.create_string_buffer(_lib.SL_WRITE_REASON_SIZE)
+        _lib_.sl_write_check(h, vid, _word(value, "value"), reason, len(reason))
+        return _text(reason.value) or "value refused"
 
     __setitem__ = write
 
@@ -613,9 +628,22 @@ class Client:
             _raise(r, "query %s %s %s: %s" % (link, peer, name, _text(reply.value)))
         return _text(reply.raw[:r])
 
+    def ping(self, link, peer, timeout=None):
+        """SharedLink ping: sends P0 to node peer ("A".."P") on link; the round trip until its
+        G0 in seconds (measured by the daemon). Timeout when no G0 comes within timeout seconds
+        (None: the daemon's, 1 s); NotRunning when the link is down or goes down meanwhile."""
+        reply = ctypes.create_string_buffer(_REPLY_SIZE)
+        rtt_ns = ctypes.c_uint64(0)
+        r = _lib_.sl_ping(self._handle(), _word(link, "link"), _word(peer, "peer"),
+                          _timeout_ms(timeout, 0), ctypes.byref(rtt_ns), reply, _REPLY_SIZE)
+        if r < 0:
+            _raise(r, "ping %s %s: %s" % (link, peer, _text(reply.value)))
+        return rtt_ns.value / 1e9
+
     def command(self, link, module, text=""):
         """Pronto4 module command: sends E<module>|D<text> to the pronto4 peer(s) of link, e.g.
-        command("vehicle", "ServoPod", "0,TELEOP START"). module: 1..63 letters, digits, _ . -;
+        command("vehicle", "ServoPod", "0,TELEOP START"); the bare requests MUI, MUO, ML, MW
+        (no text) go out bare. module: 1..63 letters, digits, _ . -;
         text: at most 63 bytes of printable ASCII without | [ ], words separated by single
         spaces. Returns once the frame is queued; NotConnected when the link is down."""
         r = _lib_.sl_command(self._handle(), _word(link, "link"), _word(module, "module"),

@@ -16,6 +16,7 @@ import threading
 
 SL_NAME_SIZE = 48
 SL_VALUE_SIZE = 64
+SL_WRITE_REASON_SIZE = 160
 SL_PEER_SIZE = 16
 SL_LINK_NAME_SIZE = 32
 SL_PROTOCOL_SIZE = 16
@@ -203,6 +204,7 @@ PROTOTYPES = {
     "sl_write": (c_int, (_client_p, c_int, c_char_p)),
     "sl_write_double": (c_int, (_client_p, c_int, ctypes.c_double, c_int)),
     "sl_write_long": (c_int, (_client_p, c_int, c_long)),
+    "sl_write_check": (c_int, (_client_p, c_int, c_char_p, ctypes.c_char_p, c_size_t)),
     "sl_wait": (c_int, (_client_p, _P(c_u32), c_int)),
     "sl_wait_with": (c_int, (_client_p, _P(c_u32), c_int, _P(sl_wait_opts))),
     "sl_events_read": (c_int, (_client_p, _P(c_u64), _P(sl_event), c_size_t)),
@@ -217,6 +219,7 @@ PROTOTYPES = {
     "sl_request": (c_int, (_client_p, c_char_p, c_int, sl_data_fn, ctypes.c_void_p) + _REPLY),
     "sl_query": (c_int, (_client_p, c_char_p, c_char_p, c_char_p, c_int) + _REPLY),
     "sl_command": (c_int, (_client_p, c_char_p, c_char_p, c_char_p)),
+    "sl_ping": (c_int, (_client_p, c_char_p, c_char_p, c_int, _P(c_u64)) + _REPLY),
     "sl_circe_alert": (c_int, (_client_p, c_char_p, c_char_p) + _REPLY),
     "sl_circe_network_setup": (c_int, (_client_p, c_char_p, c_char_p, c_int, c_int) + _REPLY),
     "sl_circe_device_setup": (c_int, (_client_p, c_char_p, c_char_p, c_int, c_char_p, c_int,

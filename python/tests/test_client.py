@@ -159,7 +159,7 @@ class TestLinks(DaemonCase):
         self.assertEqual(links["node_a"].protocol, "sharedlink")
         self.assertEqual(links["agility"].protocol, "circe")
         self.assertEqual(links["agility"].state_name, "connected")
-        self.assertEqual(len(links["node_b"].counters), 52)           # 39 + 13 appended for Pronto4
+        self.assertEqual(len(links["node_b"].counters), 54)           # 39 + 15 appended for Pronto4
         self.c["a.AutoGpsLat"] = 1.5
         until(self.c, "b.AutoGpsLat", lambda v: v == 1.5)           # node_b has had frames
         self.assertGreater(self.c.link("node_b").counters["frames_in"], 0)
@@ -175,6 +175,20 @@ class TestLinks(DaemonCase):
         c["a.AutoGpsLat"] = 12.5
         until(c, "b.AutoGpsLat", lambda v: v == 12.5)
         self.assertEqual(c.query("node_b", "A", "a.AutoGpsLat", timeout=WAIT_S), "12.5")
+
+    def test_ping(self):
+        c = self.c
+        c.query("node_b", "A", "a.AutoGpsLat", timeout=WAIT_S)    # the link is up
+        rtt = c.ping("node_b", "A", timeout=WAIT_S)
+        self.assertIsInstance(rtt, float)
+        self.assertGreater(rtt, 0.0)
+        self.assertGreater(c.ping("node_a", "B", timeout=WAIT_S), 0.0)
+        # Node C is configured but not on the wire: no pong.
+        e = self.assertError(sharedlink.Timeout, errno.ETIMEDOUT, c.ping, "node_b", "C",
+                             timeout=0.1)
+        self.assertIn("no pong", str(e))
+        self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.ping, "node_b", "D")
+        self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.ping, "node_b", "Z")
 
 
 class TestPronto4(DaemonCase):
@@ -283,6 +297,20 @@ class TestErrors(DaemonCase):
         self.assertRaises(TypeError, c.write, "b.CmdThrottle", [1])
         # Nothing of it reached the table.
         self.assertNotIn(c.read("a.Label")[0], ("a", "a|b"))
+
+    def test_typed_write(self):
+        # b.CmdThrottle is a long: text of another type is refused where it is written, with
+        # the library's reason, and the variable keeps its value.
+        c = self.c
+        c.write("b.CmdThrottle", 5)
+        e = self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.write, "b.CmdThrottle",
+                             "abc")
+        self.assertIn('"abc" is not a long', str(e))
+        self.assertIn("b.CmdThrottle", str(e))
+        e = self.assertError(sharedlink.InvalidValue, errno.EINVAL, c.write, "b.CmdThrottle",
+                             0.5)
+        self.assertIn('"0.5" is not a long', str(e))
+        self.assertEqual(c.read_long("b.CmdThrottle"), 5)
 
     def test_not_a_number(self):
         c = self.c

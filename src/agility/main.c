@@ -105,7 +105,8 @@ static uint64_t engine_ms(struct main_ctx *ctx, uint64_t t)
 
 /* ---- status ---------------------------------------------------------------------------------- */
 
-/* The status text: states and reasons only, no counts (sd_notify blocks when nobody reads). */
+/* The status text: states and reasons only, no counts (every change is a datagram to the
+ * service manager). */
 static void status_text(struct main_ctx *ctx, char *s, size_t size)
 {
         snprintf(s, size, "class %s: %s, competitor %u%s%s",

@@ -52,21 +52,25 @@ static int number_option(struct slctl *s, const char *name, const char *text, lo
         return -1;
 }
 
-int cmd_daemon_query(struct slctl *s, int argc, char **argv)
+/*
+ * The command line of a request to a peer (query, ping): [--timeout MS] [--wait MS] and npos
+ * words (usage says which), then the handle opened with the wait. Returns -1 with *ret_timeout_ms
+ * (0: the daemon's), or an exit code after a message.
+ */
+static int peer_request_args(struct slctl *s, int argc, char **argv, int npos, const char *usage,
+                             struct args *a, long *ret_timeout_ms)
 {
         static const struct args_opt opts[] = { { "timeout", 1 }, { "wait", 1 }, { NULL, 0 } };
-        char reply[REPLY_SIZE];
         long timeout_ms = 0;
-        struct args a;
-        int code, r;
+        int code;
 
-        code = slctl_args(s, argc, argv, opts, &a);
+        code = slctl_args(s, argc, argv, opts, a);
         if (code >= 0)
                 return code;
-        if (a.npos != 3)
-                return slctl_usage(s, "give LINK PEER NAME");
-        if (a.given[0]) {
-                code = number_option(s, "timeout", a.value[0], &timeout_ms);
+        if (a->npos != npos)
+                return slctl_usage(s, "%s", usage);
+        if (a->given[0]) {
+                code = number_option(s, "timeout", a->value[0], &timeout_ms);
                 if (code >= 0)
                         return code;
                 if (timeout_ms == 0 || timeout_ms > SL_QUERY_TIMEOUT_MAX_MS)
@@ -76,7 +80,18 @@ int cmd_daemon_query(struct slctl *s, int argc, char **argv)
         code = slctl_open(s, 0);
         if (code >= 0)
                 return code;
-        code = apply_wait(s, a.value[1]);
+        *ret_timeout_ms = timeout_ms;
+        return apply_wait(s, a->value[1]);
+}
+
+int cmd_daemon_query(struct slctl *s, int argc, char **argv)
+{
+        char reply[REPLY_SIZE];
+        long timeout_ms = 0;
+        struct args a;
+        int code, r;
+
+        code = peer_request_args(s, argc, argv, 3, "give LINK PEER NAME", &a, &timeout_ms);
         if (code >= 0)
                 return code;
         r = sl_query(s->c, a.pos[0], a.pos[1], a.pos[2], (int)timeout_ms, reply, sizeof(reply));
@@ -85,6 +100,28 @@ int cmd_daemon_query(struct slctl *s, int argc, char **argv)
                 return SLCTL_EXIT_OK;
         }
         return command_result(r, reply);
+}
+
+/* ---- ping (SharedLink P0 / G0) ------------------------------------------------------------- */
+
+#define NS_PER_MS               1000000.0
+
+int cmd_daemon_ping(struct slctl *s, int argc, char **argv)
+{
+        char reply[REPLY_SIZE] = "";
+        long timeout_ms = 0;
+        uint64_t rtt_ns = 0;
+        struct args a;
+        int code, r;
+
+        code = peer_request_args(s, argc, argv, 2, "give LINK PEER", &a, &timeout_ms);
+        if (code >= 0)
+                return code;
+        r = sl_ping(s->c, a.pos[0], a.pos[1], (int)timeout_ms, &rtt_ns, reply, sizeof(reply));
+        if (r < 0)
+                return command_result(r, reply);
+        printf("G0 from %s on %s: time=%.3f ms\n", a.pos[1], a.pos[0], (double)rtt_ns / NS_PER_MS);
+        return SLCTL_EXIT_OK;
 }
 
 /* ---- command (Pronto4 module commands) ---------------------------------------------------- */

@@ -1,5 +1,5 @@
 /*
- * slctl commands that go through the daemon's control socket: query, command and circe (help texts in
+ * slctl commands that go through the daemon's control socket: query, ping, command and circe (help texts in
  * slctl.c).
  */
 #ifndef SLCTL_CMD_DAEMON_H
@@ -9,6 +9,9 @@ struct slctl;
 
 /* slctl query [--timeout MS] [--wait MS] LINK PEER NAME */
 int cmd_daemon_query(struct slctl *s, int argc, char **argv);
+
+/* slctl ping [--timeout MS] [--wait MS] LINK PEER */
+int cmd_daemon_ping(struct slctl *s, int argc, char **argv);
 
 /* slctl command [--wait MS] LINK MODULE [TEXT...] */
 int cmd_daemon_command(struct slctl *s, int argc, char **argv);

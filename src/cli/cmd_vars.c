@@ -301,6 +301,7 @@ int cmd_vars_set(struct slctl *s, int argc, char **argv)
 {
         struct args a;
         const char *name, *value;
+        char why[SL_WRITE_REASON_SIZE];
         int code, id, r;
 
         code = slctl_args(s, argc, argv, NULL, &a);
@@ -324,6 +325,8 @@ int cmd_vars_set(struct slctl *s, int argc, char **argv)
                 return slctl_error(s, "%s is an inbound variable: only the daemon writes it "
                                    "(outbound ones say \"out\" in `slctl list`)", name);
         case -EINVAL:
+                if (sl_write_check(s->c, id, value, why, sizeof(why)) == -EINVAL)
+                        return slctl_error(s, "%s: value refused: %s", name, why);
                 return slctl_error(s, "value refused: the wire carries printable ASCII except "
                                    "| [ ], at most %d bytes (this one: %zu bytes)",
                                    SL_VALUE_SIZE - 1, strlen(value));

@@ -144,7 +144,7 @@ static bool peer_equal(const struct config_peer *a, const struct config_peer *b)
                a->compression == b->compression && a->on_change == b->on_change &&
                vars_equal(a->outbound, a->n_outbound, b->outbound, b->n_outbound) &&
                vars_equal(a->inbound, a->n_inbound, b->inbound, b->n_inbound) &&
-               a->dialect == b->dialect && a->declare == b->declare &&
+               a->dialect == b->dialect && a->role == b->role && a->declare == b->declare &&
                a->outbound_learn == b->outbound_learn && a->inbound_learn == b->inbound_learn &&
                a->learn_max == b->learn_max;
 }

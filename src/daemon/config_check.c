@@ -42,14 +42,69 @@ static size_t declaration_fields_len(const struct config_var *vars, unsigned n)
 }
 
 /*
- * The Pronto4 clients want every data frame as one full-length N0 list (a partial one kills the
- * ROS 2 bridge's receiver) and the answers to N? and L? (our typed declarations) as one frame
- * each: the worst case of each must fit max_frame, or the link could never talk to them.
+ * One rule for the type of a name in a pronto4 list (docs/pronto4.md §3): the config's bare name
+ * is a string, the wire's name without T a double; the same bare name would be T4 in our
+ * declaration and a double in the peer's. So a pronto4 list names every entry's type.
+ */
+static int check_typed_list(struct ctx *c, const char *key, const struct conf_node *list)
+{
+        if (!list || list->kind != CONF_NODE_SEQUENCE)
+                return 0;       /* learn, or nothing */
+        for (const struct conf_node *n = cfg_child(c, list->first); n; n = cfg_next(c, n))
+                if (n->kind == CONF_NODE_SCALAR)
+                        return cfg_fail(c, n, "%s: %s has no type: a pronto4 list gives each "
+                                        "entry's (e.g. {name: %.*s, type: double}; a bare name "
+                                        "is a string here but a double on the Pronto4 wire)",
+                                        key, cfg_quote_node(c, n), (int)n->len, n->text);
+        return 0;
+}
+
+/*
+ * What a learning peer's lists need at the least: L? and N? are answered with a learned list
+ * whole, one frame of "|T<t>|Q<name>" per entry, so learn_max entries of one-letter names must
+ * fit max_frame, or the peer could declare a list we can hold but never answer for.
+ */
+static int check_learn_room(struct ctx *c, const struct config_peer *p, bool crlf,
+                            const struct conf_node *max_node, const struct conf_node *learn_node)
+{
+        const size_t entry_min = 2 + 1 + 2 + 1;         /* "|T0|Qx" */
+        size_t base = slp_list_frame_len(0, crlf);
+        size_t len = slp_list_frame_len(entry_min * p->learn_max, crlf);
+
+        if (!(p->outbound_learn || p->inbound_learn) || len <= p->max_frame)
+                return 0;
+        return cfg_fail(c, max_node ? max_node : learn_node, "max_frame %u is too small for what this peer can learn: "
+                        "learn_max %u entries take at least %zu bytes as one frame (the answer "
+                        "to N? or L?, |T<t>|Q<name> each); lower learn_max to %zu or raise "
+                        "max_frame", p->max_frame, p->learn_max, len,
+                        p->max_frame > base ? (p->max_frame - base) / entry_min : 0);
+}
+
+/*
+ * The Pronto4 clients read at most CONFIG_P4_MAX_FRAME_MAX bytes a datagram, want every data
+ * frame as one full-length N0 list (a partial one kills the ROS 2 bridge's receiver) and the
+ * answers to N? and L? (our typed declarations) as one frame each: the worst case of each must
+ * fit max_frame, or the link could never talk to them.
  */
 int cfg_check_pronto4_frames(struct ctx *c, const struct config_peer *p, bool crlf,
-                             const struct conf_node *out_node, const struct conf_node *in_node)
+                             const struct conf_node *out_node, const struct conf_node *in_node,
+                             const struct conf_node *max_node)
 {
         size_t data = 0, len;
+        int r;
+
+        if (p->max_frame > CONFIG_P4_MAX_FRAME_MAX)
+                return cfg_fail(c, max_node, "max_frame %u is more than a pronto4 peer reads: "
+                                "both Pronto4 clients read a datagram into %u bytes",
+                                p->max_frame, CONFIG_P4_MAX_FRAME_MAX);
+        r = check_typed_list(c, "outbound", out_node);
+        if (r == 0)
+                r = check_typed_list(c, "inbound", in_node);
+        if (r == 0)
+                r = check_learn_room(c, p, crlf, max_node,
+                                     p->outbound_learn ? out_node : in_node);
+        if (r < 0)
+                return r;
 
         for (unsigned i = 0; i < p->n_outbound; i++)
                 data += 2 + var_text_max(p->outbound[i].type);
@@ -68,6 +123,19 @@ int cfg_check_pronto4_frames(struct ctx *c, const struct config_peer *p, bool cr
                 return cfg_fail(c, in_node, "inbound: its declaration L0|T|Q... takes %zu bytes, "
                                 "more than max_frame %u (a pronto4 peer wants it in one frame)",
                                 len, p->max_frame);
+        return 0;
+}
+
+int cfg_check_list_not_learn(struct ctx *c, const char *key, const struct conf_node *list)
+{
+        if (list->kind != CONF_NODE_SEQUENCE)
+                return 0;
+        for (const struct conf_node *n = cfg_child(c, list->first); n; n = cfg_next(c, n))
+                if (n->kind == CONF_NODE_SCALAR && cfg_scalar_is(n, "learn"))
+                        return cfg_fail(c, n, "%s: the entry learn is a variable named "
+                                        "\"learn\": did you mean `%s: learn` (the list the peer "
+                                        "declares)? A variable of that name is {name: learn}",
+                                        key, key);
         return 0;
 }
 

@@ -41,6 +41,11 @@ static const struct conf_enum_name dialect_names[] = {
         { "pronto4", CONFIG_DIALECT_PRONTO4 },
 };
 const struct conf_enum cfg_dialects = { dialect_names, ENUM_COUNT(dialect_names) };
+static const struct conf_enum_name p4_role_names[] = {
+        { "host", CONFIG_P4_HOST },
+        { "vehicle", CONFIG_P4_VEHICLE },
+};
+const struct conf_enum cfg_p4_roles = { p4_role_names, ENUM_COUNT(p4_role_names) };
 static const struct conf_enum_name var_type_names[] = {
         { "string", CONFIG_VAR_STRING },
         { "long", CONFIG_VAR_LONG },
@@ -73,4 +78,9 @@ const char *config_var_type_name(enum config_var_type type)
 const char *config_dialect_name(enum config_dialect dialect)
 {
         return conf_enum_name(&cfg_dialects, (int)dialect);
+}
+
+const char *config_p4_role_name(enum config_p4_role role)
+{
+        return conf_enum_name(&cfg_p4_roles, (int)role);
 }

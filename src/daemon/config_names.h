@@ -11,7 +11,7 @@ struct conf_enum;
 
 /* For the parser's conf_get_enum(). */
 extern const struct conf_enum cfg_protocols, cfg_transports, cfg_roles, cfg_parities, cfg_flows,
-                             cfg_dialects, cfg_var_types;
+                             cfg_dialects, cfg_var_types, cfg_p4_roles;
 
 /* The config-file spelling of an enum value ("sharedlink", "pty", "mediator", "double"...). */
 const char *config_protocol_name(enum config_protocol protocol);
@@ -19,5 +19,6 @@ const char *config_transport_name(enum config_transport transport);
 const char *config_role_name(enum config_role role);
 const char *config_var_type_name(enum config_var_type type);
 const char *config_dialect_name(enum config_dialect dialect);
+const char *config_p4_role_name(enum config_p4_role role);
 
 #endif

@@ -116,7 +116,7 @@ static int parse_var_list(struct ctx *c, const char *key, const struct conf_node
 enum {
         PK_ADDRESS, PK_PERIOD_MS, PK_REFRESH_MS, PK_COMPRESSION, PK_ON_CHANGE, PK_MIN_INTERVAL_MS,
         PK_STALE_MS, PK_MAX_FRAME, PK_OUTBOUND, PK_INBOUND, PK_DIALECT, PK_DECLARE, PK_LEARN_MAX,
-        PK_COUNT
+        PK_ROLE, PK_COUNT
 };
 
 /*
@@ -154,6 +154,7 @@ static const struct peer_key {
         [PK_DIALECT] = { "dialect", PEER_KEY_OWN, 0, 0, 0, 0 },
         [PK_DECLARE] = { "declare", PEER_KEY_OWN, 0, 0, 0, 0 },
         [PK_LEARN_MAX] = { "learn_max", PEER_KEY_OWN, 0, 0, 0, 0 },
+        [PK_ROLE] = { "role", PEER_KEY_OWN, 0, 0, 0, 0 },
 #undef PEER_UINT
 #undef PEER_BOOL
 };
@@ -162,18 +163,21 @@ static const struct peer_key {
 static int parse_peer_list(struct ctx *c, const char *key, const struct conf_node *n,
                            struct config_var **ret_vars, unsigned *ret_count, bool *ret_learn)
 {
+        int r;
+
         if (n->kind == CONF_NODE_SCALAR && cfg_scalar_is(n, "learn")) {
                 *ret_learn = true;
                 return 0;
         }
-        return parse_var_list(c, key, n, ret_vars, ret_count);
+        r = cfg_check_list_not_learn(c, key, n);
+        return r < 0 ? r : parse_var_list(c, key, n, ret_vars, ret_count);
 }
 
 /* The keys that only a pronto4 peer may have: refused, by name, on a bulletin peer. */
 static int check_bulletin_peer(struct ctx *c, const struct conf_node *const *keys,
                                const struct conf_node *const *vals, const struct config_peer *p)
 {
-        static const unsigned only_pronto4[] = { PK_DECLARE, PK_LEARN_MAX };
+        static const unsigned only_pronto4[] = { PK_DECLARE, PK_LEARN_MAX, PK_ROLE };
 
         for (size_t i = 0; i < sizeof(only_pronto4) / sizeof(only_pronto4[0]); i++)
                 if (keys[only_pronto4[i]])
@@ -189,12 +193,27 @@ static int check_bulletin_peer(struct ctx *c, const struct conf_node *const *key
 }
 
 /*
- * dialect, declare, learn_max, after the lists. Decision: a pronto4 peer with configured lists
- * and nothing learned is the host side and declares by default; a peer that learns is the
- * vehicle side, which answers declarations and never sends its own.
+ * Decision (docs/pronto4.md §1): we are the host toward a pronto4 peer when this link is node A,
+ * the vehicle when it is node B (the nodes of every Pronto4); on any other address, the host
+ * when our lists are configured and nothing is learned, else the vehicle.
+ */
+static enum config_p4_role p4_role_default(char own_address, bool listed, bool learned)
+{
+        if (own_address == 'A')
+                return CONFIG_P4_HOST;
+        if (own_address == 'B')
+                return CONFIG_P4_VEHICLE;
+        return listed && !learned ? CONFIG_P4_HOST : CONFIG_P4_VEHICLE;
+}
+
+/*
+ * dialect, role, declare, learn_max, after the lists. Decision: the host declares its configured
+ * lists by default; the vehicle (and a peer that learns) answers declarations and sends none of
+ * its own unless `declare: true` says so.
  */
 static int parse_peer_dialect(struct ctx *c, const struct conf_node *const *keys,
-                              const struct conf_node *const *vals, struct config_peer *p, bool crlf)
+                              const struct conf_node *const *vals, struct config_peer *p, bool crlf,
+                              char own_address)
 {
         bool learned = p->outbound_learn || p->inbound_learn;
         bool listed = p->n_outbound + p->n_inbound > 0;
@@ -210,7 +229,14 @@ static int parse_peer_dialect(struct ctx *c, const struct conf_node *const *keys
         if (p->dialect == CONFIG_DIALECT_BULLETIN)
                 return check_bulletin_peer(c, keys, vals, p);
 
-        p->declare = listed && !learned;
+        p->role = p4_role_default(own_address, listed, learned);
+        if (vals[PK_ROLE]) {
+                r = cfg_get_enum(c, "role", vals[PK_ROLE], &cfg_p4_roles, &e);
+                if (r < 0)
+                        return r;
+                p->role = (enum config_p4_role)e;
+        }
+        p->declare = p->role == CONFIG_P4_HOST && listed && !learned;
         if (vals[PK_DECLARE] && (r = cfg_get_bool(c, "declare", vals[PK_DECLARE], &p->declare)) < 0)
                 return r;
         if (p->declare && learned)
@@ -229,7 +255,8 @@ static int parse_peer_dialect(struct ctx *c, const struct conf_node *const *keys
                 if (r < 0)
                         return r;
         }
-        return cfg_check_pronto4_frames(c, p, crlf, vals[PK_OUTBOUND], vals[PK_INBOUND]);
+        return cfg_check_pronto4_frames(c, p, crlf, vals[PK_OUTBOUND], vals[PK_INBOUND],
+                                        vals[PK_MAX_FRAME]);
 }
 
 /* The rows PEER_KEY_UINT and PEER_KEY_BOOL of peer_keys: their defaults, then the values given. */
@@ -290,7 +317,7 @@ static int parse_peer(struct ctx *c, const struct conf_node *n, char own_address
                                                      &p->inbound, &p->n_inbound,
                                                      &p->inbound_learn)) < 0)
                 return r;
-        return parse_peer_dialect(c, keys, vals, p, crlf);
+        return parse_peer_dialect(c, keys, vals, p, crlf, own_address);
 }
 
 int cfg_parse_peers(struct ctx *c, const struct conf_node *n, bool crlf,

@@ -203,6 +203,32 @@ static int parse_serial(struct ctx *c, const struct conf_node *const *vals, stru
  * datagram without "]\r\n". A byte stream always ends frames with CR LF, so the one-frame checks
  * of pronto4 peers count it on every transport, and on udp unless crlf: false says otherwise.
  */
+/*
+ * A key of a SharedLink link written under one of its peers (crlf, remote, ...) is indentation
+ * gone wrong, not an unknown key: say where it belongs. "address" is a key of both.
+ */
+static int check_peer_keys(struct ctx *c, const struct conf_node *peers)
+{
+        if (peers->kind != CONF_NODE_SEQUENCE)
+                return 0;       /* cfg_parse_peers() says what is wrong with it */
+        for (const struct conf_node *p = cfg_child(c, peers->first); p; p = cfg_next(c, p)) {
+                if (p->kind != CONF_NODE_MAPPING)
+                        continue;
+                for (const struct conf_node *k = cfg_child(c, p->first); k;
+                     k = cfg_next(c, cfg_next(c, k))) {
+                        if (k->kind != CONF_NODE_SCALAR || cfg_scalar_is(k, "address"))
+                                continue;
+                        for (size_t i = 0; i < LK_COUNT; i++)
+                                if ((link_keys[i].scope & SCOPE_SL) &&
+                                    cfg_scalar_is(k, link_keys[i].name))
+                                        return cfg_fail(c, k, "key %s is a link key: it goes in "
+                                                        "the link, beside \"peers\", not under "
+                                                        "a peer", cfg_quote_node(c, k));
+                }
+        }
+        return 0;
+}
+
 static int parse_link_sharedlink(struct ctx *c, const struct conf_node *const *vals,
                                  const struct conf_node *map, enum config_transport transport,
                                  struct config_sharedlink *sl)
@@ -226,6 +252,9 @@ static int parse_link_sharedlink(struct ctx *c, const struct conf_node *const *v
         /* crlf matters where the engine takes datagrams: udp, and a replay, whose recording
          * may be of a udp link (the replay then sends as the field link did). */
         datagrams = transport == CONFIG_TRANSPORT_UDP || transport == CONFIG_TRANSPORT_REPLAY;
+        r = check_peer_keys(c, vals[LK_PEERS]);
+        if (r < 0)
+                return r;
         r = cfg_parse_peers(c, vals[LK_PEERS], !datagrams || !crlf_set || sl->crlf, sl);
         if (r < 0 || crlf_set || !datagrams)
                 return r;
@@ -511,6 +540,10 @@ int cfg_parse_root(struct ctx *c, uint32_t root_index)
         if (vals[TK_GROUP] && (r = cfg_get_group(c, vals[TK_GROUP], cfg->group,
                                                  sizeof(cfg->group))) < 0)
                 return r;
+        if (vals[TK_GROUP]) {
+                cfg->group_line = vals[TK_GROUP]->line;
+                cfg->group_column = vals[TK_GROUP]->column;
+        }
         if (!vals[TK_LINKS])
                 return cfg_fail(c, root, "missing key \"links\"");
         r = parse_links(c, vals[TK_LINKS]);

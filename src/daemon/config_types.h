@@ -61,6 +61,8 @@
 #define CONFIG_MAX_FRAME_MIN            32u
 #define CONFIG_MAX_FRAME_MAX            4096u
 #define CONFIG_MAX_FRAME_DEFAULT        1024u
+/* pronto4: both public clients read a datagram into 1024 bytes (docs/pronto4.md §1). */
+#define CONFIG_P4_MAX_FRAME_MAX         1024u
 #define CONFIG_TIMEOUT_MS_MIN           100u            /* login_timeout_ms, idle_timeout_ms */
 #define CONFIG_TIMEOUT_MS_MAX           60000u
 #define CONFIG_LOGIN_TIMEOUT_MS_DEFAULT 1000u
@@ -127,6 +129,12 @@ enum config_dialect {
         CONFIG_DIALECT_PRONTO4,         /* the Kairos Pronto4 field dialect */
 };
 
+/* Which end of a Pronto4 link we are toward a pronto4 peer (docs/pronto4.md §1, §9). */
+enum config_p4_role {
+        CONFIG_P4_HOST,                 /* node A: sends the connect sequence, declares */
+        CONFIG_P4_VEHICLE,              /* node B: answers, obeys ELink outbound/inbound */
+};
+
 struct config_var {
         char name[CONFIG_VAR_NAME_MAX + 1];
         enum config_var_type type;
@@ -148,6 +156,7 @@ struct config_peer {
         unsigned n_inbound;
         /* Pronto4 dialect; a bulletin peer has declare and both learns false, learn_max 0. */
         enum config_dialect dialect;
+        enum config_p4_role role;       /* role: host | vehicle (default from the addresses) */
         bool declare;                   /* send our typed N0/L0 declarations to this peer */
         bool outbound_learn;            /* outbound: learn (from the peer's L0 declaration) */
         bool inbound_learn;             /* inbound: learn (from the peer's N0 declaration) */
@@ -232,6 +241,8 @@ struct config {
         char runtime_dir[CONFIG_PATH_MAX];
         bool runtime_dir_set;           /* runtime_dir came from the file, not the default */
         char group[CONFIG_GROUP_MAX + 1];       /* "" = none */
+        unsigned group_line, group_column;      /* where group: is written (0: not given), for
+                                                 * the check that it exists (daemon_plan.c) */
         struct config_link links[CONFIG_LINKS_MAX];
         unsigned n_links;
         unsigned n_vars;                /* configured variables, all links and lists */

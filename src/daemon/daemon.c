@@ -26,22 +26,26 @@
 #include "shm/table.h"
 #include "svc/log.h"
 
-int daemon_check_config(const struct config *config, char *err, size_t errsz)
+int daemon_check_config(const struct config *config, const char *path, char *err, size_t errsz)
 {
+        char why[DAEMON_ERROR_MAX], where[DAEMON_WHERE_MAX];
         struct daemon_plan plan;
-        int r = daemon_plan_make(config, &plan, err, errsz);
+        int r = daemon_plan_make(config, &plan, why, sizeof(why));
 
+        daemon_plan_where(&plan, path, where, sizeof(where));
         daemon_plan_clear(&plan);
+        if (r < 0 && err && errsz)
+                snprintf(err, errsz, "%s: %s", where, why);
         /* Only here, not at start: there a broken recording fails its link, not the daemon. */
         for (unsigned i = 0; r == 0 && i < config->n_links; i++) {
                 const struct config_link *l = &config->links[i];
-                char why[TRANSPORT_ERR_MAX];
+                char broken[TRANSPORT_ERR_MAX];
 
                 if (l->transport != CONFIG_TRANSPORT_REPLAY)
                         continue;
-                r = replay_check_file(l->replay_file, why, sizeof(why));
+                r = replay_check_file(l->replay_file, broken, sizeof(broken));
                 if (r < 0 && err && errsz)
-                        snprintf(err, errsz, "link %s: %s", l->name, why);
+                        snprintf(err, errsz, "%s: link %s: %s", path, l->name, broken);
         }
         return r;
 }
@@ -134,7 +138,10 @@ int daemon_new(struct service *svc, const char *config_path, struct config *conf
         }
         r = daemon_plan_make(config, &d->plan, err, sizeof(err));
         if (r < 0) {
-                log_warnx("%s: %s", config_path, err);
+                char where[DAEMON_WHERE_MAX];
+
+                daemon_plan_where(&d->plan, config_path, where, sizeof(where));
+                log_warnx("%s: %s", where, err);
                 goto fail;
         }
         r = daemon_tables_create(config, &d->plan, &d->table);
@@ -281,8 +288,10 @@ int daemon_reload(struct daemon *d)
         }
         r = daemon_plan_make(nc, &np, err, sizeof(err));
         if (r < 0) {
-                log_warnx("reload: %s: %s; keeping the running configuration", d->config_path,
-                          err);
+                char where[DAEMON_WHERE_MAX];
+
+                daemon_plan_where(&np, d->config_path, where, sizeof(where));
+                log_warnx("reload: %s: %s; keeping the running configuration", where, err);
                 goto done;
         }
         same_socket = daemon_plan_same_socket(&d->plan, &np);

@@ -39,10 +39,14 @@ struct daemon;
 /*
  * Checks what the parser cannot: an engine for every link's protocol in this build, the group
  * exists, every link's declaration works, the socket path fits, every replay link's recording
- * reads ("FILE:LINE: message" for a broken line). 0, or -errno with a one-line
- * message in err ("link x: protocol circe not available in this build").
+ * reads ("FILE:LINE: message" for a broken line). 0, or -errno with a one-line message in err
+ * that starts with where, as the parser's do: "PATH:LINE:COL: group \"x\" does not exist",
+ * "PATH: link x: protocol circe not available in this build".
  */
-int daemon_check_config(const struct config *config, char *err, size_t errsz);
+#define DAEMON_WHERE_MAX        (CONFIG_PATH_MAX + 24)  /* "<path>:<line>:<col>" + NUL */
+
+int daemon_check_config(const struct config *config, const char *path, char *err,
+                        size_t errsz);
 
 /*
  * Starts an instance on the service's loop from config (taken over: freed on failure too);

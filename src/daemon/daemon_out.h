@@ -19,8 +19,9 @@ void daemon_out_init(struct daemon *d);
 int daemon_out_start(struct daemon *d);
 
 /*
- * Scans the .out table once and hands the changes to the links. The scan also checks the object
- * (recreated when truncated or scribbled) and repairs slots of dead writers.
+ * Scans every slot of the .out table once and hands the changes to the links (a wake-up scans
+ * only the slots marked touched: layout 1.6). The scan also checks the object (recreated when
+ * truncated or scribbled), repairs slots of dead writers and finds writes whose mark was lost.
  */
 void daemon_out_scan(struct daemon *d);
 

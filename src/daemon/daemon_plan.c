@@ -227,6 +227,14 @@ static int plan_paths(const struct config *cfg, struct daemon_plan *plan, char *
         return 0;
 }
 
+void daemon_plan_where(const struct daemon_plan *plan, const char *path, char *buf, size_t size)
+{
+        if (plan->err_line)
+                snprintf(buf, size, "%s:%u:%u", path, plan->err_line, plan->err_column);
+        else
+                snprintf(buf, size, "%s", path);
+}
+
 void daemon_plan_clear(struct daemon_plan *plan)
 {
         plan->decl = decl_free(plan->decl);
@@ -240,8 +248,11 @@ int daemon_plan_make(const struct config *cfg, struct daemon_plan *plan, char *e
         memset(plan, 0, sizeof(*plan));
         if (cfg->group[0]) {
                 r = resolve_group(cfg->group, &plan->gid, err, errsz);
-                if (r < 0)
+                if (r < 0) {
+                        plan->err_line = cfg->group_line;
+                        plan->err_column = cfg->group_column;
                         return r;
+                }
                 plan->has_group = true;
         }
         r = plan_paths(cfg, plan, err, errsz);

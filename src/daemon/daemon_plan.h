@@ -44,6 +44,7 @@ struct daemon_plan {
         char runtime_dir[CONFIG_PATH_MAX];
         char socket_path[CONFIG_SOCKET_PATH_MAX];
         struct daemon_decl *decl;
+        unsigned err_line, err_column;          /* the failing key of the file, 0: none */
 };
 
 /*
@@ -54,6 +55,10 @@ struct daemon_plan {
  */
 int daemon_plan_make(const struct config *cfg, struct daemon_plan *plan, char *err,
                      size_t errsz);
+
+/* Where daemon_plan_make()'s error points, into buf: "<path>:<line>:<col>" for a key of the file
+ * (a group that does not exist), as every configuration error, else "<path>". */
+void daemon_plan_where(const struct daemon_plan *plan, const char *path, char *buf, size_t size);
 
 /* Frees what daemon_plan_make() allocated (the declaration). */
 void daemon_plan_clear(struct daemon_plan *plan);

@@ -6,6 +6,7 @@
  *     channel bytes -> lsl_input() -> session -> hooks: shm_table_*, channel_send
  *     client write -> core's outbound scan -> lsl_outbound() -> session -> channel_send
  *     control "query" -> lsl_command() -> session query (or the wait queue first) -> answer hook
+ *     control "ping-peer" -> lsl_command() -> session ping P0 -> pong hook (G0): the round trip
  *
  * One timer, armed for the earliest of the session's deadline and the wait queue's, after
  * every call into the session ("settle"), so an idle link never wakes the daemon.
@@ -31,14 +32,24 @@
 #define NS_PER_MS               1000000ull
 #define STATUS_MAX              (CHANNEL_REASON_MAX + 16)
 
-/* A query or a command waiting for the link to come up. */
+/* A query, a command or a ping waiting for the link to come up. */
 struct lsl_wait {
         bool command;
+        bool ping;
         int peer;
         unsigned timeout_ms;
         char name[SHM_NAME_SIZE];               /* query: the variable */
         char module[SLP_VALUE_MAX + 1];         /* command */
         char text[SLP_VALUE_MAX + 1];
+};
+
+/* A ping sent, until its pong, its deadline, the link going down or its client leaving. */
+struct lsl_ping {
+        struct control_request *req;            /* NULL: a free slot */
+        char peer;                              /* the address pinged */
+        unsigned timeout_ms;
+        uint64_t sent_ns;
+        uint64_t deadline_ms;
 };
 
 struct lsl {
@@ -48,9 +59,11 @@ struct lsl {
         struct link_sharedlink_session *session;
         struct evloop_timer timer;
         struct link_waitq waitq;
+        struct lsl_ping pings[LINK_SHAREDLINK_PINGS_MAX];
 
         enum link_sharedlink_state state;
         char status[STATUS_MAX];
+        char peer_state[LINK_SHAREDLINK_PEER_STATE_MAX];   /* the session's, after "up; " */
         struct log_ratelimit rl;
 };
 static_assert(offsetof(struct lsl, env) == 0, "link_hook_*() take the engine as its link_env");
@@ -95,6 +108,8 @@ static void state_set(struct lsl *l, enum link_sharedlink_state s, const char *r
 
         if (s == LINK_SHAREDLINK_STATE_DOWN)
                 snprintf(status, sizeof(status), "down: %s", reason && *reason ? reason : "?");
+        else if (s == LINK_SHAREDLINK_STATE_UP && l->peer_state[0])
+                snprintf(status, sizeof(status), "up; %s", l->peer_state);
         else
                 snprintf(status, sizeof(status), "%s", state_word(s));
         if (!changed && strcmp(status, l->status) == 0)
@@ -195,6 +210,43 @@ static void hook_answer(void *arg, void *token, int err, const char *text)
                 control_reply_ok(token, "%s", text);
 }
 
+/* Ends ping slot k with err (0: the pong, rtt_ns its round trip) and frees it. */
+static void ping_end(struct lsl *l, unsigned k, int err, uint64_t rtt_ns)
+{
+        struct lsl_ping *pg = &l->pings[k];
+        struct control_request *req = pg->req;
+
+        pg->req = NULL;
+        if (err == 0)
+                control_reply_ok(req, "%llu", (unsigned long long)rtt_ns);
+        else if (err == ETIMEDOUT)
+                control_reply_error(req, ETIMEDOUT, "no pong from peer %c within %u ms",
+                                    pg->peer, pg->timeout_ms);
+        else if (err == ENOTCONN)
+                control_reply_error(req, ENOTCONN, "link %s is %s", l->cfg->name, l->status);
+        else
+                control_reply_error(req, err, "ping to peer %c abandoned: %s", pg->peer,
+                                    strerror(err));
+}
+
+/* G0 answers the oldest ping pending to that peer (a peer answers in order; a pong that
+ * answers nothing, or a G<n> we did not send, only shows the peer alive). */
+static void hook_pong(void *arg, char peer, const char *value, size_t len)
+{
+        struct lsl *l = arg;
+        uint64_t now = evloop_clock_ns();
+        int oldest = -1;
+
+        if (len != 1 || value[0] != '0')
+                return;
+        for (unsigned k = 0; k < LINK_SHAREDLINK_PINGS_MAX; k++)
+                if (l->pings[k].req && l->pings[k].peer == peer &&
+                    (oldest < 0 || l->pings[k].sent_ns < l->pings[oldest].sent_ns))
+                        oldest = (int)k;
+        if (oldest >= 0)
+                ping_end(l, (unsigned)oldest, 0, now - l->pings[oldest].sent_ns);
+}
+
 static bool hook_alive(void *arg, void *token)
 {
         (void)arg;
@@ -206,6 +258,16 @@ static void hook_diag(void *arg, enum log_prio prio, const char *text)
         struct lsl *l = arg;
 
         log_ratelimited(&l->rl, prio, "link %s: %s", l->cfg->name, text);
+}
+
+/* What the pronto4 peers asked of the link (outbound/inbound off), shown while it is up. */
+static void hook_peer_state(void *arg, const char *text)
+{
+        struct lsl *l = arg;
+
+        copy_cut(l->peer_state, sizeof(l->peer_state), text);
+        if (l->state == LINK_SHAREDLINK_STATE_UP)
+                state_set(l, LINK_SHAREDLINK_STATE_UP, NULL);
 }
 
 /* "<ip>:<port>" the peer reaches us at: the socket's own address, which for a socket connected
@@ -266,6 +328,8 @@ static const struct link_sharedlink_hooks session_hooks = {
         .alive = hook_alive,
         .diag = hook_diag,
         .local_address = hook_local_address,
+        .peer_state = hook_peer_state,
+        .pong = hook_pong,
 };
 
 /* ---------------------------------------------------------------------------------------------
@@ -291,6 +355,68 @@ static void command_start(struct lsl *l, struct control_request *req, const stru
                 control_reply_error(req, -r, "cannot send the command: %s", strerror(-r));
 }
 
+/* Sends P0 to the peer and holds req until its G0, or answers req with why not. */
+static void ping_start(struct lsl *l, struct control_request *req, const struct lsl_wait *w)
+{
+        struct lsl_ping *pg = NULL;
+        uint64_t sent_ns;
+        int r;
+
+        for (unsigned k = 0; k < LINK_SHAREDLINK_PINGS_MAX; k++) {
+                /* A ping whose client left answers nobody: its slot is free again. */
+                if (l->pings[k].req && !control_request_alive(l->pings[k].req))
+                        ping_end(l, k, ECANCELED, 0);
+                if (!l->pings[k].req && !pg)
+                        pg = &l->pings[k];
+        }
+        if (!pg) {
+                control_reply_error(req, EBUSY, "%u pings pending on link %s",
+                                    LINK_SHAREDLINK_PINGS_MAX, l->cfg->name);
+                return;
+        }
+        sent_ns = evloop_clock_ns();    /* before the send: the round trip includes it */
+        r = link_sharedlink_session_ping(l->session, w->peer);
+        if (r == -ENOTCONN) {
+                control_reply_error(req, ENOTCONN, "link %s is %s", l->cfg->name, l->status);
+                return;
+        }
+        if (r < 0) {
+                control_reply_error(req, -r, "cannot send the ping: %s", strerror(-r));
+                return;
+        }
+        *pg = (struct lsl_ping){
+                .req = req,
+                .peer = w->name[0],
+                .timeout_ms = w->timeout_ms,
+                .sent_ns = sent_ns,
+                .deadline_ms = now_ms() + w->timeout_ms,
+        };
+}
+
+/* The pings past their deadline end ETIMEDOUT; returns the earliest deadline left. */
+static uint64_t pings_tick(struct lsl *l, uint64_t now)
+{
+        uint64_t d = LINK_SHAREDLINK_NEVER;
+
+        for (unsigned k = 0; k < LINK_SHAREDLINK_PINGS_MAX; k++) {
+                if (!l->pings[k].req)
+                        continue;
+                if (l->pings[k].deadline_ms <= now)
+                        ping_end(l, k, ETIMEDOUT, 0);
+                else if (l->pings[k].deadline_ms < d)
+                        d = l->pings[k].deadline_ms;
+        }
+        return d;
+}
+
+/* Ends every pending ping with err (the link went down, or is stopped). */
+static void pings_fail(struct lsl *l, int err)
+{
+        for (unsigned k = 0; k < LINK_SHAREDLINK_PINGS_MAX; k++)
+                if (l->pings[k].req)
+                        ping_end(l, k, err, 0);
+}
+
 /* Starts a query on the session, or answers req with why it cannot start. */
 static void query_start(struct lsl *l, struct control_request *req, const struct lsl_wait *w)
 {
@@ -298,6 +424,10 @@ static void query_start(struct lsl *l, struct control_request *req, const struct
 
         if (w->command) {
                 command_start(l, req, w);
+                return;
+        }
+        if (w->ping) {
+                ping_start(l, req, w);
                 return;
         }
         r = link_sharedlink_session_query(l->session, now_ms(), req, w->peer, w->name,
@@ -348,10 +478,15 @@ static void settle(struct lsl *l)
         uint64_t now = now_ms();
         uint64_t d;
 
+        uint64_t pd;
+
         link_waitq_run(&l->waitq, now, &wait_ops, l);
+        pd = pings_tick(l, now);
         d = link_sharedlink_session_deadline(l->session);
         if (link_waitq_deadline(&l->waitq) < d)
                 d = link_waitq_deadline(&l->waitq);
+        if (pd < d)
+                d = pd;
         if (d == LINK_SHAREDLINK_NEVER) {
                 evloop_timer_cancel(&l->timer);
                 return;
@@ -390,12 +525,27 @@ static_assert(REQP_MODULE_SIZE <= sizeof(((struct lsl_wait *)0)->module) &&
               REQP_TEXT_SIZE <= sizeof(((struct lsl_wait *)0)->text) &&
               REQP_NAME_SIZE <= sizeof(((struct lsl_wait *)0)->name), "request words fit");
 
-/* "query LINK PEER NAME [TIMEOUT_MS]" or "command LINK MODULE [TEXT...]", decoded by the core:
- * only which peers this link has is left to check. */
+/* "query LINK PEER NAME [TIMEOUT_MS]", "command LINK MODULE [TEXT...]" or "ping-peer LINK PEER
+ * [TIMEOUT_MS]", decoded by the core: only which peers this link has is left to check. */
 static void lsl_command(void *engine, struct control_request *req, const struct reqp_request *r)
 {
         struct lsl *l = engine;
         struct lsl_wait w = { .timeout_ms = LINK_SHAREDLINK_QUERY_TIMEOUT_MS };
+
+        if (r->kind == REQP_PEER_PING) {
+                w.ping = true;
+                w.peer = link_sharedlink_session_peer(l->session, r->u.ping.peer);
+                if (w.peer < 0) {
+                        control_reply_error(req, EINVAL, "%s is not a peer of link %s",
+                                            r->u.ping.peer, l->cfg->name);
+                        return;
+                }
+                if (r->u.ping.has_timeout)
+                        w.timeout_ms = r->u.ping.timeout_ms;
+                w.name[0] = r->u.ping.peer[0];          /* the address, for the messages */
+                request_run(l, req, &w, r->wait_ms);
+                return;
+        }
 
         if (r->kind == REQP_COMMAND) {
                 w.command = true;
@@ -405,8 +555,8 @@ static void lsl_command(void *engine, struct control_request *req, const struct 
                 return;
         }
         if (r->kind != REQP_QUERY) {
-                control_reply_error(req, EINVAL, "link %s speaks sharedlink: query or command",
-                                    l->cfg->name);
+                control_reply_error(req, EINVAL, "link %s speaks sharedlink: query, command "
+                                    "or ping-peer", l->cfg->name);
                 return;
         }
         w.peer = link_sharedlink_session_peer(l->session, r->u.query.peer);
@@ -450,6 +600,7 @@ static void link_down(struct lsl *l, const char *reason, unsigned retry_ms)
         shm_table_set_link_stale(l->env.table, l->env.shm_link, 1);
         link_sharedlink_session_down(l->session, now_ms());
         state_set(l, LINK_SHAREDLINK_STATE_DOWN, reason);
+        pings_fail(l, ENOTCONN);        /* after state_set: the message says why */
         settle(l);
         link_publish_channel_stats(&l->env, l->ch);
 }
@@ -587,6 +738,7 @@ static void lsl_destroy(void *engine)
                 return;
         evloop_timer_cancel(&l->timer);
         link_waitq_cancel(&l->waitq, ECANCELED, "link stopped");
+        pings_fail(l, ECANCELED);
         l->session = link_sharedlink_session_free(l->session);
         l->ch = channel_free(l->ch);
         shm_table_set_link_stale(l->env.table, l->env.shm_link, 1);
@@ -636,7 +788,7 @@ static void lsl_learning(const struct config_link *cfg, struct link_learning *re
         }
 }
 
-static const char *const sharedlink_words[] = { "query", "command", NULL };
+static const char *const sharedlink_words[] = { "query", "command", "ping-peer", NULL };
 
 const struct link_ops link_sharedlink_ops = {
         .command_words = sharedlink_words,

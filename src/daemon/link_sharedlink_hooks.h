@@ -15,11 +15,16 @@
 #include "shm/layout.h"
 
 #define LINK_SHAREDLINK_QUERIES_MAX     16      /* pending control queries per link */
+#define LINK_SHAREDLINK_PINGS_MAX       8       /* pending control pings per link */
 #define LINK_SHAREDLINK_ADHOC_MAX       1024    /* ad hoc variables one link creates */
 #define LINK_SHAREDLINK_RETRY_MS        10      /* a refused on-change frame: retry */
 #define LINK_SHAREDLINK_NEVER           UINT64_MAX
 /* Longest one-line diagnostic the session hands to the diag hook. */
-#define LINK_SHAREDLINK_DIAG_MAX        160u
+#define LINK_SHAREDLINK_DIAG_MAX        256u
+/* Refused input after a reason's first warning is summed up in one line this often at most. */
+#define LINK_SHAREDLINK_REFUSAL_SUMMARY_MS      60000u
+/* Longest text the peer_state hook gets. */
+#define LINK_SHAREDLINK_PEER_STATE_MAX  96u
 /* Longest reason text the answer hook gets with an error. */
 #define LINK_SHAREDLINK_WHY_MAX         96u
 
@@ -63,12 +68,18 @@ struct link_sharedlink_hooks {
         void (*answer)(void *arg, void *token, int err, const char *text);
         /* Whether the client behind a query's token is still there (NULL: always). */
         bool (*alive)(void *arg, void *token);
+        /* A pong, G<value>, from the peer at address `peer` (NULL: a pong only shows the peer
+         * alive). For link_sharedlink_session_ping(). */
+        void (*pong)(void *arg, char peer, const char *value, size_t len);
         /* A one-line diagnostic worth a rate-limited log line. */
         void (*diag)(void *arg, enum log_prio prio, const char *text);
         /* Where the peer reaches us, "<ip>:<port>" (NUL-terminated in buf[size]), and the remote
          * port we send to: the text's length, or -errno when the link has no such address (not
          * UDP). For a pronto4 host's "SetIP" command. NULL: no address. */
         int (*local_address)(void *arg, char *buf, size_t size, unsigned *ret_remote_port);
+        /* What the link's pronto4 peers have asked of it, for the link's state text ("peer A:
+         * outbound off"; "" when nothing differs from normal). NULL: not shown. */
+        void (*peer_state)(void *arg, const char *text);
 };
 
 #endif

@@ -5,6 +5,7 @@
 #include "daemon/link_sharedlink_peers.h"
 
 #include <errno.h>
+#include <inttypes.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -48,6 +49,79 @@ void sls_diagf(struct link_sharedlink_session *s, enum log_prio prio, const char
         vsnprintf(text, sizeof(text), fmt, ap);
         va_end(ap);
         s->h->diag(s->arg, prio, text);
+}
+
+void sls_refuse(struct link_sharedlink_session *s, enum shm_counter c, uint64_t n,
+                const char *fmt, ...)
+{
+        struct sls_refusals *r = &s->refusals;
+        char text[LINK_SHAREDLINK_DIAG_MAX];
+        va_list ap;
+
+        if (n == 0 || (unsigned)c >= SHM_COUNTER_COUNT)
+                return;
+        sls_count(s, c, n);
+        if (r->warned[c]) {
+                r->pending[c] += n;
+                if (r->summary_at == LINK_SHAREDLINK_NEVER)
+                        r->summary_at = s->now + LINK_SHAREDLINK_REFUSAL_SUMMARY_MS;
+                return;
+        }
+        r->warned[c] = true;
+        va_start(ap, fmt);
+        vsnprintf(text, sizeof(text), fmt, ap);
+        va_end(ap);
+        sls_diagf(s, LOG_PRIO_WARNING, "%s: %s", shm_layout_counter_name(c), text);
+}
+
+void sls_refusals_summary(struct link_sharedlink_session *s)
+{
+        struct sls_refusals *r = &s->refusals;
+        char text[LINK_SHAREDLINK_DIAG_MAX];
+        size_t used = 0;
+
+        r->summary_at = LINK_SHAREDLINK_NEVER;
+        for (unsigned c = 0; c < SHM_COUNTER_COUNT; c++) {
+                int n;
+
+                if (r->pending[c] == 0)
+                        continue;
+                n = snprintf(text + used, sizeof(text) - used, "%s%s %" PRIu64,
+                             used ? ", " : "", shm_layout_counter_name(c), r->pending[c]);
+                r->pending[c] = 0;
+                if (n > 0 && (size_t)n < sizeof(text) - used)
+                        used += (size_t)n;
+        }
+        if (used > 0)
+                sls_diagf(s, LOG_PRIO_WARNING, "refused in the last %u s: %s (slctl stats has "
+                          "the totals)", LINK_SHAREDLINK_REFUSAL_SUMMARY_MS / 1000u, text);
+}
+
+void sls_peer_state_update(struct link_sharedlink_session *s)
+{
+        char text[LINK_SHAREDLINK_PEER_STATE_MAX];
+        size_t used = 0;
+
+        if (!s->h->peer_state)
+                return;
+        text[0] = '\0';
+        for (unsigned i = 0; i < s->n_peers; i++) {
+                const struct sls_peer *p = &s->peers[i];
+                int n;
+
+                /* Only what differs from a link's normal state ("up" stays "up"). */
+                if (!p->out_off && !p->in_off)
+                        continue;
+                n = snprintf(text + used, sizeof(text) - used, "%speer %c: %s%s%s",
+                             used ? "; " : "", p->cfg->address,
+                             p->out_off ? "outbound off" : "",
+                             p->out_off && p->in_off ? ", " : "",
+                             p->in_off ? "inbound off" : "");
+                if (n < 0 || (size_t)n >= sizeof(text) - used)
+                        break;
+                used += (size_t)n;
+        }
+        s->h->peer_state(s->arg, text);
 }
 
 int sls_send_frame(struct link_sharedlink_session *s, const char *buf, size_t len)
@@ -117,9 +191,10 @@ int sls_send_range(struct link_sharedlink_session *s, struct sls_peer *p, size_t
         size_t cursor = first;
         int err = 0;
 
-        /* Pronto4: every data frame is the whole list, starting N0 (docs/pronto4.md §7). */
+        /* Pronto4: every data frame is the whole list, starting N0 (docs/pronto4.md §7); none
+         * while the host has turned our outbound off (§9), the values wait, dirty. */
         if (p->p4)
-                return send_list_whole(s, p, full);
+                return p->out_off ? 0 : send_list_whole(s, p, full);
         while (cursor < end) {
                 size_t start = cursor;
                 int n = slp_encode_list(&list, &cursor, s->txbuf, sizeof(s->txbuf));
@@ -197,42 +272,97 @@ static bool made_compatible(enum sls_made had, enum sls_made want)
         return (had == SLS_MADE_LEARNED_OUT) == (want == SLS_MADE_LEARNED_OUT);
 }
 
+/* The entry of s->adhoc for variable id of peer p, or NULL. */
+static struct sls_adhoc *made_entry(struct link_sharedlink_session *s, const struct sls_peer *p,
+                                    uint32_t id)
+{
+        for (size_t i = 0; i < s->n_adhoc; i++)
+                if (s->adhoc[i].id == id && s->adhoc[i].peer == p->index)
+                        return &s->adhoc[i];
+        return NULL;
+}
+
+/* Forgets entry a of s->adhoc (its variable retired). */
+static void made_forget(struct link_sharedlink_session *s, struct sls_adhoc *a)
+{
+        *a = s->adhoc[--s->n_adhoc];
+}
+
+/*
+ * Decision (docs/pronto4.md §4): a declaration is the authority on a name, whatever came first.
+ * A variable a self-describing frame (or an R|D answer) made ad hoc for p, which a declaration
+ * now names, is retired and made anew as the declaration says: its direction, its type, its
+ * position. An inbound one keeps its value when the declared type takes it (the outcome is the
+ * same as when the declaration came first and the value after); an outbound one starts empty
+ * (we own what we send). Returns false when the table would not retire it.
+ */
+static bool made_remake(struct link_sharedlink_session *s, struct sls_adhoc *a, enum sls_made made,
+                        char *value, size_t size, int *ret_len)
+{
+        *ret_len = -1;
+        if (made == SLS_MADE_LEARNED_IN && s->h->get)
+                *ret_len = s->h->get(s->arg, a->id, value, size);
+        if (!s->h->retire || s->h->retire(s->arg, a->id) < 0)
+                return false;
+        made_forget(s, a);
+        s->remade++;
+        return true;
+}
+
 int sls_made_id(struct link_sharedlink_session *s, struct sls_peer *p, const char *name,
                 size_t len, enum sls_made made, unsigned type, int32_t pos,
                 enum shm_counter full_counter, enum shm_counter conflict_counter)
 {
-        char full[ADHOC_NAME_SIZE];
-        int id;
+        char full[ADHOC_NAME_SIZE], value[SHM_VALUE_SIZE];
+        int id, value_len = -1;
 
         snprintf(full, sizeof(full), "%s.%c.%.*s", s->cfg->name, p->cfg->address, (int)len,
                  name);
         if (len > SLP_VALUE_MAX || shm_layout_name_check(full) < 0) {
-                sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
+                sls_refuse(s, SHM_COUNTER_BAD_VALUE, 1, "peer %c named \"%.*s\", which does "
+                           "not fit a variable name (47 bytes with the link and peer)",
+                           p->cfg->address, (int)len, name);
                 return -1;
         }
         id = s->h->find(s->arg, full);
         if (id >= 0) {
-                for (size_t i = 0; i < s->n_adhoc; i++)
-                        if (s->adhoc[i].id == (uint32_t)id && s->adhoc[i].peer == p->index &&
-                            made_compatible(s->adhoc[i].made, made))
-                                return id;
-                /* Taken by a configured variable (or another link's): never overwrite it. */
-                sls_count(s, conflict_counter, 1);
-                return -1;
+                struct sls_adhoc *a = made_entry(s, p, (uint32_t)id);
+
+                if (a && a->made != SLS_MADE_ADHOC && made_compatible(a->made, made))
+                        return id;
+                if (a && a->made == SLS_MADE_ADHOC && made == SLS_MADE_ADHOC)
+                        return id;
+                if (!a || a->made != SLS_MADE_ADHOC ||
+                    !made_remake(s, a, made, value, sizeof(value), &value_len)) {
+                        /* Taken by a configured variable, another link's, or our other list:
+                         * never overwritten. */
+                        sls_refuse(s, conflict_counter, 1, "peer %c named %.*s, but %s is "
+                                   "a configured variable, another link's or in our other "
+                                   "list: not used; rename one of them", p->cfg->address,
+                                   (int)len, name, full);
+                        return -1;
+                }
         }
         if (!s->h->add || s->n_adhoc >= LINK_SHAREDLINK_ADHOC_MAX || !adhoc_reserve(s)) {
-                sls_count(s, full_counter, 1);
+                sls_refuse(s, full_counter, 1, "no room for %s (this link makes at most %u names "
+                           "of its peers): not used", full, LINK_SHAREDLINK_ADHOC_MAX);
                 return -1;
         }
         id = s->h->add(s->arg, full, type, p->cfg->address, made == SLS_MADE_LEARNED_OUT, pos);
         if (id < 0) {
-                sls_count(s, id == -ENOSPC ? full_counter : SHM_COUNTER_BAD_VALUE, 1);
+                if (id == -ENOSPC)
+                        sls_refuse(s, full_counter, 1, "the table has no room for %s: not used; "
+                                   "check the learned lists and learn_max", full);
+                else
+                        sls_count(s, SHM_COUNTER_BAD_VALUE, 1);
                 return -1;
         }
         s->adhoc[s->n_adhoc++] = (struct sls_adhoc){ .id = (uint32_t)id, .peer = p->index,
                                                      .made = made };
         sls_eventf(s, SHM_EVENT_ADHOC_VARIABLE, "name=%s peer=%c%s", full, p->cfg->address,
                    made_word(made));
+        if (value_len > 0 && s->h->publish(s->arg, (uint32_t)id, value, (size_t)value_len) < 0)
+                sls_count(s, SHM_COUNTER_TYPE_MISMATCH, 1);
         return id;
 }
 

@@ -58,6 +58,7 @@ struct sls_peer {
         bool change_sent;                       /* an on-change frame went out already */
         uint64_t last_change_ms;
         bool went_stale;                        /* pronto4 host: silent for stale_ms */
+        bool out_off, in_off;                   /* pronto4 vehicle: the host's ELink said off */
 
         uint64_t period_at;                     /* next periodic list */
         uint64_t change_at;                     /* on-change frame held by the rate limit */
@@ -115,6 +116,18 @@ struct sls_scratch {
         const char *ptrs[SLS_LIST_MAX];
 };
 
+/*
+ * Refusals (docs/pronto4.md §11): each reason's first occurrence on a link is a warning that says
+ * what to check; later ones are counted and summed up in one line at most every
+ * LINK_SHAREDLINK_REFUSAL_SUMMARY_MS, so a peer that sends nothing but refused frames never
+ * floods the log.
+ */
+struct sls_refusals {
+        bool warned[SHM_COUNTER_COUNT];         /* its first occurrence was logged */
+        uint64_t pending[SHM_COUNTER_COUNT];    /* since the last warning or summary */
+        uint64_t summary_at;                    /* LINK_SHAREDLINK_NEVER: nothing pending */
+};
+
 struct link_sharedlink_session {
         const struct link_sharedlink_hooks *h;
         void *arg;
@@ -123,6 +136,7 @@ struct link_sharedlink_session {
         bool crlf;                              /* end frames with CR LF */
         bool datagram;
         bool up;
+        uint64_t now;                           /* the time of the call being handled */
 
         struct sls_peer peers[CONFIG_PEERS_MAX];
         unsigned n_peers;
@@ -136,6 +150,8 @@ struct link_sharedlink_session {
 
         struct sls_query queries[LINK_SHAREDLINK_QUERIES_MAX];
 
+        struct sls_refusals refusals;
+        unsigned remade;                        /* ad hoc names a declaration made anew */
         struct sls_reply reply;
         struct sls_scratch scratch;
         char txbuf[SLP_FRAME_MAX];
@@ -150,6 +166,16 @@ void sls_eventf(struct link_sharedlink_session *s, enum shm_event_type type, con
         __attribute__((format(printf, 3, 4)));
 void sls_diagf(struct link_sharedlink_session *s, enum log_prio prio, const char *fmt, ...)
         __attribute__((format(printf, 3, 4)));
+/*
+ * Counts n refusals of reason c (a counter); the first on this link is logged at warning with the
+ * text of fmt, which says what to check; the rest wait for the next summary
+ * (sls_refusals_summary()). The text is formatted only when it is logged.
+ */
+void sls_refuse(struct link_sharedlink_session *s, enum shm_counter c, uint64_t n,
+                const char *fmt, ...) __attribute__((format(printf, 4, 5)));
+/* Logs the refusals counted since the last warning or summary, one line with the count of each
+ * reason, and clears them (the session's tick, at refusals.summary_at). */
+void sls_refusals_summary(struct link_sharedlink_session *s);
 /* Sends one encoded frame, counting frames_out; 0 or the send hook's error. */
 int sls_send_frame(struct link_sharedlink_session *s, const char *buf, size_t len);
 unsigned sls_encode_flags(const struct link_sharedlink_session *s);
@@ -178,6 +204,8 @@ int sls_outref_cmp(const void *a, const void *b);
  */
 int sls_send_range(struct link_sharedlink_session *s, struct sls_peer *p, size_t first,
                    size_t end, bool full);
+/* Tells the engine what the pronto4 peers asked of the link (the peer_state hook). */
+void sls_peer_state_update(struct link_sharedlink_session *s);
 /* Sends the whole outbound list of p now (full: no compression); 0 or -errno. */
 int sls_send_full(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now);
 

@@ -18,6 +18,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 /* Round-trip precision of a double: %.17g always gives back the same double. */
 #define P4_DOUBLE_DIGITS_MAX    17
@@ -57,7 +58,10 @@ bool sls_p4_value_ok(struct link_sharedlink_session *s, const struct sls_peer *p
         /* Decision (docs/pronto4.md §3): refused, counted, never stored; the frame goes on. */
         if (slp_value_check(p->in.types[pos], value, len) == 0)
                 return true;
-        sls_count(s, SHM_COUNTER_TYPE_MISMATCH, 1);
+        sls_refuse(s, SHM_COUNTER_TYPE_MISMATCH, 1, "peer %c sent \"%.*s\" for %s, declared "
+                   "T%c: dropped; check the type the peer declares or we configured",
+                   p->cfg->address, (int)len, value, p->in.names[pos],
+                   slp_type_digit(p->in.types[pos]));
         return false;
 }
 
@@ -80,10 +84,9 @@ bool sls_p4_outbound_value(struct link_sharedlink_session *s, const struct sls_p
         size_t len = strlen(value);
 
         if (slp_value_check(type, value, len) < 0) {
-                sls_count(s, SHM_COUNTER_TYPE_MISMATCH, 1);
-                sls_diagf(s, LOG_PRIO_INFO, "peer %c: \"%.*s\" is no T%c value for %s: not sent",
-                          p->cfg->address, (int)len, value, slp_type_digit(type),
-                          p->out.names[pos]);
+                sls_refuse(s, SHM_COUNTER_TYPE_MISMATCH, 1, "peer %c: \"%.*s\" is no T%c value "
+                           "for %s: not sent; check what the client writes", p->cfg->address,
+                           (int)len, value, slp_type_digit(type), p->out.names[pos]);
                 return false;
         }
         /* The -n bound of a whole list counts SLP_DOUBLE_TEXT_MAX bytes for a double. */
@@ -166,11 +169,22 @@ static void connect_command(struct link_sharedlink_session *s, const struct sls_
         }
 }
 
-void sls_p4_connect(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now)
+/* ELink SetIP (UDP only: where we listen), outbound on, inbound on: a host's first words. */
+static void connect_link(struct link_sharedlink_session *s, const struct sls_peer *p)
 {
         char addr[P4_ADDRESS_MAX], text[P4_SETIP_TEXT_MAX];
         unsigned remote_port = 0;
 
+        if (s->h->local_address &&
+            s->h->local_address(s->arg, addr, sizeof(addr), &remote_port) > 0 &&
+            p4_setip_text(text, sizeof(text), addr, remote_port) > 0)
+                connect_command(s, p, text);
+        connect_command(s, p, P4_TEXT_OUTBOUND_ON);
+        connect_command(s, p, P4_TEXT_INBOUND_ON);
+}
+
+void sls_p4_connect(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now)
+{
         /* Until the vehicle is heard, the sequence goes again every stale_ms (it may not have
          * been listening yet). */
         p->connect_at = LINK_SHAREDLINK_NEVER;
@@ -178,12 +192,10 @@ void sls_p4_connect(struct link_sharedlink_session *s, struct sls_peer *p, uint6
                 return;
         if (p->cfg->stale_ms > 0)
                 p->connect_at = now + p->cfg->stale_ms;
-        if (s->h->local_address &&
-            s->h->local_address(s->arg, addr, sizeof(addr), &remote_port) > 0 &&
-            p4_setip_text(text, sizeof(text), addr, remote_port) > 0)
-                connect_command(s, p, text);
-        connect_command(s, p, P4_TEXT_OUTBOUND_ON);
-        connect_command(s, p, P4_TEXT_INBOUND_ON);
+        /* Decision (§9): the ELink commands are the host's; a vehicle told to declare only
+         * declares. */
+        if (p->cfg->role == CONFIG_P4_HOST)
+                connect_link(s, p);
         send_declaration(s, p, 'N', &p->out);
         send_declaration(s, p, 'L', &p->in);
 }
@@ -346,12 +358,14 @@ static void send_acknowledgement(struct link_sharedlink_session *s, struct sls_p
 
 /* Puts the entries of the declaration m into the scratch from position `n`; returns the count.
  * Decision (§4): a bad entry with a Q keeps its place, unmapped; a stray field takes none. */
-static size_t declaration_read(struct link_sharedlink_session *s, const struct sls_list *l,
-                               const struct p4_message *m, size_t n)
+static size_t declaration_read(struct link_sharedlink_session *s, const struct sls_peer *p,
+                               const struct sls_list *l, const struct p4_message *m, size_t n)
 {
         struct sls_scratch *sc = &s->scratch;
 
-        sls_count(s, SHM_COUNTER_BAD_TYPE, m->bad_entries);
+        sls_refuse(s, SHM_COUNTER_BAD_TYPE, m->bad_entries, "peer %c declared %zu entries with "
+                   "a T other than T0, T2, T4 in its %c list: those positions are not used",
+                   p->cfg->address, m->bad_entries, m->head);
         for (size_t k = 0; k < m->n_entries; k++) {
                 const struct p4_entry *e = &m->entries[k];
 
@@ -361,7 +375,9 @@ static size_t declaration_read(struct link_sharedlink_session *s, const struct s
                         continue;
                 }
                 if (n >= l->cap) {
-                        sls_count(s, SHM_COUNTER_LEARN_FULL, 1);
+                        sls_refuse(s, SHM_COUNTER_LEARN_FULL, 1, "peer %c declared more than "
+                                   "%zu entries in its %c list: the rest are dropped",
+                                   p->cfg->address, l->cap, m->head);
                         continue;
                 }
                 sc->ids[n] = SLS_UNMAPPED;
@@ -403,6 +419,34 @@ static void learned_retire(struct link_sharedlink_session *s, struct sls_peer *p
         }
 }
 
+/*
+ * Decision (§4, issue 21.7): a learned list maps at most learn_max of its positions, the first
+ * ones; the others keep their place and name, unmapped, so what we send still has the declared
+ * length (an empty D there) and data for them is dropped. Warned with both counts.
+ */
+static void learned_bound(struct link_sharedlink_session *s, const struct sls_peer *p,
+                          const struct sls_list *l, char head, size_t n)
+{
+        struct sls_scratch *sc = &s->scratch;
+        size_t mapped = 0, over = 0;
+
+        for (size_t k = 0; k < n; k++) {
+                if (!sc->named[k] && sc->ids[k] == SLS_UNMAPPED)
+                        continue;
+                if (mapped < p->cfg->learn_max) {
+                        mapped++;
+                        continue;
+                }
+                sc->named[k] = false;
+                sc->ids[k] = SLS_UNMAPPED;
+                over++;
+        }
+        sls_refuse(s, SHM_COUNTER_LEARN_FULL, over, "peer %c declared %zu entries in its %c "
+                   "list, learn_max is %u: the last %zu %s; raise learn_max", p->cfg->address,
+                   mapped + over, head, p->cfg->learn_max, over,
+                   l == &p->out ? "go out as an empty D" : "are not stored");
+}
+
 /* The variables of the entries read into the scratch from position `from`. */
 static void declaration_resolve(struct link_sharedlink_session *s, struct sls_peer *p,
                                 const struct sls_list *l, size_t from, size_t n)
@@ -441,10 +485,18 @@ static void declaration_in(struct link_sharedlink_session *s, struct sls_peer *p
                 }
         }
         from = n;
-        n = declaration_read(s, l, m, n);
-        if (l->learn)
+        n = declaration_read(s, p, l, m, n);
+        if (l->learn) {
+                learned_bound(s, p, l, m->head, n);
                 learned_retire(s, p, l, sc, n);
+        }
+        s->remade = 0;
         declaration_resolve(s, p, l, from, n);
+        if (s->remade > 0)
+                sls_diagf(s, LOG_PRIO_INFO, "peer %c declared %u names a self-describing frame "
+                          "had made first: they are now its %c list's, %s, with the declared "
+                          "types", p->cfg->address, s->remade, m->head,
+                          l == &p->out ? "outbound" : "inbound");
         /* Decision (§4): a re-declaration replaces the list whole, counted when it differs. */
         if (declaration_differs(p, l, sc, n)) {
                 sls_count(s, SHM_COUNTER_REDECLARED, 1);
@@ -500,6 +552,15 @@ static uint32_t inbound_by_name(const struct sls_peer *p, const char *name, size
         return SLS_UNMAPPED;
 }
 
+/* Whether name is in p's outbound list (what we send it). */
+static bool outbound_names(const struct sls_peer *p, const char *name, size_t len)
+{
+        for (size_t k = 0; k < p->out.n; k++)
+                if (strlen(p->out.names[k]) == len && memcmp(p->out.names[k], name, len) == 0)
+                        return true;
+        return false;
+}
+
 /* N0|T|Q|D...: each triple sets that variable by name (§7); a name we lack is ad hoc. */
 static void described_in(struct link_sharedlink_session *s, struct sls_peer *p,
                          const struct p4_message *m)
@@ -510,17 +571,24 @@ static void described_in(struct link_sharedlink_session *s, struct sls_peer *p,
                 int made;
 
                 if (e->status != P4_ENTRY_OK) {
-                        sls_count(s, SHM_COUNTER_BAD_TYPE, 1);
+                        sls_refuse(s, SHM_COUNTER_BAD_TYPE, 1, "peer %c sent a self-describing "
+                                   "entry with a T other than T0, T2, T4: dropped",
+                                   p->cfg->address);
                         continue;
                 }
                 if (!e->has_value) {
                         sls_count(s, SHM_COUNTER_BAD_FIELD, 1);
                         continue;
                 }
-                if (e->value_len == 0)
-                        continue;               /* unchanged */
+                /* Decision (§7): a name of our own outbound list carries a value we own: it
+                 * is not the peer's to set, and no ad hoc name either. */
+                if (e->value_len == 0 || outbound_names(p, e->name, e->name_len))
+                        continue;
                 if (slp_value_check(e->type, e->value, e->value_len) < 0) {
-                        sls_count(s, SHM_COUNTER_TYPE_MISMATCH, 1);
+                        sls_refuse(s, SHM_COUNTER_TYPE_MISMATCH, 1, "peer %c sent \"%.*s\" "
+                                   "for %.*s, declared T%c in the same frame: dropped",
+                                   p->cfg->address, (int)e->value_len, e->value,
+                                   (int)e->name_len, e->name, slp_type_digit(e->type));
                         continue;
                 }
                 id = inbound_by_name(p, e->name, e->name_len);
@@ -540,10 +608,21 @@ static void described_in(struct link_sharedlink_session *s, struct sls_peer *p,
 static void list_query_in(struct link_sharedlink_session *s, struct sls_peer *p,
                           const struct p4_message *m)
 {
-        if (m->head == 'L')
-                send_declaration(s, p, 'N', &p->out);
-        else
-                send_declaration(s, p, 'L', &p->in);
+        const struct sls_list *l = m->head == 'L' ? &p->out : &p->in;
+
+        /* Decision (§6, issue 21.5): a learned list the peer has not declared yet is no list
+         * we can answer with; a client that asks and never declares (the ROS 1 adapter) waits
+         * for ever, so say what to configure. */
+        if (l->learn && !l->declared) {
+                sls_refuse(s, SHM_COUNTER_LIST_UNKNOWN, 1, "peer %c asked for our %s list (%c?), "
+                           "but it is `%s: learn` and the peer has not declared it (%c0): a "
+                           "peer that never declares needs `%s:` configured", p->cfg->address,
+                           l == &p->out ? "outbound" : "inbound", m->head,
+                           l == &p->out ? "outbound" : "inbound", l == &p->out ? 'L' : 'N',
+                           l == &p->out ? "outbound" : "inbound");
+                return;
+        }
+        send_declaration(s, p, m->head == 'L' ? 'N' : 'L', l);
 }
 
 /* Text for an event's text="..." value: " and \ escaped. */
@@ -559,8 +638,75 @@ static void quote(char *dst, size_t size, const char *src, size_t len)
         dst[o] = '\0';
 }
 
+/* The next comma-separated word of text[*pos, len), spaces around it dropped. */
+static void word_next(const char *text, size_t len, size_t *pos, const char **ret_word,
+                      size_t *ret_len)
+{
+        size_t i = *pos, end;
+
+        while (i < len && text[i] == ' ')
+                i++;
+        end = i;
+        while (end < len && text[end] != ',')
+                end++;
+        *ret_word = text + i;
+        *ret_len = end - i;
+        while (*ret_len > 0 && text[i + *ret_len - 1] == ' ')
+                (*ret_len)--;
+        *pos = end < len ? end + 1 : end;
+}
+
+static bool word_is(const char *word, size_t len, const char *want)
+{
+        return len == strlen(want) && strncasecmp(word, want, len) == 0;
+}
+
+/* "0, outbound, off" (§9): which of our lists the host switches, and how; false for any other
+ * ELink text (SetIP ...). */
+static bool link_switch_parse(const char *text, size_t len, bool *ret_out, bool *ret_on)
+{
+        const char *w[3];
+        size_t wl[3], pos = 0;
+
+        for (int i = 0; i < 3; i++)
+                word_next(text, len, &pos, &w[i], &wl[i]);
+        if (pos < len)
+                return false;
+        *ret_out = word_is(w[1], wl[1], "outbound");
+        if (!*ret_out && !word_is(w[1], wl[1], "inbound"))
+                return false;
+        *ret_on = word_is(w[2], wl[2], "on");
+        return *ret_on || word_is(w[2], wl[2], "off");
+}
+
+/*
+ * Decision (§9, issue 21.6): a vehicle obeys the host's ELink outbound/inbound on/off as a
+ * Pronto4 does: outbound off, no data to the host (the values wait; on sends the whole list at
+ * once); inbound off, the host's data frames are dropped (counted inbound_off). Both start on.
+ */
+static void link_switch_in(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now,
+                           const struct p4_message *m)
+{
+        bool out, on, *off;
+
+        if (p->cfg->role != CONFIG_P4_VEHICLE || !word_is(m->module, m->module_len,
+                                                          P4_CONNECT_MODULE) ||
+            !link_switch_parse(m->text, m->text_len, &out, &on))
+                return;
+        off = out ? &p->out_off : &p->in_off;
+        if (*off == !on)
+                return;
+        *off = !on;
+        sls_diagf(s, LOG_PRIO_INFO, "peer %c turned our %s %s", p->cfg->address,
+                  out ? "outbound" : "inbound", on ? "on" : "off");
+        sls_peer_state_update(s);
+        if (out && on && s->up)
+                sls_send_full(s, p, now);
+}
+
 /* E<module>|D<text> (§9): an event "module=ServoPod text="0,TELEOP START"". */
-static void command_in(struct link_sharedlink_session *s, const struct p4_message *m)
+static void command_in(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now,
+                       const struct p4_message *m)
 {
         char text[2 * SLP_VALUE_MAX + 1];
 
@@ -573,6 +719,7 @@ static void command_in(struct link_sharedlink_session *s, const struct p4_messag
         quote(text, sizeof(text), m->text, m->text_len);
         sls_eventf(s, SHM_EVENT_COMMAND, "module=%.*s text=\"%s\"", (int)m->module_len,
                    m->module, text);
+        link_switch_in(s, p, now, m);
 }
 
 bool sls_p4_frame(struct link_sharedlink_session *s, struct sls_peer *p, uint64_t now,
@@ -589,13 +736,16 @@ bool sls_p4_frame(struct link_sharedlink_session *s, struct sls_peer *p, uint64_
                 acknowledgement_in(s, p, m);
                 return true;
         case SLP_P4_SELF_DESCRIBING:
-                described_in(s, p, m);
+                if (p->in_off)
+                        sls_count(s, SHM_COUNTER_INBOUND_OFF, 1);
+                else
+                        described_in(s, p, m);
                 return true;
         case SLP_P4_LIST_QUERY:
                 list_query_in(s, p, m);
                 return true;
         case SLP_P4_COMMAND:
-                command_in(s, m);
+                command_in(s, p, now, m);
                 return true;
         case SLP_P4_MU:
                 /* MUI, MUO, ML, MW: the same event, no text (§9). */
@@ -604,9 +754,15 @@ bool sls_p4_frame(struct link_sharedlink_session *s, struct sls_peer *p, uint64_
                            m->module);
                 return true;
         case SLP_P4_DATA:
+                if (p->in_off) {
+                        sls_count(s, SHM_COUNTER_INBOUND_OFF, 1);
+                        return true;
+                }
                 if (p->in.learn && !p->in.declared) {
                         /* Decision (§7): no list to read it against. */
-                        sls_count(s, SHM_COUNTER_UNDECLARED_DATA, 1);
+                        sls_refuse(s, SHM_COUNTER_UNDECLARED_DATA, 1, "peer %c sent data before "
+                                   "it declared its list (N0): dropped; a peer that never "
+                                   "declares needs `inbound:` configured", p->cfg->address);
                         return true;
                 }
                 return false;

@@ -307,8 +307,22 @@ int link_sharedlink_session_query(struct link_sharedlink_session *s, uint64_t no
 int link_sharedlink_session_command(struct link_sharedlink_session *s, uint64_t now_ms, int peer,
                                     const char *module, const char *text)
 {
-        (void)now_ms;
+        s->now = now_ms;
         return sls_p4_command(s, peer, module, text);
+}
+
+int link_sharedlink_session_ping(struct link_sharedlink_session *s, int peer)
+{
+        static const struct slp_field ping = { .letter = 'P', .value = "0", .len = 1 };
+        int n;
+
+        if (peer < 0 || peer >= (int)s->n_peers)
+                return -EINVAL;
+        if (!s->up)
+                return -ENOTCONN;
+        n = slp_frame_encode(s->txbuf, sizeof(s->txbuf), s->peers[peer].cfg->address, s->addr,
+                             &ping, 1, sls_encode_flags(s));
+        return n < 0 ? n : sls_send_frame(s, s->txbuf, (size_t)n);
 }
 
 int link_sharedlink_session_peer(const struct link_sharedlink_session *s, const char *address)
@@ -479,7 +493,10 @@ static void fields_apply(struct link_sharedlink_session *s, struct sls_peer *p,
                         break;
                 }
                 case SLP_FIELD_G:
-                        break;          /* a pong: the frame itself shows the peer is alive */
+                        /* A pong: the frame itself shows the peer is alive; a ping may wait. */
+                        if (s->h->pong)
+                                s->h->pong(s->arg, p->cfg->address, fl->value, fl->len);
+                        break;
                 case SLP_FIELD_T:
                         sls_count(s, SHM_COUNTER_UNKNOWN_FIELD, 1);
                         decl = true;
@@ -510,17 +527,28 @@ static void frame_apply(struct link_sharedlink_session *s, uint64_t now,
 
         sls_count(s, SHM_COUNTER_FRAMES_IN, 1);
         if (f->dst != s->addr) {
-                sls_count(s, SHM_COUNTER_NOT_FOR_US, 1);
+                /* Traffic between two other nodes of a shared bus is no mistake of ours: only
+                 * counted. A peer talking to someone else, or a node using our own address,
+                 * is a swapped or wrong address: warned (issue 21.3). */
+                if (f->src != s->addr && s->peer_of_addr[f->src_index] < 0)
+                        sls_count(s, SHM_COUNTER_NOT_FOR_US, 1);
+                else
+                        sls_refuse(s, SHM_COUNTER_NOT_FOR_US, 1, "frames for %c from %c, but "
+                                   "this link is %c: check `address:` (ours, and the peer's)",
+                                   f->dst, f->src, s->addr);
                 return;
         }
         pi = s->peer_of_addr[f->src_index];
         if (pi < 0) {
-                sls_count(s, SHM_COUNTER_UNKNOWN_PEER, 1);
+                sls_refuse(s, SHM_COUNTER_UNKNOWN_PEER, 1, "frames from %c, which is not a peer "
+                           "of this link: check the peers' `address:`", f->src);
                 return;
         }
         p = &s->peers[pi];
         if (f->raw_len > p->cfg->max_frame) {
-                sls_count(s, SHM_COUNTER_OVERLONG, 1);
+                sls_refuse(s, SHM_COUNTER_OVERLONG, 1, "a frame of %zu bytes from peer %c, "
+                           "longer than its max_frame %u: dropped; check `max_frame:`",
+                           (size_t)f->raw_len, p->cfg->address, p->cfg->max_frame);
                 return;
         }
         sls_count(s, SHM_COUNTER_EMPTY_FIELD, f->empty_fields);
@@ -562,6 +590,12 @@ static enum shm_counter reason_counter(enum slp_decode_reason reason)
 static void result_count(struct link_sharedlink_session *s, const struct slp_decode_result *r)
 {
         /* Noise counts bytes; every other rejection counts once. */
+        if (r->reason == SLP_REASON_OVERLONG) {
+                sls_refuse(s, SHM_COUNTER_OVERLONG, 1, "%zu bytes without a frame end, more "
+                           "than the link's largest max_frame: dropped; check `max_frame:`",
+                           r->bytes);
+                return;
+        }
         sls_count(s, reason_counter(r->reason), r->reason == SLP_REASON_NOISE ? r->bytes : 1);
         if (r->reason != SLP_REASON_NOISE)
                 sls_diagf(s, LOG_PRIO_DEBUG, "dropped %zu bytes: %s", r->bytes,
@@ -582,6 +616,7 @@ void link_sharedlink_session_input(struct link_sharedlink_session *s, uint64_t n
 {
         struct slp_decode_result r;
 
+        s->now = now_ms;
         /* The channel delivers nothing while down; what would come then has no one to answer. */
         if (!s->up)
                 return;
@@ -604,9 +639,13 @@ void link_sharedlink_session_up(struct link_sharedlink_session *s, uint64_t now_
 {
         slp_decoder_reset(&s->dec);
         s->up = true;
+        s->now = now_ms;
         for (unsigned i = 0; i < s->n_peers; i++) {
                 struct sls_peer *p = &s->peers[i];
 
+                /* Decision (§9): a link that comes up sends and takes data at once, as both
+                 * public clients expect (the ROS 1 adapter never sends ELink ... on). */
+                p->out_off = p->in_off = false;
                 if (p->p4 && p->cfg->declare)
                         sls_p4_connect(s, p, now_ms);
                 if (p->out.n == 0)
@@ -615,6 +654,7 @@ void link_sharedlink_session_up(struct link_sharedlink_session *s, uint64_t now_
                 p->period_at = LINK_SHAREDLINK_NEVER;
                 sls_send_full(s, p, now_ms);
         }
+        sls_peer_state_update(s);
 }
 
 void link_sharedlink_session_down(struct link_sharedlink_session *s, uint64_t now_ms)
@@ -637,6 +677,9 @@ bool link_sharedlink_session_is_up(const struct link_sharedlink_session *s)
 
 void link_sharedlink_session_tick(struct link_sharedlink_session *s, uint64_t now_ms)
 {
+        s->now = now_ms;
+        if (now_ms >= s->refusals.summary_at)
+                sls_refusals_summary(s);
         for (unsigned i = 0; i < s->n_peers; i++) {
                 struct sls_peer *p = &s->peers[i];
 
@@ -659,7 +702,7 @@ void link_sharedlink_session_tick(struct link_sharedlink_session *s, uint64_t no
 
 uint64_t link_sharedlink_session_deadline(const struct link_sharedlink_session *s)
 {
-        uint64_t d = LINK_SHAREDLINK_NEVER;
+        uint64_t d = s->refusals.summary_at;
 
         for (unsigned i = 0; i < s->n_peers; i++) {
                 const struct sls_peer *p = &s->peers[i];
@@ -687,6 +730,7 @@ void link_sharedlink_session_outbound(struct link_sharedlink_session *s, uint64_
         ref = bsearch(&key, s->outrefs, s->n_outrefs, sizeof(*s->outrefs), sls_outref_cmp);
         if (!ref)
                 return;
+        s->now = now_ms;
         p = &s->peers[ref->peer];
         if (p->p4) {
                 char checked[SHM_VALUE_SIZE];
@@ -731,7 +775,9 @@ static int list_init(struct link_sharedlink_session *s, const struct config_peer
 
         l->learn = learn;
         l->n = l->n_cfg = learn ? 0 : n;
-        l->cap = !p4 ? n : learn ? c->learn_max : SLS_LIST_MAX;
+        /* A learned list has room for any declaration's positions; learn_max bounds the
+         * variables it makes (docs/pronto4.md §4). */
+        l->cap = !p4 ? n : SLS_LIST_MAX;
         if (l->cap < n)
                 l->cap = n;
         l->ids = calloc(l->cap + 1, sizeof(*l->ids));
@@ -855,6 +901,7 @@ int link_sharedlink_session_new(const struct config_link *cfg, bool datagram,
          * default with a pronto4 peer, whose C++ client aborts without it). */
         s->crlf = !datagram || cfg->sl.crlf;
         s->n_peers = cfg->sl.n_peers;
+        s->refusals.summary_at = LINK_SHAREDLINK_NEVER;
         for (unsigned i = 0; i < SLP_ADDR_COUNT; i++)
                 s->peer_of_addr[i] = -1;
         for (unsigned i = 0; i < s->n_peers; i++) {

@@ -80,6 +80,10 @@ int link_sharedlink_session_query(struct link_sharedlink_session *s, uint64_t no
 int link_sharedlink_session_command(struct link_sharedlink_session *s, uint64_t now_ms, int peer,
                                     const char *module, const char *text);
 
+/* Sends the ping P0 to peer (an index from link_sharedlink_session_peer()); its G0 comes to the
+ * pong hook. 0, -EINVAL (a bad peer index), -ENOTCONN (down) or the send error. */
+int link_sharedlink_session_ping(struct link_sharedlink_session *s, int peer);
+
 /* Handles every deadline that has passed. */
 void link_sharedlink_session_tick(struct link_sharedlink_session *s, uint64_t now_ms);
 

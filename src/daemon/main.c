@@ -29,7 +29,7 @@ static void on_reload(void *arg)
 /* -n: what the parser and daemon_check_config() say; nothing is created. */
 static int check_only(const char *path)
 {
-        char err[DAEMON_ERROR_MAX];
+        char err[DAEMON_WHERE_MAX + DAEMON_ERROR_MAX];
         struct config_error cerr;
         struct config *config;
         int r;
@@ -39,10 +39,10 @@ static int check_only(const char *path)
                 fprintf(stderr, "%s\n", cerr.message);
                 return SERVICE_EXIT_FAILURE;
         }
-        r = daemon_check_config(config, err, sizeof(err));
+        r = daemon_check_config(config, path, err, sizeof(err));
         config_free(config);
         if (r < 0) {
-                fprintf(stderr, "%s: %s\n", path, err);
+                fprintf(stderr, "%s\n", err);
                 return SERVICE_EXIT_FAILURE;
         }
         return service_check_ok();

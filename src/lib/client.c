@@ -3,6 +3,7 @@
  */
 #include "lib/client.h"
 
+#include <dlfcn.h>
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -162,6 +163,7 @@ static void out_unmap(struct sl_client *c)
                 munmap(c->out, c->out_size);
         c->out = NULL;
         c->out_slots = NULL;
+        c->out_touched = NULL;
         c->out_size = 0;
         c->out_capacity = 0;
 }
@@ -213,9 +215,12 @@ static void out_map(struct sl_client *c)
         h = base;
         r = shm_layout_check_out(h, (uint64_t)st.st_size);
         /* Another client may have scribbled on it (-EPROTO too: .in told us the layout): the
-         * daemon will recreate it, so it is "try again". */
+         * daemon will recreate it, so it is "try again". Whatever the daemon's scan refuses
+         * (shm/table.c out_check) is refused here too, the exact version included, or a write
+         * could land in an object about to be thrown away. */
         if (r == -EPROTO || (r == 0 && (h->epoch != m->epoch || h->generation != generation ||
-                                        h->capacity != m->in->out_capacity)))
+                                        h->capacity != m->in->out_capacity ||
+                                        h->layout_version != m->in->layout_version)))
                 r = -EAGAIN;
         if (r < 0) {
                 munmap(base, (size_t)st.st_size);
@@ -226,6 +231,9 @@ static void out_map(struct sl_client *c)
         c->out_size = (size_t)st.st_size;
         c->out_slots = (struct shm_slot *)((char *)base + h->slots_offset);
         c->out_capacity = h->capacity;
+        /* Layout 1.6: writers mark their slot there (vars.c), so the daemon looks at it alone. */
+        if (shm_layout_has_touched(h, (uint64_t)st.st_size))
+                c->out_touched = (_Atomic uint64_t *)(void *)((char *)base + h->touched_offset);
         c->out_error = 0;
 }
 
@@ -310,12 +318,15 @@ static int ids_reserve(struct sl_client *c, uint32_t need)
  * `all`, to every entry again (layout 1.5: entries below count were rewritten). The view is the
  * one of the dir_rewrites read first: a rewrite during the walk leaves the two different, so
  * the next lock refreshes again and no read or write trusts what the walk may have torn.
+ * Each index is marked CLIENT_INDEX_LEARNED unless the walk saw a configured entry for sure: no
+ * rewrite under way when it began, none begun by its end (dir_rewrites is their seqlock).
  */
 static void ids_sync_view(struct sl_client *c, int all)
 {
         const struct client_map *m = c->map;
         uint32_t rewrites = atomic_load_explicit(&m->in->dir_rewrites, memory_order_acquire);
         uint32_t count = atomic_load_explicit(&m->in->count, memory_order_acquire);
+        uint32_t first;
 
         if (count > m->capacity)
                 count = m->capacity;
@@ -325,6 +336,7 @@ static void ids_sync_view(struct sl_client *c, int all)
                 c->synced = 0;
         }
         c->synced_rewrites = rewrites;
+        first = c->synced;
         for (; c->synced < count; c->synced++) {
                 const struct shm_dir_entry *e = &m->dir[c->synced];
                 char name[SHM_NAME_SIZE];
@@ -337,14 +349,23 @@ static void ids_sync_view(struct sl_client *c, int all)
                 id = client_id_lookup(c, name);
                 if (id < 0) {
                         if (ids_reserve(c, c->nids + 1u) < 0)
-                                return;         /* out of memory or ids: retried next refresh */
+                                break;          /* out of memory or ids: retried next refresh */
                         id = (int)c->nids++;
                         memcpy(c->id_names[id], name, sizeof(name));
                         id_hash_insert(c, (uint32_t)id);
                 }
-                c->id_index[id] = (int32_t)c->synced;
+                c->id_index[id] = (int32_t)c->synced |
+                                  (e->flags & SHM_DIR_ADHOC ? CLIENT_INDEX_LEARNED : 0);
                 c->index_id[c->synced] = id;
         }
+        /* As a seqlock reader: the entries' loads before the reload. */
+        atomic_thread_fence(memory_order_acquire);
+        if ((rewrites & 1u) == 0 &&
+            atomic_load_explicit(&m->in->dir_rewrites, memory_order_relaxed) == rewrites)
+                return;
+        for (uint32_t i = first; i < c->synced; i++)
+                if (c->index_id[i] >= 0)
+                        c->id_index[c->index_id[i]] |= CLIENT_INDEX_LEARNED;
 }
 
 static void ids_sync(struct sl_client *c)
@@ -648,6 +669,33 @@ void client_rdlock_slow(struct sl_client *c)
 
 /* ---- open / close -------------------------------------------------------------------------- */
 
+/* The vDSO's clock_gettime entry by its name on this architecture. */
+#if defined(__x86_64__)
+#define CLIENT_VDSO_CLOCK       "__vdso_clock_gettime"
+#elif defined(__aarch64__)
+#define CLIENT_VDSO_CLOCK       "__kernel_clock_gettime"
+#endif
+#define CLIENT_VDSO_NAME        "linux-vdso.so.1"
+
+/*
+ * The vDSO's clock_gettime (client_now_coarse), or NULL: none on this architecture, no vDSO, a
+ * program linked statically. RTLD_NOLOAD: the vDSO is already among the loaded objects, nothing is
+ * loaded; the handle only counts a reference, given back at once (the vDSO is never unloaded).
+ */
+static client_clock_fn vdso_clock(void)
+{
+        client_clock_fn fn = NULL;
+#if defined(CLIENT_VDSO_CLOCK)
+        void *h = dlopen(CLIENT_VDSO_NAME, RTLD_NOW | RTLD_NOLOAD);
+
+        if (!h)
+                return NULL;
+        *(void **)&fn = dlsym(h, CLIENT_VDSO_CLOCK);
+        dlclose(h);
+#endif
+        return fn;
+}
+
 SL_EXPORT int sl_open(const char *instance, struct sl_client **ret)
 {
         struct client_map *m;
@@ -677,6 +725,7 @@ SL_EXPORT int sl_open(const char *instance, struct sl_client **ret)
                 return -ENOMEM;
         }
         c->pid = (uint32_t)getpid();
+        c->vdso_clock_gettime = vdso_clock();
         r = map_open(c->in_name, &m);
         if (r < 0) {
                 freelocale(c->c_locale);

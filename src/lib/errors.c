@@ -15,7 +15,8 @@ SL_EXPORT const char *sl_strerror(int err)
         switch (-err) {
         case ENOENT:    return "no such variable, link or instance (is sharedlinkd running?)";
         case EINVAL:    return "invalid argument, or a value the wire cannot carry "
-                               "(printable ASCII except | [ ], at most 63 bytes)";
+                               "(printable ASCII except | [ ], at most 63 bytes) or the "
+                               "variable's type refuses (long, double)";
         case EPERM:     return "not an outbound variable: only the daemon writes it";
         /* Not only writes: with a group configured, reading the tables needs it too (.in is
          * 0640 then), and a non-member's sl_open fails with this. */

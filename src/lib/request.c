@@ -435,6 +435,24 @@ static int begin(struct sl_client *c, struct reqp_request *r, enum reqp_kind kin
         return reqp_set_link(r, link, reply, reply_size);
 }
 
+/* Starts a request of kind to peer on link that the peer has timeout_ms to answer (0: the
+ * daemon's default, no TIMEOUT_MS word). */
+static int begin_peer(struct sl_client *c, struct reqp_request *r, enum reqp_kind kind,
+                      const char *link, const char *peer, int timeout_ms, char *reply,
+                      size_t reply_size)
+{
+        int rc = begin(c, r, kind, link, reply, reply_size);
+
+        if (rc == 0)
+                rc = reqp_set_text(r, "peer", peer, reply, reply_size);
+        if (rc == 0)
+                rc = check_range("timeout (ms)", timeout_ms, 0, SL_QUERY_TIMEOUT_MAX_MS, reply,
+                                 reply_size);
+        if (rc == 0 && timeout_ms > 0)
+                rc = reqp_set_number(r, "timeout", timeout_ms, reply, reply_size);
+        return rc;
+}
+
 /* Receives the query's answer: "OK <value>". */
 SL_EXPORT int sl_query(struct sl_client *c, const char *link, const char *peer, const char *name,
                        int timeout_ms, char *reply, size_t reply_size)
@@ -448,17 +466,9 @@ SL_EXPORT int sl_query(struct sl_client *c, const char *link, const char *peer, 
                 say(reply, reply_size, "no handle or no buffer for the value");
                 return -EINVAL;
         }
-        r = begin(c, &q, REQP_QUERY, link, reply, reply_size);
-        if (r == 0)
-                r = reqp_set_text(&q, "peer", peer, reply, reply_size);
+        r = begin_peer(c, &q, REQP_QUERY, link, peer, timeout_ms, reply, reply_size);
         if (r == 0)
                 r = reqp_set_text(&q, "variable name", name, reply, reply_size);
-        /* 0 is the daemon's default: no TIMEOUT_MS word. */
-        if (r == 0)
-                r = check_range("query timeout (ms)", timeout_ms, 0, SL_QUERY_TIMEOUT_MAX_MS,
-                                reply, reply_size);
-        if (r == 0 && timeout_ms > 0)
-                r = reqp_set_number(&q, "timeout", timeout_ms, reply, reply_size);
         if (r < 0)
                 return r;
         r = command(c, &q, (timeout_ms ? timeout_ms : SL_REQUEST_TIMEOUT_MS) +
@@ -474,6 +484,45 @@ SL_EXPORT int sl_query(struct sl_client *c, const char *link, const char *peer, 
         }
         memcpy(reply, value, len + 1u);
         return (int)len;
+}
+
+/* The ping's round trip: "OK <nanoseconds>", decimal digits only. */
+static int rtt_parse(const char *text, uint64_t *ret_ns)
+{
+        uint64_t v = 0;
+        size_t i = 0;
+
+        for (; text[i] >= '0' && text[i] <= '9'; i++) {
+                if (v > (UINT64_MAX - 9u) / 10u)
+                        return -EPROTO;
+                v = v * 10u + (uint64_t)(text[i] - '0');
+        }
+        if (i == 0 || text[i] != '\0')
+                return -EPROTO;
+        *ret_ns = v;
+        return 0;
+}
+
+SL_EXPORT int sl_ping(struct sl_client *c, const char *link, const char *peer, int timeout_ms,
+                      uint64_t *ret_rtt_ns, char *reply, size_t reply_size)
+{
+        char text[SL_REPLY_LINE_MAX + 1];
+        struct reqp_request q;
+        uint64_t rtt = 0;
+        int r = begin_peer(c, &q, REQP_PEER_PING, link, peer, timeout_ms, reply, reply_size);
+
+        if (r < 0)
+                return r;
+        r = command(c, &q, (timeout_ms ? timeout_ms : SL_REQUEST_TIMEOUT_MS) +
+                    SL_REQUEST_TIMEOUT_MS, NULL, NULL, text, sizeof(text));
+        if (r == 0 && rtt_parse(text, &rtt) < 0) {
+                say(reply, reply_size, "a ping's reply not understood: \"%.64s\"", text);
+                return -EPROTO;
+        }
+        say_text(reply, reply_size, text, strlen(text));
+        if (r == 0 && ret_rtt_ns)
+                *ret_rtt_ns = rtt;
+        return r;
 }
 
 SL_EXPORT int sl_command(struct sl_client *c, const char *link, const char *module,

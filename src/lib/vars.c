@@ -14,6 +14,7 @@
 
 #include "lib/client.h"
 #include "lib/export.h"
+#include "proto/sharedlink.h"
 #include "shm/futex.h"
 #include "shm/seqlock.h"
 #include "shm/slot.h"
@@ -37,6 +38,9 @@ _Static_assert(SL_DIR_IN == SHM_DIR_IN && SL_DIR_OUT == SHM_DIR_OUT, "directions
 _Static_assert(SL_VAR_STRING == SHM_TYPE_STRING && SL_VAR_LONG == SHM_TYPE_LONG &&
                SL_VAR_DOUBLE == SHM_TYPE_DOUBLE, "types");
 _Static_assert(SL_VAR_ADHOC == SHM_DIR_ADHOC, "directory flags");
+
+/* sl_write_check quotes a value (up to 63 bytes) and adds at most 96 bytes of reason. */
+_Static_assert(SL_WRITE_REASON_SIZE >= SHM_VALUE_SIZE + 96, "reason size");
 
 /* Extensible structs: the caller's size must cover at least the first version. */
 #define SL_META_SIZE_V1         sizeof(struct sl_meta)
@@ -70,16 +74,16 @@ SL_EXPORT int sl_count(struct sl_client *c)
         return n;
 }
 
-/* The read lock and id's directory index (try `attempt` after a rewrite: layout 1.5), or -errno
- * with no lock held. */
-static VARS_HOT int lock_index(struct sl_client *c, int id, int attempt)
+/* The read lock and id's directory index with CLIENT_INDEX_LEARNED (try `attempt` after a
+ * rewrite: layout 1.5), or -errno with no lock held. */
+static VARS_HOT int lock_entry(struct sl_client *c, int id, int attempt)
 {
         int index;
 
         if (attempt == VARS_MOVED_TRIES)
                 return -EAGAIN;
         client_rdlock(c);
-        index = client_index(c, id);
+        index = client_index_entry(c, id);
         if (index < 0)
                 client_unlock(c);
         return index;
@@ -94,10 +98,10 @@ SL_EXPORT int sl_info(struct sl_client *c, int id, struct sl_var_info *ret)
         if (!c || !ret || ret->size < SL_VAR_INFO_SIZE_V1)
                 return -EINVAL;
         for (int attempt = 0;; attempt++) {
-                index = lock_index(c, id, attempt);
+                index = lock_entry(c, id, attempt);
                 if (index < 0)
                         return index;
-                e = &c->map->dir[index];
+                e = &c->map->dir[index & ~CLIENT_INDEX_LEARNED];
                 memset(&info, 0, sizeof(info));
                 client_copy_field(info.name, sizeof(info.name), e->name, sizeof(e->name));
                 client_copy_field(info.peer, sizeof(info.peer), e->peer, sizeof(e->peer));
@@ -162,13 +166,15 @@ static VARS_HOT void meta_fill(struct sl_meta *meta, const struct shm_slot_head 
  * daemon does before it is used.
  */
 static int read_out_slot(const struct sl_client *c, const struct shm_dir_entry *e,
-                         struct shm_slot_head *head, char *value, uint64_t *ret_sequence)
+                         struct shm_slot_head *head, char *value, unsigned fields,
+                         uint64_t *ret_sequence)
 {
         int r;
 
         if (!c->out || e->out_slot >= c->out_capacity)
                 return 0;
-        r = shm_slot_read_to(&c->out_slots[e->out_slot], head, value);
+        r = shm_slot_read_fields(&c->out_slots[e->out_slot], head, value,
+                                 fields | SHM_SLOT_HEAD_STAMP);
         if (r < 0)
                 return r;
         /* A value written for the entry's retired name (layout 1.5) is none of this one's. */
@@ -187,7 +193,7 @@ static int read_out_slot(const struct sl_client *c, const struct shm_dir_entry *
  */
 static VARS_HOT int read_outbound(const struct sl_client *c, const struct shm_dir_entry *e,
                                   int index, struct shm_slot_head *head, char *value,
-                                  uint64_t *ret_sequence)
+                                  unsigned fields, uint64_t *ret_sequence)
 {
         uint64_t word;
 
@@ -195,13 +201,14 @@ static VARS_HOT int read_outbound(const struct sl_client *c, const struct shm_di
                 return 0;
         word = atomic_load_explicit(&c->out_slots[e->out_slot].seq, memory_order_acquire);
         if (!shm_seqlock_odd(word) && word != 0 &&
-            shm_slot_read_to(&c->map->slots[index], head, value) == 0 && head->source == word &&
+            shm_slot_read_fields(&c->map->slots[index], head, value,
+                                 fields | SHM_SLOT_HEAD_SOURCE) == 0 && head->source == word &&
             (head->flags & SHM_SLOT_VALID) && head->length <= SHM_VALUE_MAX) {
                 head->flags |= SHM_SLOT_OUTBOUND;
                 *ret_sequence = shm_seqlock_sequence(word) / 2u;
                 return 1;
         }
-        return read_out_slot(c, e, head, value, ret_sequence);
+        return read_out_slot(c, e, head, value, fields, ret_sequence);
 }
 
 /*
@@ -214,22 +221,25 @@ static VARS_HOT int read_value(struct sl_client *c, int id, struct shm_slot_head
                                char *value, uint64_t *ret_sequence, uint32_t *ret_extra,
                                uint64_t *ret_now)
 {
+        /* The time stamps only for the metadata. */
+        unsigned fields = ret_now ? SHM_SLOT_HEAD_TIMES : 0u;
         const struct shm_dir_entry *e;
         uint64_t sequence = 0;
-        int index, r = 0;
+        int entry, index, r = 0;
 
         for (int attempt = 0;; attempt++) {
-                index = lock_index(c, id, attempt);
-                if (index < 0)
-                        return index;
+                entry = lock_entry(c, id, attempt);
+                if (entry < 0)
+                        return entry;
+                index = entry & ~CLIENT_INDEX_LEARNED;
                 e = &c->map->dir[index];
                 r = 0;
                 if (e->direction == SHM_DIR_OUT)
-                        r = read_outbound(c, e, index, head, value, &sequence);
+                        r = read_outbound(c, e, index, head, value, fields, &sequence);
                 if (r == 0) {
                         /* .in: the daemon's own value, or its mirror of the last accepted
                          * outbound one */
-                        r = shm_slot_read_to(&c->map->slots[index], head, value);
+                        r = shm_slot_read_fields(&c->map->slots[index], head, value, fields);
                         if (r == 0) {
                                 sequence = head->word / 2u;
                                 if (head->length > SHM_VALUE_MAX ||
@@ -237,14 +247,15 @@ static VARS_HOT int read_value(struct sl_client *c, int id, struct shm_slot_head
                                         head->length = 0;
                         }
                 }
-                /* The entry was given to another name meanwhile: the copy may be its value. */
-                if (!client_dir_moved(c))
+                /* A learned name's entry may have been given to another name meanwhile: the
+                 * copy may be its value. A configured name's never is (CLIENT_INDEX_LEARNED). */
+                if (!(entry & CLIENT_INDEX_LEARNED) || !client_dir_moved(c))
                         break;
                 client_unlock(c);
         }
         if (ret_now) {
                 /* Age and liveness from the coarse clock: see client_now_coarse. */
-                *ret_now = client_now_coarse();
+                *ret_now = client_now_coarse(c);
                 *ret_extra = client_alive(c, *ret_now, NULL) ? 0 : SL_FLAG_STALE;
         }
         client_unlock(c);
@@ -316,27 +327,40 @@ static int __attribute__((noinline)) read_small(struct sl_client *c, int id, cha
         return (int)head.length;
 }
 
-SL_EXPORT int sl_read(struct sl_client *c, int id, char *buf, size_t size, struct sl_meta *meta)
+/*
+ * sl_read into a buffer that holds any value: read into directly. with_meta is a constant, so
+ * that the read without metadata neither loads the time stamps nor reads the clock, and neither
+ * tests for it.
+ */
+static VARS_HOT int read_direct(struct sl_client *c, int id, char *buf, struct sl_meta *meta,
+                                int with_meta)
 {
         struct shm_slot_head head;
         uint64_t sequence, now = 0;
         uint32_t extra = 0;
         int r;
 
+        /* The clock only matters for the metadata: age, and stale by heartbeat. */
+        r = read_value(c, id, &head, buf, &sequence, &extra, with_meta ? &now : NULL);
+        if (__builtin_expect(r == -EAGAIN, 0))
+                r = read_busy(c, id, &head, buf, &sequence, &extra, with_meta ? &now : NULL);
+        if (r < 0)
+                return r;
+        if (with_meta)
+                meta_fill(meta, &head, sequence, extra, now);
+        return (int)head.length;
+}
+
+SL_EXPORT int sl_read(struct sl_client *c, int id, char *buf, size_t size, struct sl_meta *meta)
+{
         if (!c || !buf || (meta && meta->size < SL_META_SIZE_V1))
                 return -EINVAL;
         /* A buffer that holds any value is read into directly; a smaller one gets a copy. */
         if (size < SHM_VALUE_SIZE)
                 return read_small(c, id, buf, size, meta);
-        /* The clock only matters for the metadata: age, and stale by heartbeat. */
-        r = read_value(c, id, &head, buf, &sequence, &extra, meta ? &now : NULL);
-        if (__builtin_expect(r == -EAGAIN, 0))
-                r = read_busy(c, id, &head, buf, &sequence, &extra, meta ? &now : NULL);
-        if (r < 0)
-                return r;
         if (meta)
-                meta_fill(meta, &head, sequence, extra, now);
-        return (int)head.length;
+                return read_direct(c, id, buf, meta, 1);
+        return read_direct(c, id, buf, NULL, 0);
 }
 
 /* Reads a value into text; -ENODATA when it is not valid or empty. */
@@ -420,6 +444,8 @@ SL_EXPORT int sl_read_long(struct sl_client *c, int id, long *ret, struct sl_met
 static void out_notify(struct sl_client *c)
 {
         _Atomic uint32_t *change = &c->out->change;
+        /* A 1.6 daemon tells a marked write (high half) from an older client's (low half). */
+        uint32_t step = c->out_touched ? SHM_OUT_CHANGE_TOUCHED : SHM_OUT_CHANGE_STEP;
         uint32_t old;
 
         if (!c->map->waiter_flag) {
@@ -427,11 +453,26 @@ static void out_notify(struct sl_client *c)
                 shm_futex_wake(change, 1);
                 return;
         }
-        old = atomic_fetch_add_explicit(change, SHM_OUT_CHANGE_STEP, memory_order_release);
+        old = atomic_fetch_add_explicit(change, step, memory_order_release);
         if ((old & SHM_OUT_WAITING) &&
             (atomic_fetch_and_explicit(change, ~SHM_OUT_WAITING, memory_order_relaxed) &
              SHM_OUT_WAITING))
                 shm_futex_wake(change, 1);
+}
+
+/*
+ * Marks .out slot i in the touched map (layout 1.6; read lock held), so that the daemon's scan
+ * looks at it alone. After the publish and before the change word's bump: the release orders the
+ * value before the bit, which the daemon takes with an acquire exchange, and the bump after it
+ * wakes a daemon that took the map too early. A writer killed before it marks leaves the write to
+ * the daemon's full scan at its next heartbeat.
+ */
+static void out_touch(struct sl_client *c, uint32_t i)
+{
+        if (c->out_touched)
+                atomic_fetch_or_explicit(&c->out_touched[i / SHM_TOUCHED_WORD_BITS],
+                                         UINT64_C(1) << (i % SHM_TOUCHED_WORD_BITS),
+                                         memory_order_release);
 }
 
 /* Writes a checked value into the .out slot of id (read lock held). */
@@ -458,7 +499,8 @@ static int write_locked(struct sl_client *c, int id, const char *value, size_t l
         r = shm_slot_claim(slot, c->pid, &word);
         if (r < 0) {
                 /* Held for every bounded attempt: perhaps by a writer that died in it, or a
-                 * scribbled word; the daemon's scan repairs that, so have it scan now. */
+                 * scribbled word; the daemon's scan repairs that, so have it scan the slot now. */
+                out_touch(c, e->out_slot);
                 client_ring_daemon(c);
                 return r;
         }
@@ -469,25 +511,80 @@ static int write_locked(struct sl_client *c, int id, const char *value, size_t l
         r = shm_slot_publish(slot, word);
         if (r < 0)
                 return r;
+        out_touch(c, e->out_slot);
         out_notify(c);
         return 0;
 }
 
+/*
+ * Whether sl_write takes value for id (read lock held): 0, or its error with one line that says
+ * why in reason (reason_size bytes; NULL/0 for none). A long or double variable takes only what
+ * the daemon would send for that type (slp_value_check, the daemon's own rule): refused here,
+ * the table keeps its value, instead of a write that stays local and is counted type_mismatch.
+ */
+static int write_refusal(const struct sl_client *c, int id, const char *value, char *reason,
+                         size_t reason_size)
+{
+        const struct shm_dir_entry *e;
+        size_t len = strnlen(value, SHM_VALUE_SIZE);
+        const char *why = NULL;
+        int index = client_index(c, id), r = 0;
+
+        if (index < 0) {
+                r = index;
+                why = "no such variable";
+        } else if (c->map->dir[index].direction != SHM_DIR_OUT) {
+                r = -EPERM;
+                why = "an inbound variable: only the daemon writes it";
+        } else if (shm_layout_value_check(value, len) < 0) {
+                r = -EINVAL;
+                why = len >= SHM_VALUE_SIZE ? "longer than 63 bytes" :
+                      "a byte the wire cannot carry (printable ASCII except | [ ])";
+        } else {
+                e = &c->map->dir[index];
+                if (e->type == SHM_TYPE_LONG && slp_value_check(SLP_TYPE_LONG, value, len) < 0)
+                        why = "not a long: [+-] decimal digits within 64 bits";
+                else if (e->type == SHM_TYPE_DOUBLE &&
+                         slp_value_check(SLP_TYPE_DOUBLE, value, len) < 0)
+                        why = "not a double: a finite decimal number such as -1.5 or 2e-3";
+                if (why) {
+                        /* The value passed the wire's check: safe to quote. */
+                        if (reason && reason_size > 0)
+                                snprintf(reason, reason_size, "\"%s\" is %s", value, why);
+                        return -EINVAL;
+                }
+        }
+        if (reason && reason_size > 0 && why)
+                snprintf(reason, reason_size, "%s", why);
+        return r;
+}
+
+SL_EXPORT int sl_write_check(struct sl_client *c, int id, const char *value, char *reason,
+                             size_t reason_size)
+{
+        int r;
+
+        if (reason && reason_size > 0)
+                reason[0] = '\0';
+        if (!c || !value)
+                return -EINVAL;
+        client_rdlock(c);
+        r = write_refusal(c, id, value, reason, reason_size);
+        client_unlock(c);
+        return r;
+}
+
 SL_EXPORT int sl_write(struct sl_client *c, int id, const char *value)
 {
-        size_t len;
+        size_t len = 0;
         int r;
 
         if (!c || !value)
                 return -EINVAL;
         client_rdlock(c);
-        r = client_index(c, id);
-        if (r >= 0 && c->map->dir[r].direction != SHM_DIR_OUT)
-                r = -EPERM;
-        if (r >= 0) {
-                len = strnlen(value, SHM_VALUE_SIZE);
-                r = shm_layout_value_check(value, len);
-        }
+        r = write_refusal(c, id, value, NULL, 0);
+        if (r >= 0)
+                len = strlen(value);
         if (r >= 0)
                 r = write_locked(c, id, value, len);
         client_unlock(c);

@@ -565,8 +565,18 @@ int bridge_cursor_flush(struct bridge *b, bool sync)
 
 /* ---- set/ ------------------------------------------------------------------------------------ */
 
+static int refuse_detail(struct bridge *b, const struct bridge_sink *sink, const char *name,
+                         enum bridge_refusal why, int err, const char *detail);
+
 static int refuse(struct bridge *b, const struct bridge_sink *sink, const char *name,
                   enum bridge_refusal why, int err)
+{
+        return refuse_detail(b, sink, name, why, err, NULL);
+}
+
+/* refuse(), the error's detail saying why (NULL: sl_strerror(err)). */
+static int refuse_detail(struct bridge *b, const struct bridge_sink *sink, const char *name,
+                         enum bridge_refusal why, int err, const char *detail)
 {
         char topic[BRIDGE_TOPIC_MAX], json[BRIDGE_JSON_MAX];
         char set[BRIDGE_TOPIC_MAX];
@@ -577,7 +587,7 @@ static int refuse(struct bridge *b, const struct bridge_sink *sink, const char *
         if (!name[0])
                 return -EINVAL;
         bridge_format_topic(set, sizeof(set), b->base, BRIDGE_TOPIC_SET, name);
-        n = bridge_format_error(json, sizeof(json), name, why, err);
+        n = bridge_format_error(json, sizeof(json), name, why, err, detail);
         if (n >= 0 && (size_t)snprintf(topic, sizeof(topic), "%s/" BRIDGE_TOPIC_ERROR, set) <
                       sizeof(topic))
                 publish(b, sink, topic, json, (size_t)n, b->cfg->set_qos, false, NULL);
@@ -589,7 +599,7 @@ int bridge_set(struct bridge *b, const struct bridge_sink *sink, const char *top
                const void *payload, size_t len, enum bridge_set_via via)
 {
         struct sl_var_info info = { .size = sizeof(info) };
-        char name[SL_NAME_SIZE] = "", value[SL_VALUE_SIZE];
+        char name[SL_NAME_SIZE] = "", value[SL_VALUE_SIZE], reason[SL_WRITE_REASON_SIZE];
         enum bridge_refusal why;
         int r = bridge_format_set_topic(b->base, topic, name), id;
 
@@ -623,8 +633,13 @@ int bridge_set(struct bridge *b, const struct bridge_sink *sink, const char *top
         memcpy(value, payload, len);
         value[len] = '\0';
         r = sl_write(b->cl, id, value);
-        if (r == -EINVAL)
-                return refuse(b, sink, name, BRIDGE_REFUSE_BAD_VALUE, r);
+        if (r == -EINVAL) {
+                /* The library says why: bytes, length, or the variable's type. */
+                if (sl_write_check(b->cl, id, value, reason, sizeof(reason)) != -EINVAL)
+                        reason[0] = '\0';
+                return refuse_detail(b, sink, name, BRIDGE_REFUSE_BAD_VALUE, r,
+                                     reason[0] ? reason : NULL);
+        }
         if (r < 0)
                 return refuse(b, sink, name, BRIDGE_REFUSE_FAILED, r);
         count(b, &b->counters.set_written, 1);

@@ -155,7 +155,7 @@ const char *bridge_format_refusal(enum bridge_refusal r)
 /* ---- JSON (the toolkit's writer, svc/json.h) ---------------------------------------------- */
 
 int bridge_format_error(char *buf, size_t size, const char *name, enum bridge_refusal r,
-                        int err)
+                        int err, const char *detail)
 {
         struct json_buf j;
 
@@ -163,7 +163,9 @@ int bridge_format_error(char *buf, size_t size, const char *name, enum bridge_re
         json_buf_str(&j, "name", name);
         json_buf_str(&j, "code", (unsigned)r < BRIDGE_REFUSE_COUNT ? refusal_code[r] : "?");
         json_buf_str(&j, "error", bridge_format_refusal(r));
-        if (err < 0)
+        if (detail)
+                json_buf_str(&j, "detail", detail);
+        else if (err < 0)
                 json_buf_str(&j, "detail", sl_strerror(err));
         return json_buf_end(&j);
 }

@@ -81,10 +81,10 @@ enum bridge_refusal bridge_format_check_value(const void *payload, size_t len);
 /* A short English reason, e.g. "an inbound variable is read only". */
 const char *bridge_format_refusal(enum bridge_refusal r);
 
-/* {"error":"<reason>","name":"...","code":"..."} for base/set/<name>/error; its length or
- * -ENOBUFS. */
+/* {"error":"<reason>","name":"...","code":"...","detail":"..."} for base/set/<name>/error,
+ * detail being why (NULL: sl_strerror(err) when err < 0, else none); its length or -ENOBUFS. */
 int bridge_format_error(char *buf, size_t size, const char *name, enum bridge_refusal r,
-                        int err);
+                        int err, const char *detail);
 
 /* The metadata JSON of a variable: valid, stale, age_ms, seq, time_ns, direction, type, link,
  * peer, repaired. link_name may be "". Its length or -ENOBUFS. */

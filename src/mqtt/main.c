@@ -89,8 +89,8 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
         ctx->dirty = true;
 }
 
-/* STATUS= (with READY=1 the first time): only states and reasons, no counts, since sd_notify
- * blocks when nobody reads fast enough and a count would change with every event. */
+/* STATUS= (with READY=1 the first time): only states and reasons, no counts, since every change
+ * is a datagram to the service manager and a count would change with every event. */
 static void status_update(struct main_ctx *ctx)
 {
         const char *why = bridge_mqtt_error(ctx->bm);

@@ -78,6 +78,8 @@ struct spec {
                                          * "NAME needs at least one X" */
         const struct field *fields;
         size_t n_fields;
+        /* A rule across fields, after each is checked (NULL: none): 0 or fail(). */
+        int (*check)(const struct reqp_request *r, char *err, size_t errsz);
 };
 
 /* ---- The tables ------------------------------------------------------------------------------ */
@@ -97,6 +99,12 @@ static const struct field query_fields[] = {
         CHARS("peer", T_PEER, u.query.peer, REQP_PEER_SIZE),
         CHARS("variable name", T_NAME, u.query.name, REQP_NAME_SIZE),
         NUMBER("timeout", FORM_OPTIONAL, S_U32, u.query.timeout_ms, AT(u.query.has_timeout), 1,
+               REQP_QUERY_TIMEOUT_MAX_MS),
+};
+
+static const struct field peer_ping_fields[] = {
+        CHARS("peer", T_PEER, u.ping.peer, REQP_PEER_SIZE),
+        NUMBER("timeout", FORM_OPTIONAL, S_U32, u.ping.timeout_ms, AT(u.ping.has_timeout), 1,
                REQP_QUERY_TIMEOUT_MAX_MS),
 };
 
@@ -163,6 +171,19 @@ static const struct field emulate_action_fields[] = {
                AT(u.circe.u.notify_action.has_sensor_time), 0, CIRCE_TIME_MS_MAX),
 };
 
+static int fail(char *err, size_t errsz, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
+
+/* A bare module request (MUI, MUO, ML, MW) is a frame of its name alone: no text to carry. */
+static int command_check(const struct reqp_request *r, char *err, size_t errsz)
+{
+        const struct reqp_command *c = &r->u.command;
+
+        if (c->text[0] && slp_p4_bare_request(c->module, strlen(c->module)))
+                return fail(err, errsz, "%s is a bare module request: it takes no text",
+                            c->module);
+        return 0;
+}
+
 #define CIRCE(op_, code, controller, usage_)                                                   \
         .verb = "circe", .op = op_, .link = true, .wait = true, .circe_op = code,               \
         .for_controller = controller, .usage = "circe LINK " op_ usage_ " [wait=MS]"
@@ -178,7 +199,11 @@ static const struct spec specs[REQP_KIND_COUNT] = {
         [REQP_COMMAND] = { .verb = "command", .link = true, .wait = true,
                            .reply = REQP_REPLY_OK,
                            .usage = "command LINK MODULE [TEXT...] [wait=MS]",
-                           FIELDS(command_fields) },
+                           FIELDS(command_fields), .check = command_check },
+        [REQP_PEER_PING] = { .verb = "ping-peer", .link = true, .wait = true,
+                             .reply = REQP_REPLY_RTT,
+                             .usage = "ping-peer LINK PEER [TIMEOUT_MS] [wait=MS]",
+                             FIELDS(peer_ping_fields) },
         [REQP_CIRCE_ALERT] = { CIRCE("alert", CIRCE_OP_ALERT, true, " ADDR"),
                                .reply = REQP_REPLY_OK, FIELDS(alert_fields) },
         [REQP_CIRCE_NETWORK_SETUP] = { CIRCE("network-setup", CIRCE_OP_NETWORK_SETUP, true,
@@ -205,8 +230,6 @@ static const struct spec specs[REQP_KIND_COUNT] = {
 #define CIRCE_USAGE     "circe LINK OPERATION [ARGUMENTS...] [wait=MS]"
 
 /* ---- Small helpers ---------------------------------------------------------------------------- */
-
-static int fail(char *err, size_t errsz, const char *fmt, ...) __attribute__((format(printf, 3, 4)));
 
 /* Writes the reason into err (NULL/0 allowed), cut to fit; returns -EINVAL. */
 static int fail(char *err, size_t errsz, const char *fmt, ...)
@@ -823,7 +846,9 @@ int reqp_encode(const struct reqp_request *r, char *buf, size_t size, char *err,
         if (s->need_one && given == 0)
                 return fail(err, errsz, "%s needs at least one %s", reqp_name(r->kind),
                             s->need_one);
-        rc = encode_wait(&b, r, s, err, errsz);
+        rc = s->check ? s->check(r, err, errsz) : 0;
+        if (rc == 0)
+                rc = encode_wait(&b, r, s, err, errsz);
         if (rc < 0)
                 return rc;
         if (b.len + 1u > size) {
@@ -1062,6 +1087,8 @@ int reqp_decode(int argc, char *const *argv, struct reqp_request *ret, char *err
                         return rc;
         }
         rc = decode_fields(&r, s, argv + head, argc - head, err, errsz);
+        if (rc == 0 && s->check)
+                rc = s->check(&r, err, errsz);
         if (rc < 0)
                 return rc;
         *ret = r;

@@ -17,6 +17,7 @@
  *                                                          or the daemon ends it with OK SUMMARY
  *   query LINK PEER NAME [TIMEOUT_MS]                      OK VALUE (maybe empty)
  *   command LINK MODULE [TEXT...]
+ *   ping-peer LINK PEER [TIMEOUT_MS]                      OK RTT_NS: P0 sent, G0 back after RTT_NS
  *   circe LINK alert ADDR
  *   circe LINK network-setup ADDR join|leave ROLES
  *   circe LINK device-setup ASSIGN [DEST|-] [CAPABILITIES|-]
@@ -26,7 +27,8 @@
  *             [secondary=MS] [faults=N] [refusals=N] [eliminated=0|1] [placement=N]
  *   circe LINK emulate action ADDR [keys=N] [sensor-time=MS]
  *
- * Every request may fail with "ERR ERRNO TEXT". The requests on a link (query, command, circe)
+ * Every request may fail with "ERR ERRNO TEXT". The requests on a link (query, command, ping-peer,
+ * circe)
  * may end in wait=MS (CTLP_WAIT_PREFIX): the engine then waits up to MS for the link instead of
  * failing with ENOTCONN; as the last word only, so the encoder adds "wait=0" after a last word
  * that would read as one. A CIRCE address is six uppercase hex digits, not FFFFFF; numbers are
@@ -72,6 +74,7 @@ enum reqp_kind {
         REQP_RECORD,
         REQP_QUERY,                     /* SharedLink Q to a peer */
         REQP_COMMAND,                   /* SharedLink (Pronto4) module command E<module>|D<text> */
+        REQP_PEER_PING,                 /* SharedLink P0 to a peer, timed until its G0 */
         REQP_CIRCE_ALERT,               /* CIRCE operations a controller sends ... */
         REQP_CIRCE_NETWORK_SETUP,
         REQP_CIRCE_DEVICE_SETUP,
@@ -86,6 +89,7 @@ enum reqp_reply {
         REQP_REPLY_OK,                  /* "OK" */
         REQP_REPLY_PING,                /* "OK <pid> <epoch>": the daemon and its tables' epoch */
         REQP_REPLY_VALUE,               /* "OK <value>": the peer's answer, maybe empty */
+        REQP_REPLY_RTT,                 /* "OK <ns>": a ping's round trip, decimal nanoseconds */
         REQP_REPLY_LINES,               /* "DATA <text>" lines of counters, then "OK" */
         REQP_REPLY_RECORDING,           /* "DATA <line>" of a recording, open-ended */
         REQP_REPLY_SYNC,                /* "DATA <ADDR> succeeded|timed-out" per device, "OK" */
@@ -94,6 +98,12 @@ enum reqp_reply {
 struct reqp_query {
         char peer[REQP_PEER_SIZE];      /* the node asked, "A".."P" */
         char name[REQP_NAME_SIZE];      /* its variable */
+        bool has_timeout;
+        uint32_t timeout_ms;            /* 1..REQP_QUERY_TIMEOUT_MAX_MS; else the daemon's */
+};
+
+struct reqp_peer_ping {
+        char peer[REQP_PEER_SIZE];      /* the node pinged, "A".."P" */
         bool has_timeout;
         uint32_t timeout_ms;            /* 1..REQP_QUERY_TIMEOUT_MAX_MS; else the daemon's */
 };
@@ -111,6 +121,7 @@ struct reqp_request {
         union {
                 struct reqp_query query;
                 struct reqp_command command;
+                struct reqp_peer_ping ping;
                 /* circe: the packet a controller sends (op set by the kind); emulate action: the
                  * Notify Action the emulated device reports (origin: the device). */
                 struct circe_msg circe;

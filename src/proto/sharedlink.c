@@ -926,16 +926,26 @@ static bool has_letter(const struct slp_frame *f, char letter)
         return false;
 }
 
-static bool is_mu(const struct slp_field *f)
-{
-        static const char *const mus[] = { "UI", "UO", "L", "W" };
+/* The bare module requests (docs/pronto4.md §9): a frame of this one field, letter and all. */
+static const char *const bare_requests[] = { "MUI", "MUO", "ML", "MW" };
 
-        if (f->letter != 'M')
-                return false;
-        for (size_t i = 0; i < sizeof(mus) / sizeof(mus[0]); i++)
-                if (f->len == strlen(mus[i]) && memcmp(f->value, mus[i], f->len) == 0)
+bool slp_p4_bare_request(const char *module, size_t len)
+{
+        for (size_t i = 0; i < sizeof(bare_requests) / sizeof(bare_requests[0]); i++)
+                if (len == strlen(bare_requests[i]) && memcmp(module, bare_requests[i], len) == 0)
                         return true;
         return false;
+}
+
+static bool is_mu(const struct slp_field *f)
+{
+        char whole[SLP_VALUE_MAX + 1];
+
+        if (f->letter != 'M' || f->len >= sizeof(whole))
+                return false;
+        whole[0] = 'M';
+        memcpy(whole + 1, f->value, f->len);
+        return slp_p4_bare_request(whole, f->len + 1u);
 }
 
 enum slp_p4_kind slp_p4_kind_of(const struct slp_frame *frame)
@@ -1119,11 +1129,20 @@ int slp_encode_list_query(char *buf, size_t size, char dst, char src, char head,
 int slp_encode_command(char *buf, size_t size, char dst, char src, const char *module,
                        const char *text, unsigned flags)
 {
-        int r = slp_name_check(module, value_len(module));
+        size_t mlen = value_len(module);
+        int r = slp_name_check(module, mlen);
+        struct slp_field bare;
 
         if (r < 0)
                 return r;
-        return encode_pair(buf, size, dst, src, 'E', module, text, flags);
+        if (!slp_p4_bare_request(module, mlen))
+                return encode_pair(buf, size, dst, src, 'E', module, text, flags);
+        /* "MUI" goes out as the field M with value "UI": the frame the clients send. */
+        if (text && text[0])
+                return -EINVAL;
+        bare = (struct slp_field){ .letter = module[0], .value = module + 1,
+                                   .len = (uint16_t)(mlen - 1u) };
+        return slp_frame_encode(buf, size, dst, src, &bare, 1, flags);
 }
 
 size_t slp_list_frame_len(size_t fields_len, bool crlf)

@@ -292,6 +292,10 @@ enum slp_p4_kind {
         SLP_P4_MU,                      /* MUI, MUO, ML or MW alone */
 };
 
+/* Whether @module[0..@len) is a bare module request, a frame of its name alone ("MUI", "MUO",
+ * "ML", "MW"; docs/pronto4.md §9) rather than "E<module>|D<text>". */
+bool slp_p4_bare_request(const char *module, size_t len);
+
 /* Classifies @frame; pure, never fails. */
 enum slp_p4_kind slp_p4_kind_of(const struct slp_frame *frame);
 
@@ -352,7 +356,9 @@ int slp_encode_acknowledgement(const struct slp_named_list *list, size_t *cursor
 int slp_encode_list_query(char *buf, size_t size, char dst, char src, char head, unsigned flags);
 
 /* Encodes "E<module>|D<text>" (NUL-terminated; module as slp_name_check(), text the wire charset,
- * at most SLP_VALUE_MAX bytes, may be empty); returns the length or an error. */
+ * at most SLP_VALUE_MAX bytes, may be empty); returns the length or an error. A bare module
+ * request (slp_p4_bare_request: MUI, MUO, ML, MW) goes out bare, "MUI", and takes no text
+ * (-EINVAL). */
 int slp_encode_command(char *buf, size_t size, char dst, char src, const char *module,
                        const char *text, unsigned flags);
 

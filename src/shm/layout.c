@@ -49,9 +49,26 @@ void shm_layout_in_geometry(uint32_t capacity, uint32_t event_capacity,
         *ret_geometry = g;
 }
 
+void shm_layout_out_geometry(uint32_t out_capacity, struct shm_out_geometry *ret_geometry)
+{
+        struct shm_out_geometry g;
+
+        g.total_size = sizeof(struct shm_out_header) +
+                       (uint64_t)out_capacity * sizeof(struct shm_slot);
+        g.touched_words = (out_capacity + SHM_TOUCHED_WORD_BITS - 1u) / SHM_TOUCHED_WORD_BITS;
+        g.touched_offset = align_up(g.total_size, SHM_CACHE_LINE);
+        /* Whole cache lines: the map shares none with a slot. */
+        g.object_size = g.touched_offset +
+                        align_up((uint64_t)g.touched_words * sizeof(uint64_t), SHM_CACHE_LINE);
+        *ret_geometry = g;
+}
+
 uint64_t shm_layout_out_size(uint32_t out_capacity)
 {
-        return sizeof(struct shm_out_header) + (uint64_t)out_capacity * sizeof(struct shm_slot);
+        struct shm_out_geometry g;
+
+        shm_layout_out_geometry(out_capacity, &g);
+        return g.total_size;
 }
 
 int shm_layout_check_in(const struct shm_in_header *h, uint64_t object_size)
@@ -114,7 +131,24 @@ int shm_layout_check_out(const struct shm_out_header *h, uint64_t object_size)
             h->slots_offset != sizeof(*h) ||
             h->total_size != shm_layout_out_size(h->capacity) || h->total_size > object_size)
                 return -EPROTO;
+        /* 1.6: a map that is not where the daemon made it means a scribbled header, which the
+         * daemon's scan refuses (and recreates the object): so must a client, or its write
+         * lands in an object about to be thrown away. */
+        if ((h->layout_version & 0xffffu) >= SHM_LAYOUT_MINOR_TOUCHED &&
+            !shm_layout_has_touched(h, object_size))
+                return -EPROTO;
         return 0;
+}
+
+int shm_layout_has_touched(const struct shm_out_header *h, uint64_t object_size)
+{
+        struct shm_out_geometry g;
+
+        if ((h->layout_version & 0xffffu) < SHM_LAYOUT_MINOR_TOUCHED)
+                return 0;
+        shm_layout_out_geometry(h->capacity, &g);
+        return h->touched_offset == g.touched_offset && h->touched_words == g.touched_words &&
+               g.object_size <= object_size;
 }
 
 const char *shm_layout_counter_name(unsigned i)

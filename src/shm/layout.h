@@ -71,6 +71,24 @@
  *        slot's dir_stamp; the daemon drops a write whose stamp is older than the last rewrite
  *        of the entry owning the slot (a write meant for the retired name). A client before
  *        1.5 never re-reads a rewritten entry and stamps 0: its writes to a reused entry drop.
+ *   1.6  .out carries a touched map (touched_offset, touched_words in its header, reserved bytes
+ *        before): one bit per .out slot, in 64-bit words, after the slots. A writer sets its
+ *        slot's bit (fetch_or, release) after it published the slot and before it bumps the
+ *        change word, and adds SHM_OUT_CHANGE_TOUCHED (the word's high half) instead of
+ *        SHM_OUT_CHANGE_STEP; a writer that finds its slot held for every bounded attempt sets
+ *        the bit before it rings the doorbell. On a wake-up the daemon takes the words
+ *        (exchange with 0, acquire) and looks at those slots only, plus the ones it found held
+ *        before: its work grows with the writes, not with the table. The map is client data like
+ *        the rest of .out: a set bit only makes the daemon look at a slot (which it validates as
+ *        ever), bits past the capacity are ignored, and a lost bit (a writer killed between its
+ *        publish and its mark, a scribble) costs at most the wait for the daemon's full scan at
+ *        every heartbeat. total_size keeps counting up to the slots (what a 1.5 client checks),
+ *        so the map lies past it: the object is touched_offset + the map rounded to a cache
+ *        line. A client before 1.6 sets no bit and adds SHM_OUT_CHANGE_STEP, which lands in the
+ *        change word's low half: the daemon scans all of .out when that half moved since its
+ *        last scan (as every scan did before). A 1.0 client adds 1: seen at once when the
+ *        daemon sleeps (the add carries out of the waiter flag), else at the next heartbeat.
+ *        An older daemon has no map (both fields 0): clients set no bit and add the old step.
  */
 #ifndef SHM_LAYOUT_H
 #define SHM_LAYOUT_H
@@ -81,12 +99,13 @@
 #include <stdint.h>
 
 #define SHM_LAYOUT_MAJOR        1u
-#define SHM_LAYOUT_MINOR        5u
+#define SHM_LAYOUT_MINOR        6u
 #define SHM_LAYOUT_MINOR_WAITER 1u      /* first minor with SHM_OUT_WAITING */
 #define SHM_LAYOUT_MINOR_SOCKET 2u      /* first minor with shm_in_header.control_socket */
 #define SHM_LAYOUT_MINOR_DOORBELL 3u    /* first minor with shm_in_header.out_doorbell */
 #define SHM_LAYOUT_MINOR_LINK_TEXT 4u   /* first minor with the link texts region */
 #define SHM_LAYOUT_MINOR_RETIRE 5u      /* first minor with dir_rewrites and retired entries */
+#define SHM_LAYOUT_MINOR_TOUCHED 6u     /* first minor with the .out touched map */
 #define SHM_LAYOUT_VERSION      ((SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR)
 
 /* "SLNK.IN\0" and "SLNK.OUT" as little-endian words: recognisable in a hex dump. */
@@ -148,7 +167,12 @@
 
 /* shm_out_header.change (layout 1.1, see the history above) */
 #define SHM_OUT_WAITING         0x1u    /* the daemon's wake thread sleeps (or is about to) */
-#define SHM_OUT_CHANGE_STEP     0x2u    /* what a client adds after each write */
+#define SHM_OUT_CHANGE_STEP     0x2u    /* what a client adds after each write (before 1.6) */
+#define SHM_OUT_CHANGE_TOUCHED  0x10000u        /* 1.6: what a client that marked its slot adds */
+#define SHM_OUT_CHANGE_UNTOUCHED 0xfffeu        /* 1.6: the bits older clients' steps move */
+
+/* .out touched map (layout 1.6) */
+#define SHM_TOUCHED_WORD_BITS   64u     /* slots per map word */
 
 /* shm_event.flags */
 #define SHM_EVENT_TRUNCATED     0x1u    /* the text did not fit and was cut */
@@ -220,7 +244,9 @@
         X(COMMANDS_IN,          "commands_in",          SHAREDLINK) \
         X(COMMANDS_OUT,         "commands_out",         SHAREDLINK) \
         X(BAD_COMMAND,          "bad_command",          SHAREDLINK) \
-        X(UDP_REFUSED,          "udp_refused",          LINKS)
+        X(UDP_REFUSED,          "udp_refused",          LINKS) \
+        X(LIST_UNKNOWN,         "list_unknown",         SHAREDLINK) \
+        X(INBOUND_OFF,          "inbound_off",          SHAREDLINK)
 
 #define SHM_COUNTER_ENUM(id, name, scope) SHM_COUNTER_##id,
 enum shm_counter {
@@ -379,7 +405,8 @@ struct shm_out_header {
         uint32_t capacity;
         uint64_t slots_offset;
         uint32_t generation;                    /* equals shm_in_header.out_generation */
-        uint8_t reserved0[12];
+        uint32_t touched_words;                 /* 1.6: 64-bit words of the touched map; 0: none */
+        uint64_t touched_offset;                /* 1.6: where the map starts, past total_size */
         /* Own cache line: clients bump it after every write; the daemon's wake thread waits on it. */
         _Atomic uint32_t change;
         uint8_t reserved1[60];
@@ -436,6 +463,11 @@ static_assert(offsetof(struct shm_slot, dir_stamp) == 104, "slot dir stamp offse
 static_assert(sizeof(struct shm_out_header) == 128, "out header size");
 static_assert(offsetof(struct shm_out_header, generation) == 48, "out generation offset");
 static_assert(offsetof(struct shm_out_header, change) == 64, "out change word offset");
+static_assert(offsetof(struct shm_out_header, touched_words) == 52, "out touched words offset");
+static_assert(offsetof(struct shm_out_header, touched_offset) == 56, "out touched offset offset");
+static_assert((SHM_OUT_CHANGE_TOUCHED & SHM_OUT_CHANGE_UNTOUCHED) == 0 &&
+              (SHM_OUT_CHANGE_STEP & SHM_OUT_CHANGE_UNTOUCHED) == SHM_OUT_CHANGE_STEP &&
+              (SHM_OUT_WAITING & SHM_OUT_CHANGE_UNTOUCHED) == 0, "change word halves");
 static_assert(SHM_COUNTER_COUNT <= SHM_COUNTERS_MAX, "too many counters");
 static_assert(SHM_VALUE_SIZE % 8 == 0 && SHM_EVENT_TEXT_SIZE % 8 == 0, "text in whole words");
 static_assert(SHM_STATE_NAME_SIZE % 8 == 0, "state name in whole words");
@@ -455,7 +487,18 @@ struct shm_in_geometry {
 void shm_layout_in_geometry(uint32_t capacity, uint32_t event_capacity,
                             struct shm_in_geometry *ret_geometry);
 
-/* Size of a .out object with out_capacity slots. */
+/* The .out layout of a table with this many slots. */
+struct shm_out_geometry {
+        uint64_t total_size;            /* the header's total_size: up to the end of the slots */
+        uint64_t touched_offset;        /* 1.6, past total_size */
+        uint32_t touched_words;
+        uint64_t object_size;           /* the whole object, touched map included */
+};
+
+/* Computes where each region of .out lives for out_capacity slots. */
+void shm_layout_out_geometry(uint32_t out_capacity, struct shm_out_geometry *ret_geometry);
+
+/* The header's total_size of a .out object with out_capacity slots (up to the slots' end). */
 uint64_t shm_layout_out_size(uint32_t out_capacity);
 
 /*
@@ -469,6 +512,9 @@ int shm_layout_has_link_texts(const struct shm_in_header *h, uint64_t object_siz
 
 /* Same for .out; returns 0, -EAGAIN or -EPROTO. Does not compare epoch/generation. */
 int shm_layout_check_out(const struct shm_out_header *h, uint64_t object_size);
+
+/* 1 when a checked .out header has the touched map (1.6) and it fits the object, else 0. */
+int shm_layout_has_touched(const struct shm_out_header *h, uint64_t object_size);
 
 /* Name of counter i, or NULL beyond the named list. */
 const char *shm_layout_counter_name(unsigned i);

@@ -49,16 +49,25 @@ struct shm_slot_head {
         uint32_t dir_stamp;             /* shm_slot.dir_stamp (.out, layout 1.5), else 0 */
 };
 
+/* Fields of struct shm_slot_head a read loads besides word, flags and length (others read 0). */
+#define SHM_SLOT_HEAD_TIMES     0x1u    /* mono_ns, real_ns */
+#define SHM_SLOT_HEAD_SOURCE    0x2u    /* source */
+#define SHM_SLOT_HEAD_STAMP     0x4u    /* dir_stamp */
+#define SHM_SLOT_HEAD_ALL       (SHM_SLOT_HEAD_TIMES | SHM_SLOT_HEAD_SOURCE | SHM_SLOT_HEAD_STAMP)
+
 /*
- * shm_slot_read with the value going straight to value[0..SHM_VALUE_SIZE) and the rest to *head;
- * the same garbage rule holds for both after -EAGAIN. For the client's read into its caller's
- * buffer: a second copy of the value from a private one would be read with wider loads than the
- * 8-byte stores that wrote it, and stall on store forwarding (x86-64: sl_read 40 -> 31 ns). Inline,
- * so that the client's read keeps *head in registers: the call and the copy in memory were a
- * third of an sl_read.
+ * shm_slot_read with the value going straight to value[0..SHM_VALUE_SIZE) and the rest to *head,
+ * loading only the head fields named in `fields` (a constant once inlined: an inbound read needs
+ * neither source nor dir_stamp, a read without metadata no time stamps, and each load left out is
+ * one saved on every client read); the same garbage rule holds for both after -EAGAIN. For the
+ * client's read into its caller's buffer: a second copy of the value from a private one would be
+ * read with wider loads than the 8-byte stores that wrote it, and stall on store forwarding
+ * (x86-64: sl_read 40 -> 31 ns). Inline, so that the client's read keeps *head in registers: the
+ * call and the copy in memory were a third of an sl_read.
  */
-static inline int shm_slot_read_to(const struct shm_slot *slot, struct shm_slot_head *head,
-                                   char *value)
+static inline __attribute__((always_inline)) int
+shm_slot_read_fields(const struct shm_slot *slot, struct shm_slot_head *head, char *value,
+                     unsigned fields)
 {
         for (unsigned attempt = 0; attempt < SHM_SEQLOCK_TRIES; attempt++) {
                 uint64_t start = shm_seqlock_read_begin(&slot->seq);
@@ -67,13 +76,24 @@ static inline int shm_slot_read_to(const struct shm_slot *slot, struct shm_slot_
                         shm_seqlock_relax();
                         continue;
                 }
-                head->mono_ns = atomic_load_explicit(&slot->mono_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
-                head->real_ns = atomic_load_explicit(&slot->real_ns, SHM_SEQLOCK_PAYLOAD_LOAD);
+                head->mono_ns = 0;
+                head->real_ns = 0;
+                head->source = 0;
+                head->dir_stamp = 0;
+                if (fields & SHM_SLOT_HEAD_TIMES) {
+                        head->mono_ns = atomic_load_explicit(&slot->mono_ns,
+                                                             SHM_SEQLOCK_PAYLOAD_LOAD);
+                        head->real_ns = atomic_load_explicit(&slot->real_ns,
+                                                             SHM_SEQLOCK_PAYLOAD_LOAD);
+                }
                 head->flags = atomic_load_explicit(&slot->flags, SHM_SEQLOCK_PAYLOAD_LOAD);
                 head->length = atomic_load_explicit(&slot->length, SHM_SEQLOCK_PAYLOAD_LOAD);
-                head->source = atomic_load_explicit(&slot->source, SHM_SEQLOCK_PAYLOAD_LOAD);
-                head->dir_stamp = atomic_load_explicit(&slot->dir_stamp,
-                                                       SHM_SEQLOCK_PAYLOAD_LOAD);
+                if (fields & SHM_SLOT_HEAD_SOURCE)
+                        head->source = atomic_load_explicit(&slot->source,
+                                                            SHM_SEQLOCK_PAYLOAD_LOAD);
+                if (fields & SHM_SLOT_HEAD_STAMP)
+                        head->dir_stamp = atomic_load_explicit(&slot->dir_stamp,
+                                                               SHM_SEQLOCK_PAYLOAD_LOAD);
                 /* Unrolled: the loop's own counting was a fifth of an sl_read. */
 #pragma GCC unroll 8
                 for (unsigned i = 0; i < SHM_VALUE_WORDS; i++) {
@@ -88,6 +108,13 @@ static inline int shm_slot_read_to(const struct shm_slot *slot, struct shm_slot_
                 return 0;
         }
         return -EAGAIN;
+}
+
+/* shm_slot_read_fields of every field. */
+static inline __attribute__((always_inline)) int
+shm_slot_read_to(const struct shm_slot *slot, struct shm_slot_head *head, char *value)
+{
+        return shm_slot_read_fields(slot, head, value, SHM_SLOT_HEAD_ALL);
 }
 
 /* Acquire load of the seqlock word (the daemon's "did it change since the last scan"). */

@@ -84,10 +84,13 @@ struct shm_table {
         struct shm_dir_entry *dir;
         struct shm_slot *slots;
         struct shm_slot *out_slots;
+        _Atomic uint64_t *out_touched;  /* the touched map in .out (layout 1.6): client data */
         uint32_t capacity;
         uint32_t count;
         uint32_t out_capacity;          /* configured outbound variables + out_spare */
         uint32_t out_used;              /* .out slots given to a variable: [0, out_used) */
+        uint32_t out_touched_words;     /* words of the touched map (and of out_want) */
+        uint32_t out_old_steps;         /* change & SHM_OUT_CHANGE_UNTOUCHED at the last scan */
         uint32_t event_capacity;
         uint32_t link_count;
         uint32_t out_generation;
@@ -101,6 +104,10 @@ struct shm_table {
         uint64_t *out_seen;             /* lock word of each .out slot at the last scan */
         struct shm_slot_copy *out_copy; /* copy-out buffer, one per .out slot */
         struct table_scan *out_scan;
+        uint64_t *out_want;             /* private touched map: slots the next scan looks at */
+        uint32_t *out_list;             /* the slots of the scan under way, ascending */
+        uint32_t out_nlist;
+        int out_full;                   /* the scan under way looks at every slot */
         int32_t *hash;                  /* open addressing over vars, by name */
         uint32_t hash_size;             /* a power of two, >= 2 * capacity */
         int in_batch;
@@ -344,10 +351,14 @@ static int set_mode(const struct shm_table *t, int fd, mode_t mode)
 static int out_create(struct shm_table *t, uint32_t generation)
 {
         struct shm_out_header *h;
-        uint64_t size = shm_layout_out_size(t->out_capacity);
+        struct shm_out_geometry g;
+        uint64_t size;
+        uint32_t change;
         void *map;
         int fd, r;
 
+        shm_layout_out_geometry(t->out_capacity, &g);
+        size = g.object_size;
         if (shm_unlink(t->out_name) < 0 && errno != ENOENT)
                 return -errno;
         r = create_object(t->out_name, size, &fd, &map);
@@ -356,16 +367,18 @@ static int out_create(struct shm_table *t, uint32_t generation)
         h = map;
         h->layout_version = SHM_LAYOUT_VERSION;
         h->header_size = sizeof(*h);
-        h->total_size = size;
+        h->total_size = g.total_size;
         h->epoch = t->epoch;
         h->slot_size = sizeof(struct shm_slot);
         h->capacity = t->out_capacity;
         h->slots_offset = sizeof(*h);
         h->generation = generation;
+        h->touched_words = g.touched_words;
+        h->touched_offset = g.touched_offset;
         /* A fresh word per object, so a client cursor from the old one rarely matches; without
          * the waiter flag: nobody sleeps on it yet. */
-        atomic_store_explicit(&h->change, ((uint32_t)t->epoch + generation) & ~SHM_OUT_WAITING,
-                              memory_order_relaxed);
+        change = ((uint32_t)t->epoch + generation) & ~SHM_OUT_WAITING;
+        atomic_store_explicit(&h->change, change, memory_order_relaxed);
         r = set_mode(t, fd, TABLE_MODE_OUT);
         if (r < 0) {
                 munmap(map, size);
@@ -383,8 +396,14 @@ static int out_create(struct shm_table *t, uint32_t generation)
         t->out_size = size;
         t->out_fd = fd;
         t->out_slots = (struct shm_slot *)((char *)map + h->slots_offset);
+        t->out_touched = (_Atomic uint64_t *)(void *)((char *)map + g.touched_offset);
+        t->out_touched_words = g.touched_words;
+        t->out_old_steps = change & SHM_OUT_CHANGE_UNTOUCHED;
         for (uint32_t i = 0; i < t->out_capacity; i++)
                 t->out_seen[i] = 0;
+        /* What the old object's scans left to look at again is gone with it. */
+        for (uint32_t w = 0; w < g.touched_words; w++)
+                t->out_want[w] = 0;
         return 0;
 }
 
@@ -477,7 +496,11 @@ static int table_alloc(struct shm_table *t)
         t->out_seen = calloc(n, sizeof(*t->out_seen));
         t->out_copy = calloc(n, sizeof(*t->out_copy));
         t->out_scan = calloc(n, sizeof(*t->out_scan));
-        if (!t->vars || !t->hash || !t->out_ids || !t->out_seen || !t->out_copy || !t->out_scan)
+        t->out_want = calloc((n + SHM_TOUCHED_WORD_BITS - 1u) / SHM_TOUCHED_WORD_BITS,
+                             sizeof(*t->out_want));
+        t->out_list = calloc(n, sizeof(*t->out_list));
+        if (!t->vars || !t->hash || !t->out_ids || !t->out_seen || !t->out_copy || !t->out_scan ||
+            !t->out_want || !t->out_list)
                 return -ENOMEM;
         for (uint32_t i = 0; i < t->hash_size; i++)
                 t->hash[i] = TABLE_HASH_EMPTY;
@@ -501,6 +524,8 @@ static void table_free(struct shm_table *t)
         free(t->out_seen);
         free(t->out_copy);
         free(t->out_scan);
+        free(t->out_want);
+        free(t->out_list);
         free(t);
 }
 
@@ -1072,12 +1097,64 @@ uint64_t shm_table_eventf(struct shm_table *t, enum shm_event_type type, uint32_
 
 /* ---- outbound ------------------------------------------------------------------------------ */
 
-/* Pass A (guarded): copy out every slot whose word changed since the last scan. */
+static void want_set(struct shm_table *t, uint32_t i)
+{
+        t->out_want[i / SHM_TOUCHED_WORD_BITS] |= UINT64_C(1) << (i % SHM_TOUCHED_WORD_BITS);
+}
+
+/*
+ * Pass A, first step (guarded): the slots this scan looks at, into out_list in ascending order.
+ * The touched map's words are taken (exchange with 0; acquire: the slot a bit names was published
+ * before it was set) into out_want, the daemon's own map, which also holds the slots the last scan
+ * found held or churning. Bits past the capacity are client garbage: dropped. A move of the
+ * change word's low half says a client before layout 1.6 wrote, marking nothing: every slot then.
+ * The relaxed load first keeps the exchange (a locked write to a line writers share) to the words
+ * that have a bit: a mark it misses was set after the bump that woke us was read, so its own
+ * bump, which follows it, wakes us again.
+ */
+static void scan_collect(struct shm_table *t)
+{
+        uint32_t words = t->out_touched_words, tail = t->out_capacity % SHM_TOUCHED_WORD_BITS;
+        uint32_t old = atomic_load_explicit(&t->out->change, memory_order_acquire) &
+                       SHM_OUT_CHANGE_UNTOUCHED;
+
+        if (old != t->out_old_steps) {
+                t->out_old_steps = old;
+                t->out_full = 1;
+        }
+        for (uint32_t w = 0; w < words; w++) {
+                uint64_t bits = atomic_load_explicit(&t->out_touched[w], memory_order_relaxed);
+
+                if (bits)
+                        t->out_want[w] |= atomic_exchange_explicit(&t->out_touched[w], 0,
+                                                                   memory_order_acquire);
+        }
+        if (tail)
+                t->out_want[words - 1u] &= (UINT64_C(1) << tail) - 1u;
+        t->out_nlist = 0;
+        if (t->out_full) {
+                for (uint32_t i = 0; i < t->out_capacity; i++)
+                        t->out_list[t->out_nlist++] = i;
+        }
+        for (uint32_t w = 0; w < words; w++) {
+                uint64_t bits = t->out_want[w];
+
+                t->out_want[w] = 0;
+                for (; bits && !t->out_full; bits &= bits - 1u)
+                        t->out_list[t->out_nlist++] = w * SHM_TOUCHED_WORD_BITS +
+                                                      (uint32_t)__builtin_ctzll(bits);
+        }
+        t->out_full = 0;
+}
+
+/* Pass A (guarded): copy out every listed slot whose word changed since the last scan. */
 static void scan_copy(void *arg)
 {
         struct shm_table *t = arg;
 
-        for (uint32_t i = 0; i < t->out_capacity; i++) {
+        scan_collect(t);
+        for (uint32_t k = 0; k < t->out_nlist; k++) {
+                uint32_t i = t->out_list[k];
                 struct table_scan *s = &t->out_scan[i];
                 uint64_t word = shm_slot_word(&t->out_slots[i]);
 
@@ -1101,7 +1178,8 @@ static void scan_repair(void *arg)
         struct shm_table *t = arg;
         uint64_t now_mono = clock_ns(CLOCK_MONOTONIC), now_real = clock_ns(CLOCK_REALTIME);
 
-        for (uint32_t i = 0; i < t->out_capacity; i++) {
+        for (uint32_t k = 0; k < t->out_nlist; k++) {
+                uint32_t i = t->out_list[k];
                 struct table_scan *s = &t->out_scan[i];
 
                 if (s->state != SCAN_REPAIR)
@@ -1146,14 +1224,18 @@ static void scan_header_copy(void *arg)
 static int out_check(struct shm_table *t)
 {
         struct scan_header h = { .src = t->out };
+        struct shm_out_geometry g;
         struct stat st;
 
         if (fstat(t->out_fd, &st) < 0 || (uint64_t)st.st_size != t->out_size)
                 return -EBADMSG;
+        shm_layout_out_geometry(t->out_capacity, &g);
         if (shm_guard_run(scan_header_copy, &h) < 0)
                 return -EBADMSG;
         if (h.copy.magic != SHM_OUT_MAGIC || h.copy.layout_version != SHM_LAYOUT_VERSION ||
-            h.copy.header_size != sizeof(h.copy) || h.copy.total_size != t->out_size ||
+            h.copy.header_size != sizeof(h.copy) ||
+            h.copy.total_size != g.total_size || h.copy.touched_words != g.touched_words ||
+            h.copy.touched_offset != g.touched_offset ||
             h.copy.epoch != t->epoch || h.copy.slot_size != sizeof(struct shm_slot) ||
             h.copy.capacity != t->out_capacity || h.copy.slots_offset != sizeof(h.copy) ||
             h.copy.generation != t->out_generation)
@@ -1253,7 +1335,8 @@ static int scan_report(struct shm_table *t, uint32_t i, shm_table_out_fn fn, voi
         return 1;
 }
 
-int shm_table_out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata)
+/* One scan of the slots scan_collect lists (every one when t->out_full is set). */
+static int out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata)
 {
         int implicit, repairs = 0, reported = 0;
 
@@ -1264,8 +1347,8 @@ int shm_table_out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata)
                 return -EFAULT;
         if (out_check(t) < 0 || shm_guard_run(scan_copy, t) < 0)
                 return scan_broken(t);
-        for (uint32_t i = 0; i < t->out_capacity; i++) {
-                struct table_scan *s = &t->out_scan[i];
+        for (uint32_t k = 0; k < t->out_nlist; k++) {
+                struct table_scan *s = &t->out_scan[t->out_list[k]];
 
                 if (s->state == SCAN_HELD && writer_gone(t, s->word)) {
                         s->state = SCAN_REPAIR;
@@ -1278,11 +1361,30 @@ int shm_table_out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata)
         implicit = !t->in_batch;
         if (implicit)
                 shm_table_begin(t);
-        for (uint32_t i = 0; i < t->out_capacity; i++)
+        for (uint32_t k = 0; k < t->out_nlist; k++) {
+                uint32_t i = t->out_list[k];
+                uint8_t state = t->out_scan[i].state;
+
                 reported += scan_report(t, i, fn, userdata);
+                /* Held by a live writer, or churning: look again at the next scan, whoever
+                 * wakes us (its writer's mark may be long taken). */
+                if (state == SCAN_HELD || state == SCAN_CHURN)
+                        want_set(t, i);
+        }
         if (implicit)
                 shm_table_commit(t);
         return reported;
+}
+
+int shm_table_out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata)
+{
+        t->out_full = 1;
+        return out_scan(t, fn, userdata);
+}
+
+int shm_table_out_scan_touched(struct shm_table *t, shm_table_out_fn fn, void *userdata)
+{
+        return out_scan(t, fn, userdata);
 }
 
 int shm_table_out_wake_fd(struct shm_table *t)

@@ -11,7 +11,8 @@
  *     shm_table_set(t, id, "40.12", 5);            ... for each value in it
  *     shm_table_commit(t);                         one change-word bump + one FUTEX_WAKE
  *     poll(... shm_table_out_wake_fd(t) ...);      readable after a client write
- *     shm_table_out_wake_ack(t); shm_table_out_scan(t, on_change, engine);
+ *     shm_table_out_wake_ack(t); shm_table_out_scan_touched(t, on_change, engine);
+ *     shm_table_out_scan(t, on_change, engine);    at every heartbeat: every slot
  */
 #ifndef SHM_TABLE_H
 #define SHM_TABLE_H
@@ -198,6 +199,16 @@ uint64_t shm_table_eventf(struct shm_table *t, enum shm_event_type type, uint32_
  * repairs the slot or recreates the object.
  */
 int shm_table_out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata);
+
+/*
+ * shm_table_out_scan of the slots writers marked in the touched map (layout 1.6) since the last
+ * scan, and of those a scan found held or churning: what a wake-up costs grows with the writes,
+ * not with the table (at most the map's words and every slot, whatever a client scribbled).
+ * Every slot, as shm_table_out_scan, when the change word says a client before 1.6 wrote. A
+ * write whose mark was lost (its writer killed before it marked, the map scribbled) is found by
+ * the next shm_table_out_scan: call that on the periodic timer. Same returns.
+ */
+int shm_table_out_scan_touched(struct shm_table *t, shm_table_out_fn fn, void *userdata);
 
 /* Replaces .out by a fresh, empty object (clients notice through out_generation). 0 or -errno. */
 int shm_table_out_recreate(struct shm_table *t);

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/socket.h>
+#include <sys/time.h>
 #include <sys/un.h>
 #include <time.h>
 #include <unistd.h>
@@ -21,11 +22,13 @@
 #define NOTIFY_USEC_PER_SEC     1000000ull
 #define NOTIFY_NSEC_PER_USEC    1000ull
 #define NOTIFY_USEC_PER_MSEC    1000ull
+#define NOTIFY_MSEC_PER_SEC     1000u
 
 struct notify {
         bool enabled;
         char socket_path[sizeof(((struct sockaddr_un *)NULL)->sun_path) + 1];
         uint64_t watchdog_usec;
+        uint64_t failed;                /* messages not sent (notify_failed) */
 };
 
 /* WATCHDOG_USEC, honoured only when WATCHDOG_PID is unset or ours (as sd_watchdog_enabled()). */
@@ -83,9 +86,13 @@ bool notify_enabled(const struct notify *n)
         return n && n->enabled;
 }
 
-int notify_send_datagram(const char *path, const char *text)
+int notify_send_datagram(const char *path, const char *text, unsigned wait_ms)
 {
         struct sockaddr_un sa = { .sun_family = AF_UNIX };
+        struct timeval tv = {
+                .tv_sec = wait_ms / NOTIFY_MSEC_PER_SEC,
+                .tv_usec = (wait_ms % NOTIFY_MSEC_PER_SEC) * NOTIFY_USEC_PER_MSEC,
+        };
         size_t len = strlen(path);
         socklen_t salen;
         ssize_t r;
@@ -103,25 +110,46 @@ int notify_send_datagram(const char *path, const char *text)
         fd = socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
         if (fd < 0)
                 return -errno;
+        /* A datagram to a receiver whose queue is full waits for room: bounded by wait_ms, or
+         * not at all. */
+        if (wait_ms && setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &tv, sizeof(tv)) < 0) {
+                r = -errno;
+                close(fd);
+                return (int)r;
+        }
         do {
-                r = sendto(fd, text, strlen(text), MSG_NOSIGNAL, (const struct sockaddr *)&sa,
-                           salen);
+                r = sendto(fd, text, strlen(text),
+                           MSG_NOSIGNAL | (wait_ms ? 0 : MSG_DONTWAIT),
+                           (const struct sockaddr *)&sa, salen);
         } while (r < 0 && errno == EINTR);
         if (r < 0)
-                r = -errno;
+                r = errno == EWOULDBLOCK ? -EAGAIN : -errno;
         close(fd);
         return r < 0 ? (int)r : 1;
 }
 
-int notify_send(struct notify *n, const char *assignments)
+/* Every message goes through here, in both builds: sd_notify() would wait without bound for a
+ * manager that does not read its socket, and the loop that sends must not. */
+static int notify_send_wait(struct notify *n, const char *assignments, unsigned wait_ms)
 {
+        int r;
+
         if (!notify_enabled(n))
                 return 0;
-#if HAVE_LIBSYSTEMD
-        return sd_notify(0, assignments);
-#else
-        return notify_send_datagram(n->socket_path, assignments);
-#endif
+        r = notify_send_datagram(n->socket_path, assignments, wait_ms);
+        if (r < 0)
+                n->failed++;
+        return r;
+}
+
+int notify_send(struct notify *n, const char *assignments)
+{
+        return notify_send_wait(n, assignments, NOTIFY_ONCE_WAIT_MS);
+}
+
+uint64_t notify_failed(const struct notify *n)
+{
+        return n ? n->failed : 0;
 }
 
 int notify_ready(struct notify *n)
@@ -144,12 +172,12 @@ int notify_status(struct notify *n, const char *fmt, ...)
         for (char *p = msg; *p; p++)
                 if (*p == '\n' || *p == '\r')
                         *p = ' ';
-        return notify_send(n, msg);
+        return notify_send_wait(n, msg, 0);
 }
 
 int notify_watchdog(struct notify *n)
 {
-        return notify_send(n, "WATCHDOG=1");
+        return notify_send_wait(n, "WATCHDOG=1", 0);
 }
 
 int notify_reloading(struct notify *n)

@@ -13,6 +13,8 @@
 
 #include "svc/log.h"
 
+#define NOTIFY_FAILED_TELL_EVERY        100     /* undelivered notifications between warnings */
+
 struct service {
         const struct service_desc *desc;
         const struct service_ops *ops;
@@ -23,7 +25,23 @@ struct service {
         bool stopping;
         bool clean;                     /* service_run() ended with SERVICE_EXIT_OK */
         char status[NOTIFY_STATUS_MAX]; /* the last STATUS= text sent */
+        uint64_t notify_failed_told;    /* notify_failed() when we last said so */
 };
+
+/* Says once, then once per NOTIFY_FAILED_TELL_EVERY more, that the service manager is not
+ * taking our messages (its queue full, or its socket gone): the loop never waits for it. */
+static void service_notify_check(struct service *s)
+{
+        uint64_t failed = notify_failed(s->notify);
+
+        if (failed == s->notify_failed_told ||
+            (s->notify_failed_told && failed - s->notify_failed_told < NOTIFY_FAILED_TELL_EVERY))
+                return;
+        log_warnx("service manager: %" PRIu64 " notification(s) not delivered (its socket "
+                    "is full or gone); STATUS= and WATCHDOG=1 are dropped, not waited for",
+                    failed);
+        s->notify_failed_told = failed;
+}
 
 static void usage(const struct service_desc *d, FILE *f)
 {
@@ -125,6 +143,7 @@ static void service_on_watchdog(struct evloop *loop, struct evloop_timer *t, voi
         (void)loop;
         (void)t;
         notify_watchdog(s->notify);
+        service_notify_check(s);
 }
 
 static int service_watchdog_start(struct service *s)
@@ -257,6 +276,7 @@ int service_ready(struct service *s, const char *text)
                 if (*p == '\n' || *p == '\r')
                         *p = ' ';
         notify_send(s->notify, msg);
+        service_notify_check(s);
         return changed;
 }
 
@@ -265,5 +285,6 @@ int service_status(struct service *s, const char *text)
         if (!service_status_set(s, text))
                 return 0;
         notify_status(s->notify, "%s", s->status);
+        service_notify_check(s);
         return 1;
 }

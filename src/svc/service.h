@@ -125,8 +125,8 @@ bool service_stopping(const struct service *s);
  * 1 when text differs from the last status sent, else 0. */
 int service_ready(struct service *s, const char *text);
 
-/* STATUS=<text> when it differs from the last one sent (states, not counts: a service manager
- * that reads slowly makes sd_notify block). 1 sent, 0 unchanged. */
+/* STATUS=<text> when it differs from the last one sent (states, not counts: every change is a
+ * datagram to the service manager, dropped when its queue is full). 1 sent, 0 unchanged. */
 int service_status(struct service *s, const char *text);
 
 #endif

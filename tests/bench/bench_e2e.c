@@ -65,6 +65,13 @@
 #define FRAME_MAX       128
 #define LINE_MAX_BENCH  1024
 #define NS_PER_US       1000ull
+#define YAML_MAX        (64 * 1024)
+#define EXTRA_PEER_VARS 250             /* extra outbound variables per extra peer (list: 256) */
+#define EXTRA_PEER_FIRST 'C'            /* their addresses: C, D, ... (A and B are taken) */
+#define SCALE_SMALL     10u             /* outbound variables of the two tables compared */
+#define SCALE_LARGE     1000u
+#define SCALE_RATIO_MAX 1.2             /* the issue's target, large / small */
+#define SCALE_P99_MAX_US 500.0
 
 struct sample_set {
         uint64_t v[SAMPLES];
@@ -331,10 +338,36 @@ static int cause_write(void *arg, unsigned i)
 /* ---------------------------------------------------------------------------------------------
  * Daemon helpers */
 
-static int daemon_start(struct harness *h, const char *tag, unsigned links, int *masters,
-                        int *slaves)
+/* Writes the YAML of extra_out more outbound variables on more peers of the same link, at most
+ * EXTRA_PEER_VARS each (one list holds 256), that nobody writes: they only make .out bigger. */
+static size_t extra_peers(char *yaml, size_t size, unsigned extra_out)
 {
-        char yaml[8192], path[HARNESS_PATH_MAX], dev[HARNESS_PATH_MAX + 16];
+        size_t n = 0;
+
+        for (unsigned v = 0; v < extra_out && n < size; v++) {
+                if (v % EXTRA_PEER_VARS == 0)
+                        n += (size_t)snprintf(yaml + n, size - n,
+                                "%s      - address: %c\n"
+                                "        period_ms: 0\n"
+                                "        stale_ms: 0\n"
+                                "        outbound: [", v ? "]\n" : "",
+                                EXTRA_PEER_FIRST + (int)(v / EXTRA_PEER_VARS));
+                if (n < size)
+                        n += (size_t)snprintf(yaml + n, size - n, "%sX%u",
+                                              v % EXTRA_PEER_VARS ? ", " : "", v);
+        }
+        if (extra_out && n < size)
+                n += (size_t)snprintf(yaml + n, size - n, "]\n");
+        return n;
+}
+
+/* A daemon with `links` SharedLink links over pty pairs (peer A of link i: Out<i>, In<i>); link
+ * 0 has extra_out more outbound variables (extra_peers). */
+static int daemon_start(struct harness *h, const char *tag, unsigned links, unsigned extra_out,
+                        int *masters, int *slaves)
+{
+        static char yaml[YAML_MAX];
+        char path[HARNESS_PATH_MAX], dev[HARNESS_PATH_MAX + 16];
         char pts[HARNESS_PATH_MAX];
         size_t n;
         int r;
@@ -365,7 +398,11 @@ static int daemon_start(struct harness *h, const char *tag, unsigned links, int 
                         "        min_interval_ms: 0\n"
                         "        outbound: [Out%u]\n"
                         "        inbound: [In%u]\n", i, dev, i, i);
+                if (i == 0)
+                        n += extra_peers(yaml + n, sizeof(yaml) - n, extra_out);
         }
+        if (n >= sizeof(yaml))
+                return -ENOBUFS;
         r = harness_write_file(h, "bench.yaml", yaml, path);
         if (r < 0)
                 return r;
@@ -505,6 +542,22 @@ static long long stat_field(const char *text, const char *key)
 /* The outbound stages the daemon timed itself, from its `stats` reply ("outbound_stage NAME
  * samples=N p50_ns=N p99_ns=N max_ns=N"): the same cuts as the in-process run below, but in the
  * real daemon, over its last writes (all of this run's outbound samples, warm-up included). */
+/* One outbound stage of a `stats` reply: 0, or -ENOENT when the daemon did not report it. */
+static int daemon_stage(const char *reply, const char *key, unsigned long long *ret_n,
+                        unsigned long long *ret_p50, unsigned long long *ret_p99,
+                        unsigned long long *ret_max)
+{
+        char pat[64];
+        const char *p;
+
+        snprintf(pat, sizeof(pat), "outbound_stage %s ", key);
+        p = strstr(reply, pat);
+        if (!p || sscanf(p + strlen(pat), "samples=%llu p50_ns=%llu p99_ns=%llu max_ns=%llu",
+                         ret_n, ret_p50, ret_p99, ret_max) != 4)
+                return -ENOENT;
+        return 0;
+}
+
 static void print_daemon_stages(struct harness *h)
 {
         static const char *const keys[] = { "write_to_wake", "wake_to_loop", "loop_to_sent" };
@@ -512,7 +565,7 @@ static void print_daemon_stages(struct harness *h)
                 "sl_write -> wake thread signals", "eventfd -> poll loop runs",
                 "scan + frame handed to the link",
         };
-        char reply[LINE_MAX_BENCH * 4], pat[64];
+        char reply[LINE_MAX_BENCH * 4];
 
         if (control_request(h, "stats\n", reply, sizeof(reply)) < 0) {
                 printf("  (the daemon did not answer `stats`: no stages from the daemon)\n");
@@ -521,12 +574,8 @@ static void print_daemon_stages(struct harness *h)
         printf("outbound stage by stage, measured in the daemon (us)     median      p99      max\n");
         for (size_t k = 0; k < sizeof(keys) / sizeof(keys[0]); k++) {
                 unsigned long long n, p50, p99, max;
-                const char *p;
 
-                snprintf(pat, sizeof(pat), "outbound_stage %s ", keys[k]);
-                p = strstr(reply, pat);
-                if (!p || sscanf(p + strlen(pat), "samples=%llu p50_ns=%llu p99_ns=%llu max_ns=%llu",
-                                 &n, &p50, &p99, &max) != 4) {
+                if (daemon_stage(reply, keys[k], &n, &p50, &p99, &max) < 0) {
                         printf("  %-34s (not reported)\n", what[k]);
                         continue;
                 }
@@ -561,7 +610,7 @@ static int run_latency(void)
         struct serial_config floor_cfg;
         struct serial_port floor_port;
 
-        r = daemon_start(&h, "e2e", 1, &master, &slave);
+        r = daemon_start(&h, "e2e", 1, 0, &master, &slave);
         if (r < 0) {
                 fprintf(stderr, "bench_e2e: daemon start: %s\n", strerror(-r));
                 harness_cleanup(&h);
@@ -683,6 +732,137 @@ out:
         close(master);
         close(slave);
         harness_cleanup(&h);
+        return r;
+}
+
+/* ---------------------------------------------------------------------------------------------
+ * Outbound at two table sizes, side by side (issue 23): sl_write -> pty master, as above, from a
+ * daemon with SCALE_SMALL outbound variables and one with SCALE_LARGE, one sample of each in
+ * turn. The written variable and its frame are the same in both (peer A's list holds it alone);
+ * the others only make .out bigger, which a wake-up's scan must not pay for. */
+
+struct scale_side {
+        struct harness h;
+        struct sl_client *client;
+        struct waiter w;
+        struct write_cause wc;
+        int master, slave;
+        int up;                         /* daemon started */
+};
+
+static int scale_side_start(struct scale_side *sd, const char *tag, unsigned nout)
+{
+        int r = daemon_start(&sd->h, tag, 1, nout - 1u, &sd->master, &sd->slave);
+
+        sd->up = 1;
+        if (r == 0)
+                r = sl_open(sd->h.instance, &sd->client);
+        if (r < 0)
+                return r;
+        sd->w = (struct waiter){ .fd = sd->master };
+        sd->wc = (struct write_cause){ .client = sd->client, .id = sl_find(sd->client, "Out0") };
+        return sd->wc.id < 0 ? sd->wc.id : 0;
+}
+
+/* The daemon's own "scan + frame handed to the link" stage (median, p99 in us); -1 when not
+ * reported. */
+static void scale_side_stage(struct scale_side *sd, double *ret_p50, double *ret_p99)
+{
+        char reply[LINE_MAX_BENCH * 4];
+        unsigned long long n, p50, p99, max;
+
+        *ret_p50 = *ret_p99 = -1.0;
+        if (control_request(&sd->h, "stats\n", reply, sizeof(reply)) == 0 &&
+            daemon_stage(reply, "loop_to_sent", &n, &p50, &p99, &max) == 0) {
+                *ret_p50 = (double)p50 / NS_PER_US;
+                *ret_p99 = (double)p99 / NS_PER_US;
+        }
+}
+
+static void scale_side_stop(struct scale_side *sd)
+{
+        waiter_stop(&sd->w);
+        sl_close(sd->client);
+        if (sd->up) {
+                close(sd->master);
+                close(sd->slave);
+                harness_cleanup(&sd->h);
+        }
+}
+
+/* The 1-minute load average, or -1. */
+static double load_average(void)
+{
+        FILE *f = fopen("/proc/loadavg", "r");
+        double load = -1.0;
+
+        if (f) {
+                if (fscanf(f, "%lf", &load) != 1)
+                        load = -1.0;
+                fclose(f);
+        }
+        return load;
+}
+
+static int run_outscale(void)
+{
+        static struct sample_set small_s, large_s;
+        static struct scale_side small, large;
+        double smed, sp99, lmed, lp99, load0 = load_average();
+        double sdmed, sdp99, ldmed, ldp99;
+        int r;
+
+        r = scale_side_start(&small, "osmall", SCALE_SMALL);
+        if (r == 0)
+                r = scale_side_start(&large, "olarge", SCALE_LARGE);
+        if (r < 0)
+                goto out;
+        usleep(100000);
+        drain(small.master);
+        drain(large.master);
+        r = waiter_start(&small.w, outbound_thread);
+        if (r == 0)
+                r = waiter_start(&large.w, outbound_thread);
+        for (unsigned i = 0; r == 0 && i < WARMUP + SAMPLES; i++) {
+                int64_t ds = sample_one(&small.w, cause_write, &small.wc, i, NULL);
+                int64_t dl = sample_one(&large.w, cause_write, &large.wc, i, NULL);
+
+                r = ds < 0 ? (int)ds : dl < 0 ? (int)dl : 0;
+                if (r < 0 || i < WARMUP)
+                        continue;
+                small_s.v[small_s.n++] = (uint64_t)ds;
+                large_s.v[large_s.n++] = (uint64_t)dl;
+        }
+        if (r < 0)
+                goto out;
+        percentiles(&small_s, &smed, &sp99);
+        percentiles(&large_s, &lmed, &lp99);
+        scale_side_stage(&small, &sdmed, &sdp99);
+        scale_side_stage(&large, &ldmed, &ldp99);
+        printf("outbound by table size, %d samples each (us)   median      p99   (load average "
+               "%.2f -> %.2f)\n", SAMPLES, load0, load_average());
+        printf("  sl_write -> pty, %4u outbound variables %8.1f %8.1f\n", SCALE_SMALL, smed, sp99);
+        printf("  sl_write -> pty, %4u outbound variables %8.1f %8.1f\n", SCALE_LARGE, lmed, lp99);
+        printf("  ratio %u / %u                         %8.2fx %7.2fx  (target <= %.1fx; p99 "
+               "<= %.0f us)\n", SCALE_LARGE, SCALE_SMALL, lmed / smed, lp99 / sp99,
+               SCALE_RATIO_MAX, SCALE_P99_MAX_US);
+        /* The part the table's size weighs on, without the pty and the scheduler around it. */
+        printf("  in the daemon: scan + frame handed to the link (median, p99)\n");
+        printf("                   %4u outbound variables %8.1f %8.1f\n", SCALE_SMALL, sdmed,
+               sdp99);
+        printf("                   %4u outbound variables %8.1f %8.1f\n", SCALE_LARGE, ldmed,
+               ldp99);
+        printf("FIGURE|outbound_scale_p99|outbound sl_write -> pty, %u outbound (p99)|%.1f|us|"
+               "<=%.0f\n", SCALE_LARGE, lp99, SCALE_P99_MAX_US);
+        printf("FIGURE|outbound_scale_p50_ratio|outbound median, %u / %u outbound|%.2f|x|<=%.1f\n",
+               SCALE_LARGE, SCALE_SMALL, lmed / smed, SCALE_RATIO_MAX);
+        printf("FIGURE|outbound_scale_p99_ratio|outbound p99, %u / %u outbound|%.2f|x|<=%.1f\n",
+               SCALE_LARGE, SCALE_SMALL, lp99 / sp99, SCALE_RATIO_MAX);
+out:
+        if (r < 0)
+                fprintf(stderr, "bench_e2e: outbound by table size failed: %s\n", strerror(-r));
+        scale_side_stop(&small);
+        scale_side_stop(&large);
         return r;
 }
 
@@ -839,7 +1019,7 @@ static int run_idle(void)
         struct harness h;
         long hz = sysconf(_SC_CLK_TCK);
 
-        r = daemon_start(&h, "idle", IDLE_LINKS, masters, slaves);
+        r = daemon_start(&h, "idle", IDLE_LINKS, 0, masters, slaves);
         if (r < 0) {
                 fprintf(stderr, "bench_e2e: idle daemon start: %s\n", strerror(-r));
                 harness_cleanup(&h);
@@ -890,12 +1070,17 @@ static int run_idle(void)
         return 0;
 }
 
-int main(void)
+int main(int argc, char **argv)
 {
         int r;
 
         signal(SIGPIPE, SIG_IGN);
+        /* `bench_e2e outscale`: that comparison alone (an A/B between two builds). */
+        if (argc > 1 && strcmp(argv[1], "outscale") == 0)
+                return run_outscale() < 0 ? 1 : 0;
         r = run_latency();
+        if (run_outscale() < 0)
+                r = -1;
         if (run_stages() < 0)
                 r = -1;
         if (run_idle() < 0)

@@ -90,15 +90,13 @@ done
 }
 
 # FIGURE|key|label|value|unit|goal from a read_latency table: the median of the rounds.
-# Each program is started LAUNCHES times: a read's cost depends on where the kernel put this
-# process's stack (ASLR). In about one launch in three here, sl_read without metadata took ~16 ns
-# instead of ~8.7 ns, for the .so and the .a alike; with ASLR off (setarch -R) the same binary is
-# always fast or always slow, and a different environment size (which moves the stack) turns one
-# into the other: the loads from the shm slot then falsely depend on the stores to the caller's
-# buffer on the stack (4 KiB aliasing), which no library code can rule out for every caller.
-# So one launch is a draw: the figure is the median over the launches of each launch's median,
-# and the slowest launch is printed next to it.
-LAUNCHES=5
+# Each program is started LAUNCHES times, alternating with the other: one launch is a draw of
+# where the kernel put its stack (ASLR: 4 KiB aliasing between the slot and the caller's buffer
+# was seen to make one launch in three ~1.8x slower, .so and .a alike) and of what else the
+# machine did meanwhile (on a busy 2-vCPU VM whole launches run 1.6-2x slower, every case at
+# once). The figure is the median over the launches of each launch's median, and the slowest
+# launch is printed next to it; bench_shm's section 4 scans the stack's place with ASLR off.
+LAUNCHES=20
 
 # Reads read_latency's table on stdin: "NAME median" for the four rows.
 medians() {
@@ -108,17 +106,9 @@ medians() {
              $1 == "Out0," && / without metadata / { print "out", $(NF) }'
 }
 
-# launches TAG PROGRAM: runs it LAUNCHES times, prints the first table, one line per launch,
-# then the figures (median over launches) and the slowest launch.
-launches() {
-        local tag=$1 prog=$2 k
-        : >"$tmp/$tag.all"
-        for ((k = 1; k <= LAUNCHES; k++)); do
-                "$prog" -i "$instance" In0 Out0 >"$tmp/$tag.$k"
-                [ "$k" = 1 ] && cat "$tmp/$tag.1"
-                medians <"$tmp/$tag.$k" >>"$tmp/$tag.all"
-                printf '  launch %d: %s\n' "$k" "$(medians <"$tmp/$tag.$k" | awk '{ printf "%s %s ns  ", $1, $2 }')"
-        done
+# figures TAG: the figures (median over launches) and the slowest launch, from $tmp/TAG.all.
+figures() {
+        local tag=$1
         awk -v tag="$tag" '
                 { v[$1] = v[$1] " " $2 }
                 END {
@@ -137,9 +127,35 @@ launches() {
                 }' "$tmp/$tag.all"
 }
 
-echo "read_latency against the installed library ($prefix), daemon pid $pid, $LAUNCHES launches:"
-launches installed-so "$tmp/read_latency"
-echo "read_latency linked against the installed libsharedlink.a, $LAUNCHES launches:"
-launches installed-a "$tmp/read_latency_static"
+# launches TAG PROGRAM TAG PROGRAM: runs the two LAUNCHES times each, alternating (other work on
+# the machine comes and goes: one program's launches all in a row would meet other conditions
+# than the other's), then prints for each its first table, one line per launch, and the figures.
+launches() {
+        local tags=("$1" "$3") progs=("$2" "$4") k i tag
+        for tag in "${tags[@]}"; do
+                : >"$tmp/$tag.all"
+        done
+        for ((k = 1; k <= LAUNCHES; k++)); do
+                for i in 0 1; do
+                        tag=${tags[i]}
+                        "${progs[i]}" -i "$instance" In0 Out0 >"$tmp/$tag.$k"
+                        medians <"$tmp/$tag.$k" >>"$tmp/$tag.all"
+                done
+        done
+        for i in 0 1; do
+                tag=${tags[i]}
+                echo "read_latency ${what[i]}, $LAUNCHES launches, alternating with the other:"
+                cat "$tmp/$tag.1"
+                for ((k = 1; k <= LAUNCHES; k++)); do
+                        printf '  launch %d: %s\n' "$k" \
+                                "$(medians <"$tmp/$tag.$k" | awk '{ printf "%s %s ns  ", $1, $2 }')"
+                done
+                figures "$tag"
+        done
+}
+
+echo "read_latency against the installed library ($prefix), daemon pid $pid"
+what=("against the installed libsharedlink.so" "linked against the installed libsharedlink.a")
+launches installed-so "$tmp/read_latency" installed-a "$tmp/read_latency_static"
 echo "read_latency built against the build tree (sharedlink-uninstalled.pc), one round:"
 "$tmp/read_latency_uninstalled" -i "$instance" -r 1 In0

@@ -20,6 +20,20 @@
  *    lowest median: other work on a shared machine only ever adds time). Round trips and
  *    wake-ups are timed one by one with CLOCK_MONOTONIC.
  * 3. Ratios, and the targets: sl_read median under 25 ns, at least 500x faster than a Redis GET.
+ * 4. sl_read in launches of its own: where a process's stack lies (ASLR, and the size of its
+ *    environment) can decide whether its reads stall on 4 KiB aliasing between the slot and the
+ *    caller's buffer, and other work on a shared machine slows whole launches: one launch is a
+ *    draw. This program starts itself again as a reader (`bench_shm --reader so|a INSTANCE`)
+ *    through the shared library (dlopen of the build's libsharedlink.so.1, called through
+ *    pointers as through a PLT) and through the statically linked library, LAUNCHES times each
+ *    with ASLR on, alternating; each launch prints, for sl_read of a 63-byte value, plain and
+ *    with metadata, inbound and outbound (the daemon's mirror, as a running daemon keeps it),
+ *    the median of its rounds and its best round. Printed: the median
+ *    over the launches and the slowest launch, by their medians (what a user of that launch
+ *    saw) and by their best rounds (where other work had least say: what is left is placement).
+ *    Then the scan: ASLR off (personality) and the environment grown by SCAN_STEP bytes from
+ *    one launch to the next over a whole page, so the stack takes every place modulo 4 KiB.
+ *    `bench_shm --launches` runs this section alone.
  *
  * This process runs on CPU 0 and the contending writers on CPU 1 (sched_setaffinity), when there
  * are two CPUs. Paths that wake another process (sl_wait, the sockets, Redis) are measured with
@@ -29,6 +43,7 @@
  */
 #define _GNU_SOURCE     /* sched_setaffinity, CPU_SET */
 #include <errno.h>
+#include <fcntl.h>
 #include <inttypes.h>
 #include <poll.h>
 #include <pthread.h>
@@ -38,7 +53,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <dlfcn.h>
 #include <sys/mman.h>
+#include <sys/personality.h>
 #include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/un.h>
@@ -76,6 +93,18 @@
 #define CPU_OTHER       1
 #define TARGET_READ_NS  25.0
 #define TARGET_RATIO    500.0
+#define LAUNCHES        20              /* section 4: launches of each reader, ASLR on */
+#define LAUNCH_ROUNDS   21              /* timed rounds of each case in a launch: short ones, */
+                                        /* so that a preemption spoils few of them */
+#define LAUNCH_CALLS    30000L          /* sl_read calls in a round (about 0.5 ms) */
+#define SCAN_PAGE       4096u           /* the scan moves the stack over one page ... */
+#define SCAN_STEP       16u             /* ... in steps of the stack's alignment */
+#define SCAN_ROUNDS     9
+#define SCAN_CALLS      20000L
+#define TARGET_READ_META_NS 15.0        /* sl_read with metadata, median of launches */
+#define TARGET_SLOWEST  1.5             /* slowest launch / median */
+#define READER_LINE     256
+#define PAD_VAR         "BENCH_SHM_PAD="
 
 /* 63 bytes: the longest value there is (64 with its NUL). */
 static const char value63[] =
@@ -782,6 +811,337 @@ static struct redis_figures redis_figures(int cpu)
         return rf;
 }
 
+/* ---- section 4: sl_read in launches of its own -------------------------------------------- */
+
+enum { CASE_META_IN, CASE_IN, CASE_META_OUT, CASE_OUT, NCASES };
+enum { LIB_SO, LIB_A, NLIBS };
+
+static const char *const case_key[NCASES] = { "meta_in", "in", "meta_out", "out" };
+static const char *const case_what[NCASES] = {
+        "sl_read + meta, inbound", "sl_read, inbound", "sl_read + meta, outbound",
+        "sl_read, outbound",
+};
+static const char *const lib_name[NLIBS] = { "so", "a" };
+
+typedef int (*read_fn)(struct sl_client *c, int id, char *buf, size_t size, struct sl_meta *meta);
+
+static int cmp_double(const void *a, const void *b)
+{
+        double x = *(const double *)a, y = *(const double *)b;
+
+        return (x > y) - (x < y);
+}
+
+/* The median of n values (sorts them). */
+static double median_of(double *v, size_t n)
+{
+        qsort(v, n, sizeof(*v), cmp_double);
+        return v[n / 2];
+}
+
+/*
+ * The reader's rounds, read_latency's way (a buffer and a struct sl_meta on its stack): ns per
+ * call per case, the median of the rounds in ret[k] and the best round in ret[NCASES + k]; -1
+ * when a read failed. Inline, so that the static reader calls sl_read directly and the shared one
+ * through its pointer.
+ */
+static inline __attribute__((always_inline)) void
+reader_rounds(read_fn fn, struct sl_client *c, const int id[NCASES], int rounds, long calls,
+              double ret[2 * NCASES])
+{
+        double t[NCASES][LAUNCH_ROUNDS];
+
+        for (int r = 0; r < rounds; r++) {
+                for (int k = 0; k < NCASES; k++) {
+                        struct sl_meta meta = { .size = sizeof(meta) };
+                        struct sl_meta *m = k == CASE_META_IN || k == CASE_META_OUT ? &meta : NULL;
+                        char buf[2 * SL_VALUE_SIZE];
+                        uint64_t t0 = now_ns();
+                        long sum = 0;
+
+                        for (long i = 0; i < calls; i++)
+                                sum += fn(c, id[k], buf, sizeof(buf), m);
+                        t[k][r] = sum == calls * (long)(SL_VALUE_SIZE - 1) ?
+                                  (double)(now_ns() - t0) / (double)calls : -1;
+                }
+        }
+        for (int k = 0; k < NCASES; k++) {
+                ret[k] = median_of(t[k], (size_t)rounds);
+                ret[NCASES + k] = t[k][0];
+        }
+}
+
+static void __attribute__((noinline)) reader_rounds_static(struct sl_client *c,
+                                                           const int id[NCASES], int rounds,
+                                                           long calls, double ret[2 * NCASES])
+{
+        reader_rounds(sl_read, c, id, rounds, calls, ret);
+}
+
+static void __attribute__((noinline)) reader_rounds_shared(read_fn fn, struct sl_client *c,
+                                                           const int id[NCASES], int rounds,
+                                                           long calls, double ret[2 * NCASES])
+{
+        reader_rounds(fn, c, id, rounds, calls, ret);
+}
+
+/* The build's libsharedlink.so.1, beside this program's directory (build/bench/..). */
+static void *shared_open(void)
+{
+        char path[4096];
+        ssize_t n = readlink("/proc/self/exe", path, sizeof(path) - 1);
+        char *slash;
+
+        if (n <= 0)
+                return NULL;
+        path[n] = '\0';
+        for (int up = 0; up < 2; up++) {
+                slash = strrchr(path, '/');
+                if (!slash)
+                        return NULL;
+                *slash = '\0';
+        }
+        if (strlen(path) + sizeof("/libsharedlink.so.1") > sizeof(path))
+                return NULL;
+        strcat(path, "/libsharedlink.so.1");
+        return dlopen(path, RTLD_NOW | RTLD_LOCAL);
+}
+
+/*
+ * `bench_shm --reader so|a INSTANCE ROUNDS CALLS`: the reader of a launch. Prints on one line the
+ * median ns of each case (inbound "In", outbound "Out"), then the best round of each; exit 1 on
+ * failure.
+ */
+static int reader_main(char **argv)
+{
+        int (*open_fn)(const char *, struct sl_client **) = sl_open;
+        int (*find_fn)(struct sl_client *, const char *) = sl_find;
+        struct sl_client *(*close_fn)(struct sl_client *) = sl_close;
+        int shared = strcmp(argv[2], "so") == 0, rounds = atoi(argv[4]), id[NCASES];
+        long calls = atol(argv[5]);
+        read_fn fn = sl_read;
+        double ns[2 * NCASES];
+        struct sl_client *c;
+
+        if (rounds < 1 || rounds > LAUNCH_ROUNDS || calls < 1)
+                return 1;
+        if (shared) {
+                void *h = shared_open();
+
+                if (!h) {
+                        fprintf(stderr, "bench_shm: %s\n", dlerror());
+                        return 1;
+                }
+                *(void **)&open_fn = dlsym(h, "sl_open");
+                *(void **)&find_fn = dlsym(h, "sl_find");
+                *(void **)&close_fn = dlsym(h, "sl_close");
+                *(void **)&fn = dlsym(h, "sl_read");
+                if (!open_fn || !find_fn || !close_fn || !fn)
+                        return 1;
+        }
+        if (open_fn(argv[3], &c) < 0)
+                return 1;
+        id[CASE_META_IN] = id[CASE_IN] = find_fn(c, "In");
+        id[CASE_META_OUT] = id[CASE_OUT] = find_fn(c, "Out");
+        if (id[CASE_IN] < 0 || id[CASE_OUT] < 0)
+                return 1;
+        /* Warm up, then the rounds. */
+        if (shared) {
+                reader_rounds_shared(fn, c, id, 1, calls / 10 + 1, ns);
+                reader_rounds_shared(fn, c, id, rounds, calls, ns);
+        } else {
+                reader_rounds_static(c, id, 1, calls / 10 + 1, ns);
+                reader_rounds_static(c, id, rounds, calls, ns);
+        }
+        close_fn(c);
+        for (int k = 0; k < 2 * NCASES; k++) {
+                if (ns[k] < 0)
+                        return 1;
+                printf("%.3f%c", ns[k], k == 2 * NCASES - 1 ? '\n' : ' ');
+        }
+        return 0;
+}
+
+/*
+ * Starts this program as a reader of lib and reads its line into ns[] (medians, then best
+ * rounds). pad < 0: as it is (ASLR on); else ASLR off and the environment grown by pad bytes.
+ * 0 or -1.
+ */
+static int launch(int lib, const char *instance, int rounds, long calls, int pad,
+                  double ns[2 * NCASES])
+{
+        extern char **environ;
+        char self[] = "/proc/self/exe", reader[] = "--reader", lib_arg[8], instance_arg[64];
+        char rounds_arg[16], calls_arg[24], line[READER_LINE];
+        char *argv[] = { self, reader, lib_arg, instance_arg, rounds_arg, calls_arg, NULL };
+        size_t nenv = 0;
+        char **env, *padvar = NULL;
+        int fd[2], st, n;
+        FILE *f;
+        pid_t pid;
+
+        snprintf(lib_arg, sizeof(lib_arg), "%s", lib_name[lib]);
+        snprintf(instance_arg, sizeof(instance_arg), "%s", instance);
+        snprintf(rounds_arg, sizeof(rounds_arg), "%d", rounds);
+        snprintf(calls_arg, sizeof(calls_arg), "%ld", calls);
+        while (environ[nenv])
+                nenv++;
+        env = calloc(nenv + 2, sizeof(*env));
+        if (!env || pipe2(fd, O_CLOEXEC) < 0) {
+                free(env);
+                return -1;
+        }
+        memcpy(env, environ, nenv * sizeof(*env));
+        if (pad >= 0) {
+                padvar = malloc(sizeof(PAD_VAR) + (size_t)pad);
+                if (padvar) {
+                        memcpy(padvar, PAD_VAR, sizeof(PAD_VAR) - 1);
+                        memset(padvar + sizeof(PAD_VAR) - 1, 'x', (size_t)pad);
+                        padvar[sizeof(PAD_VAR) - 1 + (size_t)pad] = '\0';
+                        env[nenv] = padvar;
+                }
+        }
+        fflush(stdout);
+        pid = fork();
+        if (pid == 0) {
+                dup2(fd[1], STDOUT_FILENO);
+                if (pad >= 0)
+                        personality(ADDR_NO_RANDOMIZE);
+                execve(self, argv, env);
+                _exit(127);
+        }
+        close(fd[1]);
+        free(padvar);
+        free(env);
+        f = fdopen(fd[0], "r");
+        n = f && fgets(line, sizeof(line), f) ?
+            sscanf(line, "%lf %lf %lf %lf %lf %lf %lf %lf", &ns[0], &ns[1], &ns[2], &ns[3],
+                   &ns[4], &ns[5], &ns[6], &ns[7]) : 0;
+        if (f)
+                fclose(f);
+        else
+                close(fd[0]);
+        if (pid < 0 || waitpid(pid, &st, 0) != pid || !WIFEXITED(st) || WEXITSTATUS(st) != 0)
+                return -1;
+        return n == 2 * NCASES ? 0 : -1;
+}
+
+/* Median and slowest of n per-launch figures (sorts them); the slowest as a ratio too. */
+struct spread {
+        double median;
+        double slowest;
+        double ratio;
+};
+
+static struct spread spread_of(double *v, size_t n)
+{
+        struct spread sp;
+
+        sp.median = median_of(v, n);
+        sp.slowest = v[n - 1];
+        sp.ratio = sp.median > 0 ? sp.slowest / sp.median : 0;
+        return sp;
+}
+
+/*
+ * One row: a case through one library over n launches, v[0..n) the launches' medians and
+ * best[0..n) their best rounds. The median of the medians is the figure; the slowest launch
+ * is given by its median (what a user of that launch saw) and by its best round (where it ran
+ * alone: only how the launch was placed in memory slows that one). tag names the FIGURE keys.
+ */
+static void print_launches(const char *tag, int c, int lib, double *v, double *best, size_t n)
+{
+        struct spread sp = spread_of(v, n), bp = spread_of(best, n);
+        int meta = c == CASE_META_IN || c == CASE_META_OUT;
+
+        printf("  %-26s %-3s %8.1f %8.1f %6.2fx %8.1f %8.1f %6.2fx\n", case_what[c],
+               lib_name[lib], sp.median, sp.slowest, sp.ratio, bp.median, bp.slowest, bp.ratio);
+        printf("FIGURE|read_%s-%s_%s|%s (%s, %s: median of %zu)|%.1f|ns|%s\n", tag, lib_name[lib],
+               case_key[c], case_what[c], lib_name[lib], tag, n, sp.median,
+               meta ? "<=15" : "-");
+        printf("FIGURE|read_%s-%s_%s_slowest|%s (%s, %s: slowest / median)|%.2f|x|<=%.1f\n",
+               tag, lib_name[lib], case_key[c], case_what[c], lib_name[lib], tag, sp.ratio,
+               TARGET_SLOWEST);
+        printf("FIGURE|read_%s-%s_%s_slowest_best|%s (%s, %s: slowest / median, best rounds)|"
+               "%.2f|x|<=%.1f\n", tag, lib_name[lib], case_key[c], case_what[c], lib_name[lib],
+               tag, bp.ratio, TARGET_SLOWEST);
+}
+
+static void print_launches_head(void)
+{
+        printf("  %-26s %-3s %8s %8s %7s %8s %8s %7s\n", "", "lib", "median", "slowest", "ratio",
+               "best:med", "slowest", "ratio");
+}
+
+/* The 1-minute load average: the other work the figures were taken beside. */
+static double load_average(void)
+{
+        double load = -1;
+
+        if (getloadavg(&load, 1) < 1)
+                return -1;
+        return load;
+}
+
+/* The values the readers read: In, and Out as written and mirrored by the daemon's scan. */
+static int launch_values(struct bench *b)
+{
+        shm_table_set(b->t, VAR_IN, value63, sizeof(value63) - 1);
+        if (sl_write(b->c, VAR_OUT, value63) < 0)
+                return -1;
+        return shm_table_out_scan(b->t, drain_on_change, NULL) < 0 ? -1 : 0;
+}
+
+/* Launches of each reader: `scan` with ASLR off over the environment sizes, else ASLR on. */
+static int run_launches(const char *instance, int scan, unsigned n,
+                        double v[][2 * NCASES][SCAN_PAGE / SCAN_STEP])
+{
+        for (unsigned k = 0; k < n; k++)
+                for (int lib = 0; lib < NLIBS; lib++) {
+                        double ns[2 * NCASES];
+                        int r = scan ? launch(lib, instance, SCAN_ROUNDS, SCAN_CALLS,
+                                              (int)(k * SCAN_STEP), ns) :
+                                       launch(lib, instance, LAUNCH_ROUNDS, LAUNCH_CALLS, -1, ns);
+
+                        if (r < 0)
+                                return r;
+                        for (int c = 0; c < 2 * NCASES; c++)
+                                v[lib][c][k] = ns[c];
+                }
+        return 0;
+}
+
+static void section_launches(struct bench *b, const char *instance)
+{
+        static double v[NLIBS][2 * NCASES][SCAN_PAGE / SCAN_STEP];
+        unsigned nscan = SCAN_PAGE / SCAN_STEP;
+
+        printf("\n4. sl_read in launches of its own, 63-byte value (ns per call; load average "
+               "%.2f)\n", load_average());
+        if (launch_values(b) < 0 || run_launches(instance, 0, LAUNCHES, v) < 0) {
+                printf("skipped: a reader failed\n");
+                return;
+        }
+        printf("%d launches of each, ASLR on, alternating (so: dlopen of the build's "
+               "libsharedlink.so.1; a: linked in); a launch: median and best of %d rounds of "
+               "%ld\n", LAUNCHES, LAUNCH_ROUNDS, LAUNCH_CALLS);
+        print_launches_head();
+        for (int c = 0; c < NCASES; c++)
+                for (int lib = 0; lib < NLIBS; lib++)
+                        print_launches("launch", c, lib, v[lib][c], v[lib][NCASES + c], LAUNCHES);
+        if (run_launches(instance, 1, nscan, v) < 0) {
+                printf("skipped: a reader failed\n");
+                return;
+        }
+        printf("scan: ASLR off, the environment grown by %u bytes a launch over %u bytes (%u "
+               "launches of each); a launch: median and best of %d rounds of %ld\n", SCAN_STEP,
+               SCAN_PAGE, nscan, SCAN_ROUNDS, SCAN_CALLS);
+        print_launches_head();
+        for (int c = 0; c < NCASES; c++)
+                for (int lib = 0; lib < NLIBS; lib++)
+                        print_launches("scan", c, lib, v[lib][c], v[lib][NCASES + c], nscan);
+}
+
 /* ---- the run ------------------------------------------------------------------------------- */
 
 #define PLACEMENTS      2       /* the other process on this CPU, or on the other one */
@@ -802,7 +1162,7 @@ static void ratio(const char *what, double slow, double fast)
                 printf("%-46s %10.0fx\n", what, slow / fast);
 }
 
-int main(void)
+int main(int argc, char **argv)
 {
         static const struct shm_var vars[NVARS] = {
                 [VAR_IN] = { "In", SHM_DIR_IN, SHM_TYPE_DOUBLE, SHM_LINK_NONE, NULL,
@@ -824,7 +1184,11 @@ int main(void)
         struct bench b = { 0 };
         double rate10k, rate1m;
         char instance[64];
+        int only_launches;
 
+        if (argc == 6 && strcmp(argv[1], "--reader") == 0)
+                return reader_main(argv);
+        only_launches = argc == 2 && strcmp(argv[1], "--launches") == 0;
         signal(SIGPIPE, SIG_IGN);
         snprintf(instance, sizeof(instance), "bench-%d", (int)getpid());
         cfg.instance = instance;
@@ -833,6 +1197,12 @@ int main(void)
                 return 1;
         }
         b.pinned = sysconf(_SC_NPROCESSORS_ONLN) > 1 && pin(CPU_MAIN) == 0;
+        if (only_launches) {
+                section_launches(&b, instance);
+                sl_close(b.c);
+                shm_table_destroy(b.t);
+                return 0;
+        }
 
         section_means(b.t, b.c);
 
@@ -922,6 +1292,7 @@ int main(void)
         }
         printf("FIGURE|unix_rtt|Unix socket request/reply (median)|%.0f|ns|-\n",
                best_echo.median);
+        section_launches(&b, instance);
         sl_close(b.c);
         shm_table_destroy(b.t);
         return 0;

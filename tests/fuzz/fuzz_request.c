@@ -128,6 +128,7 @@ static long take_number(struct input *in)
 static const char *const keys[REQP_KIND_COUNT][10] = {
         [REQP_QUERY] = { "peer", "variable name", "timeout" },
         [REQP_COMMAND] = { "module", "command text" },
+        [REQP_PEER_PING] = { "peer", "timeout" },
         [REQP_CIRCE_ALERT] = { "address" },
         [REQP_CIRCE_NETWORK_SETUP] = { "address", "membership", "roles" },
         [REQP_CIRCE_DEVICE_SETUP] = { "address to assign", "destination", "capabilities" },

@@ -27,8 +27,8 @@
  *     pending after free();
  *   - after a tick, no deadline is left in the past (no busy loop); ad hoc variables stay under
  *     LINK_SHAREDLINK_ADHOC_MAX;
- *   - Pronto4: a variable is learned only for a peer that learns that list, at a position below
- *     its learn_max, outbound only when it learns its outbound list (and never published);
+ *   - Pronto4: a variable is learned only for a peer that learns that list, at a position of a
+ *     list (below CONFIG_LIST_MAX), outbound only when it learns its outbound list (and never published);
  *     every frame toward a pronto4 peer is one whole list starting N0 (only D fields after it,
  *     as many as the list before, unless a frame came in since) or a declaration (N0/L0, then
  *     typed T/Q pairs), an acknowledgement (N0, then R/D pairs), a command (E, D), a reply
@@ -215,11 +215,13 @@ static int hook_add(void *arg, const char *name, unsigned type, char peer, bool 
         CHECK(hook_find(NULL, name) < 0);
         CHECK(type < SHM_TYPE_COUNT);
         CHECK(p != NULL);
-        /* Learned: only by a peer that learns that list, within learn_max. */
+        /* Learned: only by a peer that learns that list, at a position of a list. (A list keeps
+         * its declared length, issue 21.7: learn_max bounds how many positions are mapped, not
+         * where they are; tests/unit/test_link_sharedlink_session.c checks the bound.) */
         CHECK(!outbound || (p->outbound_learn && position != SHM_POSITION_NONE));
         if (position != SHM_POSITION_NONE)
                 CHECK((outbound ? p->outbound_learn : p->inbound_learn) && position >= 0 &&
-                      (uint32_t)position < p->learn_max);
+                      (uint32_t)position < CONFIG_LIST_MAX);
         if (b.n_vars >= VARS_MAX)
                 return -ENOSPC;
         v = &b.vars[b.n_vars];

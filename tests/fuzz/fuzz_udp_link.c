@@ -129,9 +129,11 @@ static int hook_add(void *arg, const char *name, unsigned type, char peer, bool 
         CHECK(type < SHM_TYPE_COUNT);
         CHECK(pi >= 0);
         p = &b.cfg.sl.peers[pi];
+        /* Any position of a list (a learned list keeps its declared length, issue 21.7);
+         * learn_max bounds how many are live, below. */
         if (position != SHM_POSITION_NONE)
                 CHECK((outbound ? p->outbound_learn : p->inbound_learn) && position >= 0 &&
-                      (uint32_t)position < p->learn_max);
+                      (uint32_t)position < CONFIG_LIST_MAX);
         else
                 CHECK(!outbound);
         if (b.n_vars >= VARS_MAX)
@@ -157,11 +159,15 @@ static int hook_retire(void *arg, uint32_t id)
         struct var *v = &b.vars[id];
 
         (void)arg;
-        CHECK(id < b.n_vars && v->live && v->learned);
+        /* A learned name, or an ad hoc one a declaration makes anew (issue 21.1). */
+        CHECK(id < b.n_vars && v->live && (v->learned || v->inbound));
         v->live = false;
-        CHECK(b.learned[v->peer][v->outbound] > 0 && b.n_adhoc > 0);
-        b.learned[v->peer][v->outbound]--;
+        CHECK(b.n_adhoc > 0);
         b.n_adhoc--;
+        if (v->learned) {
+                CHECK(b.learned[v->peer][v->outbound] > 0);
+                b.learned[v->peer][v->outbound]--;
+        }
         return 0;
 }
 

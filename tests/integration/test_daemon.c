@@ -39,6 +39,8 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/shmtest.h"
+#include "shm/slot.h"
 #include "daemon/control.h"
 #include "daemon/recorder.h"
 
@@ -276,7 +278,13 @@ static const struct bad_case bad_cases[] = {
           "group: nosuchgroup-sl\nlinks:\n  - name: a\n    protocol: sharedlink\n"
           "    transport: pty\n    device: /tmp/x.tty\n    address: A\n    peers:\n"
           "      - address: B\n        outbound: [v1]\n",
-          NULL, "group \"nosuchgroup-sl\" does not exist" },
+          "2:8", "group \"nosuchgroup-sl\" does not exist" },
+        { "pronto4 max_frame over what the clients read",
+          "links:\n  - name: a\n    protocol: sharedlink\n    transport: pty\n"
+          "    device: /tmp/x.tty\n    address: A\n    peers:\n"
+          "      - address: B\n        dialect: pronto4\n        max_frame: 2048\n"
+          "        inbound: learn\n",
+          "11:20", "max_frame 2048 is more than a pronto4 peer reads" },
 };
 
 static void test_check_bad(void **state)
@@ -1223,6 +1231,55 @@ static void test_out_truncated_recovers(void **state)
         stop_ok(h, SIGTERM);
 }
 
+/*
+ * A write whose touched mark (layout 1.6) was lost, as a writer killed between its publish and
+ * its mark leaves it: no mark, no bump of the change word, nobody to wake the daemon. Its scan at
+ * the next heartbeat still takes it: the .in mirror ends up holding it (waited on through the
+ * change word the daemon bumps when it mirrors, a bounded number of times).
+ */
+static void test_out_lost_mark_heartbeat(void **state)
+{
+        struct harness *h = *state;
+        char links[2 * LINK_MAX], path[PATH_BUF], name[PATH_BUF];
+        struct shmtest_view in, out;
+        struct sl_client *c;
+        struct shm_slot *slot;
+        uint32_t cursor = 0, index = 0, count;
+        uint64_t word;
+        int tries = 0;
+
+        two_links(h, links, sizeof(links), 100, NULL);
+        write_config(h, "a.yaml", NULL, links, path);
+        start_ok(h, path);
+        write_through(h, "p1.out1", "1");
+        snprintf(name, sizeof(name), "/sharedlink.%s.in", h->instance);
+        in = shmtest_view_open(name, 0);
+        snprintf(name, sizeof(name), "/sharedlink.%s.out", h->instance);
+        out = shmtest_view_open(name, 1);
+        assert_non_null(in.base);
+        assert_non_null(out.base);
+        count = atomic_load(&shmtest_in_header(&in)->count);
+        while (index < count && strcmp(shmtest_in_dir(&in)[index].name, "p1.out1") != 0)
+                index++;
+        assert_true(index < count);
+        assert_int_equal(sl_open(h->instance, &c), 0);
+        sl_wait(c, &cursor, 0);
+
+        slot = shmtest_out_slot(&out, shmtest_in_dir(&in)[index].out_slot);
+        assert_int_equal(shm_slot_claim(slot, (uint32_t)getpid(), &word), 0);
+        shm_slot_store(slot, "2", 1, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND, 1, 2);
+        assert_int_equal(shm_slot_publish(slot, word), 0);
+        word = shm_slot_word(slot);
+        while (atomic_load(&shmtest_in_slot(&in, index)->source) != word) {
+                assert_true(++tries < 4);
+                assert_int_equal(sl_wait(c, &cursor, T_RECOVER_MS), 1);
+        }
+        sl_close(c);
+        shmtest_view_close(&out);
+        shmtest_view_close(&in);
+        stop_ok(h, SIGTERM);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -1251,6 +1308,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_missing_device, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_idle_wakeups, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_truncated_recovers, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_lost_mark_heartbeat, setup, teardown),
         };
 
         signal(SIGPIPE, SIG_IGN);       /* a daemon that hangs up is an error code, not death */

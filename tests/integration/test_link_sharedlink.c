@@ -1697,6 +1697,115 @@ static void test_query_link_down(void **state)
         expect_error(client_reply(fx, &c[2]), ECANCELED);
 }
 
+/* "OK <digits>": a ping's round trip in nanoseconds. */
+static void expect_rtt(const char *reply)
+{
+        size_t digits = strspn(reply + 3, "0123456789");
+
+        if (strncmp(reply, "OK ", 3) != 0 || digits == 0 || reply[3 + digits] != '\0')
+                fail_msg("reply \"%s\", want \"OK <nanoseconds>\"", reply);
+}
+
+/* ping-peer: P0 to the peer, OK with the round trip at its G0; only G0 from that peer answers,
+ * the oldest first; no pong in time, a peer the link lacks, too many pending, the link down
+ * (at once, under it, wait=MS) and destroy() each say so. */
+static void test_ping_peer(void **state)
+{
+        struct fx *fx = *state;
+        struct client c[LINK_SHAREDLINK_PINGS_MAX + 1];
+        char line[64];
+        size_t n;
+
+        fx_pty(fx, 0);
+        fx_start(fx, "link_sharedlink_inbound.yaml");
+        fx_control(fx);
+        sync_peer(fx, 0, 'A', 'B');
+
+        n = fx->peers[0].nrx;
+        client_request(fx, &c[0], "ping-peer veh A 60000\n");
+        expect_frame(wait_frames(fx, 0, n + 1), ":AB|P0");
+        peer_frame(&fx->peers[0], ":BC|G0");                    /* another peer's */
+        peer_frame(&fx->peers[0], ":BA|G7");                    /* not our ping's */
+        sync_peer(fx, 0, 'A', 'B');
+        assert_false(client_has_reply(&c[0]));
+        peer_frame(&fx->peers[0], ":BA|G0");
+        expect_rtt(client_reply(fx, &c[0]));
+
+        /* Two pending to A, one to C: each G0 ends one, the oldest to that peer first. */
+        n = fx->peers[0].nrx;
+        client_request(fx, &c[0], "ping-peer veh A\n");
+        wait_frames(fx, 0, n + 1);
+        client_request(fx, &c[1], "ping-peer veh C\n");
+        wait_frames(fx, 0, n + 2);
+        client_request(fx, &c[2], "ping-peer veh A 60000\n");
+        expect_frame(wait_frames(fx, 0, n + 3), ":AB|P0");
+        peer_frame(&fx->peers[0], ":BA|G0");
+        expect_rtt(client_reply(fx, &c[0]));
+        assert_false(client_has_reply(&c[2]));
+        peer_frame(&fx->peers[0], ":BC|G0");
+        expect_rtt(client_reply(fx, &c[1]));
+        peer_frame(&fx->peers[0], ":BA|G0");
+        expect_rtt(client_reply(fx, &c[2]));
+
+        /* No pong in time; a late one answers nothing. */
+        n = fx->peers[0].nrx;
+        client_request(fx, &c[0], "ping-peer veh A 100\n");
+        expect_frame(wait_frames(fx, 0, n + 1), ":AB|P0");
+        assert_string_equal(client_reply(fx, &c[0]), "ERR 110 no pong from peer A within 100 ms");
+        peer_frame(&fx->peers[0], ":BA|G0");
+
+        /* Bad requests: nothing on the wire. */
+        n = fx->peers[0].nrx;
+        expect_error(request(fx, &c[0], "ping-peer veh D\n"), EINVAL);  /* not a peer */
+        expect_error(request(fx, &c[0], "ping-peer veh\n"), EINVAL);
+        expect_error(request(fx, &c[0], "ping-peer veh A 0\n"), EINVAL);
+        assert_int_equal(sync_peer(fx, 0, 'A', 'B'), n);
+
+        /* Bounded: one more than LINK_SHAREDLINK_PINGS_MAX is EBUSY; a client that left frees
+         * its slot. */
+        n = fx->peers[0].nrx;
+        for (int i = 0; i < LINK_SHAREDLINK_PINGS_MAX; i++)
+                client_request(fx, &c[i], "ping-peer veh A 60000\n");
+        wait_frames(fx, 0, n + LINK_SHAREDLINK_PINGS_MAX);
+        expect_error(request(fx, &c[LINK_SHAREDLINK_PINGS_MAX], "ping-peer veh A\n"), EBUSY);
+        close(c[0].fd);
+        sync_peer(fx, 0, 'A', 'B');     /* a round trip: the loop saw the hang-up */
+        n = fx->peers[0].nrx;
+        client_request(fx, &c[0], "ping-peer veh C 60000\n");
+        expect_frame(wait_frames(fx, 0, n + 1), ":CB|P0");
+
+        /* The link goes down under them: ENOTCONN for each; while down, at once; wait=MS sends
+         * it once the link is back. */
+        fx_unplug(fx, 0);
+        for (int i = 0; i < LINK_SHAREDLINK_PINGS_MAX; i++)
+                expect_error(client_reply(fx, &c[i]), ENOTCONN);
+        wait_state(fx, 0, "down");
+        expect_error(request(fx, &c[0], "ping-peer veh A\n"), ENOTCONN);
+        client_request(fx, &c[1], "ping-peer veh A 60000 wait=20000\n");
+        n = fx->peers[0].nrx;
+        fx_pty(fx, 0);
+        wait_state(fx, 0, "up");
+        for (size_t i = n + 1;; i++) {
+                const char *f = wait_frames(fx, 0, i);
+                char want[TEXT_MAX];
+
+                wire_slp_raw(want, sizeof(want), ":AB|P0", false);
+                if (strcmp(f, want) == 0)
+                        break;
+        }
+        peer_frame(&fx->peers[0], ":BA|G0");
+        expect_rtt(client_reply(fx, &c[1]));
+
+        /* destroy() with one pending. */
+        n = fx->peers[0].nrx;
+        snprintf(line, sizeof(line), "ping-peer veh A 60000\n");
+        client_request(fx, &c[2], line);
+        expect_frame(wait_frames(fx, 0, n + 1), ":AB|P0");
+        ops->destroy(fx->engines[0]);
+        fx->engines[0] = NULL;
+        expect_error(client_reply(fx, &c[2]), ECANCELED);
+}
+
 /* ---------------------------------------------------------------------------------------------
  * Pronto4 over UDP (docs/pronto4.md) */
 
@@ -1750,6 +1859,13 @@ static void test_p4_udp_host(void **state)
         n = sync_peer(fx, 0, 'B', 'A');
         assert_string_equal(pe->rx[n - 1].text, "[:BA|EServoPod|D0,TELEOP START|C02]");
         assert_int_equal(ctr(fx, 0, SHM_COUNTER_COMMANDS_OUT), 4);
+        /* A bare module request goes out bare, as the clients send it (docs/pronto4.md §9). */
+        client_request(fx, &c, "command p4h MUI\n");
+        assert_string_equal(client_reply(fx, &c), "OK");
+        n = sync_peer(fx, 0, 'B', 'A');
+        assert_string_equal(pe->rx[n - 1].text, "[:BA|MUI|CE3]");
+        assert_int_equal(ctr(fx, 0, SHM_COUNTER_COMMANDS_OUT), 5);
+        expect_error(request(fx, &c, "command p4h MUI x\n"), EINVAL);
 
         /* Bad commands, and a link with no pronto4 peer: nothing on the wire. */
         expect_error(request(fx, &c, "command p4h\n"), EINVAL);
@@ -1821,6 +1937,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_query_command, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_query_bounds, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_query_link_down, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_ping_peer, setup, teardown),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

@@ -658,6 +658,31 @@ static void wait_state_name(struct it *t, int link, const char *name)
         fail_msg("link %d never %s", link, name);
 }
 
+/* The link's state text becomes `text`: it is published after the event of the frame that
+ * changed it, so a test that saw the event waits for the text rather than reading it once. */
+static void wait_state_text(struct it *t, int link, const char *text)
+{
+        uint64_t deadline = deadline_in(WAIT_MS);
+        uint32_t cursor = 0;
+        char last[sizeof(((struct sl_link_info *)NULL)->state_text)] = "";
+
+        while (ms_left(deadline) > 0) {
+                struct sl_link_info *li = calloc(1, sizeof(*li));
+                bool ok;
+
+                assert_non_null(li);
+                li->size = sizeof(*li);
+                ok = sl_link_info(t->c, link, li) == 0;
+                if (ok)
+                        snprintf(last, sizeof(last), "%s", li->state_text);
+                free(li);
+                if (ok && strcmp(last, text) == 0)
+                        return;
+                sl_wait(t->c, &cursor, 100);
+        }
+        fail_msg("link %d state text is \"%s\", never \"%s\"", link, last, text);
+}
+
 /* ---------------------------------------------------------------------------------------------
  * The frames of docs/pronto4.md against a daemon VEHICLE link that learns both lists; the test
  * plays the host (node A). */
@@ -829,11 +854,11 @@ static void vehicle_replay(struct it *t)
         next_data(t, "AB", COUNT(host_wants), values, sizeof(values));
         item(values, 23, want, sizeof(want));
         assert_string_equal(want, "VEH_1");
-        /* A value that is not a double is refused and not sent (the previous one stays). */
-        client_write(t, "veh.A.AutoGpsLat", "40.5x");
+        /* A value that is not a double is refused where it is written (issue 21.2) and not
+         * sent (the previous one stays). */
+        assert_int_equal(sl_write(t->c, sl_find(t->c, "veh.A.AutoGpsLat"), "40.5x"), -EINVAL);
         client_write(t, "veh.A.AutoGpsLon", "-80.25");
         wait_data_item(t, "AB", COUNT(host_wants), 2, "-80.25", 1, "40.5x");
-        wait_counter(t, 0, "type_mismatch", 1);
         assert_int_equal(counter(t, 0, "io_errors"), 0);
 }
 
@@ -1021,11 +1046,10 @@ static void host_replay(struct it *t)
         next_data(t, "BA", COUNT(host_sends), values, sizeof(values));
         item(values, 1, v, sizeof(v));
         assert_string_equal(v, "1");
-        /* A long that is not a long is refused and never sent. */
-        client_write(t, "veh_start", "1.5");
+        /* A long that is not a long is refused where it is written and never sent. */
+        assert_int_equal(sl_write(t->c, sl_find(t->c, "veh_start"), "1.5"), -EINVAL);
         client_write(t, "veh_clutch", "3");
         wait_data_item(t, "BA", COUNT(host_sends), 9, "3", 1, "1.5");
-        wait_counter(t, 0, "type_mismatch", 1);
 
         /* A module command from a client, byte for byte the frame of §9. */
         assert_int_equal(sl_command(t->c, "host", "ServoPod", "0,TELEOP START"), 0);
@@ -1039,7 +1063,7 @@ static void host_replay(struct it *t)
         wire_sendf(t, ":AB|N0|Dnorth|D41.5|D");
         wait_value(t, "AutoGpsLat", "41.5");
         assert_value(t, "AutoGpsHead", "0");
-        wait_counter(t, 0, "type_mismatch", 2);
+        wait_counter(t, 0, "type_mismatch", 1);
         assert_int_equal(counter(t, 0, "io_errors"), 0);
 }
 
@@ -1698,6 +1722,337 @@ static void test_command_link_down(void **state)
         expect(t, teleop_start);
 }
 
+/* ---------------------------------------------------------------------------------------------
+ * Issue 21: the field's frames in the field's order, against a daemon vehicle link */
+
+/* The beacon as the field sends it before the host's declarations: 12 of the names of host_l0
+ * (what the vehicle sends) and one of host_n0, typed as the beacon types them; "pause" a string
+ * here, a long in host_l0. */
+static const char field_beacon[] =
+        ":BA|N0|T4|QVehicleName|DVEH_1|T2|QAutoGpsHead|D181.5|T2|QAutoGpsLat|D40.5|"
+        "T2|QAutoGpsLon|D-80.25|T2|QAutoGpsVel|D0|T0|QAutoGpsReferences|D3|T0|QAutoGpsQuality|D4|"
+        "T2|QAutoGpsStamp|D0.5|T4|Qpause|Dyes|T0|Qkey_on|D1|T0|Qeng_enb|D1|T0|Qpe7|D0|"
+        "T0|Qveh_start|D1";
+#define FIELD_BEACON_OUT        12      /* names of field_beacon that host_l0 declares */
+/* The ROS 2 bridge's data: an empty field after N0, then the ten values of host_n0. */
+static const char bridge_data[] = ":BA|N0||D0|D1|D0|D0|D0.25|D0|D100|D0|D0|D0";
+static const char outbound_off[] = "[:BA|ELink|D0, outbound, off|CFE]";
+static const char inbound_off[] = "[:BA|ELink|D0, inbound, off|C7D]";
+
+/* How often needle is in the daemon's captured log. */
+static unsigned log_count(struct it *t, const char *needle)
+{
+        FILE *f = fopen(t->h.log_path, "r");
+        char line[2048];
+        unsigned n = 0;
+
+        assert_non_null(f);
+        while (fgets(line, sizeof(line), f))
+                if (strstr(line, needle))
+                        n++;
+        fclose(f);
+        return n;
+}
+
+/* Waits for the log line with needle; then it must be there exactly once. */
+static void log_once(struct it *t, const char *needle)
+{
+        unsigned n;
+
+        if (harness_wait_log(&t->h, needle, WAIT_MS) < 0)
+                fail_msg("the daemon never logged \"%s\"", needle);
+        n = log_count(t, needle);
+        if (n != 1)
+                fail_msg("the daemon logged \"%s\" %u times, not once", needle, n);
+}
+
+/* A vehicle link (UDP) whose log the test reads. */
+static void start_vehicle_logged(struct it *t, unsigned learn_max)
+{
+        t->kind = WIRE_UDP;
+        t->h.capture_log = 1;
+        start_vehicle(t, learn_max);
+        wait_state_name(t, 0, "up");
+}
+
+/* A ping, its pong, and no frame on the way containing `forbidden` (the daemon handles frames in
+ * order and sends what it sends at once: anything it sent before the ping was handled came
+ * first). */
+static void quiet_until_pong(struct it *t, const char *forbidden)
+{
+        uint64_t deadline = deadline_in(WAIT_MS);
+        char got[FRAME_MAX_T];
+
+        wire_send(t, host_ping);
+        while (wire_next(t, got, sizeof(got), deadline)) {
+                if (frame_is(got, vehicle_pong))
+                        return;
+                if (strstr(got, forbidden))
+                        fail_msg("%s went out: %s", forbidden, got);
+        }
+        fail_msg("no pong");
+}
+
+/* What both orders must leave: every declared name in the declared direction, type and place,
+ * the values the beacon gave to inbound names, nothing in conflict, no ad hoc name left over. */
+static void assert_declared_state(struct it *t, int n_before)
+{
+        char name[SL_NAME_SIZE];
+
+        for (size_t i = 0; i < COUNT(host_sends); i++) {
+                learned_name(name, sizeof(name), host_sends[i].name);
+                wait_var(t, name, SL_DIR_IN, host_sends[i].type, (int)i);
+        }
+        for (size_t i = 0; i < COUNT(host_wants); i++) {
+                learned_name(name, sizeof(name), host_wants[i].name);
+                wait_var(t, name, SL_DIR_OUT, host_wants[i].type, (int)i);
+        }
+        assert_value(t, "veh.A.veh_start", "1");
+        assert_int_equal(sl_count(t->c), n_before + (int)COUNT(host_sends) +
+                         (int)COUNT(host_wants));
+        assert_int_equal(counter(t, 0, "learn_conflict"), 0);
+        assert_int_equal(counter(t, 0, "adhoc_full"), 0);
+        assert_int_equal(counter(t, 0, "type_mismatch"), 0);
+        /* The vehicle can send them: a client's write goes out in the whole list. */
+        client_write(t, "veh.A.AutoGpsLat", "40.75");
+        wait_data_item(t, "AB", COUNT(host_wants), 1, "40.75", 0, "-");
+        /* The bridge's data frames, an empty field first: the host's values by position. */
+        wire_sendf(t, "%s", bridge_data);
+        wait_value(t, "veh.A.joy_steer", "0.25");
+        assert_value(t, "veh.A.veh_brake", "100");
+        assert_int_equal(counter(t, 0, "list_mismatch"), 0);
+        assert_int_equal(counter(t, 0, "io_errors"), 0);
+}
+
+/* Issue 21.1: the beacon first, as in the field, then the host's declarations: the declarations
+ * decide; the names the beacon made inbound become outbound, once logged at info. */
+static void test_field_beacon_first(void **state)
+{
+        struct it *t = *state;
+        int n_before;
+
+        start_vehicle_logged(t, 128);
+        n_before = sl_count(t->c);
+        wire_sendf(t, "%s", field_beacon);
+        wait_value(t, "veh.A.VehicleName", "VEH_1");
+        wait_value(t, "veh.A.veh_start", "1");
+        wire_send(t, host_n0);
+        wire_send(t, host_l0);
+        wait_counter(t, 0, "declarations_in", 2);
+        assert_declared_state(t, n_before);
+        log_once(t, "peer A declared 12 names a self-describing frame had made first: they are "
+                 "now its L list's, outbound");
+        log_once(t, "peer A declared 1 names a self-describing frame had made first");
+        assert_int_equal(log_count(t, "learn_conflict"), 0);
+        /* The beacon again: its outbound names are ours, not ad hoc names, not the peer's to
+         * set. */
+        wire_sendf(t, "%s", field_beacon);
+        quiet_until_pong(t, "ELink");
+        assert_value(t, "veh.A.AutoGpsLat", "40.75");
+        assert_int_equal(counter(t, 0, "adhoc_full"), 0);
+        (void)FIELD_BEACON_OUT;
+}
+
+/* Issue 21.1: the declarations first, then the beacon: the same outcome. */
+static void test_field_declaration_first(void **state)
+{
+        struct it *t = *state;
+        int n_before;
+
+        start_vehicle_logged(t, 128);
+        n_before = sl_count(t->c);
+        wire_send(t, host_n0);
+        wire_send(t, host_l0);
+        wait_counter(t, 0, "declarations_in", 2);
+        wire_sendf(t, "%s", field_beacon);
+        quiet_until_pong(t, "ELink");
+        assert_declared_state(t, n_before);
+        assert_int_equal(log_count(t, "had made first"), 0);
+}
+
+/* Issue 21.3: refusals are loud once, then counted: a swapped address (frames for A from B on a
+ * link that is B), a frame over max_frame, a value not of its type, a bad T, a name held by
+ * another link: one warning each, whatever their number. */
+static void test_field_refusals(void **state)
+{
+        struct it *t = *state;
+        char big[FRAME_MAX_T];
+
+        start_vehicle_logged(t, 128);
+        for (unsigned i = 0; i < 102; i++)
+                wire_sendf(t, ":AB|N0|D40.5|D0|DVEH_1");
+        wait_counter(t, 0, "not_for_us", 102);
+        log_once(t, "not_for_us: frames for A from B, but this link is B: check `address:`");
+        /* 1100 bytes without a frame end: over the link's max_frame (1024). */
+        memset(big, 'x', 1100);
+        big[0] = '[';
+        big[1100] = '\0';
+        for (unsigned i = 0; i < 3; i++)
+                wire_send_raw(t, big);
+        wait_counter(t, 0, "overlong", 3);
+        log_once(t, "overlong: ");
+        wire_send(t, host_n0);
+        for (unsigned i = 0; i < 5; i++)
+                wire_sendf(t, ":BA|N0|Dnot_a_long");
+        wait_counter(t, 0, "type_mismatch", 5);
+        log_once(t, "type_mismatch: peer A sent \"not_a_long\" for video_mux1, declared T0");
+        wire_sendf(t, ":BA|L0|T9|Qx|T0|Qtaken");
+        wire_sendf(t, ":BA|L0|T9|Qx|T0|Qtaken");
+        wait_counter(t, 0, "bad_type", 2);
+        wait_counter(t, 0, "learn_conflict", 2);
+        log_once(t, "bad_type: peer A declared 1 entries with a T other than T0, T2, T4");
+        log_once(t, "learn_conflict: peer A named taken, but veh.A.taken is");
+        assert_int_equal(log_count(t, "not_for_us"), 1);
+}
+
+/* Issue 21.5: the ROS 1 adapter asks L? (twice) before anything and never declares: no answer
+ * (we have no list), but a warning that says what to configure, and a counter. */
+static void test_field_adapter_query_first(void **state)
+{
+        struct it *t = *state;
+
+        start_vehicle_logged(t, 128);
+        wire_send(t, l_query);
+        wire_send(t, l_query);
+        wait_counter(t, 0, "list_unknown", 2);
+        log_once(t, "list_unknown: peer A asked for our outbound list (L?), but it is `outbound: "
+                 "learn` and the peer has not declared it (L0)");
+        quiet_until_pong(t, "|T");
+        /* Its data, never declared: dropped, and said once too. */
+        wire_sendf(t, ":BA|N0|D1|D2");
+        wire_sendf(t, ":BA|N0|D1|D2");
+        wait_counter(t, 0, "undeclared_data", 2);
+        log_once(t, "undeclared_data: peer A sent data before it declared its list (N0)");
+}
+
+/* Issue 21.4: a vehicle side (address B) with configured lists and no declare: sends neither the
+ * host's connect sequence nor declarations; it answers the host's list queries. */
+static void test_field_vehicle_configured(void **state)
+{
+        static const char fmt[] =
+                "  - name: veh\n    protocol: sharedlink\n    transport: udp\n"
+                "    local: \"127.0.0.1:%u\"\n    remote: \"127.0.0.1:%u\"\n"
+                "    address: B\n"
+                "    peers:\n"
+                "      - address: A\n"
+                "        dialect: pronto4\n"
+                "        period_ms: 0\n"
+                "        stale_ms: 0\n"
+                "        outbound: [{name: AutoGpsLat, type: double}]\n"
+                "        inbound: [{name: veh_start, type: long}]\n";
+        struct it *t = on_wire(state, WIRE_UDP);
+        char links[YAML_MAX];
+        uint16_t port = free_port();
+
+        t->udp = udp_socket(&t->udp_port);
+        snprintf(links, sizeof(links), fmt, port, t->udp_port);
+        start(t, links);
+        wait_state_name(t, 0, "up");
+        t->daemon_addr = (struct sockaddr_in){ .sin_family = AF_INET, .sin_port = htons(port),
+                                               .sin_addr.s_addr = htonl(INADDR_LOOPBACK) };
+        t->have_daemon_addr = true;
+        quiet_until_pong(t, "ELink");
+        assert_int_equal(counter(t, 0, "commands_out"), 0);
+        assert_int_equal(counter(t, 0, "declarations_out"), 0);
+        wire_send(t, l_query);
+        expectf(t, ":AB|N0|T2|QAutoGpsLat");
+}
+
+/* Issue 21.6: the host's ELink outbound/inbound off and on, obeyed, shown in the state text;
+ * both on from the start (the ROS 1 adapter never sends "on"). */
+static void test_field_link_switch(void **state)
+{
+        struct it *t = *state;
+        char values[FRAME_MAX_T], v[SL_VALUE_SIZE];
+        uint64_t accepted;
+
+        start_vehicle_logged(t, 128);
+        wire_send(t, host_n0);
+        wire_send(t, host_l0);
+        wait_var(t, "veh.A.AutoGpsLat", SL_DIR_OUT, SL_VAR_DOUBLE, 1);
+        client_write(t, "veh.A.AutoGpsLat", "40.5");
+        wait_data_item(t, "AB", COUNT(host_wants), 1, "40.5", 0, "-");
+        /* Outbound off: nothing goes out, however the clients write. */
+        wire_send(t, outbound_off);
+        wait_event(t, "command", "module=Link text=\"0, outbound, off\"");
+        wait_state_text(t, 0, "up; peer A: outbound off");
+        {
+                struct sl_daemon_info *d = calloc(1, sizeof(*d));
+
+                assert_non_null(d);
+                d->size = sizeof(*d);
+                assert_int_equal(sl_daemon_info(t->c, d), 0);
+                accepted = 0;
+                for (unsigned i = 0; i < d->counter_count; i++)
+                        if (strcmp(d->counters[i].name, "out_accepted") == 0)
+                                accepted = d->counters[i].value;
+                client_write(t, "veh.A.AutoGpsLat", "41.5");
+                /* The daemon took the write (and would have sent it in the same turn). */
+                for (uint64_t deadline = deadline_in(WAIT_MS), now_v = accepted;
+                     now_v == accepted && ms_left(deadline) > 0; ) {
+                        uint32_t cursor = 0;
+
+                        assert_int_equal(sl_daemon_info(t->c, d), 0);
+                        for (unsigned i = 0; i < d->counter_count; i++)
+                                if (strcmp(d->counters[i].name, "out_accepted") == 0)
+                                        now_v = d->counters[i].value;
+                        if (now_v == accepted)
+                                sl_wait(t->c, &cursor, 10);
+                }
+                free(d);
+        }
+        quiet_until_pong(t, "N0|D");
+        /* Inbound off: the host's data is dropped, counted. */
+        wire_send(t, inbound_off);
+        wait_event(t, "command", "module=Link text=\"0, inbound, off\"");
+        wait_state_text(t, 0, "up; peer A: outbound off, inbound off");
+        wire_send(t, host_data);
+        wait_counter(t, 0, "inbound_off", 1);
+        assert_value(t, "veh.A.joy_steer", "");
+        /* On again: the whole list at once with what was written meanwhile; data taken. */
+        wire_send(t, outbound_on);
+        next_data(t, "AB", COUNT(host_wants), values, sizeof(values));
+        item(values, 1, v, sizeof(v));
+        assert_string_equal(v, "41.5");     /* the first frame after on: the whole list */
+        wire_send(t, inbound_on);
+        wire_send(t, host_data);
+        wait_value(t, "veh.A.joy_steer", "0.25");
+        wait_state_text(t, 0, "up");
+}
+
+/* Issue 21.7: an L0 declaration longer than learn_max: the list still goes out at its declared
+ * length (empty D where we store nothing), the L? answer names every entry, and a warning
+ * names both counts. */
+static void test_field_longer_than_learn_max(void **state)
+{
+        struct it *t = *state;
+        char values[FRAME_MAX_T], v[SL_VALUE_SIZE], text[FRAME_MAX_T] = ":AB|N0", e[96];
+
+        start_vehicle_logged(t, 20);
+        wire_send(t, host_l0);
+        wait_counter(t, 0, "learn_full", COUNT(host_wants) - 20);
+        log_once(t, "learn_full: peer A declared 28 entries in its L list, learn_max is 20: the "
+                 "last 8 go out as an empty D");
+        assert_int_equal(sl_find(t->c, "veh.A.rpm"), -ENOENT);
+        wait_var(t, "veh.A.AutoGpsLat", SL_DIR_OUT, SL_VAR_DOUBLE, 1);
+        client_write(t, "veh.A.AutoGpsLat", "40.5");
+        wait_data_item(t, "AB", COUNT(host_wants), 1, "40.5", 0, "-");
+        assert_int_equal(sl_find(t->c, "veh.A.veh_obstacle"), -ENOENT);    /* position 20 */
+        client_write(t, "veh.A.veh_estop", "1");        /* position 19, the last stored */
+        next_data(t, "AB", COUNT(host_wants), values, sizeof(values));
+        item(values, 19, v, sizeof(v));
+        assert_string_equal(v, "1");
+        item(values, 25, v, sizeof(v));
+        assert_string_equal(v, "");
+        for (size_t i = 0; i < COUNT(host_wants); i++) {
+                snprintf(e, sizeof(e), "|T%c|Q%s", host_wants[i].type == SL_VAR_LONG ? '0' :
+                         host_wants[i].type == SL_VAR_DOUBLE ? '2' : '4', host_wants[i].name);
+                strcat(text, e);
+        }
+        wire_send(t, l_query);
+        expectf(t, "%s", text);
+}
+
 int main(void)
 {
         const char *only = getenv("P4_ONLY");
@@ -1713,6 +2068,14 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_back_to_back, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_command_link_down, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_redeclaring_peer, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_field_beacon_first, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_field_declaration_first, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_field_refusals, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_field_adapter_query_first, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_field_vehicle_configured, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_field_link_switch, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_field_longer_than_learn_max, setup,
+                                                teardown),
         };
 
         signal(SIGPIPE, SIG_IGN);

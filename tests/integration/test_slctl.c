@@ -575,14 +575,26 @@ static void test_set(void **state)
         assert_int_equal(RUN(f, "set", "CmdThrottle", "-0.5"), 0);
         assert_int_equal(RUN(f, "get", "CmdThrottle"), 0);
         assert_string_equal(f->out, "-0.5\n");
-        assert_int_equal(RUN(f, "set", "--", "CmdThrottle", "-x"), 0);
+        assert_int_equal(RUN(f, "set", "--", "CmdThrottle", "-2e-3"), 0);
         assert_int_equal(RUN(f, "get", "CmdThrottle"), 0);
-        assert_string_equal(f->out, "-x\n");
-        /* Refusals, each explained. */
+        assert_string_equal(f->out, "-2e-3\n");
+        /* Refusals, each explained. A value its type refuses (CmdThrottle is a double) is
+         * refused before the table: it keeps the last value, the daemon hears nothing. */
+        s.n = 0;
+        assert_true(shm_table_out_scan(f->t, on_out, &s) >= 1);
+        assert_int_equal(RUN(f, "set", "--", "CmdThrottle", "-x"), 1);
+        assert_non_null(strstr(f->err, "\"-x\" is not a double"));
+        assert_int_equal(RUN(f, "set", "CmdThrottle", "abc"), 1);
+        assert_non_null(strstr(f->err, "CmdThrottle"));
+        assert_non_null(strstr(f->err, "\"abc\" is not a double"));
+        assert_int_equal(RUN(f, "get", "CmdThrottle"), 0);
+        assert_string_equal(f->out, "-2e-3\n");
+        s.n = 0;
+        assert_int_equal(shm_table_out_scan(f->t, on_out, &s), 0);
         assert_int_equal(RUN(f, "set", "AutoGpsLat", "1"), 1);
         assert_non_null(strstr(f->err, "inbound"));
         assert_int_equal(RUN(f, "set", "CmdThrottle", "a|b"), 1);
-        assert_non_null(strstr(f->err, "printable ASCII"));
+        assert_non_null(strstr(f->err, "printable ASCII except | [ ]"));
         memset(long_value, '7', 64);
         long_value[64] = '\0';
         assert_int_equal(RUN(f, "set", "CmdThrottle", long_value), 1);
@@ -805,7 +817,8 @@ static void test_usage(void **state)
 static void test_help(void **state)
 {
         static const char *const commands[] = {
-                "list", "get", "set", "watch", "events", "stats", "query", "command", "circe",
+                "list", "get", "set", "watch", "events", "stats", "query", "ping", "command",
+                "circe",
         };
         struct fixture *f = *state;
 
@@ -1285,8 +1298,8 @@ static void test_completion(void **state)
         daemon_start_both(f);
         wait_circe_up(f);
         COMPLETE(f, "");
-        assert_string_equal(f->out, "circe\ncommand\nevents\nget\nhelp\nlist\nquery\nrecord\nset\n"
-                            "stats\nwatch\n");
+        assert_string_equal(f->out, "circe\ncommand\nevents\nget\nhelp\nlist\nping\nquery\n"
+                            "record\nset\nstats\nwatch\n");
         COMPLETE(f, "st");
         assert_string_equal(f->out, "stats\n");
         COMPLETE(f, "--v");
@@ -1321,6 +1334,10 @@ static void test_completion(void **state)
         assert_string_equal(f->out, "node_a\nnode_b\n");
         COMPLETE(f, "query", "--timeout", "100", "node_b", "");
         assert_string_equal(f->out, "A\nC\n");
+        COMPLETE(f, "ping", "--wait", "100", "node_b", "");
+        assert_string_equal(f->out, "A\nC\n");
+        COMPLETE(f, "ping", "--");
+        assert_string_equal(f->out, "--help\n--timeout\n--wait\n");
         COMPLETE(f, "command", "");
         assert_string_equal(f->out, "node_a\nnode_b\n");
         COMPLETE(f, "command", "--wait", "100", "node_a", "");
@@ -1578,6 +1595,38 @@ static void test_daemon_query(void **state)
                          -ETIMEDOUT);
 }
 
+/* slctl ping and sl_ping: P0 over the pty to the other node, its G0 back; the peer that never
+ * answers, one the link lacks, a bad timeout, a link that does not exist. */
+static void test_daemon_ping(void **state)
+{
+        struct fixture *f = *state;
+        char reply[SL_REPLY_LINE_MAX + 1];
+        uint64_t rtt_ns = 0;
+
+        daemon_start_sharedlink(f);
+        assert_int_equal(RUN(f, "ping", "--wait", "10000", "node_b", "A"), 0);
+        assert_int_equal(strncmp(f->out, "G0 from A on node_b: time=", 26), 0);
+        assert_non_null(strstr(f->out, " ms\n"));
+        assert_int_equal(RUN(f, "ping", "--timeout", "100", "node_b", "C"), 1);
+        assert_non_null(strstr(f->err, "no pong from peer C within 100 ms"));
+        assert_int_equal(RUN(f, "ping", "node_b", "D"), 1);
+        assert_non_null(strstr(f->err, "D is not a peer of link node_b"));
+        assert_int_equal(RUN(f, "ping", "--timeout", "0", "node_b", "A"), 1);
+        assert_int_equal(RUN(f, "ping", "node_b"), 2);
+
+        assert_int_equal(sl_set_command_wait(f->c, 10000), 0);
+        assert_int_equal(sl_ping(f->c, "node_a", "B", 5000, &rtt_ns, reply, sizeof(reply)), 0);
+        assert_true(rtt_ns > 0);
+        assert_int_equal(sl_ping(f->c, "node_b", "A", 0, NULL, NULL, 0), 0);
+        assert_int_equal(sl_ping(f->c, "node_b", "C", 100, &rtt_ns, reply, sizeof(reply)),
+                         -ETIMEDOUT);
+        assert_non_null(strstr(reply, "no pong"));
+        assert_int_equal(sl_ping(f->c, "node_b", "Z", 0, NULL, reply, sizeof(reply)), -EINVAL);
+        assert_int_equal(sl_ping(f->c, "node_b", "A", 60001, NULL, reply, sizeof(reply)),
+                         -EINVAL);
+        assert_int_equal(sl_ping(f->c, "nolink", "A", 0, NULL, reply, sizeof(reply)), -ENOENT);
+}
+
 /*
  * An operation for the other protocol's links: EOPNOTSUPP, not EINVAL, on the control socket
  * (ERR 95), from the library and from slctl, each saying which protocol the link speaks.
@@ -1761,6 +1810,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_daemon_tables, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_out_truncated, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_query, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_daemon_ping, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_wrong_protocol, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_daemon_published_socket, setup_bare,
                                                 teardown),

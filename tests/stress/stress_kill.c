@@ -98,7 +98,10 @@ static int writer_main(void *arg)
                                       memory_order_relaxed);
                 if (shm_slot_publish(&slots[id], word) < 0)
                         return 6;
-                atomic_fetch_add(&h->change, 1);
+                /* As sl_write does (layout 1.6): mark, then the step wait_progress counts. */
+                atomic_fetch_or((_Atomic uint64_t *)(void *)((char *)h + h->touched_offset),
+                                UINT64_C(1) << id);
+                atomic_fetch_add(&h->change, SHM_OUT_CHANGE_TOUCHED);
                 shm_futex_wake(&h->change, 1);
         }
 }
@@ -174,8 +177,9 @@ static int wait_progress(struct shm_out_header *h, unsigned steps)
 {
         uint32_t start = atomic_load(&h->change) & ~SHM_OUT_WAITING, seen;
 
-        while (((seen = atomic_load(&h->change)) & ~SHM_OUT_WAITING) - start <
-               steps * SHM_OUT_CHANGE_STEP) {
+        /* Every writer adds SHM_OUT_CHANGE_TOUCHED (layout 1.6): whole steps of the high half. */
+        while ((((seen = atomic_load(&h->change)) & ~SHM_OUT_WAITING) - start) /
+               SHM_OUT_CHANGE_TOUCHED < steps) {
                 if (!(seen & SHM_OUT_WAITING) &&
                     !atomic_compare_exchange_strong(&h->change, &seen, seen | SHM_OUT_WAITING))
                         continue;       /* a write came in between: count it */

@@ -3,9 +3,12 @@
  * library and a reader process keeps reading them, the outbound table is attacked again and
  * again, as any member of the group could: truncated to nothing or to a random size, random bytes
  * (of 0x80-0xff, which no value holds) written over a random stretch of it (the header, slot
- * words, values, the change word), slot words forged odd with a pid of no process. This process plays the daemon with the real table
- * module: it scans when its wake thread signals (a client wrote, or rang the doorbell in .in) and
- * at every heartbeat, as sharedlinkd does.
+ * words, values, the change word, the touched map), slot words forged odd with a pid of no process,
+ * the touched map (layout 1.6) wiped before every scan of a round, so that every write of it is
+ * a lost mark. This process plays the daemon with the real table module: it scans the touched
+ * slots when its wake thread signals (a client wrote, or rang the doorbell in .in) and every slot
+ * at every heartbeat (HEARTBEAT_MS since the last, however busy the wake-ups), as sharedlinkd
+ * does.
  *
  * After every attack a checker process opens the instance afresh and writes a probe value,
  * waiting on sl_wait while .out is unusable; the round ends once the daemon accepted the probe.
@@ -18,7 +21,8 @@
  *
  * Bounded by work: ROUNDS attacks (STRESS_ROUNDS), each waited out by events (the wake eventfd,
  * the checker's pidfd), however long a busy machine takes. STRESS_SEED repeats a run;
- * STRESS_ATTACKS, a bit mask of enum attack (1 truncate, 2 shorten, 4 scribble, 8 forge), limits
+ * STRESS_ATTACKS, a bit mask of enum attack (1 truncate, 2 shorten, 4 scribble, 8 forge, 16 unmark),
+ * limits
  * it to some kinds. A failure prints the first bad value, the round's attack and its .out slot.
  */
 #include <errno.h>
@@ -34,6 +38,7 @@
 #include <sys/stat.h>
 #include <sys/syscall.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <sharedlink.h>
@@ -61,6 +66,7 @@ enum attack {
         ATTACK_TRUNCATE_SHORT,
         ATTACK_SCRIBBLE,
         ATTACK_FORGE_ODD,
+        ATTACK_UNMARK,          /* the touched map wiped before every scan of the round */
         ATTACK_COUNT,
 };
 
@@ -374,6 +380,7 @@ struct daemon {
         struct stats st;
         uint64_t probe;                 /* the probe of this round */
         int probe_seen;
+        int unmark;                     /* ATTACK_UNMARK: wipe the touched map before scans */
 };
 
 /*
@@ -418,10 +425,41 @@ static void on_change(void *userdata, const struct shm_out_change *ch)
         }
 }
 
-/* One scan, then a look at everything the daemon publishes in .in. */
-static void daemon_scan(struct daemon *d)
+/* Wipes the touched map of .out (layout 1.6), as a member could: every mark set so far is lost. */
+static void touched_wipe(const char *out_name)
 {
-        if (shm_table_out_scan(d->t, on_change, d) == -EBADMSG)
+        int fd = shm_open(out_name, O_RDWR, 0);
+        struct stat st;
+        void *base;
+
+        if (fd < 0)
+                return;
+        /* Only this process truncates .out (attack()): the size stays while we write. */
+        if (fstat(fd, &st) == 0 && (size_t)st.st_size >= sizeof(struct shm_out_header)) {
+                base = mmap(NULL, (size_t)st.st_size, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+                if (base != MAP_FAILED) {
+                        const struct shm_out_header *h = base;
+
+                        if (shm_layout_has_touched(h, (uint64_t)st.st_size))
+                                memset((char *)base + h->touched_offset, 0,
+                                       (size_t)st.st_size - h->touched_offset);
+                        munmap(base, (size_t)st.st_size);
+                }
+        }
+        close(fd);
+}
+
+/* One scan (every slot at a heartbeat, else the touched ones), then a look at everything the
+ * daemon publishes in .in. */
+static void daemon_scan(struct daemon *d, int full)
+{
+        int r;
+
+        if (d->unmark)
+                touched_wipe(d->out_name);
+        r = full ? shm_table_out_scan(d->t, on_change, d)
+                 : shm_table_out_scan_touched(d->t, on_change, d);
+        if (r == -EBADMSG)
                 d->st.recreated++;
         if (d->snapshot) {
                 struct snapshot snap = { &d->sh->bad_accept, d->out_name };
@@ -537,6 +575,8 @@ static int attack_bytes(struct crew *w, void *base, size_t size, enum attack kin
                  * must never take for (part of) a value. */
                 for (size_t i = at; i < at + n && i < size; i++)
                         ((volatile unsigned char *)base)[i] = (unsigned char)(rng() | 0x80u);
+        } else if (kind == ATTACK_UNMARK) {
+                snprintf(text, text_size, "touched map wiped before every scan");
         } else if (size >= sizeof(struct shm_out_header) + (NVARS + 1) * sizeof(struct shm_slot)) {
                 unsigned i = (unsigned)(rng() % (NVARS + 1));
                 struct shm_slot *slot = (struct shm_slot *)((char *)base +
@@ -626,12 +666,21 @@ static int pidfd_of(pid_t pid)
         return (int)syscall(SYS_pidfd_open, pid, 0u);
 }
 
+static uint64_t mono_ms(void)
+{
+        struct timespec ts;
+
+        clock_gettime(CLOCK_MONOTONIC, &ts);
+        return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
+}
+
 /* Runs the daemon until the checker for this round exited and its probe was accepted. */
 static int round_run(struct daemon *d, struct crew *w, uint64_t round)
 {
         struct client_arg ca = { w->instance, w->out_name, (unsigned)round, w->sh };
         pid_t checker = shmtest_fork(checker_main, &ca);
         int pfd = pidfd_of(checker), exited = 0;
+        uint64_t beat_at = mono_ms() + HEARTBEAT_MS;
 
         d->probe = round;
         d->probe_seen = 0;
@@ -639,7 +688,8 @@ static int round_run(struct daemon *d, struct crew *w, uint64_t round)
                 return -1;
         for (unsigned beats = 0; !(exited && d->probe_seen); ) {
                 struct pollfd p[2] = { { d->wake_fd, POLLIN, 0 }, { pfd, POLLIN, 0 } };
-                int n = poll(p, 2, HEARTBEAT_MS);
+                uint64_t now = mono_ms();
+                int n = poll(p, 2, beat_at > now ? (int)(beat_at - now) : 0), full;
 
                 if (n < 0 && errno != EINTR)
                         return -1;
@@ -652,8 +702,14 @@ static int round_run(struct daemon *d, struct crew *w, uint64_t round)
                         close(pfd);
                         return -1;
                 }
+                /* The heartbeat on its own clock, as the daemon's timer: wake-ups do not put it
+                 * off (a lost mark waits for it). */
+                now = mono_ms();
+                full = now >= beat_at;
+                if (full)
+                        beat_at = now + HEARTBEAT_MS;
                 shm_table_out_wake_ack(d->t);
-                daemon_scan(d);         /* woken, or the heartbeat */
+                daemon_scan(d, full);
                 if (p[1].revents && !exited) {
                         exited = 1;
                         if (shmtest_wait(checker) != 0) {
@@ -722,7 +778,9 @@ static int run(void)
                 }
                 memcpy(sh->attack, text, sizeof(text));
                 atomic_store(&sh->round, round);
+                d.unmark = kind == ATTACK_UNMARK;
                 failed = round_run(&d, &w, round) < 0;
+                d.unmark = 0;
         }
 
         atomic_store(&sh->stop, 1);
@@ -731,14 +789,14 @@ static int run(void)
 
                 failed |= status != 0 && status != EXIT_SIGBUS;
         }
-        daemon_scan(&d);
+        daemon_scan(&d, 1);
         failed |= d.st.bad || d.st.bad_mirror || d.st.stalled || d.st.probes < round ||
                   atomic_load(&sh->bad_reads) || atomic_load(&sh->valid_reads) == 0 ||
                   (d.st.recreated == 0 && attacks[ATTACK_TRUNCATE_EMPTY] > 0);
         printf("stress_out: seed=0x%" PRIx64 " rounds=%" PRIu64 " truncated=%" PRIu64
-               " shortened=%" PRIu64 " scribbled=%" PRIu64 " forged=%" PRIu64 "\n", seed, round,
-               attacks[ATTACK_TRUNCATE_EMPTY], attacks[ATTACK_TRUNCATE_SHORT],
-               attacks[ATTACK_SCRIBBLE], attacks[ATTACK_FORGE_ODD]);
+               " shortened=%" PRIu64 " scribbled=%" PRIu64 " forged=%" PRIu64 " unmarked=%" PRIu64
+               "\n", seed, round, attacks[ATTACK_TRUNCATE_EMPTY], attacks[ATTACK_TRUNCATE_SHORT],
+               attacks[ATTACK_SCRIBBLE], attacks[ATTACK_FORGE_ODD], attacks[ATTACK_UNMARK]);
         printf("stress_out: daemon accepted=%" PRIu64 " bad=%" PRIu64 " invalid=%" PRIu64
                " repaired=%" PRIu64 " recreated=%" PRIu64 " probes=%" PRIu64 " bad_mirror=%" PRIu64
                " stalled=%" PRIu64 " clients_restarted=%" PRIu64 "\n", d.st.accepted, d.st.bad,

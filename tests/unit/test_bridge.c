@@ -247,6 +247,22 @@ static void test_set_refused(void **state)
         assert_int_equal(bridge_counters(f->b)->set_written, 0);
 }
 
+/* A value the variable's type refuses (CmdThrottle is a double) is refused with the library's
+ * reason, and the variable keeps its value. */
+static void test_set_wrong_type(void **state)
+{
+        struct fixture *f = *state;
+
+        assert_int_equal(set(f, "CmdThrottle", "0.25", BRIDGE_SET_LIVE), 1);
+        assert_int_equal(set(f, "CmdThrottle", "abc", BRIDGE_SET_LIVE), -EINVAL);
+        assert_refusal(f, "CmdThrottle", "bad-value");
+        assert_non_null(strstr(f->fs.msg[f->fs.n - 1].payload,
+                               "\"detail\":\"\\\"abc\\\" is not a double"));
+        assert_value(f, THROTTLE, "0.25");
+        assert_int_equal(bridge_counters(f->b)->set_refused, 1);
+        assert_int_equal(bridge_counters(f->b)->set_written, 1);
+}
+
 /* The status the last scan published, or NULL. */
 static const char *status_sent(struct fixture *f)
 {
@@ -400,6 +416,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_set_live, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_set_old, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_set_refused, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_set_wrong_type, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_scan, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_status, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_scan_sink_down, setup, teardown),

@@ -115,12 +115,17 @@ static void test_json(void **state)
         assert_string_equal(buf, "{\"valid\":true,\"stale\":true,\"age_ms\":2,\"seq\":7,"
                             "\"time_ns\":11,\"direction\":\"in\",\"type\":\"double\","
                             "\"link\":\"node_b\",\"peer\":\"A\",\"repaired\":false}");
-        assert_true(bridge_format_error(buf, sizeof(buf), "b.Lat", BRIDGE_REFUSE_INBOUND, 0) > 0);
+        assert_true(bridge_format_error(buf, sizeof(buf), "b.Lat", BRIDGE_REFUSE_INBOUND, 0,
+                                        NULL) > 0);
         assert_string_equal(buf, "{\"name\":\"b.Lat\",\"code\":\"inbound\",\"error\":\"an "
                             "inbound variable is read only\"}");
         assert_true(bridge_format_error(buf, sizeof(buf), "a", BRIDGE_REFUSE_FAILED,
-                                        -ENOTCONN) > 0);
+                                        -ENOTCONN, NULL) > 0);
         assert_non_null(strstr(buf, "\"detail\":"));
+        /* A reason given is the detail (the library's word on a refused value). */
+        assert_true(bridge_format_error(buf, sizeof(buf), "a", BRIDGE_REFUSE_BAD_VALUE, -EINVAL,
+                                        "\"x\" is not a long") > 0);
+        assert_non_null(strstr(buf, "\"detail\":\"\\\"x\\\" is not a long\""));
         /* Overflow is reported, and what was written stays NUL-terminated. */
         assert_int_equal(bridge_format_meta(tiny, sizeof(tiny), &info, &meta, "x"), -ENOBUFS);
         assert_true(strlen(tiny) < sizeof(tiny));

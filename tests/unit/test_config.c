@@ -1352,21 +1352,27 @@ struct pronto4_case {
 static const struct pronto4_case pronto4_cases[] = {
         { "host: configured lists, so it declares; crlf follows the dialect",
           P4_LINK("") "        dialect: pronto4\n"
-          "        outbound: [{name: a, type: long}]\n        inbound: [b]\n",
+          "        outbound: [{name: a, type: long}]\n        inbound: [{name: b, type: string}]\n",
           CONFIG_DIALECT_PRONTO4, true, false, false, true, 0, 1, 1 },
         { "vehicle: learns both lists, does not declare, learn_max defaults",
           P4_LINK("") "        dialect: pronto4\n        outbound: learn\n        inbound: learn\n",
           CONFIG_DIALECT_PRONTO4, false, true, true, true, CONFIG_LEARN_MAX_DEFAULT, 0, 0 },
-        { "one list learned (quoted), the other configured, learn_max at its top",
+        { "one list learned (quoted), the other configured, learn_max the most max_frame 1024 "
+          "answers (L0|T|Q of one-letter names: 6 bytes an entry, 14 around them)",
           P4_LINK("") "        dialect: pronto4\n"
-          "        outbound: [x]\n        inbound: 'learn'\n        learn_max: 256\n",
-          CONFIG_DIALECT_PRONTO4, false, false, true, true, 256, 1, 0 },
+          "        outbound: [{name: x, type: string}]\n        inbound: 'learn'\n"
+          "        learn_max: 168\n",
+          CONFIG_DIALECT_PRONTO4, false, false, true, true, 168, 1, 0 },
+        { "learn_max at its top, with crlf: false and the room for it",
+          P4_LINK("    crlf: false\n") "        dialect: pronto4\n        max_frame: 1024\n"
+          "        outbound: learn\n        learn_max: 168\n",
+          CONFIG_DIALECT_PRONTO4, false, true, false, false, 168, 0, 0 },
         { "learn_max at its bottom",
           P4_LINK("") "        dialect: pronto4\n        inbound: learn\n        learn_max: 1\n",
           CONFIG_DIALECT_PRONTO4, false, false, true, true, 1, 0, 0 },
         { "explicit declare: false and crlf: false",
           P4_LINK("    crlf: false\n") "        dialect: pronto4\n"
-          "        declare: false\n        outbound: [x]\n",
+          "        declare: false\n        outbound: [{name: x, type: string}]\n",
           CONFIG_DIALECT_PRONTO4, false, false, false, false, 0, 1, 0 },
         { "a bulletin peer is as before: no crlf unless asked",
           P4_LINK("") "        outbound: [x]\n",
@@ -1491,7 +1497,8 @@ static struct bad_case pronto4_bad_cases[] = {
         { "p4_crlf_not_bool", P4_LINK("    crlf: 1\n") "        dialect: pronto4\n",
           "t.yaml:7:11: crlf: expected true or false, got \"1\"" },
         { "p4_string_list_too_long", P4_LINK("") "        dialect: pronto4\n"
-          "        max_frame: 200\n        outbound: [a, b, c]\n",
+          "        max_frame: 200\n        outbound: [{name: a, type: string}, "
+          "{name: b, type: string}, {name: c, type: string}]\n",
           "t.yaml:12:19: outbound: 3 variables take up to 209 bytes as one frame, more than "
           "max_frame 200 (a pronto4 peer gets every data frame as one full N0 list)" },
         { "p4_declaration_too_long", P4_LINK("") "        dialect: pronto4\n"
@@ -1499,8 +1506,49 @@ static struct bad_case pronto4_bad_cases[] = {
           "type: long}]\n",
           "t.yaml:12:19: outbound: its declaration N0|T|Q... takes 51 bytes, more than max_frame "
           "48 (a pronto4 peer wants it in one frame)" },
+        /* issue 21.9: what -n let through */
+        { "p4_max_frame_over_clients", P4_LINK("") "        dialect: pronto4\n"
+          "        max_frame: 1025\n        outbound: [{name: x, type: long}]\n",
+          "t.yaml:11:20: max_frame 1025 is more than a pronto4 peer reads: both Pronto4 clients "
+          "read a datagram into 1024 bytes" },
+        { "p4_learn_room_max_frame", P4_LINK("") "        dialect: pronto4\n"
+          "        max_frame: 256\n        inbound: learn\n",
+          "t.yaml:11:20: max_frame 256 is too small for what this peer can learn: learn_max 128 "
+          "entries take at least 782 bytes as one frame (the answer to N? or L?, |T<t>|Q<name> "
+          "each); lower learn_max to 40 or raise max_frame" },
+        { "p4_learn_room_learn_max", P4_LINK("") "        dialect: pronto4\n"
+          "        outbound: learn\n        learn_max: 169\n",
+          "t.yaml:11:19: max_frame 1024 is too small for what this peer can learn: learn_max 169 "
+          "entries take at least 1028 bytes as one frame (the answer to N? or L?, |T<t>|Q<name> "
+          "each); lower learn_max to 168 or raise max_frame" },
+        { "p4_bare_name", P4_LINK("") "        dialect: pronto4\n"
+          "        outbound: [{name: x, type: long}, joy_steer]\n",
+          "t.yaml:11:43: outbound: \"joy_steer\" has no type: a pronto4 list gives each entry's "
+          "(e.g. {name: joy_steer, type: double}; a bare name is a string here but a double on "
+          "the Pronto4 wire)" },
+        { "p4_bare_name_inbound", P4_LINK("") "        dialect: pronto4\n"
+          "        inbound:\n          - VehicleName\n",
+          "t.yaml:12:13: inbound: \"VehicleName\" has no type: a pronto4 list gives each "
+          "entry's (e.g. {name: VehicleName, type: double}; a bare name is a string here but a "
+          "double on the Pronto4 wire)" },
+        { "p4_list_of_learn", P4_LINK("") "        dialect: pronto4\n        outbound: [learn]\n",
+          "t.yaml:11:20: outbound: the entry learn is a variable named \"learn\": did you "
+          "mean `outbound: learn` (the list the peer declares)? A variable of that name is "
+          "{name: learn}" },
+        { "list_of_learn_bulletin", P4_LINK("") "        inbound: [x, learn]\n",
+          "t.yaml:10:22: inbound: the entry learn is a variable named \"learn\": did you "
+          "mean `inbound: learn` (the list the peer declares)? A variable of that name is "
+          "{name: learn}" },
+        { "p4_crlf_under_peer", P4_LINK("") "        dialect: pronto4\n        crlf: true\n"
+          "        inbound: learn\n",
+          "t.yaml:11:9: key \"crlf\" is a link key: it goes in the link, beside \"peers\", not "
+          "under a peer" },
+        { "remote_under_peer", P4_LINK("") "        remote: '127.0.0.1:4001'\n",
+          "t.yaml:10:9: key \"remote\" is a link key: it goes in the link, beside \"peers\", not "
+          "under a peer" },
         { "p4_inbound_declaration_too_long", P4_LINK("") "        dialect: pronto4\n"
-          "        max_frame: 40\n        inbound: [abcdefghijklmnopqrstuvwxyz0123]\n",
+          "        max_frame: 40\n        inbound: [{name: abcdefghijklmnopqrstuvwxyz0123, "
+          "type: string}]\n",
           "t.yaml:12:18: inbound: its declaration L0|T|Q... takes 49 bytes, more than max_frame "
           "40 (a pronto4 peer wants it in one frame)" },
 };
@@ -1520,14 +1568,14 @@ static void test_pronto4_bad(void **state)
 static void test_pronto4_equal(void **state)
 {
         static const char *const variants[] = {
-                P4_LINK("") "        dialect: pronto4\n        outbound: [x]\n",
-                P4_LINK("") "        dialect: pronto4\n        outbound: [x]\n"
+                P4_LINK("") "        dialect: pronto4\n        outbound: [{name: x, type: string}]\n",
+                P4_LINK("") "        dialect: pronto4\n        outbound: [{name: x, type: string}]\n"
                 "        declare: false\n",
-                P4_LINK("    crlf: false\n") "        dialect: pronto4\n        outbound: [x]\n",
+                P4_LINK("    crlf: false\n") "        dialect: pronto4\n        outbound: [{name: x, type: string}]\n",
                 P4_LINK("") "        outbound: [x]\n",
-                P4_LINK("") "        dialect: pronto4\n        outbound: [x]\n"
+                P4_LINK("") "        dialect: pronto4\n        outbound: [{name: x, type: string}]\n"
                 "        inbound: learn\n        declare: false\n",
-                P4_LINK("") "        dialect: pronto4\n        outbound: [x]\n"
+                P4_LINK("") "        dialect: pronto4\n        outbound: [{name: x, type: string}]\n"
                 "        inbound: learn\n        declare: false\n        learn_max: 7\n",
                 P4_LINK("") "        dialect: pronto4\n        outbound: learn\n",
         };
@@ -1548,6 +1596,78 @@ static void test_pronto4_equal(void **state)
         }
         for (size_t i = 0; i < n; i++)
                 config_free(cfg[i]);
+}
+
+/* Issue 21.4: a pronto4 peer's role (docs/pronto4.md §1): host on node A, vehicle on node B,
+ * else from the lists; declare follows it (only a host with configured lists declares). */
+#define P4_ROLE_LINK(own, peer) \
+        "links:\n" \
+        "  - name: p4\n" \
+        "    protocol: sharedlink\n" \
+        "    transport: udp\n" \
+        "    local: '127.0.0.1:4220'\n" \
+        "    remote: '127.0.0.1:4000'\n" \
+        "    address: " own "\n" \
+        "    peers:\n" \
+        "      - address: " peer "\n" \
+        "        dialect: pronto4\n"
+
+static void test_pronto4_role(void **state)
+{
+        static const struct {
+                const char *name, *yaml;
+                enum config_p4_role role;
+                bool declare;
+        } cases[] = {
+                { "node A with configured lists: the host, declaring",
+                  P4_ROLE_LINK("A", "B") "        outbound: [{name: x, type: long}]\n", CONFIG_P4_HOST, true },
+                { "node B with configured lists: the vehicle, not declaring",
+                  P4_ROLE_LINK("B", "A") "        outbound: [{name: x, type: long}]\n        inbound: [{name: y, type: long}]\n",
+                  CONFIG_P4_VEHICLE, false },
+                { "node B told it is the host",
+                  P4_ROLE_LINK("B", "A") "        role: host\n        outbound: [{name: x, type: long}]\n",
+                  CONFIG_P4_HOST, true },
+                { "node A told it is the vehicle",
+                  P4_ROLE_LINK("A", "B") "        role: vehicle\n        outbound: [{name: x, type: long}]\n",
+                  CONFIG_P4_VEHICLE, false },
+                { "a vehicle that declares all the same",
+                  P4_ROLE_LINK("B", "A") "        declare: true\n        outbound: [{name: x, type: long}]\n",
+                  CONFIG_P4_VEHICLE, true },
+                { "node C with configured lists: the host",
+                  P4_ROLE_LINK("C", "D") "        outbound: [{name: x, type: long}]\n", CONFIG_P4_HOST, true },
+                { "node C that learns: the vehicle",
+                  P4_ROLE_LINK("C", "D") "        inbound: learn\n", CONFIG_P4_VEHICLE, false },
+        };
+        static struct bad_case bad[] = {
+                { "p4_role_unknown", P4_ROLE_LINK("A", "B") "        role: captain\n",
+                  "t.yaml:11:15: role: expected host or vehicle, got \"captain\"" },
+                { "p4_role_on_bulletin", P4_LINK("") "        role: host\n",
+                  "t.yaml:10:9: key \"role\" needs dialect: pronto4" },
+        };
+        struct config *host, *vehicle;
+
+        (void)state;
+        for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+                struct config *c = parse_ok(cases[i].yaml);
+
+                print_message("case: %s\n", cases[i].name);
+                assert_int_equal(c->links[0].sl.peers[0].role, cases[i].role);
+                assert_int_equal(c->links[0].sl.peers[0].declare, cases[i].declare);
+                config_free(c);
+        }
+        for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
+                void *one = &bad[i];
+
+                print_message("case %s\n", bad[i].name);
+                test_bad(&one);
+        }
+        /* Part of the link's identity on reload. */
+        host = parse_ok(P4_ROLE_LINK("C", "D") "        role: host\n        inbound: learn\n");
+        vehicle = parse_ok(P4_ROLE_LINK("C", "D") "        inbound: learn\n");
+        assert_false(config_link_equal(&host->links[0], &vehicle->links[0]));
+        config_free(host);
+        config_free(vehicle);
+        assert_string_equal(config_p4_role_name(CONFIG_P4_VEHICLE), "vehicle");
 }
 
 int main(void)
@@ -1573,6 +1693,7 @@ int main(void)
                 cmocka_unit_test(test_pronto4_one_frame),
                 cmocka_unit_test(test_pronto4_bad),
                 cmocka_unit_test(test_pronto4_equal),
+                cmocka_unit_test(test_pronto4_role),
         };
         size_t n_fixed = sizeof(fixed) / sizeof(fixed[0]);
         size_t n_bad = sizeof(bad_cases) / sizeof(bad_cases[0]);

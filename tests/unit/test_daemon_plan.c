@@ -246,12 +246,14 @@ static void test_learning(void **state)
         assert_int_equal(l.adhoc, 8);
         assert_int_equal(l.out_spare, 4);
         assert_true(l.outbound);
-        l = learning_of(P4_LINK("outbound: [a1], inbound: learn, learn_max: 5"));
+        l = learning_of(P4_LINK("outbound: [{name: a1, type: long}], inbound: learn, "
+                                "learn_max: 5"));
         assert_int_equal(l.adhoc, 5);
         assert_int_equal(l.out_spare, 0);
         assert_false(l.outbound);
         /* Configured lists learn nothing; neither does a CIRCE link. */
-        l = learning_of(P4_LINK("outbound: [a1], inbound: [b1]"));
+        l = learning_of(P4_LINK("outbound: [{name: a1, type: long}], inbound: [{name: b1, "
+                                "type: long}]"));
         assert_int_equal(l.adhoc, 0);
         assert_int_equal(l.out_spare, 0);
         assert_false(l.outbound);

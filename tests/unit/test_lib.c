@@ -451,6 +451,56 @@ static void test_write_refused(void **state)
         assert_int_equal(shm_table_counter_get(f->tb.t, SHM_LINK_NONE, SHM_COUNTER_OUT_INVALID), 0);
 }
 
+/* A long or double variable takes only what the daemon would send for that type: refused where
+ * it is written, the table keeping its value, with a reason for the user. */
+static void test_write_typed(void **state)
+{
+        static const char *const not_long[] = { "abc", "", "1.5", "1e3", " 1", "0x10", "1 ",
+                                                "9223372036854775808", "+", "--1" };
+        static const char *const not_double[] = { "abc", "", "nan", "inf", "1,5", "0x1p3",
+                                                  "1e999", ".", "1e", " 1" };
+        struct fixture *f = *state;
+        char buf[SL_VALUE_SIZE], reason[128];
+        struct seen s;
+
+        assert_int_equal(sl_write(f->c, STEER, "1"), 0);
+        assert_int_equal(sl_write(f->c, THROTTLE, "0.5"), 0);
+        assert_int_equal(scan(f, &s), 2);
+        for (size_t i = 0; i < sizeof(not_long) / sizeof(not_long[0]); i++) {
+                assert_int_equal(sl_write(f->c, STEER, not_long[i]), -EINVAL);
+                assert_int_equal(sl_write_check(f->c, STEER, not_long[i], reason,
+                                                sizeof(reason)), -EINVAL);
+                assert_non_null(strstr(reason, "not a long"));
+        }
+        for (size_t i = 0; i < sizeof(not_double) / sizeof(not_double[0]); i++) {
+                assert_int_equal(sl_write(f->c, THROTTLE, not_double[i]), -EINVAL);
+                assert_int_equal(sl_write_check(f->c, THROTTLE, not_double[i], reason,
+                                                sizeof(reason)), -EINVAL);
+                assert_non_null(strstr(reason, "not a double"));
+        }
+        assert_int_equal(sl_write_check(f->c, STEER, "abc", reason, sizeof(reason)), -EINVAL);
+        assert_string_equal(reason, "\"abc\" is not a long: [+-] decimal digits within 64 bits");
+        /* The table kept its values and the daemon heard nothing more. */
+        assert_int_equal(sl_read(f->c, STEER, buf, sizeof(buf), NULL), 1);
+        assert_string_equal(buf, "1");
+        assert_int_equal(sl_read(f->c, THROTTLE, buf, sizeof(buf), NULL), 3);
+        assert_string_equal(buf, "0.5");
+        assert_int_equal(scan(f, &s), 0);
+        /* What the types take, and a string takes anything the wire carries. */
+        assert_int_equal(sl_write_check(f->c, STEER, "-42", reason, sizeof(reason)), 0);
+        assert_string_equal(reason, "");
+        assert_int_equal(sl_write(f->c, STEER, "+7"), 0);
+        assert_int_equal(sl_write(f->c, THROTTLE, "-1.5e-3"), 0);
+        assert_int_equal(sl_write(f->c, THROTTLE, "12"), 0);
+        assert_int_equal(sl_write(f->c, NOTE, "abc"), 0);
+        /* The other refusals say why too. */
+        assert_int_equal(sl_write_check(f->c, LAT, "1", reason, sizeof(reason)), -EPERM);
+        assert_non_null(strstr(reason, "inbound"));
+        assert_int_equal(sl_write_check(f->c, NOTE, "a|b", reason, sizeof(reason)), -EINVAL);
+        assert_non_null(strstr(reason, "cannot carry"));
+        assert_int_equal(sl_write_check(f->c, NVARS, "1", NULL, 0), -ENOENT);
+}
+
 static void test_write_numbers(void **state)
 {
         struct fixture *f = *state;
@@ -967,6 +1017,85 @@ static void test_retired_names(void **state)
         assert_int_equal(sl_read(f->c, id, buf, sizeof(buf), NULL), 5);
 }
 
+/*
+ * A learned name's entry rewritten in the middle of a read, after the read lock's look at the
+ * directory and before the copy: the read must notice (client_dir_moved) and not hand the next
+ * name's value to the old name's id. The client skips that check for configured names only
+ * (CLIENT_INDEX_LEARNED, taken at the id sync), so a read of a learned one that skipped it would
+ * return "new" here. The moment is made exact by a fault: the client's view of the entry's
+ * directory and slot pages is made inaccessible, and the SIGSEGV handler plays the daemon (through
+ * its own mapping of the same object), gives the page back and lets the load run again. The fault
+ * is synchronous, in the middle of sl_read, which holds no lock the table's side takes.
+ */
+static struct {
+        struct shm_table *t;
+        uint32_t entry;
+        uintptr_t page;
+        size_t size;
+        int rewritten;
+} mid_read;
+
+static void mid_read_rewrite(int sig, siginfo_t *info, void *context)
+{
+        const struct shm_var next = { "veh.A.next", SHM_DIR_IN, SHM_TYPE_STRING, 0, "A", 0 };
+        uintptr_t addr = (uintptr_t)info->si_addr;
+
+        (void)context;
+        if (sig != SIGSEGV || addr < mid_read.page || addr >= mid_read.page + mid_read.size ||
+            mid_read.rewritten) {
+                signal(SIGSEGV, SIG_DFL);      /* a real fault: let it kill the test */
+                return;
+        }
+        mprotect((void *)mid_read.page, mid_read.size, PROT_READ);
+        mid_read.rewritten = shm_table_retire(mid_read.t, mid_read.entry) == 0 &&
+                             shm_table_add(mid_read.t, &next) == (int)mid_read.entry &&
+                             shm_table_set_str(mid_read.t, mid_read.entry, "new") == 0 ? 1 : -1;
+}
+
+static void test_learned_entry_rewritten_mid_read(void **state)
+{
+        struct fixture *f = *state;
+        const struct shm_var learned = { "veh.A.old", SHM_DIR_IN, SHM_TYPE_STRING, 0, "A", 0 };
+        struct sigaction sa = { .sa_sigaction = mid_read_rewrite, .sa_flags = SA_SIGINFO };
+        struct sigaction old_sa;
+        uintptr_t page = (uintptr_t)sysconf(_SC_PAGESIZE), first, last;
+        char buf[SL_VALUE_SIZE];
+        int a, old, id;
+
+        assert_int_equal(shmtest_table_create(&f->tb), 0);
+        assert_int_equal(sl_open(f->tb.instance, &f->c), 0);
+        a = shm_table_add(f->tb.t, &learned);
+        assert_int_equal(a, NVARS);
+        assert_int_equal(shm_table_set_str(f->tb.t, (uint32_t)a, "old"), 0);
+        old = sl_find(f->c, "veh.A.old");
+        assert_true(old >= 0);
+        assert_int_equal(sl_read(f->c, old, buf, sizeof(buf), NULL), 3);
+        assert_string_equal(buf, "old");
+        /* The id sync took a configured name for one and the learned one for learned. */
+        assert_int_equal(client_index_entry(f->c, LAT), LAT);
+        assert_int_equal(client_index_entry(f->c, old), a | CLIENT_INDEX_LEARNED);
+
+        /* The pages of the client's view that hold the entry and its slot, not the header the
+         * read lock looks at. */
+        first = (uintptr_t)&f->c->map->dir[a] & ~(page - 1);
+        last = ((uintptr_t)(&f->c->map->slots[a] + 1) - 1) & ~(page - 1);
+        assert_true(((uintptr_t)f->c->map->in & ~(page - 1)) < first);
+        mid_read.t = f->tb.t;
+        mid_read.entry = (uint32_t)a;
+        mid_read.page = first;
+        mid_read.size = last + page - first;
+        mid_read.rewritten = 0;
+        assert_int_equal(sigaction(SIGSEGV, &sa, &old_sa), 0);
+        assert_int_equal(mprotect((void *)mid_read.page, mid_read.size, PROT_NONE), 0);
+        assert_int_equal(sl_read(f->c, old, buf, sizeof(buf), NULL), -ENOENT);
+        assert_int_equal(sigaction(SIGSEGV, &old_sa, NULL), 0);
+        assert_int_equal(mid_read.rewritten, 1);
+        id = sl_find(f->c, "veh.A.next");
+        assert_true(id >= 0 && id != old);
+        assert_int_equal(sl_read(f->c, id, buf, sizeof(buf), NULL), 3);
+        assert_string_equal(buf, "new");
+}
+
 /* ---- daemon restarts --------------------------------------------------------------------------- */
 
 static void test_restart_clean(void **state)
@@ -1298,8 +1427,115 @@ static void *flag_waiter_main(void *arg)
 }
 
 /*
- * Layout 1.1: a write adds SHM_OUT_CHANGE_STEP and leaves the flag alone when nobody sleeps (no
- * system call: nothing to wake), and clears the flag and wakes the sleeper when it is set.
+ * Layout 1.6: a write marks its .out slot in the touched map, so that the daemon's wake-up scan
+ * looks at it alone; a write that finds its slot held for every attempt (here by a forged word
+ * of no process) marks it too before it rings, so that scan repairs it.
+ */
+static void test_write_marks_touched(void **state)
+{
+        struct fixture *f = *state;
+        struct shm_out_header *h;
+        _Atomic uint64_t *map;
+        struct shm_slot *slot;
+        struct seen s;
+        size_t size;
+        void *base;
+
+        out_change_map(f, &base, &size);
+        h = base;
+        assert_true(shm_layout_has_touched(h, size));
+        map = (_Atomic uint64_t *)(void *)((char *)base + h->touched_offset);
+        slot = (struct shm_slot *)((char *)base + h->slots_offset);     /* THROTTLE's: slot 0 */
+        assert_int_equal(atomic_load(&map[0]), 0);
+        assert_int_equal(sl_write(f->c, THROTTLE, "0.5"), 0);
+        assert_int_equal(atomic_load(&map[0]), UINT64_C(1) << 0);
+        memset(&s, 0, sizeof(s));
+        assert_int_equal(shm_table_out_scan_touched(f->tb.t, on_change, &s), 1);
+        assert_string_equal(s.last.value, "0.5");
+        assert_int_equal(atomic_load(&map[0]), 0);
+
+        atomic_store(&slot->seq, ((uint64_t)UINT32_MAX << 32) | 1u);    /* pid of no process */
+        assert_int_equal(sl_write(f->c, THROTTLE, "0.75"), -EBUSY);
+        assert_int_equal(atomic_load(&map[0]), UINT64_C(1) << 0);
+        memset(&s, 0, sizeof(s));
+        assert_int_equal(shm_table_out_scan_touched(f->tb.t, on_change, &s), 1);
+        assert_int_equal(s.last.status, SHM_OUT_REPAIRED);
+        assert_int_equal(sl_write(f->c, THROTTLE, "0.75"), 0);
+        munmap(base, size);
+}
+
+/*
+ * A 1.6 client of a 1.5 daemon (both objects say 1.5, no map in the .out header): it marks
+ * nothing and adds the old step, which that daemon's full scan answers.
+ */
+static void test_write_old_daemon_no_mark(void **state)
+{
+        struct fixture *f = *state;
+        char name[SHM_OBJECT_NAME_SIZE];
+        struct shmtest_view in;
+        struct shm_out_header *h;
+        struct sl_client *c;
+        _Atomic uint32_t *change;
+        _Atomic uint64_t *map;
+        uint32_t before, old = (SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR_RETIRE;
+        size_t size;
+        void *base;
+
+        change = out_change_map(f, &base, &size);
+        h = base;
+        map = (_Atomic uint64_t *)(void *)((char *)base + h->touched_offset);
+        assert_int_equal(shm_layout_object_name(f->tb.instance, "in", name, sizeof(name)), 0);
+        in = shmtest_view_open(name, 1);
+        assert_non_null(in.base);
+        shmtest_in_header(&in)->layout_version = old;
+        h->layout_version = old;
+        h->touched_words = 0;
+        h->touched_offset = 0;
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        before = atomic_load(change);
+        assert_int_equal(sl_write(c, THROTTLE, "1"), 0);
+        assert_int_equal(atomic_load(change), before + SHM_OUT_CHANGE_STEP);
+        assert_int_equal(atomic_load(&map[0]), 0);
+        sl_close(c);
+        shmtest_view_close(&in);
+        munmap(base, size);
+}
+
+/*
+ * What the daemon's scan refuses, a client refuses too: a .out whose touched map was moved in
+ * its header, or whose version is not the daemon's, is "try again" (the daemon recreates it),
+ * never an object to write into and lose the write with.
+ */
+static void test_write_refuses_scribbled_header(void **state)
+{
+        struct fixture *f = *state;
+        struct shm_out_header *h;
+        struct sl_client *c;
+        size_t size;
+        void *base;
+
+        out_change_map(f, &base, &size);
+        h = base;
+        h->touched_offset += SHM_CACHE_LINE;
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        assert_int_equal(sl_write(c, THROTTLE, "1"), -EAGAIN);
+        sl_close(c);
+        h->touched_offset -= SHM_CACHE_LINE;
+        h->layout_version = (SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR_RETIRE;
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        assert_int_equal(sl_write(c, THROTTLE, "1"), -EAGAIN);
+        sl_close(c);
+        h->layout_version = SHM_LAYOUT_VERSION;
+        assert_int_equal(sl_open(f->tb.instance, &c), 0);
+        assert_int_equal(sl_write(c, THROTTLE, "1"), 0);
+        sl_close(c);
+        munmap(base, size);
+}
+
+/*
+ * Layout 1.1: a write adds its step (1.6: SHM_OUT_CHANGE_TOUCHED, it marked its slot) and leaves
+ * the flag alone when nobody sleeps (no system call: nothing to wake), and clears the flag and
+ * wakes the sleeper when it is set.
  */
 static void test_write_waiter_flag(void **state)
 {
@@ -1316,7 +1552,7 @@ static void test_write_waiter_flag(void **state)
         before = atomic_load(change);
         assert_int_equal(before & SHM_OUT_WAITING, 0);
         assert_int_equal(sl_write(f->c, THROTTLE, "1"), 0);
-        assert_int_equal(atomic_load(change), before + SHM_OUT_CHANGE_STEP);
+        assert_int_equal(atomic_load(change), before + SHM_OUT_CHANGE_TOUCHED);
         /* A sleeper: the write must wake it (it returns 0, or -EAGAIN when the write came
          * between its CAS and its sleep), never time out. */
         assert_int_equal(pthread_create(&th, NULL, flag_waiter_main, &w), 0);
@@ -1327,7 +1563,7 @@ static void test_write_waiter_flag(void **state)
         assert_int_equal(sl_write(f->c, THROTTLE, "2"), 0);
         pthread_join(th, NULL);
         assert_true(w.result == 0 || w.result == -EAGAIN);
-        assert_int_equal(atomic_load(change), (before & ~SHM_OUT_WAITING) + SHM_OUT_CHANGE_STEP);
+        assert_int_equal(atomic_load(change), (before & ~SHM_OUT_WAITING) + SHM_OUT_CHANGE_TOUCHED);
         munmap(base, size);
 }
 
@@ -1399,6 +1635,28 @@ static void test_read_age_coarse(void **state)
         shm_table_commit(f->tb.t);
         assert_int_equal(sl_read(f->c, LAT, buf, sizeof(buf), &meta), 1);
         assert_int_equal(meta.age_ns, 0);
+}
+
+/*
+ * The coarse clock sl_read counts ages to comes from the vDSO's own clock_gettime where there is
+ * one (client_now_coarse), and is the same clock as the C library's: never before a reading taken
+ * before it, never after one taken after.
+ */
+static void test_read_clock_vdso(void **state)
+{
+        struct fixture *f = *state;
+        struct timespec ts;
+        uint64_t before, now, after;
+
+#if defined(__x86_64__) || defined(__aarch64__)
+        assert_non_null(f->c->vdso_clock_gettime);
+#endif
+        clock_gettime(CLOCK_MONOTONIC_COARSE, &ts);
+        before = (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+        now = client_now_coarse(f->c);
+        clock_gettime(CLOCK_MONOTONIC_COARSE, &ts);
+        after = (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
+        assert_true(before <= now && now <= after);
 }
 
 /*
@@ -1694,7 +1952,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_reader_slots_close_first, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_refused, setup, teardown),
-                cmocka_unit_test_setup_teardown(test_write_numbers, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_write_typed, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_write_numbers, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_read_after_repair, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_lock_rewritten_under_writer, setup,
                                                 teardown),
@@ -1706,6 +1965,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_links, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_adhoc_visible, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_retired_names, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_learned_entry_rewritten_mid_read, setup_bare,
+                                                teardown),
                 cmocka_unit_test_setup_teardown(test_restart_clean, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_restart_after_crash, setup_bare, teardown),
                 cmocka_unit_test_setup_teardown(test_events_restart_empty_ring, setup, teardown),
@@ -1713,6 +1974,10 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_out_truncated_rings_daemon, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_scribbled_rings_daemon, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_age_coarse, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_read_clock_vdso, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_marks_touched, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_old_daemon_no_mark, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_refuses_scribbled_header, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_waiter_flag, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_read_outbound_mirror, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_wakes_wake_thread, setup, teardown),

@@ -60,9 +60,20 @@ struct record {
         char events[EVENTS_MAX][TEXT_MAX];
         unsigned n_events;
         uint64_t counters[SHM_COUNTER_COUNT];
+        char diags[EVENTS_MAX][LINK_SHAREDLINK_DIAG_MAX];       /* what diag() was given */
+        unsigned n_diags;
 };
 
 static struct record rec;
+
+static void h_diag(void *arg, enum log_prio prio, const char *text)
+{
+        (void)arg;
+        (void)prio;
+        if (rec.n_diags < EVENTS_MAX)
+                snprintf(rec.diags[rec.n_diags], LINK_SHAREDLINK_DIAG_MAX, "%s", text);
+        rec.n_diags++;
+}
 
 static int h_send(void *arg, const char *buf, size_t len)
 {
@@ -208,6 +219,7 @@ static const struct link_sharedlink_hooks hooks = {
         .publish = h_publish,
         .stale = h_stale, .batch = h_batch, .event = h_event, .count = h_count,
         .answer = h_answer, .alive = h_alive, .local_address = h_local_address,
+        .diag = h_diag,
 };
 
 /* ---- fixture: link "veh", we are B, peer A (2 out, 2 in), peer C (1 in) -------------------- */
@@ -993,8 +1005,10 @@ static void test_p4_command(void **state)
                          0);
         assert_int_equal(link_sharedlink_session_command(s, T0, 0, "Physics", "0,Stop"), 0);
         assert_int_equal(link_sharedlink_session_command(s, T0, 0, "MUI", ""), 0);
+        assert_int_equal(link_sharedlink_session_command(s, T0, 0, "MUI", "x"), -EINVAL);
+        /* A bare module request goes out bare (§9), not as EMUI|D. */
         EXPECT_RAW(6, "[:BA|EServoPod|D0,TELEOP START|C02]\r\n", "[:BA|EPhysics|D0,Stop|CE2]\r\n",
-                   "[:BA|EMUI|D|CE8]\r\n");
+                   "[:BA|MUI|CE3]\r\n");
         assert_int_equal(rec.counters[SHM_COUNTER_COMMANDS_OUT], 6);
         rec.send_result = -ENOBUFS;
         assert_int_equal(link_sharedlink_session_command(s, T0, -1, "Link", "x"), -ENOBUFS);
@@ -1052,28 +1066,80 @@ static void test_p4_bad_type_retires(void **state)
         link_sharedlink_session_free(s);
 }
 
+/*
+ * Issue 21.3: a refusal is warned once per reason on a link, saying what to check; the rest are
+ * summed up in one line LINK_SHAREDLINK_REFUSAL_SUMMARY_MS after the first of them, never a line
+ * each.
+ */
+static void test_refusals_summed_up(void **state)
+{
+        struct link_sharedlink_session *s;
+
+        (void)state;
+        s = start(T0);
+        /* 102 frames for A from C (a swapped address: this link is B). */
+        for (unsigned i = 0; i < 102; i++)
+                feed(s, T0, ":AC|N0|D1");
+        assert_int_equal(rec.counters[SHM_COUNTER_NOT_FOR_US], 102);
+        assert_int_equal(rec.n_diags, 1);
+        assert_string_equal(rec.diags[0], "not_for_us: frames for A from C, but this link is B: "
+                            "check `address:` (ours, and the peer's)");
+        /* Between two other nodes of a bus (E to D): counted, nothing to warn or sum up. */
+        feed(s, T0, ":DE|N0|D1");
+        assert_int_equal(rec.counters[SHM_COUNTER_NOT_FOR_US], 103);
+        assert_int_equal(rec.n_diags, 1);
+        /* Another reason: its own first warning. */
+        feed(s, T0, ":BD|N0|D1");
+        assert_int_equal(rec.n_diags, 2);
+        assert_string_equal(rec.diags[1], "unknown_peer: frames from D, which is not a peer of "
+                            "this link: check the peers' `address:`");
+        feed(s, T0 + 1, ":BD|N0|D1");
+        assert_int_equal(link_sharedlink_session_deadline(s),
+                         T0 + LINK_SHAREDLINK_REFUSAL_SUMMARY_MS);
+        link_sharedlink_session_tick(s, T0 + LINK_SHAREDLINK_REFUSAL_SUMMARY_MS - 1);
+        assert_int_equal(rec.n_diags, 2);
+        link_sharedlink_session_tick(s, T0 + LINK_SHAREDLINK_REFUSAL_SUMMARY_MS);
+        assert_int_equal(rec.n_diags, 3);
+        assert_string_equal(rec.diags[2], "refused in the last 60 s: unknown_peer 1, "
+                            "not_for_us 101 (slctl stats has the totals)");
+        /* Nothing pending: no deadline, no line. */
+        assert_int_equal(link_sharedlink_session_deadline(s), LINK_SHAREDLINK_NEVER);
+        link_sharedlink_session_tick(s, T0 + 2 * LINK_SHAREDLINK_REFUSAL_SUMMARY_MS);
+        assert_int_equal(rec.n_diags, 3);
+        /* A later burst: no warning again, one summary a window after it began. */
+        feed(s, T0 + 3 * LINK_SHAREDLINK_REFUSAL_SUMMARY_MS, ":AC|N0|D1");
+        assert_int_equal(rec.n_diags, 3);
+        link_sharedlink_session_tick(s, T0 + 4 * LINK_SHAREDLINK_REFUSAL_SUMMARY_MS);
+        assert_int_equal(rec.n_diags, 4);
+        assert_string_equal(rec.diags[3], "refused in the last 60 s: not_for_us 1 (slctl stats "
+                            "has the totals)");
+        link_sharedlink_session_free(s);
+}
+
 /* Issue 8's bad input, each counted by reason, the rest of the frame applied. */
 static void test_p4_bad_input(void **state)
 {
         struct link_sharedlink_session *s;
 
         (void)state;
-        cfg.sl.peers[0].learn_max = 3;
+        cfg.sl.peers[0].learn_max = 2;
         var_add(&(struct config_var){ 0 }, "veh.A.taken");             /* id 0: not ours */
         s = start(T0);
         /* A data frame before any declaration. */
         feed(s, T0, ":BA|N0|D1|D2");
         assert_int_equal(rec.counters[SHM_COUNTER_UNDECLARED_DATA], 1);
-        /* A declaration longer than the table (learn_max 3), with a type letter other than
-         * 0/2/4 (its position kept, unmapped) and a name held by another variable. */
+        /* A declaration longer than learn_max 2, with a type letter other than 0/2/4 (its
+         * position kept, unmapped) and a name held by another variable: a and taken are the
+         * two it maps (taken left unmapped); b and c keep their places, unmapped (issue 21.7:
+         * the list keeps its declared length). */
         feed(s, T0, ":BA|N0|T7|Qbad|T0|Qa|T0|Qtaken|T0|Qb|T0|Qc");
         assert_int_equal(rec.counters[SHM_COUNTER_BAD_TYPE], 1);
         assert_int_equal(rec.counters[SHM_COUNTER_LEARN_CONFLICT], 1);
         assert_int_equal(rec.counters[SHM_COUNTER_LEARN_FULL], 2);
         assert_int_equal(rec.n_vars, 2);
         assert_string_equal(rec.vars[1].name, "veh.A.a");
-        EXPECT_RAW(0, "[:AB|N0|Rbad|D|Ra|D|Rtaken|D|CBB]\r\n");
-        /* Positions: 0 unmapped (dropped), 1 = a, 2 unmapped, 3 beyond the list. */
+        EXPECT_RAW(0, "[:AB|N0|Rbad|D|Ra|D|Rtaken|D|Rb|D|Rc|D|C9C]\r\n");
+        /* Positions: 0 unmapped (dropped), 1 = a, 2 and 3 unmapped. */
         feed(s, T0, ":BA|N0|D9|D5|D6|D7");
         assert_string_equal(rec.vars[1].value, "5");
         assert_false(rec.vars[0].valid);
@@ -1189,6 +1255,7 @@ int main(void)
                 cmocka_unit_test_setup(test_p4_command, setup_host),
                 cmocka_unit_test_setup(test_p4_bad_input, setup_vehicle),
                 cmocka_unit_test_setup(test_p4_bad_type_retires, setup_vehicle),
+                cmocka_unit_test_setup(test_refusals_summed_up, setup),
                 cmocka_unit_test_setup(test_p4_configured_by_name, setup_host),
                 cmocka_unit_test_setup(test_p4_crlf, setup_host),
         };

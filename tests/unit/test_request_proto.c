@@ -66,6 +66,8 @@ static const struct ok_case ok_cases[] = {
         { "command v ServoPod 0,TELEOP START", REQP_COMMAND, NULL, NULL, 0 },
         { "command v MUI", REQP_COMMAND, NULL, NULL, 0 },
         { "command v Link 0, SetIP, 1.2.3.4:4220, 4000 wait=5", REQP_COMMAND, NULL, NULL, 5 },
+        { "ping-peer veh A", REQP_PEER_PING, NULL, NULL, 0 },
+        { "ping-peer veh P 60000 wait=20", REQP_PEER_PING, NULL, NULL, 20 },
         { "circe a alert E1E1E1", REQP_CIRCE_ALERT, NULL, "<STX>03<TAB>014:E1E1E1<TAB><ETX>", 0 },
         { "circe a alert 000000 wait=500", REQP_CIRCE_ALERT, NULL,
           "<STX>03<TAB>014:000000<TAB><ETX>", 500 },
@@ -241,6 +243,11 @@ static const struct bad_case bad_cases[] = {
         { "query veh A X 0", "bad timeout \"0\": a decimal number 1..60000" },
         { "query veh A X 60001", "bad timeout \"60001\"" },
         { "query veh A X -", "bad timeout" },
+        /* ping-peer */
+        { "ping-peer veh", "usage: ping-peer LINK PEER [TIMEOUT_MS] [wait=MS]" },
+        { "ping-peer veh Q", "bad peer \"Q\": a node address A..P" },
+        { "ping-peer veh A 0", "bad timeout \"0\": a decimal number 1..60000" },
+        { "ping-peer veh A 5 6", "too many arguments" },
         /* command */
         { "command veh", "usage: command LINK MODULE" },
         { "command veh Servo,Pod x", "bad module \"Servo,Pod\"" },
@@ -249,6 +256,8 @@ static const struct bad_case bad_cases[] = {
           "0123456789", "command text longer than 63 bytes" },
         { "command veh M a b c d e f g h i j k l m n o p q r s t u v w x y z 0 1 2",
           "command text has more than 28 words" },
+        { "command veh MUI x", "MUI is a bare module request: it takes no text" },
+        { "command veh MW 0 wait=5", "MW is a bare module request: it takes no text" },
         /* alert */
         { "circe a alert", "usage: circe LINK alert ADDR [wait=MS] (missing arguments)" },
         { "circe a alert E1E1E1 E2E2E2", "too many arguments" },
@@ -514,6 +523,13 @@ static void test_wait_escape(void **state)
         assert_string_equal(line, "command v Link a wait=x wait=0");
         assert_int_equal(decode_line(line, buf, &back, err, sizeof(err)), 0);
         assert_string_equal(back.u.command.text, "a wait=x");
+        /* The encoder holds a bare module request to the decoder's rule: no text. */
+        assert_int_equal(reqp_set_text(&r, "module", "MUO", err, sizeof(err)), 0);
+        assert_int_equal(reqp_encode(&r, line, sizeof(line), err, sizeof(err)), -EINVAL);
+        assert_string_equal(err, "MUO is a bare module request: it takes no text");
+        assert_int_equal(reqp_set_text(&r, "command text", "", err, sizeof(err)), 0);
+        assert_true(reqp_encode(&r, line, sizeof(line), err, sizeof(err)) > 0);
+        assert_string_equal(line, "command v MUO");
 }
 
 /* The longest of each fits a line, with the handle's wait. */
@@ -553,6 +569,7 @@ static void test_table(void **state)
                 { REQP_RECORD, "record", "record", true, false, REQP_REPLY_RECORDING },
                 { REQP_QUERY, "query", "query", true, false, REQP_REPLY_VALUE },
                 { REQP_COMMAND, "command", "command", true, false, REQP_REPLY_OK },
+                { REQP_PEER_PING, "ping-peer", "ping-peer", true, false, REQP_REPLY_RTT },
                 { REQP_CIRCE_ALERT, "alert", "circe", true, true, REQP_REPLY_OK },
                 { REQP_CIRCE_NETWORK_SETUP, "network-setup", "circe", true, true, REQP_REPLY_OK },
                 { REQP_CIRCE_DEVICE_SETUP, "device-setup", "circe", true, true, REQP_REPLY_OK },

@@ -117,20 +117,39 @@ static void test_check_in(void **state)
 static void test_check_out(void **state)
 {
         struct shm_out_header h;
-        uint64_t size = shm_layout_out_size(2);
+        struct shm_out_geometry g;
+        uint64_t size;
 
         (void)state;
+        shm_layout_out_geometry(2, &g);
+        size = g.object_size;
+        assert_int_equal(g.total_size, shm_layout_out_size(2));
+        assert_true(g.touched_offset >= g.total_size && g.touched_offset % SHM_CACHE_LINE == 0);
+        assert_int_equal(g.touched_words, 1);
         memset(&h, 0, sizeof(h));
         h.layout_version = SHM_LAYOUT_VERSION;
         h.header_size = sizeof(h);
-        h.total_size = size;
+        h.total_size = g.total_size;
         h.slot_size = sizeof(struct shm_slot);
         h.capacity = 2;
         h.slots_offset = sizeof(h);
+        h.touched_words = g.touched_words;
+        h.touched_offset = g.touched_offset;
         assert_int_equal(shm_layout_check_out(&h, size), -EAGAIN);
         atomic_store(&h.magic, SHM_OUT_MAGIC);
         assert_int_equal(shm_layout_check_out(&h, size), 0);
+        assert_int_equal(shm_layout_has_touched(&h, size), 1);
+        /* 1.6: the map cut off, or moved, is a scribbled header. */
         assert_int_equal(shm_layout_check_out(&h, size - 8), -EPROTO);
+        h.touched_offset += SHM_CACHE_LINE;
+        assert_int_equal(shm_layout_check_out(&h, size), -EPROTO);
+        h.touched_offset = g.touched_offset;
+        /* A 1.5 object: no map, and the slots are all it needs. */
+        h.layout_version = (SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR_RETIRE;
+        assert_int_equal(shm_layout_check_out(&h, g.total_size), 0);
+        assert_int_equal(shm_layout_has_touched(&h, size), 0);
+        h.layout_version = SHM_LAYOUT_VERSION;
+        assert_int_equal(shm_layout_check_out(&h, g.total_size - 8), -EPROTO);
         h.capacity = 3;
         assert_int_equal(shm_layout_check_out(&h, size), -EPROTO);
         h.capacity = 2;

@@ -1485,6 +1485,34 @@ static void test_command_encode(void **state)
                          -EMSGSIZE);
         assert_int_equal(slp_encode_command(buf, sizeof(buf), 'A', 'B', "Link", "\n", 0), -EINVAL);
         assert_int_equal(slp_encode_command(buf, 10, 'A', 'B', "Link", "0", 0), -ENOSPC);
+        /* The bare module requests go out bare (docs/pronto4.md §9's own frames), without text,
+         * and read back as such; a name that only starts like one is a command. */
+        {
+                static const char *const bare[][2] = {
+                        { "MUI", "[:BA|MUI|CE3]" }, { "MUO", "[:BA|MUO|CE9]" },
+                        { "MW", "[:BA|MW|C9C]" }, { "ML", "[:BA|ML|C91]" },
+                };
+
+                for (size_t i = 0; i < sizeof(bare) / sizeof(bare[0]); i++) {
+                        const struct slp_frame *f;
+
+                        r = slp_encode_command(buf, sizeof(buf), 'B', 'A', bare[i][0], NULL, 0);
+                        assert_int_equal(r, strlen(bare[i][1]));
+                        assert_memory_equal(buf, bare[i][1], (size_t)r);
+                        assert_int_equal(slp_encode_command(buf, sizeof(buf), 'B', 'A',
+                                                            bare[i][0], "", 0), r);
+                        f = decode_one(buf, (size_t)r);
+                        assert_int_equal(slp_p4_kind_of(f), SLP_P4_MU);
+                        assert_int_equal(slp_encode_command(buf, sizeof(buf), 'B', 'A',
+                                                            bare[i][0], "x", 0), -EINVAL);
+                }
+                assert_true(slp_p4_bare_request("MUI", 3));
+                assert_false(slp_p4_bare_request("MUIX", 4));
+                assert_false(slp_p4_bare_request("MU", 2));
+                r = slp_encode_command(buf, sizeof(buf), 'B', 'A', "MUIX", "", 0);
+                assert_int_equal(r, strlen("[:BA|EMUIX|D|C00]"));
+                assert_memory_equal(buf, "[:BA|EMUIX|D|", 13);
+        }
         assert_int_equal(slp_encode_command(buf, sizeof(buf), 'A', 'R', "Link", "0", 0), -EINVAL);
 }
 

@@ -25,6 +25,8 @@
 #include "svc/notify.h"
 
 #define WAIT_MS 5000
+#define FILL_MAX        100000  /* datagrams: far more than any receive queue holds */
+#define STALL_GUARD_S   60      /* a test that hangs this long is killed, not waited for */
 
 struct sock {
         int fd;
@@ -213,22 +215,54 @@ static void test_datagram_sender(void **state)
 
         (void)state;
         sock_open(&s, false);
-        assert_int_equal(notify_send_datagram(s.name, "READY=1\nSTATUS=ok"), 1);
+        assert_int_equal(notify_send_datagram(s.name, "READY=1\nSTATUS=ok", 0), 1);
         assert_string_equal(sock_recv(&s), "READY=1\nSTATUS=ok");
         sock_close(&s);
         sock_open(&s, true);
-        assert_int_equal(notify_send_datagram(s.name, "STOPPING=1"), 1);
+        assert_int_equal(notify_send_datagram(s.name, "STOPPING=1", NOTIFY_ONCE_WAIT_MS), 1);
         assert_string_equal(sock_recv(&s), "STOPPING=1");
         sock_close(&s);
 
-        assert_int_equal(notify_send_datagram("relative/path", "x"), -EAFNOSUPPORT);
-        assert_int_equal(notify_send_datagram("", "x"), -EINVAL);
+        assert_int_equal(notify_send_datagram("relative/path", "x", 0), -EAFNOSUPPORT);
+        assert_int_equal(notify_send_datagram("", "x", 0), -EINVAL);
         memset(longname, 'a', sizeof(longname) - 1);
         longname[0] = '/';
         longname[sizeof(longname) - 1] = '\0';
-        assert_int_equal(notify_send_datagram(longname, "x"), -EINVAL);
+        assert_int_equal(notify_send_datagram(longname, "x", 0), -EINVAL);
         /* Nobody listening. */
-        assert_int_equal(notify_send_datagram("/nonexistent/notify.sock", "x"), -ENOENT);
+        assert_int_equal(notify_send_datagram("/nonexistent/notify.sock", "x", 0), -ENOENT);
+}
+
+/* A manager that does not read: its queue fills, and no message makes the caller wait without
+ * bound (sd_notify() would: the daemon's loop, watchdog included, stalled behind it). The
+ * periodic ones do not wait at all, READY=1 at most NOTIFY_ONCE_WAIT_MS; all are counted. */
+static void test_full_queue_never_stalls(void **state)
+{
+        struct notify *n;
+        struct sock s;
+        int filled = 0;
+
+        (void)state;
+        /* A hang is the failure this test looks for: end it rather than the whole run. */
+        alarm(STALL_GUARD_S);
+        sock_open(&s, false);
+        while (notify_send_datagram(s.name, "X", 0) == 1 && filled < FILL_MAX)
+                filled++;
+        assert_true(filled > 0 && filled < FILL_MAX);   /* the queue is full now */
+        setenv("NOTIFY_SOCKET", s.name, 1);
+        assert_int_equal(notify_new(&n), 0);
+        assert_int_equal(notify_status(n, "links up %d/%d", 0, 1), -EAGAIN);
+        assert_int_equal(notify_watchdog(n), -EAGAIN);
+        assert_int_equal(notify_ready(n), -EAGAIN);
+        assert_int_equal(notify_failed(n), 3);
+        /* Room again: the next message goes. */
+        assert_string_equal(sock_recv(&s), "X");
+        assert_int_equal(notify_watchdog(n), 1);
+        assert_int_equal(notify_failed(n), 3);
+        alarm(0);
+        notify_free(n);
+        unsetenv("NOTIFY_SOCKET");
+        sock_close(&s);
 }
 
 int main(void)
@@ -239,6 +273,7 @@ int main(void)
                 cmocka_unit_test(test_no_socket_is_noop),
                 cmocka_unit_test(test_watchdog_env),
                 cmocka_unit_test(test_datagram_sender),
+                cmocka_unit_test(test_full_queue_never_stalls),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

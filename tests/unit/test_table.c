@@ -89,9 +89,24 @@ static uint32_t change_of(struct shmtest_view *v)
         return atomic_load(&shmtest_in_header(v)->change);
 }
 
+static _Atomic uint64_t *touched_map(const struct shmtest_view *v)
+{
+        const struct shm_out_header *h = v->base;
+
+        return (_Atomic uint64_t *)(void *)((char *)v->base + h->touched_offset);
+}
+
+/* How a write in these tests tells the daemon, or fails to. */
+enum touch_how {
+        TOUCH_V10,              /* as a layout 1.0 client: add 1, always wake (the daemon copes) */
+        TOUCH_MARKED,           /* as a 1.6 client: publish, mark, add SHM_OUT_CHANGE_TOUCHED */
+        TOUCH_LOST,             /* a 1.6 writer killed between its publish and its mark */
+        TOUCH_OLD,              /* as a 1.1-1.5 client: no mark, add SHM_OUT_CHANGE_STEP */
+};
+
 /* A well-behaved client write of raw bytes (len bytes of value, flags as given). */
-static int out_write_raw(const char *out_name, unsigned slot, const char *value, uint32_t len,
-                         uint32_t flags)
+static int out_write_as(const char *out_name, unsigned slot, const char *value, uint32_t len,
+                        uint32_t flags, enum touch_how how)
 {
         struct shmtest_view v = shmtest_view_open(out_name, 1);
         struct shm_out_header *h = v.base;
@@ -104,12 +119,25 @@ static int out_write_raw(const char *out_name, unsigned slot, const char *value,
         if (r == 0) {
                 shm_slot_store(shmtest_out_slot(&v, slot), value, len, flags, 1, 2);
                 r = shm_slot_publish(shmtest_out_slot(&v, slot), word);
-                /* As a layout 1.0 client does: add 1, always wake (the daemon copes). */
+        }
+        if (r == 0 && how == TOUCH_V10) {
                 atomic_fetch_add(&h->change, 1);
                 shm_futex_wake(&h->change, 1);
+        } else if (r == 0 && how == TOUCH_MARKED) {
+                atomic_fetch_or(&touched_map(&v)[slot / SHM_TOUCHED_WORD_BITS],
+                                UINT64_C(1) << (slot % SHM_TOUCHED_WORD_BITS));
+                atomic_fetch_add(&h->change, SHM_OUT_CHANGE_TOUCHED);
+        } else if (r == 0 && how == TOUCH_OLD) {
+                atomic_fetch_add(&h->change, SHM_OUT_CHANGE_STEP);
         }
         shmtest_view_close(&v);
         return r;
+}
+
+static int out_write_raw(const char *out_name, unsigned slot, const char *value, uint32_t len,
+                         uint32_t flags)
+{
+        return out_write_as(out_name, slot, value, len, flags, TOUCH_V10);
 }
 
 static int out_write(const char *out_name, unsigned slot, const char *value)
@@ -137,6 +165,15 @@ static int scan(struct shm_table *t, struct seen *s)
 {
         memset(s, 0, sizeof(*s));
         return shm_table_out_scan(t, on_change, s);
+}
+
+/* Bytes of a .out object with n slots: the touched map (layout 1.6) after them. */
+static long out_object_size(uint32_t n)
+{
+        struct shm_out_geometry g;
+
+        shm_layout_out_geometry(n, &g);
+        return (long)g.object_size;
 }
 
 /* ---- creation ------------------------------------------------------------------------------- */
@@ -196,7 +233,7 @@ static void test_create_layout(void **state)
         assert_int_equal(mode, 0644);
         assert_int_equal(shmtest_object_mode(f->out_name, &mode, &gid), 0);
         assert_int_equal(mode, 0660);
-        assert_int_equal(shmtest_object_size(f->out_name), (long)shm_layout_out_size(NOUT));
+        assert_int_equal(shmtest_object_size(f->out_name), (long)out_object_size(NOUT));
 
         f->t = shm_table_destroy(f->t);
         assert_int_equal(shmtest_object_size(f->in_name), -ENOENT);
@@ -420,7 +457,7 @@ static void test_replace_garbage(void **state)
         assert_true(fd >= 0);
         close(fd);
         assert_int_equal(shm_table_create(&f->cfg, &f->t), 0);
-        assert_int_equal(shmtest_object_size(f->out_name), (long)shm_layout_out_size(NOUT));
+        assert_int_equal(shmtest_object_size(f->out_name), (long)out_object_size(NOUT));
 }
 
 static void test_refuse_being_created(void **state)
@@ -874,6 +911,29 @@ static int half_writer_main(void *arg)
         _exit(0);
 }
 
+/* Starts a half writer that holds .out slot `slot` until *ret_hold (our end of its pipe) is
+ * closed; returns once it holds the slot. */
+static pid_t half_writer_holding(const char *out_name, unsigned slot, int *ret_hold)
+{
+        struct half_writer w = { out_name, slot, -1, -1, -1 };
+        int hold[2], ready[2];
+        pid_t pid;
+        char c;
+
+        assert_int_equal(pipe(hold), 0);
+        assert_int_equal(pipe(ready), 0);
+        w.hold_fd = hold[0];
+        w.close_fd = hold[1];
+        w.ready_fd = ready[1];
+        pid = shmtest_fork(half_writer_main, &w);
+        close(hold[0]);
+        close(ready[1]);
+        assert_int_equal(read(ready[0], &c, 1), 1);                     /* it holds the slot */
+        close(ready[0]);
+        *ret_hold = hold[1];
+        return pid;
+}
+
 static void test_out_repair_dead_writer(void **state)
 {
         struct shmtest_table *f = *state;
@@ -910,23 +970,12 @@ static void test_out_live_writer_skipped(void **state)
 {
         struct shmtest_table *f = *state;
         struct shmtest_view out = shmtest_view_open(f->out_name, 0);
-        struct half_writer w = { f->out_name, OUT_THROTTLE, -1, -1, -1 };
         struct shmtest_view mirror = shmtest_view_open(f->in_name, 0);
-        int hold[2], ready[2];
         struct seen s;
-        char c;
         pid_t pid;
+        int hold;
 
-        assert_int_equal(pipe(hold), 0);
-        assert_int_equal(pipe(ready), 0);
-        w.hold_fd = hold[0];
-        w.close_fd = hold[1];
-        w.ready_fd = ready[1];
-        pid = shmtest_fork(half_writer_main, &w);
-        close(hold[0]);
-        close(ready[1]);
-        assert_int_equal(read(ready[0], &c, 1), 1);                     /* it holds the slot */
-        close(ready[0]);
+        pid = half_writer_holding(f->out_name, OUT_THROTTLE, &hold);
         /* Its writer is alive: skipped and counted, not touched, and the scan does not wait. */
         assert_int_equal(scan(f->t, &s), 0);
         assert_int_equal(scan(f->t, &s), 0);
@@ -936,7 +985,7 @@ static void test_out_live_writer_skipped(void **state)
         assert_int_equal(scan(f->t, &s), 1);
         assert_int_equal(s.c[0].id, STEER);
         /* Once it is gone, the slot is repaired. */
-        close(hold[1]);
+        close(hold);
         assert_int_equal(shmtest_wait(pid), 0);
         assert_int_equal(scan(f->t, &s), 1);
         assert_int_equal(s.c[0].status, SHM_OUT_REPAIRED);
@@ -1084,6 +1133,121 @@ static void test_rogue_truncate(void **state)
         expect_recovered(f, 6);
 }
 
+/* ---- outbound: the touched map (layout 1.6) --------------------------------------------------- */
+
+static int scan_touched(struct shm_table *t, struct seen *s)
+{
+        memset(s, 0, sizeof(*s));
+        return shm_table_out_scan_touched(t, on_change, s);
+}
+
+static int out_write_how(const char *out_name, unsigned slot, const char *value,
+                         enum touch_how how)
+{
+        return out_write_as(out_name, slot, value, (uint32_t)strlen(value),
+                            SHM_SLOT_VALID | SHM_SLOT_OUTBOUND, how);
+}
+
+/* A marked slot is looked at alone; a write whose mark was lost waits for the full scan, which
+ * finds it; a client before 1.6 (no marks) makes the scan look at every slot. */
+static void test_out_touched(void **state)
+{
+        struct shmtest_table *f = *state;
+        struct shmtest_view out = shmtest_view_open(f->out_name, 0);
+        const struct shm_out_header *h = out.base;
+        struct seen s;
+
+        assert_int_equal(h->layout_version & 0xffffu, SHM_LAYOUT_MINOR_TOUCHED);
+        assert_int_equal(h->touched_words, 1);
+        assert_true(shm_layout_has_touched(h, out.size));
+        assert_int_equal(scan_touched(f->t, &s), 0);
+        assert_int_equal(out_write_how(f->out_name, OUT_NOTE, "marked", TOUCH_MARKED), 0);
+        assert_int_equal(scan_touched(f->t, &s), 1);
+        assert_int_equal(s.c[0].id, NOTE);
+        assert_string_equal(s.c[0].value, "marked");
+        assert_int_equal(atomic_load(&touched_map(&out)[0]), 0);        /* taken */
+        assert_int_equal(scan_touched(f->t, &s), 0);                    /* reported once */
+
+        /* Its writer died before it marked: not looked at on a wake-up... */
+        assert_int_equal(out_write_how(f->out_name, OUT_STEER, "lost", TOUCH_LOST), 0);
+        assert_int_equal(out_write_how(f->out_name, OUT_NOTE, "other", TOUCH_MARKED), 0);
+        assert_int_equal(scan_touched(f->t, &s), 1);
+        assert_int_equal(s.c[0].id, NOTE);
+        /* ... but by the full scan (the daemon's heartbeat), once. */
+        assert_int_equal(scan(f->t, &s), 1);
+        assert_int_equal(s.c[0].id, STEER);
+        assert_string_equal(s.c[0].value, "lost");
+        assert_int_equal(scan(f->t, &s), 0);
+
+        /* An older client marks nothing but moves the change word's low half: every slot. */
+        assert_int_equal(out_write_how(f->out_name, OUT_THROTTLE, "old", TOUCH_OLD), 0);
+        assert_int_equal(scan_touched(f->t, &s), 1);
+        assert_int_equal(s.c[0].id, THROTTLE);
+        assert_string_equal(s.c[0].value, "old");
+        assert_int_equal(scan_touched(f->t, &s), 0);
+        shmtest_view_close(&out);
+}
+
+/* The map is client data: bits set everywhere (past the capacity too, and in the padding after
+ * the map) make the daemon look, never misread; bits wiped lose nothing for good. */
+static void test_out_touched_scribbled(void **state)
+{
+        struct shmtest_table *f = *state;
+        struct shmtest_view out = shmtest_view_open(f->out_name, 1);
+        struct shm_out_header *h = out.base;
+        size_t map_bytes = out.size - h->touched_offset;
+        struct seen s;
+
+        assert_int_equal(out_write_how(f->out_name, OUT_NOTE, "before", TOUCH_MARKED), 0);
+        assert_int_equal(scan_touched(f->t, &s), 1);
+        memset((char *)out.base + h->touched_offset, 0xff, map_bytes);
+        assert_int_equal(scan_touched(f->t, &s), 0);                    /* nothing changed */
+        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_INVALID), 0);
+        assert_int_equal(out_write_how(f->out_name, OUT_STEER, "7", TOUCH_MARKED), 0);
+        memset((char *)out.base + h->touched_offset, 0xff, map_bytes);
+        assert_int_equal(scan_touched(f->t, &s), 1);
+        assert_string_equal(s.c[0].value, "7");
+
+        /* Wiped after a write: the wake-up misses it, the full scan does not. */
+        assert_int_equal(out_write_how(f->out_name, OUT_THROTTLE, "wiped", TOUCH_MARKED), 0);
+        memset((char *)out.base + h->touched_offset, 0, map_bytes);
+        assert_int_equal(scan_touched(f->t, &s), 0);
+        assert_int_equal(scan(f->t, &s), 1);
+        assert_string_equal(s.c[0].value, "wiped");
+
+        /* The map's place in the header scribbled: the object is not what we made. */
+        h->touched_offset += SHM_CACHE_LINE;
+        assert_int_equal(scan_touched(f->t, &s), -EBADMSG);
+        expect_recovered(f, 2);
+        shmtest_view_close(&out);
+}
+
+/* A slot held by a live writer stays on the daemon's list: once the writer is gone, the next
+ * wake-up (someone else's write) repairs it, with no mark of its own. */
+static void test_out_touched_held(void **state)
+{
+        struct shmtest_table *f = *state;
+        struct shmtest_view out = shmtest_view_open(f->out_name, 1);
+        struct seen s;
+        pid_t pid;
+        int hold;
+
+        pid = half_writer_holding(f->out_name, OUT_THROTTLE, &hold);
+        /* What the library does when a slot stays held: mark it, ring the daemon. */
+        atomic_fetch_or(&touched_map(&out)[0], UINT64_C(1) << OUT_THROTTLE);
+        assert_int_equal(scan_touched(f->t, &s), 0);                    /* busy: skipped */
+        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_BUSY), 1);
+        close(hold);
+        assert_int_equal(shmtest_wait(pid), 0);                         /* dead, still odd */
+        assert_int_equal(out_write_how(f->out_name, OUT_STEER, "2", TOUCH_MARKED), 0);
+        assert_int_equal(scan_touched(f->t, &s), 2);
+        assert_int_equal(s.c[0].id, THROTTLE);
+        assert_int_equal(s.c[0].status, SHM_OUT_REPAIRED);
+        assert_int_equal(s.c[1].id, STEER);
+        assert_int_equal(scan_touched(f->t, &s), 0);
+        shmtest_view_close(&out);
+}
+
 /* ---- wake fd ----------------------------------------------------------------------------------- */
 
 struct writer_child {
@@ -1176,6 +1340,9 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_rogue_scribble_all, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_rogue_scribble_slots, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_rogue_truncate, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_touched, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_touched_scribbled, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_touched_held, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_wake_fd, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_destroy_wakes_clients, setup, teardown),
         };

@@ -24,6 +24,9 @@
 #   tests/fuzz/fuzz_*.c            libFuzzer targets; corpus in tests/fuzz/corpus/<name>/
 #   tests/bench/bench_*.c          benchmarks, built optimised by `make bench`
 #   tests/peers/test_*.py          self-tests of the Python test peers, run by `make check`
+#   src/ros2/*.c                   sharedlink-ros2 (main.c holds main(), the rest is archived for
+#     + src/ros2/idl/*.idl         tests, with the C that idlc makes of the IDL in build/.../gen/ros2/),
+#                                  linked against libsharedlink.so and Cyclone DDS (libddsc) only
 #   examples/*.c                   programs built only on <sharedlink.h> and pkg-config
 #   man/*.[1-8]                    man pages, installed by `make install` (section = suffix)
 #   python/sharedlink/*.py         the Python package (ctypes), installed into PYTHONDIR;
@@ -82,12 +85,15 @@ endif
 DEB_PKGS       := gcc make pkg-config libyaml-dev libsystemd-dev libcmocka-dev python3 \
                   libmosquitto-dev mosquitto mosquitto-clients openssl libsqlite3-dev \
                   libmicrohttpd-dev chromium
+# cyclonedds-dev and -tools (idlc): sharedlink-ros2 and the ROS 2 test peers; libfastrtps-dev,
+# libfastcdr-dev and g++: the Fast DDS test peer (tests/ros2peer/, built only where present).
+DEB_PKGS       += cyclonedds-dev cyclonedds-tools libfastrtps-dev libfastcdr-dev g++
 DEB_PKGS_EXTRA := clang libclang-rt-14-dev redis-server valgrind
 
 # ---------------------------------------------------------------------------------------------
 # Dependencies: when pkg-config cannot find one, run `make deps` once before anything else.
 
-PC_REQUIRED := yaml-0.1 cmocka libmosquitto sqlite3 libmicrohttpd
+PC_REQUIRED := yaml-0.1 cmocka libmosquitto sqlite3 libmicrohttpd CycloneDDS
 ifeq ($(WITH_SYSTEMD),1)
 PC_REQUIRED += libsystemd
 endif
@@ -116,6 +122,9 @@ SQLITE_CFLAGS := $(shell pkg-config --cflags sqlite3 2>/dev/null)
 SQLITE_LIBS   := $(shell pkg-config --libs sqlite3 2>/dev/null)
 MHD_CFLAGS    := $(shell pkg-config --cflags libmicrohttpd 2>/dev/null)
 MHD_LIBS      := $(shell pkg-config --libs libmicrohttpd 2>/dev/null)
+DDS_CFLAGS    := $(shell pkg-config --cflags CycloneDDS 2>/dev/null)
+DDS_LIBS      := $(shell pkg-config --libs CycloneDDS 2>/dev/null)
+IDLC          ?= idlc
 ifeq ($(WITH_SYSTEMD),1)
 SYSTEMD_CFLAGS := $(shell pkg-config --cflags libsystemd 2>/dev/null) -DHAVE_LIBSYSTEMD=1
 SYSTEMD_LIBS   := $(shell pkg-config --libs libsystemd 2>/dev/null)
@@ -159,7 +168,7 @@ CPPFLAGS_ALL := -Iinclude -Isrc -D_DEFAULT_SOURCE -DSHAREDLINK_VERSION='"$(VERSI
 CFLAGS_ALL   := -std=c11 $(OPT) $(WARN) $(HARDEN) $(SANFLAGS) -fPIC -fvisibility=hidden \
                 -ffunction-sections -fdata-sections \
                 -MMD -MP $(YAML_CFLAGS) $(SYSTEMD_CFLAGS) $(MOSQ_CFLAGS) $(SQLITE_CFLAGS) \
-                $(MHD_CFLAGS) $(CFLAGS)
+                $(MHD_CFLAGS) $(DDS_CFLAGS) $(CFLAGS)
 LDFLAGS_ALL  := $(SANFLAGS) -Wl,-z,relro,-z,now $(LDFLAGS)
 LDFLAGS_EXE  := $(LDFLAGS_ALL) -pie
 TEST_CFLAGS  := $(CMOCKA_CFLAGS) -Itests
@@ -189,6 +198,9 @@ MQTT_SRC   := $(filter-out src/mqtt/main.c,$(wildcard src/mqtt/*.c))
 AGILITY_SRC:= $(wildcard src/agility/agility_*.c)
 AGILITYD_MAIN := $(wildcard src/agility/main.c)
 AGILITYD_SRC  := $(wildcard src/agility/agilityd_*.c)
+ROS2_MAIN  := $(wildcard src/ros2/main.c)
+ROS2_SRC   := $(filter-out src/ros2/main.c,$(wildcard src/ros2/*.c))
+ROS2_IDL   := $(wildcard src/ros2/idl/*.idl)
 TCOMMON_SRC:= $(wildcard tests/common/*.c)
 UNIT_SRC   := $(wildcard tests/unit/test_*.c)
 INTEG_SRC  := $(wildcard tests/integration/test_*.c)
@@ -199,7 +211,7 @@ EXAMPLE_SRC:= $(wildcard examples/*.c)
 PYHELP_SRC := $(wildcard tests/python/*.c)
 PY_SRC     := $(filter-out %/_paths.py,$(wildcard python/sharedlink/*.py))
 # Test peers (scripts, no build): each test_*.py prints cmocka's summary lines.
-PEER_TESTS := $(wildcard tests/peers/test_*.py)
+PEER_TESTS := $(wildcard tests/peers/test_*.py tests/ros2peer/test_typehash.py)
 
 obj = $(patsubst %.c,$(O)/obj/%.o,$(1))
 
@@ -213,7 +225,8 @@ A_MQTT   := $(O)/internal/libmqtt.a
 A_SVC    := $(O)/internal/libsvc.a
 A_AGILITY:= $(O)/internal/libagility.a
 A_AGILITYD := $(O)/internal/libagilityd.a
-INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_AGILITYD) $(A_AGILITY) $(A_CLIENT) \
+A_ROS2   := $(O)/internal/libros2.a
+INTERNAL_ARCHIVES := $(A_TCOMMON) $(A_DAEMON) $(A_MQTT) $(A_ROS2) $(A_AGILITYD) $(A_AGILITY) $(A_CLIENT) \
                      $(A_CLI) $(A_SVC) $(A_PROTO) $(A_SHM)
 SYS_LIBS := $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread -lutil -lm
 
@@ -226,6 +239,7 @@ SHAREDLINKD:= $(O)/sharedlinkd
 SLCTL      := $(O)/slctl
 MQTT_BRIDGE:= $(O)/sharedlink-mqtt
 AGILITYD   := $(O)/sharedlink-agility
+ROS2_BRIDGE:= $(O)/sharedlink-ros2
 PCFILE     := $(O)/sharedlink.pc
 
 UNIT_BIN   := $(patsubst tests/%.c,$(O)/tests/%,$(UNIT_SRC))
@@ -237,7 +251,7 @@ PYHELP_BIN := $(patsubst tests/%.c,$(O)/tests/%,$(PYHELP_SRC))
 
 PROGRAMS := $(if $(DAEMON_MAIN),$(SHAREDLINKD)) $(if $(CLI_SRC),$(SLCTL)) \
             $(if $(LIB_SRC),$(LIBSL_SO) $(LIBSL_A) $(PCFILE)) $(if $(MQTT_MAIN),$(MQTT_BRIDGE)) \
-            $(if $(AGILITYD_MAIN),$(AGILITYD))
+            $(if $(AGILITYD_MAIN),$(AGILITYD)) $(if $(ROS2_MAIN),$(ROS2_BRIDGE))
 
 # ---------------------------------------------------------------------------------------------
 # Top-level targets
@@ -269,6 +283,7 @@ check:
 	$(if $(STRESS_SRC),$(MAKE) --no-print-directory SAN=tsan test-build-tsan)
 	$(MAKE) --no-print-directory SAN= build/libsharedlink.so.$(SOVERSION) build/libsharedlink.a
 	$(if $(BENCH_SRC),$(MAKE) --no-print-directory SAN= bench-build)
+	$(if $(ROS2PEER_BINS),$(MAKE) --no-print-directory SAN= $(ROS2PEER_BINS))
 	@TEST_TIMEOUT=$(TEST_TIMEOUT) SHAREDLINK_BUILD=build/asan PYTHON=$(PYTHON) \
 	    SHAREDLINK_LIB=$(CURDIR)/build/libsharedlink.so.$(SOVERSION) \
 	    SHAREDLINK_LAYOUT=$(CURDIR)/build/asan/tests/python/layout tests/run-tests.sh \
@@ -339,6 +354,19 @@ $(A_MQTT): $(call obj,$(MQTT_SRC))
 $(A_SVC): $(call obj,$(SVC_SRC))
 $(A_AGILITY): $(call obj,$(AGILITY_SRC))
 $(A_AGILITYD): $(call obj,$(AGILITYD_SRC))
+# sharedlink-ros2's types: idlc makes C of the IDL in the tree at build time (ros2_dds.c and
+# ros2_bridge.c include its header); the tests' DDS peer has IDL of its own (tests/integration/
+# ros2/), compiled the same way, so the bridge's types are checked against an independent copy.
+ROS2_GEN_DIR := $(O)/gen/ros2
+ROS2_GEN_C   := $(patsubst src/ros2/idl/%.idl,$(ROS2_GEN_DIR)/%.c,$(ROS2_IDL))
+$(ROS2_GEN_DIR)/%.c $(ROS2_GEN_DIR)/%.h: src/ros2/idl/%.idl
+	@mkdir -p $(@D)
+	$(call quiet,IDLC)$(IDLC) -o $(@D) $<
+# The types' object is linked into the program only, not archived: test_ros2 links its own
+# copy of the same symbols, and the archive would otherwise resolve them first.
+$(A_ROS2): $(call obj,$(ROS2_SRC))
+$(call obj,$(ROS2_SRC) $(ROS2_MAIN)): CPPFLAGS += -I$(ROS2_GEN_DIR)
+$(call obj,$(ROS2_SRC) $(ROS2_MAIN)): | $(ROS2_GEN_C)
 
 # An archive with no members still needs one object to be a valid archive.
 $(INTERNAL_ARCHIVES): | $(O)/obj/empty.o
@@ -418,6 +446,11 @@ $(AGILITYD): $(call obj,$(AGILITYD_MAIN)) $(A_AGILITYD) $(A_AGILITY) $(A_SVC) $(
 	    -L$(O) -lsharedlink -Wl,-rpath,'$$ORIGIN' $(SQLITE_LIBS) $(MHD_LIBS) $(YAML_LIBS) \
 	    $(SYSTEMD_LIBS) -lpthread
 
+# sharedlink-ros2 the same way: its data only through the public library, DDS through libddsc.
+$(ROS2_BRIDGE): $(call obj,$(ROS2_MAIN) $(ROS2_GEN_C)) $(A_ROS2) $(A_SVC) $(LIBSL_SO)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $(filter %.o,$^) $(A_ROS2) $(A_SVC) \
+	    -L$(O) -lsharedlink -Wl,-rpath,'$$ORIGIN' $(DDS_LIBS) $(YAML_LIBS) $(SYSTEMD_LIBS) -lpthread
+
 # ---------------------------------------------------------------------------------------------
 # Install (DESIGN.md §2.1): `make install PREFIX=/usr/local DESTDIR=`, and `make uninstall`.
 # Paths come from the variables at the top; DESTDIR is prepended to each and recorded nowhere.
@@ -435,12 +468,13 @@ mandir_of     = $(DESTDIR)$(MANDIR)/man$(subst .,,$(suffix $(1)))
 # One alias page per exported function, so that `man sl_read` opens libsharedlink(3).
 MAN_ALIASES   = $(shell sed -n $(LIBSL_SYM_SED) $(LIBSL_SYM))
 UNIT_FILES   := $(wildcard systemd/*.service)
-UNIT_SED     := -e 's@^ExecStart=/usr/local/sbin/\(sharedlinkd\|sharedlink-mqtt\|sharedlink-agility\) @ExecStart=$(SBINDIR)/\1 @' \
+UNIT_SED     := -e 's@^ExecStart=/usr/local/sbin/\(sharedlinkd\|sharedlink-mqtt\|sharedlink-agility\|sharedlink-ros2\) @ExecStart=$(SBINDIR)/\1 @' \
                 -e 's|^\(ExecStart=.* -c \)/etc/sharedlink/|\1$(SYSCONFDIR)/sharedlink/|'
 TMPFILES_SED := -e 's|^d /etc/sharedlink |d $(SYSCONFDIR)/sharedlink |'
 CONF_DEST    := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlinkd.yaml
 MQTT_CONF_DEST := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlink-mqtt.yaml
 AGILITY_CONF_DEST := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlink-agility.yaml
+ROS2_CONF_DEST    := $(DESTDIR)$(SYSCONFDIR)/sharedlink/sharedlink-ros2.yaml
 AGILITY_CSV_DEST  := $(DESTDIR)$(SYSCONFDIR)/sharedlink/agility-competitors.csv
 PC_STAMP     := $(O)/install-paths
 
@@ -468,6 +502,7 @@ install: all
 	$(if $(CLI_SRC),$(INSTALL) -m 0755 $(SLCTL) $(DESTDIR)$(BINDIR)/slctl)
 	$(if $(MQTT_MAIN),$(INSTALL) -m 0755 $(MQTT_BRIDGE) $(DESTDIR)$(SBINDIR)/sharedlink-mqtt)
 	$(if $(AGILITYD_MAIN),$(INSTALL) -m 0755 $(AGILITYD) $(DESTDIR)$(SBINDIR)/sharedlink-agility)
+	$(if $(ROS2_MAIN),$(INSTALL) -m 0755 $(ROS2_BRIDGE) $(DESTDIR)$(SBINDIR)/sharedlink-ros2)
 	$(INSTALL) -m 0755 $(LIBSL_SO) $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION)
 	ln -sf libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so
 	$(INSTALL) -m 0644 $(LIBSL_A) $(DESTDIR)$(LIBDIR)/libsharedlink.a
@@ -482,9 +517,10 @@ install: all
 	    sed $(UNIT_SED) $$u > $$d.tmp; \
 	    if ! grep -qF 'ExecStart=$(SBINDIR)/sharedlinkd ' $$d.tmp && \
 	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-mqtt ' $$d.tmp && \
-	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-agility ' $$d.tmp; then \
+	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-agility ' $$d.tmp && \
+	       ! grep -qF 'ExecStart=$(SBINDIR)/sharedlink-ros2 ' $$d.tmp; then \
 	        echo "make install: $$u: ExecStart= does not name /usr/local/sbin/sharedlinkd," \
-	             "sharedlink-mqtt or sharedlink-agility" >&2; \
+	             "sharedlink-mqtt, sharedlink-agility or sharedlink-ros2" >&2; \
 	        rm -f $$d.tmp; exit 1; \
 	    fi; \
 	    chmod 0644 $$d.tmp; mv -f $$d.tmp $$d; echo "$$d: $$(grep '^ExecStart=' $$d)"; \
@@ -509,7 +545,8 @@ install: all
 	@if [ -e $(MQTT_CONF_DEST) ]; then echo "$(MQTT_CONF_DEST): exists, kept"; \
 	else $(INSTALL) -m 0640 conf/sharedlink-mqtt.yaml $(MQTT_CONF_DEST) && \
 	    echo "$(MQTT_CONF_DEST): installed"; fi
-	@for f in sharedlink-agility.yaml:$(AGILITY_CONF_DEST) agility-competitors.csv:$(AGILITY_CSV_DEST); do \
+	@for f in sharedlink-agility.yaml:$(AGILITY_CONF_DEST) agility-competitors.csv:$(AGILITY_CSV_DEST) \
+	    sharedlink-ros2.yaml:$(ROS2_CONF_DEST); do \
 	    d=$${f#*:}; if [ -e $$d ]; then echo "$$d: exists, kept"; \
 	    else $(INSTALL) -m 0644 conf/$${f%%:*} $$d && echo "$$d: installed"; fi; done
 	@# A library installed straight into the system is found by the loader only after this.
@@ -520,6 +557,7 @@ install: all
 uninstall:
 	rm -f $(DESTDIR)$(SBINDIR)/sharedlinkd $(DESTDIR)$(BINDIR)/slctl \
 	    $(DESTDIR)$(SBINDIR)/sharedlink-mqtt $(DESTDIR)$(SBINDIR)/sharedlink-agility \
+	    $(DESTDIR)$(SBINDIR)/sharedlink-ros2 \
 	    $(DESTDIR)$(LIBDIR)/libsharedlink.so.$(SOVERSION) $(DESTDIR)$(LIBDIR)/libsharedlink.so \
 	    $(DESTDIR)$(LIBDIR)/libsharedlink.a $(DESTDIR)$(PKGCONFIGDIR)/sharedlink.pc \
 	    $(DESTDIR)$(INCDIR)/sharedlink.h \
@@ -531,7 +569,8 @@ uninstall:
 	@if [ -n '$(PYTHONDIR)' ]; then d='$(DESTDIR)$(PYTHONDIR)/sharedlink'; \
 	    rm -f $(addprefix "$$d"/,$(notdir $(PY_SRC)) _paths.py); rm -rf "$$d/__pycache__"; \
 	    [ ! -d "$$d" ] || rmdir "$$d"; fi
-	@for f in sharedlink-agility.yaml:$(AGILITY_CONF_DEST) agility-competitors.csv:$(AGILITY_CSV_DEST); do \
+	@for f in sharedlink-agility.yaml:$(AGILITY_CONF_DEST) agility-competitors.csv:$(AGILITY_CSV_DEST) \
+	    sharedlink-ros2.yaml:$(ROS2_CONF_DEST); do \
 	    d=$${f#*:}; if cmp -s conf/$${f%%:*} $$d; then rm -f $$d; \
 	    elif [ -e $$d ]; then echo "$$d: changed since install, kept"; fi; done
 	@if cmp -s conf/sharedlink-mqtt.yaml $(MQTT_CONF_DEST); then rm -f $(MQTT_CONF_DEST); \
@@ -553,6 +592,72 @@ AGILITYD_TESTS := $(O)/tests/integration/test_agility $(patsubst tests/%.c,$(O)/
                   $(wildcard tests/unit/test_agilityd_*.c))
 $(AGILITYD_TESTS): EXTRA_LIBS := $(SQLITE_LIBS) $(MHD_LIBS)
 $(O)/tests/integration/test_agility: | $(AGILITYD)
+# test_ros2 is a DDS peer with its own copy of the types (tests/integration/ros2/*.idl through
+# idlc) and runs the bridge under test.
+ROS2_TEST_IDL   := $(wildcard tests/integration/ros2/*.idl)
+ROS2_TEST_GEN   := $(patsubst tests/integration/ros2/%.idl,$(O)/gen/tests/ros2/%.c,$(ROS2_TEST_IDL))
+ROS2_TEST_OBJ   := $(patsubst %.c,$(O)/obj/%.o,$(ROS2_TEST_GEN))
+$(O)/gen/tests/ros2/%.c $(O)/gen/tests/ros2/%.h: tests/integration/ros2/%.idl
+	@mkdir -p $(@D)
+	$(call quiet,IDLC)$(IDLC) -t -o $(@D) $<
+# The test reads serialized samples (dds/ddsi/ddsi_serdata.h), whose inline atomics spell the
+# GNU keyword asm, which -std=c11 does not have.
+$(O)/obj/tests/integration/test_ros2.o: CPPFLAGS += -I$(O)/gen/tests/ros2 -Dasm=__asm__
+$(O)/obj/tests/integration/test_ros2.o: | $(ROS2_TEST_GEN)
+$(O)/tests/integration/test_ros2: $(ROS2_TEST_OBJ)
+$(O)/tests/integration/test_ros2: EXTRA_LIBS := $(ROS2_TEST_OBJ) $(DDS_LIBS)
+$(O)/tests/integration/test_ros2: | $(ROS2_BRIDGE)
+
+# The ROS 2 type hashes (src/ros2/ros2_typehash.c) need nothing of DDS: their unit test links them
+# from an archive of their own, which adds nothing where another archive has them already
+# (tests/ros2peer/test_typehash.py recomputes the values themselves).
+ROS2_TYPEHASH_A := $(O)/internal/libros2typehash.a
+$(ROS2_TYPEHASH_A): $(call obj,src/ros2/ros2_typehash.c)
+$(O)/tests/unit/test_ros2_typehash: $(ROS2_TYPEHASH_A)
+$(O)/tests/unit/test_ros2_typehash: EXTRA_LIBS := $(ROS2_TYPEHASH_A)
+
+# The ROS 2 test peers (tests/ros2peer/README.md): peer_cyclone (C, Cyclone DDS, types compiled by
+# idlc from their own IDL) and peer_fastdds (C++, Fast DDS 2.9 and Fast CDR, which ship no .pc:
+# found by their header), each built only where its library is; `make check` builds them
+# optimised into build/tests/ros2peer/ and runs their self-test when both are there.
+ROS2PEER_CYCLONE := $(if $(shell pkg-config --exists CycloneDDS 2>/dev/null && \
+                      command -v idlc >/dev/null && echo y),build/tests/ros2peer/peer_cyclone)
+ROS2PEER_FASTDDS := $(if $(shell printf '\043if !__has_include(<fastdds/dds/domain/DomainParticipant.hpp>)\n\043error\n\043endif\n' | \
+                      $(CXX) -x c++ -fsyntax-only - 2>/dev/null && echo y),build/tests/ros2peer/peer_fastdds)
+ROS2PEER_BINS    := $(ROS2PEER_CYCLONE) $(ROS2PEER_FASTDDS)
+PEER_TESTS       += $(if $(and $(ROS2PEER_CYCLONE),$(ROS2PEER_FASTDDS)),tests/ros2peer/test_peers.py)
+# make demo's ROS 2 step speaks to sharedlink-ros2 through the Cyclone peer.
+demo: $(ROS2PEER_CYCLONE)
+ROS2PEER_GEN     := $(O)/gen/ros2peer
+ROS2PEER_COMMON  := $(call obj,tests/ros2peer/peer_common.c src/ros2/ros2_typehash.c)
+CYCLONE_LIBS     := $(shell pkg-config --libs CycloneDDS 2>/dev/null)
+FASTDDS_LIBS     := -lfastrtps -lfastcdr
+
+$(ROS2PEER_GEN)/ros2peer_types.c: tests/ros2peer/ros2peer_types.idl
+	@mkdir -p $(@D)
+	$(call quiet,IDLC)idlc -t -o $(@D) $<
+$(ROS2PEER_GEN)/ros2peer_types.h: $(ROS2PEER_GEN)/ros2peer_types.c
+$(ROS2PEER_GEN)/ros2peer_types.o: $(ROS2PEER_GEN)/ros2peer_types.c
+	$(call quiet,CC)$(CC) -std=gnu11 $(OPT) $(SANFLAGS) -fPIC -c -o $@ $<
+# Cyclone's serdata headers use GNU C (asm), hence gnu11 for the one file that includes them
+# (TEST_CFLAGS comes last on the compile line).
+$(O)/obj/tests/ros2peer/peer_cyclone.o: TEST_CFLAGS += -std=gnu11 -I$(ROS2PEER_GEN)
+$(O)/obj/tests/ros2peer/peer_cyclone.o: $(ROS2PEER_GEN)/ros2peer_types.h
+$(O)/tests/ros2peer/peer_cyclone: $(O)/obj/tests/ros2peer/peer_cyclone.o \
+                                  $(ROS2PEER_GEN)/ros2peer_types.o $(ROS2PEER_COMMON) $(A_SVC)
+	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $^ $(CYCLONE_LIBS)
+# bench_ros2 subscribes with the peers' copy of the types; without Cyclone it only says so.
+$(O)/obj/tests/bench/bench_ros2.o: TEST_CFLAGS += -I$(ROS2PEER_GEN) \
+                                   -DHAVE_CYCLONEDDS=$(if $(ROS2PEER_CYCLONE),1,0)
+$(O)/obj/tests/bench/bench_ros2.o: $(if $(ROS2PEER_CYCLONE),$(ROS2PEER_GEN)/ros2peer_types.h)
+$(O)/bench/bench_ros2: $(if $(ROS2PEER_CYCLONE),$(ROS2PEER_GEN)/ros2peer_types.o)
+$(O)/bench/bench_ros2: EXTRA_LIBS := $(if $(ROS2PEER_CYCLONE),$(ROS2PEER_GEN)/ros2peer_types.o \
+                                     $(CYCLONE_LIBS))
+$(O)/tests/ros2peer/peer_fastdds: tests/ros2peer/peer_fastdds.cpp tests/ros2peer/peer_common.h \
+                                  $(ROS2PEER_COMMON) $(A_SVC)
+	@mkdir -p $(@D)
+	$(call quiet,CXX)$(CXX) -std=c++17 $(OPT) -Wall -Wextra -Wshadow $(if $(filter 1,$(WERROR)),-Werror) \
+	    $(HARDEN) $(SANFLAGS) -fPIE -Isrc -o $@ $< $(ROS2PEER_COMMON) $(A_SVC) $(LDFLAGS_EXE) $(FASTDDS_LIBS)
 
 $(O)/tests/%: $(O)/obj/tests/%.o $(INTERNAL_ARCHIVES)
 	@mkdir -p $(@D)

@@ -7,6 +7,8 @@
 #               arrive on the other (`slctl get`, a short `slctl watch`); `slctl stats` at the end.
 #   CIRCE:      agility (controller) <-> arena (the built-in mediator emulator); see the marked
 #               section below.
+#   ROS 2:      when Cyclone DDS is installed, sharedlink-ros2 and a DDS peer (a late joiner, a
+#               write through set/, a NavSatFix), unicast on 127.0.0.1 only
 #   MQTT:       when mosquitto and its clients are installed, sharedlink-mqtt bridges the instance
 #               to a private broker on 127.0.0.1 (marked section below); skipped otherwise.
 #   Agility:    when sharedlink-agility is built, it times two runs on the CIRCE pair (one clean,
@@ -325,6 +327,48 @@ EOC
         echo "sharedlink-mqtt and the broker stopped"
 fi
 # --- end of the MQTT part -----------------------------------------------------------------------
+
+# --- ROS 2: sharedlink-ros2 and a DDS peer standing in for a ROS 2 node ------------------------
+# No ROS here: tests/ros2peer/'s Cyclone peer subscribes and publishes as a ROS 2 node does
+# (its own copy of the types, the ROS QoS). Loopback unicast only, on a domain of the demo's own.
+ros2=$build/sharedlink-ros2
+peer=build/tests/ros2peer/peer_cyclone
+ros2_xml=$(pwd)/tests/ros2peer/cyclonedds.xml
+if [ ! -x "$ros2" ] || [ ! -x "$peer" ]; then
+        say "ROS 2: skipped (Cyclone DDS not installed: make deps)"
+else
+        say "ROS 2: sharedlink-ros2 on DDS domain of our own (log: $rundir/ros2/bridge.log)"
+        mkdir -p "$rundir/ros2"
+        domain=$((100 + RANDOM % 100))
+        ns=/sharedlink/$instance
+        cat > "$rundir/ros2/bridge.yaml" <<EOC
+instance: $instance
+domain_id: $domain
+cyclonedds_uri: file://$ros2_xml
+writable: ["a.*"]
+navsatfix:
+  - {topic: gps/fix, latitude: b.AutoGpsLat, longitude: b.AutoGpsLon, frame_id: gps}
+EOC
+        run "$ros2" -n -c "$rundir/ros2/bridge.yaml"
+        "$ros2" -c "$rundir/ros2/bridge.yaml" 2>"$rundir/ros2/bridge.log" &
+        mqtt_pids+=($!)
+        ros2_peer() { "$peer" "$@" --domain "$domain" --config "$ros2_xml" --timeout-ms $((wait_s * 1000)); }
+        say "ROS 2: a late subscriber gets the current value (ros2 topic echo $ns/b/AutoGpsVel)"
+        run ros2_peer sub "rt$ns/b/AutoGpsVel" Float64 --durability transient_local ||
+                fail "no value over DDS"
+        say "ROS 2: a write on $ns/set/a/AutoGpsVel goes out on node A, comes back on node B"
+        run ros2_peer pub "rt$ns/set/a/AutoGpsVel" Float64 8.25 --durability volatile ||
+                fail "the write found no reader"
+        until_ok value_is b.AutoGpsVel 8.25 || fail "b.AutoGpsVel never became 8.25"
+        run "$slctl" get b.AutoGpsVel
+        say "ROS 2: sensor_msgs/msg/NavSatFix from b.AutoGpsLat and b.AutoGpsLon"
+        run ros2_peer sub "rt$ns/gps/fix" NavSatFix --durability transient_local ||
+                fail "no NavSatFix over DDS"
+        for p in "${mqtt_pids[@]}"; do kill -TERM "$p" 2>/dev/null || true; wait "$p" 2>/dev/null || true; done
+        mqtt_pids=()
+        echo "sharedlink-ros2 stopped"
+fi
+# --- end of the ROS 2 part ----------------------------------------------------------------------
 
 # --- Agility: sharedlink-agility times two runs on the CIRCE pair --------------------------------
 # The emulated gate E1E1E1 is one combined start/finish gate, AAAAAA the remote, D15D15 the

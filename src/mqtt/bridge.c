@@ -13,13 +13,13 @@
 
 #include "mqtt/bridge_cursor.h"
 #include "mqtt/bridge_format.h"
+#include "svc/evjson.h"
 #include "svc/json.h"
 #include "svc/log.h"
 
 #define INSTANCE_ENV            "SHAREDLINK_INSTANCE"
 #define INSTANCE_DEFAULT        "default"
 #define FLAGS_PUBLISHED         (SL_FLAG_VALID | SL_FLAG_STALE | SL_FLAG_REPAIRED)
-#define PAYLOAD_MAX             4096    /* one event's JSON, escapes and fields included */
 
 struct bridge_var {
         struct sl_var_info info;
@@ -223,7 +223,7 @@ static int var_describe(struct bridge *b, int id, struct bridge_var *v)
                 v->publish = false;
                 return 0;
         }
-        v->publish = bridge_globs_match(&b->cfg->publish, v->info.name);
+        v->publish = globs_match(&b->cfg->publish, v->info.name);
         return 0;
 }
 
@@ -434,7 +434,7 @@ static int notice(struct bridge *b, const struct bridge_sink *sink, const char *
                   uint64_t seq, uint64_t lost)
 {
         char topic[BRIDGE_TOPIC_MAX], json[BRIDGE_JSON_MAX];
-        int n = bridge_format_notice(json, sizeof(json), type, b->epoch, seq, lost), mid, r;
+        int n = evjson_notice(json, sizeof(json), type, b->epoch, seq, lost), mid, r;
 
         bridge_format_topic(topic, sizeof(topic), b->base, BRIDGE_TOPIC_EVENTS, NULL);
         r = publish(b, sink, topic, json, (size_t)n, b->cfg->events_qos, false, &mid);
@@ -448,7 +448,7 @@ static int notice(struct bridge *b, const struct bridge_sink *sink, const char *
 static int event_publish(struct bridge *b, const struct bridge_sink *sink,
                          const struct sl_event *ev, const struct bridge_cursor *pos)
 {
-        char topic[BRIDGE_TOPIC_MAX], json[PAYLOAD_MAX];
+        char topic[BRIDGE_TOPIC_MAX], json[EVJSON_MAX];
         int n, mid, r;
 
         if (ev->link_name[0] && bridge_format_name_ok(ev->link_name))
@@ -456,7 +456,7 @@ static int event_publish(struct bridge *b, const struct bridge_sink *sink,
                                         ev->link_name);
         else
                 r = bridge_format_topic(topic, sizeof(topic), b->base, BRIDGE_TOPIC_EVENTS, NULL);
-        n = bridge_format_event(json, sizeof(json), b->epoch, ev);
+        n = evjson_event(json, sizeof(json), b->epoch, ev);
         if (r < 0 || n < 0)
                 return r < 0 ? r : n;
         r = publish(b, sink, topic, json, (size_t)n, b->cfg->events_qos, false, &mid);
@@ -493,13 +493,13 @@ int bridge_pump(struct bridge *b, const struct bridge_sink *sink)
                         b->announce_restart = true;
                 }
                 if (b->announce_restart) {
-                        if ((r = notice(b, sink, "daemon-restarted", ev.seq, 0)) < 0)
+                        if ((r = notice(b, sink, EVJSON_RESTARTED, ev.seq, 0)) < 0)
                                 return r;
                         b->announce_restart = false;
                 }
                 if (ev.lost) {
                         count(b, &b->counters.events_lost, ev.lost);
-                        if ((r = notice(b, sink, "overrun", ev.seq, ev.lost)) < 0)
+                        if ((r = notice(b, sink, EVJSON_OVERRUN, ev.seq, ev.lost)) < 0)
                                 return r;
                 }
                 pos = (struct bridge_cursor){ .epoch = b->epoch, .cursor = cursor,
@@ -625,7 +625,7 @@ int bridge_set(struct bridge *b, const struct bridge_sink *sink, const char *top
                 return refuse(b, sink, name, BRIDGE_REFUSE_UNKNOWN, 0);
         if (info.direction != SL_DIR_OUT)
                 return refuse(b, sink, name, BRIDGE_REFUSE_INBOUND, 0);
-        if (!bridge_globs_match(&b->cfg->writable, name))
+        if (!globs_match(&b->cfg->writable, name))
                 return refuse(b, sink, name, BRIDGE_REFUSE_NOT_WRITABLE, 0);
         why = bridge_format_check_value(payload, len);
         if (why != BRIDGE_REFUSE_NONE)

@@ -6,13 +6,13 @@
 #include "mqtt/bridge_config.h"
 
 #include <errno.h>
-#include <fnmatch.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "svc/conf.h"
+#include "svc/globs.h"
 #include "svc/io.h"
 
 #define PORT_MAX                65535u
@@ -63,42 +63,16 @@ static int check_instance(struct conf *c, const struct conf_key *k, const struct
         return 0;
 }
 
-/* A list of name globs; an MQTT wildcard or a control character in one is refused. */
-static int get_globs(struct conf *c, const struct conf_key *k, const struct conf_node *n,
-                     struct bridge_globs *g)
-{
-        int r = conf_need_kind(c, k->name, n, CONF_NODE_SEQUENCE);
-
-        if (r < 0)
-                return r;
-        g->count = 0;
-        for (const struct conf_node *item = conf_child(c, n->first); item;
-             item = conf_next(c, item)) {
-                if (g->count >= BRIDGE_GLOBS_MAX)
-                        return conf_fail(c, item, "%s: more than %u entries", k->name,
-                                         BRIDGE_GLOBS_MAX);
-                r = conf_get_string(c, k->name, item, g->glob[g->count], sizeof(g->glob[0]));
-                if (r < 0)
-                        return r;
-                if (strpbrk(g->glob[g->count], "+#/"))
-                        return conf_fail(c, item, "%s: %s: '+', '#' and '/' are not allowed "
-                                         "(globs match variable names: * ? [...])", k->name,
-                                         conf_quote_node(c, item));
-                g->count++;
-        }
-        return 0;
-}
-
 static int parse_publish(struct conf *c, const struct conf_key *k, const struct conf_node *n,
                          void *obj)
 {
-        return get_globs(c, k, n, &((CFG *)obj)->publish);
+        return globs_read(c, k->name, n, &((CFG *)obj)->publish);
 }
 
 static int parse_writable(struct conf *c, const struct conf_key *k, const struct conf_node *n,
                           void *obj)
 {
-        return get_globs(c, k, n, &((CFG *)obj)->writable);
+        return globs_read(c, k->name, n, &((CFG *)obj)->writable);
 }
 
 /* ---- mappings -------------------------------------------------------------------------------- */
@@ -208,35 +182,18 @@ void bridge_config_defaults(struct bridge_config *ret)
 int bridge_config_parse(const char *name, const char *text, size_t len, struct bridge_config *ret,
                         char *err, size_t err_size)
 {
-        struct conf *c = malloc(sizeof(*c));
         struct bridge_config *cfg = malloc(sizeof(*cfg));
-        const struct conf_node *root;
-        uint32_t root_index = CONF_NONE;
         int r;
 
-        if (err_size)
-                err[0] = '\0';
-        if (!c || !cfg) {
+        if (!cfg) {
                 snprintf(err, err_size, "%s: out of memory", name);
-                free(c);
-                free(cfg);
                 return -ENOMEM;
         }
         bridge_config_defaults(cfg);
-        r = conf_init(c, name, text, len, BRIDGE_FILE_MAX);
-        if (r == 0)
-                r = conf_tree_build(c, &root_index);
-        root = r == 0 ? conf_child(c, root_index) : NULL;
-        /* An empty file, or one that is only "~": every default. */
-        if (root && !conf_is_null(root))
-                r = conf_table_read(c, root, "configuration", "at top level", root_keys,
-                                    sizeof(root_keys) / sizeof(root_keys[0]), cfg);
+        r = conf_read_text(name, text, len, BRIDGE_FILE_MAX, root_keys,
+                           sizeof(root_keys) / sizeof(root_keys[0]), cfg, err, err_size);
         if (r == 0)
                 *ret = *cfg;
-        else
-                snprintf(err, err_size, "%s", c->err.message);
-        conf_free(c);
-        free(c);
         free(cfg);
         return r;
 }
@@ -269,26 +226,20 @@ static int load_password(struct bridge_config *cfg, const char *path, char *err,
 
 int bridge_config_load(const char *path, struct bridge_config *ret, char *err, size_t err_size)
 {
-        char *text;
-        size_t len;
-        int r = io_read_file(path, BRIDGE_FILE_MAX, &text, &len);
+        struct bridge_config *cfg = malloc(sizeof(*cfg));
+        int r;
 
-        if (r < 0) {
-                snprintf(err, err_size, "%s: %s", path,
-                         r == -EFBIG ? "file too large" : strerror(-r));
-                return r;
+        if (!cfg) {
+                snprintf(err, err_size, "%s: out of memory", path);
+                return -ENOMEM;
         }
-        r = bridge_config_parse(path, text, len, ret, err, err_size);
-        free(text);
-        if (r == 0 && ret->password_file[0])
-                r = load_password(ret, path, err, err_size);
+        bridge_config_defaults(cfg);
+        r = conf_read_file(path, BRIDGE_FILE_MAX, root_keys,
+                           sizeof(root_keys) / sizeof(root_keys[0]), cfg, err, err_size);
+        if (r == 0 && cfg->password_file[0])
+                r = load_password(cfg, path, err, err_size);
+        if (r == 0)
+                *ret = *cfg;
+        free(cfg);
         return r;
-}
-
-bool bridge_globs_match(const struct bridge_globs *g, const char *name)
-{
-        for (unsigned i = 0; i < g->count; i++)
-                if (fnmatch(g->glob[i], name, 0) == 0)
-                        return true;
-        return false;
 }

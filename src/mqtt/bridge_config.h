@@ -12,6 +12,8 @@
 
 #include <sharedlink.h>
 
+#include "svc/globs.h"
+
 #define BRIDGE_CONFIG_DEFAULT   "/etc/sharedlink/sharedlink-mqtt.yaml"
 #define BRIDGE_CURSOR_DIR       "/var/lib/sharedlink-mqtt"
 #define BRIDGE_FILE_MAX         (64u * 1024u)   /* bytes of a configuration file */
@@ -23,8 +25,6 @@
 #define BRIDGE_CLIENT_ID_MAX    128
 #define BRIDGE_USER_MAX         128
 #define BRIDGE_PASSWORD_MAX     256
-#define BRIDGE_GLOBS_MAX        64      /* entries of publish: / writable: */
-#define BRIDGE_GLOB_SIZE        SL_NAME_SIZE
 #define BRIDGE_WINDOW_MIN       2u      /* a notice and its event */
 #define BRIDGE_WINDOW_MAX       1024u   /* events in flight (published, not yet acknowledged) */
 #define BRIDGE_PORT_DEFAULT     1883
@@ -48,11 +48,6 @@ enum bridge_meta {
         BRIDGE_META_NONE,
 };
 
-struct bridge_globs {
-        unsigned count;
-        char glob[BRIDGE_GLOBS_MAX][BRIDGE_GLOB_SIZE];
-};
-
 struct bridge_config {
         char instance[BRIDGE_INSTANCE_MAX];     /* "" : $SHAREDLINK_INSTANCE or "default" */
         char prefix[BRIDGE_PREFIX_MAX];
@@ -71,7 +66,7 @@ struct bridge_config {
         char cert_file[BRIDGE_PATH_MAX], key_file[BRIDGE_PATH_MAX];
         bool tls_insecure;
         /* values */
-        struct bridge_globs publish;            /* default: ["*"] */
+        struct globs publish;            /* default: ["*"] */
         int qos;
         bool retain;
         enum bridge_meta meta;
@@ -83,7 +78,7 @@ struct bridge_config {
         unsigned cursor_sync_ms;
         unsigned drain_ms;
         /* set */
-        struct bridge_globs writable;           /* default: none */
+        struct globs writable;           /* default: none */
         int set_qos;
 };
 
@@ -97,8 +92,5 @@ int bridge_config_parse(const char *name, const char *text, size_t len, struct b
 
 /* Reads and parses a file (and the password_file it names). 0 or -errno, message in err. */
 int bridge_config_load(const char *path, struct bridge_config *ret, char *err, size_t err_size);
-
-/* Whether name matches one of the globs (fnmatch(3), no special meaning for '/' or '.'). */
-bool bridge_globs_match(const struct bridge_globs *g, const char *name);
 
 #endif

@@ -91,13 +91,4 @@ int bridge_format_error(char *buf, size_t size, const char *name, enum bridge_re
 int bridge_format_meta(char *buf, size_t size, const struct sl_var_info *info,
                        const struct sl_meta *meta, const char *link_name);
 
-/* The JSON of an event: epoch (hex), seq, time_ns, link, type, text, fields (text split at
- * spaces into key=value), truncated. Its length or -ENOBUFS. */
-int bridge_format_event(char *buf, size_t size, uint64_t epoch, const struct sl_event *ev);
-
-/* The JSON of an event the bridge makes itself ("overrun": lost events, "daemon-restarted");
- * seq is the number of the event that follows. Its length or -ENOBUFS. */
-int bridge_format_notice(char *buf, size_t size, const char *type, uint64_t epoch, uint64_t seq,
-                         uint64_t lost);
-
 #endif

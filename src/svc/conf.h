@@ -213,4 +213,21 @@ struct conf_key {
 int conf_table_read(struct conf *c, const struct conf_node *map, const char *what,
                     const char *in, const struct conf_key *keys, size_t n_keys, void *obj);
 
+/* ---- conf_value.c: a whole file through its root table ---- */
+
+/*
+ * Reads LEN bytes of TEXT (at most INPUT_MAX; NAME in messages) and its top-level mapping through
+ * the table KEYS into OBJ, which the caller filled with the defaults (an empty file, or one that
+ * is only "~", leaves it so). OBJ may be half written on failure: read into a scratch copy. 0, or
+ * -EINVAL / -ENOMEM / -EFBIG with "NAME:LINE:COL: message" in err (err_size bytes).
+ */
+int conf_read_text(const char *name, const char *text, size_t len, size_t input_max,
+                   const struct conf_key *keys, size_t n_keys, void *obj, char *err,
+                   size_t err_size);
+
+/* conf_read_text() on the file PATH (at most INPUT_MAX bytes); a file that cannot be read is
+ * "PATH: reason" (-errno). */
+int conf_read_file(const char *path, size_t input_max, const struct conf_key *keys,
+                   size_t n_keys, void *obj, char *err, size_t err_size);
+
 #endif

@@ -4,10 +4,12 @@
  * mapping through a table of keys with those readers.
  */
 #include "svc/conf.h"
+#include "svc/io.h"
 
 #include <errno.h>
 #include <limits.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define ENUM_EXPECTED_MAX       128     /* "a, b or c" in a message */
@@ -221,4 +223,49 @@ int conf_table_read(struct conf *c, const struct conf_node *map, const char *wha
                         return r;
         }
         return 0;
+}
+
+int conf_read_text(const char *name, const char *text, size_t len, size_t input_max,
+                   const struct conf_key *keys, size_t n_keys, void *obj, char *err,
+                   size_t err_size)
+{
+        struct conf *c = malloc(sizeof(*c));
+        const struct conf_node *root;
+        uint32_t root_index = CONF_NONE;
+        int r;
+
+        if (err_size)
+                err[0] = '\0';
+        if (!c) {
+                snprintf(err, err_size, "%s: out of memory", name);
+                return -ENOMEM;
+        }
+        r = conf_init(c, name, text, len, input_max);
+        if (r == 0)
+                r = conf_tree_build(c, &root_index);
+        root = r == 0 ? conf_child(c, root_index) : NULL;
+        if (root && !conf_is_null(root))
+                r = conf_table_read(c, root, "configuration", "at top level", keys, n_keys, obj);
+        if (r < 0)
+                snprintf(err, err_size, "%s", c->err.message);
+        conf_free(c);
+        free(c);
+        return r;
+}
+
+int conf_read_file(const char *path, size_t input_max, const struct conf_key *keys,
+                   size_t n_keys, void *obj, char *err, size_t err_size)
+{
+        char *text;
+        size_t len;
+        int r = io_read_file(path, input_max, &text, &len);
+
+        if (r < 0) {
+                snprintf(err, err_size, "%s: %s", path,
+                         r == -EFBIG ? "file too large" : strerror(-r));
+                return r;
+        }
+        r = conf_read_text(path, text, len, input_max, keys, n_keys, obj, err, err_size);
+        free(text);
+        return r;
 }

@@ -33,22 +33,19 @@
 
 #include <sharedlink.h>
 
+#include "common/benchlat.h"
+#include "common/benchlink.h"
 #include "common/harness.h"
 #include "common/mqtt.h"
 
 #define SAMPLES         1000
 #define WARMUP          50
 #define GAP_US          500             /* between samples: no queueing between them */
-#define VARS            1000
-#define PEERS           4               /* the daemon takes at most 256 inbound per list */
-#define PER_PEER        (VARS / PEERS)
-#define PER_FRAME       125             /* values per rate frame */
+#define VARS            BENCHLINK_VARS
 #define RATE_S          3
 #define START_MS        10000
 #define WAIT_MS         3000            /* one sample must not take longer */
 #define CONFIG_MAX      (64 * 1024)
-#define FRAME_MAX       2048
-#define NS_PER_US       1000ull
 #define NS_PER_S        1000000000ull
 
 enum probe { P_FLOOR, P_WRITE, P_FRAME, P_COUNT };
@@ -68,17 +65,10 @@ struct bench {
         _Atomic uint64_t got_ns[P_COUNT];
         _Atomic uint64_t values, metas;  /* rate: messages on v* topics */
         atomic_bool drain_stop;
-        uint64_t lat[P_COUNT][SAMPLES];
+        int id_cmd;                     /* o.Cmd */
 };
 
 static struct bench B;
-
-static int cmp_u64(const void *a, const void *b)
-{
-        uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-
-        return (x > y) - (x < y);
-}
 
 /* "[:" dst src "|" body "|C" hh "]\r\n" */
 static size_t make_frame(char *out, size_t size, char src, const char *body)
@@ -142,22 +132,8 @@ static int start(struct bench *b)
         snprintf(dev, sizeof(dev), "%s/dev0", b->h.dir);
         if (symlink(slave, dev) < 0)
                 return -1;
-        n = (size_t)snprintf(text, sizeof(text),
-                             "instance: %s\nlinks:\n  - name: peer\n    protocol: sharedlink\n"
-                             "    transport: serial\n    device: %s\n    address: A\n"
-                             "    peers:\n", b->h.instance, dev);
-        for (int p = 0; p < PEERS; p++) {
-                n += (size_t)snprintf(text + n, sizeof(text) - n,
-                                      "      - address: %c\n        period_ms: 0\n"
-                                      "        on_change: true\n        min_interval_ms: 0\n"
-                                      "        max_frame: 4096\n%s        inbound: [",
-                                      'B' + p, p == 0 ? "        outbound: [o.Cmd]\n" : "");
-                for (int i = p * PER_PEER; i < (p + 1) * PER_PEER; i++)
-                        n += (size_t)snprintf(text + n, sizeof(text) - n, "%sv%d",
-                                              i > p * PER_PEER ? ", " : "", i);
-                n += (size_t)snprintf(text + n, sizeof(text) - n, "]\n");
-        }
-        if (harness_write_file(&b->h, "daemon.yaml", text, path) < 0)
+        n = benchlink_config(text, sizeof(text), b->h.instance, dev, NULL, "o.Cmd");
+        if (n == 0 || harness_write_file(&b->h, "daemon.yaml", text, path) < 0)
                 return -1;
         b->h.capture_log = 1;
         if (harness_start_daemon(&b->h, path, START_MS, &st, NULL) != 0) {
@@ -233,34 +209,25 @@ static uint64_t sample(struct bench *b, enum probe p, long v, int id_cmd)
         return atomic_load(&b->got_ns[p]) ? atomic_load(&b->got_ns[p]) - t0 : 0;
 }
 
+static uint64_t sample_probe(void *arg, int p, long v)
+{
+        struct bench *b = arg;
+
+        return sample(b, (enum probe)p, v, b->id_cmd);
+}
+
 static void latency(struct bench *b)
 {
-        int id = sl_find(b->cl, "o.Cmd");
-        size_t n[P_COUNT] = { 0 }, lost[P_COUNT] = { 0 };
-        double med[P_COUNT], p99[P_COUNT];
+        struct benchlat l = { .probes = P_COUNT, .names = probe_name, .samples = SAMPLES,
+                              .warmup = WARMUP, .gap_us = GAP_US, .first_value = 100000,
+                              .sample = sample_probe, .arg = b };
 
-        for (long i = 0; i < SAMPLES + WARMUP; i++)
-                for (int p = 0; p < P_COUNT; p++) {
-                        uint64_t ns = sample(b, (enum probe)p, 100000 + i, id);
-
-                        usleep(GAP_US);
-                        if (i < WARMUP)
-                                continue;
-                        if (ns == 0)
-                                lost[p]++;
-                        else
-                                b->lat[p][n[p]++] = ns;
-                }
-        printf("latency, %d samples each, interleaved (us):\n", SAMPLES);
-        printf("  %-7s %9s %9s %6s\n", "probe", "median", "p99", "lost");
-        for (int p = 0; p < P_COUNT; p++) {
-                qsort(b->lat[p], n[p], sizeof(uint64_t), cmp_u64);
-                med[p] = n[p] ? (double)b->lat[p][n[p] / 2] / NS_PER_US : 0;
-                p99[p] = n[p] ? (double)b->lat[p][n[p] * 99 / 100] / NS_PER_US : 0;
-                printf("  %-7s %9.1f %9.1f %6zu\n", probe_name[p], med[p], p99[p], lost[p]);
-        }
+        b->id_cmd = sl_find(b->cl, "o.Cmd");
+        if (benchlat_run(&l) < 0)
+                return;
         printf("  write/floor median %.2fx, frame/floor median %.2fx\n",
-               med[P_WRITE] / med[P_FLOOR], med[P_FRAME] / med[P_FLOOR]);
+               l.median_us[P_WRITE] / l.median_us[P_FLOOR],
+               l.median_us[P_FRAME] / l.median_us[P_FLOOR]);
 }
 
 static int cpu_ticks(pid_t pid, uint64_t *ret)
@@ -288,8 +255,6 @@ static int cpu_ticks(pid_t pid, uint64_t *ret)
 
 static void rate(struct bench *b)
 {
-        static char frames[VARS / PER_FRAME][FRAME_MAX];
-        size_t len[VARS / PER_FRAME];
         uint64_t t0, t1, c0, c1, v0, m0, v, m, rounds = 0;
         long hz = sysconf(_SC_CLK_TCK);
         double secs, cpu_s;
@@ -298,21 +263,7 @@ static void rate(struct bench *b)
         v0 = atomic_load(&b->values);
         m0 = atomic_load(&b->metas);
         t0 = harness_now_ns();
-        while (harness_now_ns() - t0 < RATE_S * NS_PER_S) {
-                for (int f = 0; f < VARS / PER_FRAME; f++) {
-                        char body[FRAME_MAX];
-                        int first = f * PER_FRAME, peer = first / PER_PEER;
-                        size_t o = (size_t)snprintf(body, sizeof(body), "N%d",
-                                                    first - peer * PER_PEER);
-
-                        for (int k = 0; k < PER_FRAME; k++)
-                                o += (size_t)snprintf(body + o, sizeof(body) - o, "|D%llu",
-                                                      (unsigned long long)rounds);
-                        len[f] = make_frame(frames[f], FRAME_MAX, (char)('B' + peer), body);
-                        harness_write_all(b->master, frames[f], len[f], WAIT_MS);
-                }
-                rounds++;
-        }
+        rounds = benchlink_offer(b->master, RATE_S, WAIT_MS);
         t1 = harness_now_ns();
         /* What was sent is out within a moment; the count stops growing. */
         for (uint64_t last = UINT64_MAX; last != atomic_load(&b->values);) {

@@ -95,11 +95,11 @@ static void test_values(void **state)
         assert_int_equal(c.events_qos, 2);
         assert_int_equal(c.events_window, 2);
         assert_int_equal(c.cursor_sync_ms, 0);
-        assert_true(bridge_globs_match(&c.publish, "AutoGpsLat"));
-        assert_true(bridge_globs_match(&c.publish, "agility.device.E1E1E1.online"));
-        assert_false(bridge_globs_match(&c.publish, "agility.device.E1E1E1.signal"));
-        assert_true(bridge_globs_match(&c.writable, "CmdThrottle"));
-        assert_false(bridge_globs_match(&c.writable, "CmdSteer"));
+        assert_true(globs_match(&c.publish, "AutoGpsLat"));
+        assert_true(globs_match(&c.publish, "agility.device.E1E1E1.online"));
+        assert_false(globs_match(&c.publish, "agility.device.E1E1E1.signal"));
+        assert_true(globs_match(&c.writable, "CmdThrottle"));
+        assert_false(globs_match(&c.writable, "CmdSteer"));
 }
 
 static void test_errors(void **state)

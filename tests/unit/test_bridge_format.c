@@ -1,7 +1,7 @@
 /*
  * Unit tests for sharedlink-mqtt's wire formats (src/mqtt/bridge_format.c) and its cursor file
  * (src/mqtt/bridge_cursor.c): topics, set/ topic parsing, the checks of set/ payloads (size,
- * UTF-8), the JSON of meta, events and errors (escaping, overflow), and the cursor's atomic
+ * UTF-8), the JSON of meta and errors (escaping, overflow), and the cursor's atomic
  * replacement and refusal of anything that is not a cursor.
  */
 #include <errno.h>
@@ -108,9 +108,6 @@ static void test_json(void **state)
                                     .direction = SL_DIR_IN, .type = SL_VAR_DOUBLE, .link = 1 };
         struct sl_meta meta = { .size = sizeof(meta), .age_ns = 2500000, .sequence = 7,
                                 .real_ns = 11, .flags = SL_FLAG_VALID | SL_FLAG_STALE };
-        struct sl_event ev = { .size = sizeof(ev), .seq = 17, .real_ns = 5,
-                               .type_name = "action", .link_name = "agility",
-                               .text = "device=E1E1E1 sensor_time=5000" };
         char buf[BRIDGE_JSON_MAX], tiny[16];
 
         (void)state;
@@ -118,19 +115,6 @@ static void test_json(void **state)
         assert_string_equal(buf, "{\"valid\":true,\"stale\":true,\"age_ms\":2,\"seq\":7,"
                             "\"time_ns\":11,\"direction\":\"in\",\"type\":\"double\","
                             "\"link\":\"node_b\",\"peer\":\"A\",\"repaired\":false}");
-        assert_true(bridge_format_event(buf, sizeof(buf), 0xabcdefull, &ev) > 0);
-        assert_string_equal(buf, "{\"epoch\":\"0000000000abcdef\",\"seq\":17,\"time_ns\":5,"
-                            "\"link\":\"agility\",\"type\":\"action\","
-                            "\"text\":\"device=E1E1E1 sensor_time=5000\",\"fields\":"
-                            "{\"device\":\"E1E1E1\",\"sensor_time\":\"5000\"},"
-                            "\"truncated\":false}");
-        snprintf(ev.text, sizeof(ev.text), "a=\"q\\\" flag  b=\x01");
-        assert_true(bridge_format_event(buf, sizeof(buf), 1, &ev) > 0);
-        assert_non_null(strstr(buf, "\"fields\":{\"a\":\"\\\"q\\\\\\\"\",\"flag\":\"\","
-                                    "\"b\":\"\\u0001\"}"));
-        assert_true(bridge_format_notice(buf, sizeof(buf), "overrun", 1, 30, 12) > 0);
-        assert_string_equal(buf, "{\"epoch\":\"0000000000000001\",\"seq\":30,\"link\":\"\","
-                            "\"type\":\"overrun\",\"lost\":12}");
         assert_true(bridge_format_error(buf, sizeof(buf), "b.Lat", BRIDGE_REFUSE_INBOUND, 0,
                                         NULL) > 0);
         assert_string_equal(buf, "{\"name\":\"b.Lat\",\"code\":\"inbound\",\"error\":\"an "

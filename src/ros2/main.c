@@ -1,0 +1,236 @@
+/*
+ * sharedlink-ros2: the tables of a sharedlinkd instance as ROS 2 topics over DDS (Cyclone DDS),
+ * with no ROS installed (see ros2_bridge.h for what goes where, docs/ros2.md for the contract).
+ *
+ *   sharedlink-ros2 [-c FILE] [-n] [-v] [-V]
+ *
+ * One thread runs the bridge on the service's event loop (svc/service.h); the toolkit's waker
+ * (svc/waker.h) tells it when the tables changed, an eventfd rung by DDS's listener threads
+ * when a write or a writer arrived. Init: log, configuration, service (loop, notify, signals,
+ * watchdog), bridge (the DDS participant), the waker once attached; teardown in reverse. A
+ * stop is at once (nothing is in flight that a later start could not redo); SIGHUP has no
+ * reload (logged). -n checks the file, then, when the daemon runs, the variables it names and
+ * the topics they map to. Exit status: 0 after a clean stop or a good -n check, 1 on a bad
+ * configuration or a failed start (a DDS domain that cannot be created), 2 on a usage error.
+ */
+#include <errno.h>
+#include <poll.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <sharedlink.h>
+
+#include "ros2/ros2_bridge.h"
+#include "ros2/ros2_config.h"
+#include "svc/log.h"
+#include "svc/service.h"
+#include "svc/waker.h"
+
+#define NS_PER_MS               1000000ull
+#define TICK_MS                 1000u   /* /diagnostics, rescan (staleness by heartbeat) */
+#define RETRY_MS                20u     /* events history full: pump again this soon */
+#define ATTACH_MIN_MS           100u    /* sl_open retries while no daemon runs ... */
+#define ATTACH_MAX_MS           5000u   /* ... doubling to this */
+
+#ifndef SHAREDLINK_VERSION
+#define SHAREDLINK_VERSION      "unknown"
+#endif
+
+struct main_ctx {
+        struct ros2_config cfg;
+        struct service *svc;
+        struct evloop *loop;            /* the service's */
+        struct ros2_bridge *b;
+        struct evloop_timer step;       /* the next thing due */
+        struct waker *waker;            /* once attached */
+        bool fd_added;
+        bool ready;
+        unsigned attach_ms;
+        uint64_t attach_ns;             /* next sl_open attempt */
+        uint64_t tick_ns;
+        bool dirty;                     /* the tables changed since the last scan */
+};
+
+static void turn(struct main_ctx *ctx);
+
+static void on_change(void *arg)
+{
+        struct main_ctx *ctx = arg;
+
+        ctx->dirty = true;
+        turn(ctx);
+}
+
+static void on_dds(struct evloop *loop, int fd, unsigned revents, void *arg)
+{
+        (void)loop;
+        (void)fd;
+        (void)revents;
+        ros2_bridge_dds(((struct main_ctx *)arg)->b);
+        turn(arg);
+}
+
+static void on_step(struct evloop *loop, struct evloop_timer *t, void *arg)
+{
+        (void)loop;
+        (void)t;
+        turn(arg);
+}
+
+static void attach_due(struct main_ctx *ctx, uint64_t now)
+{
+        int r;
+
+        if (ros2_bridge_client(ctx->b) || now < ctx->attach_ns)
+                return;
+        r = ros2_bridge_attach(ctx->b);
+        if (r < 0) {
+                if (ctx->attach_ms == ATTACH_MIN_MS)
+                        log_msg(LOG_PRIO_WARNING, "sharedlinkd instance: %s; retrying",
+                                sl_strerror(r));
+                ctx->attach_ns = now + ctx->attach_ms * NS_PER_MS;
+                ctx->attach_ms = ctx->attach_ms * 2u > ATTACH_MAX_MS ? ATTACH_MAX_MS :
+                                 ctx->attach_ms * 2u;
+                return;
+        }
+        if (waker_start(ctx->loop, ros2_bridge_client(ctx->b), on_change, ctx, &ctx->waker) < 0)
+                log_msg(LOG_PRIO_WARNING, "rescanning every %u ms only", TICK_MS);
+        ctx->dirty = true;
+}
+
+/* STATUS= with states only (READY=1 the first time: a daemon that is down is retried). */
+static void status_update(struct main_ctx *ctx)
+{
+        char s[128];
+
+        snprintf(s, sizeof(s), "namespace %s, %s", ros2_bridge_namespace(ctx->b),
+                 ros2_bridge_status(ctx->b));
+        if (ctx->ready) {
+                service_status(ctx->svc, s);
+                return;
+        }
+        service_ready(ctx->svc, s);
+        ctx->ready = true;
+}
+
+/* Attach, publish what changed, events, diagnostics when due; then sleep until the next tick,
+ * attach retry or events retry. */
+static void turn(struct main_ctx *ctx)
+{
+        uint64_t now = evloop_clock_ns(), at;
+        bool tick = now >= ctx->tick_ns;
+        int r;
+
+        if (evloop_exiting(ctx->loop))
+                return;
+        attach_due(ctx, now);
+        if (tick)
+                ctx->tick_ns = now + TICK_MS * NS_PER_MS;
+        if (ctx->dirty || tick) {
+                ctx->dirty = false;
+                if (ros2_bridge_scan(ctx->b) < 0)
+                        ctx->dirty = true;
+        }
+        ros2_bridge_pump(ctx->b);
+        if (tick || ros2_bridge_diag_due(ctx->b))
+                ros2_bridge_diagnostics(ctx->b);
+        status_update(ctx);
+        at = ctx->tick_ns;
+        if (!ros2_bridge_client(ctx->b) && ctx->attach_ns < at)
+                at = ctx->attach_ns;
+        if (ros2_bridge_events_blocked(ctx->b) && now + RETRY_MS * NS_PER_MS < at)
+                at = now + RETRY_MS * NS_PER_MS;
+        r = evloop_timer_arm(&ctx->step, at <= now ? 0 : (at - now + NS_PER_MS - 1) / NS_PER_MS,
+                             0);
+        if (r < 0) {
+                log_msg(LOG_PRIO_ERR, "event loop: %s", strerror(-r));
+                service_exit(ctx->svc, SERVICE_EXIT_FAILURE);
+        }
+}
+
+static int check_only(const char *path)
+{
+        char err[ROS2_ERROR_MAX];
+        struct ros2_config cfg;
+        int r;
+
+        if (ros2_config_load(path, &cfg, err, sizeof(err)) < 0) {
+                fprintf(stderr, "%s\n", err);
+                return SERVICE_EXIT_FAILURE;
+        }
+        r = ros2_bridge_check(&cfg, path, err, sizeof(err));
+        if (r == -ENOENT)
+                fprintf(stderr, "%s: sharedlinkd is not running: variable names and topic "
+                        "collisions not checked\n", path);
+        else if (r < 0) {
+                fprintf(stderr, "%s\n", err);
+                return SERVICE_EXIT_FAILURE;
+        }
+        return service_check_ok();
+}
+
+static int setup(struct main_ctx *ctx, const struct service_desc *desc, const char *path)
+{
+        static const struct service_ops ops = { 0 };    /* stop at once, no reload */
+        char err[ROS2_ERROR_MAX];
+        int r;
+
+        if (ros2_config_load(path, &ctx->cfg, err, sizeof(err)) < 0) {
+                log_msg(LOG_PRIO_ERR, "%s", err);
+                return -EINVAL;
+        }
+        r = service_new(desc, &ops, ctx, &ctx->svc);
+        if (r < 0)
+                return r;
+        ctx->loop = service_loop(ctx->svc);
+        evloop_timer_init(&ctx->step, ctx->loop, on_step, ctx);
+        r = ros2_bridge_new(&ctx->cfg, &ctx->b, err, sizeof(err));
+        if (r < 0) {
+                log_msg(LOG_PRIO_ERR, "%s: %s", path, err);
+                return r;
+        }
+        r = evloop_add_fd(ctx->loop, ros2_bridge_fd(ctx->b), POLLIN, on_dds, ctx);
+        if (r < 0) {
+                log_msg(LOG_PRIO_ERR, "event loop: %s", strerror(-r));
+                return r;
+        }
+        ctx->fd_added = true;
+        ctx->attach_ms = ATTACH_MIN_MS;
+        log_msg(LOG_PRIO_INFO, "sharedlink-ros2 %s: %s, topics %s/...", SHAREDLINK_VERSION, path,
+                ros2_bridge_namespace(ctx->b));
+        return 0;
+}
+
+static void teardown(struct main_ctx *ctx)
+{
+        if (ctx->loop)
+                evloop_timer_cancel(&ctx->step);
+        if (ctx->fd_added)
+                evloop_del_fd(ctx->loop, ros2_bridge_fd(ctx->b));
+        ctx->waker = waker_stop(ctx->waker);
+        ctx->b = ros2_bridge_free(ctx->b);
+        ctx->svc = service_free(ctx->svc);
+}
+
+int main(int argc, char **argv)
+{
+        static const struct service_desc desc = {
+                .name = "sharedlink-ros2", .version = SHAREDLINK_VERSION,
+                .config_default = ROS2_CONFIG_DEFAULT, .check = check_only,
+        };
+        static struct main_ctx ctx;
+        struct service_args args;
+        int r = service_args(&desc, argc, argv, &args);
+
+        if (r != SERVICE_CONTINUE)
+                return r;
+        service_start(&args);
+        r = SERVICE_EXIT_FAILURE;
+        if (setup(&ctx, &desc, args.config) == 0) {
+                turn(&ctx);
+                r = service_run(ctx.svc);
+        }
+        teardown(&ctx);
+        return r;
+}

@@ -50,7 +50,7 @@ int config_parse(const char *text, size_t len, const char *filename, struct conf
         uint32_t root = CONF_NONE;
         int r;
 
-        /* The context holds a few tens of kilobytes of bookkeeping: heap, not stack. */
+        /* The context holds about 100 KiB of bookkeeping (config_ctx.h): heap, not stack. */
         c = calloc(1, sizeof(*c));
         if (!c) {
                 if (ret_error) {

@@ -32,11 +32,17 @@ struct seen_var {
         const struct conf_node *node;
 };
 
+/* The set of the names seen so far (config_peer.c): open addressing with linear probing, twice
+ * as many slots as names at most, a power of two, so that a probe ends soon. */
+#define CFG_NAME_SET_SIZE       (2u * CONFIG_VARS_MAX)
+_Static_assert((CFG_NAME_SET_SIZE & (CFG_NAME_SET_SIZE - 1u)) == 0, "a power of two");
+
 /* One parse: the reader (first, see below), the config being filled, what later checks need. */
 struct ctx {
         struct conf conf;
         struct config *cfg;
         struct seen_var vars[CONFIG_VARS_MAX];
+        uint32_t name_set[CFG_NAME_SET_SIZE];   /* 0: empty, else a position in vars + 1 */
         const struct conf_node *link_name_nodes[CONFIG_LINKS_MAX];
         const struct conf_node *device_nodes[CONFIG_LINKS_MAX][CONFIG_DEVICES_MAX];
         const struct conf_node *runtime_dir_node;

@@ -15,6 +15,7 @@
 #include "daemon/config_names.h"
 #include "daemon/config_value.h"
 #include "proto/sharedlink.h"
+#include "shm/layout.h"
 
 /* ---------------------------------------------------------------------------------------------
  * Variables */
@@ -29,20 +30,31 @@ static int var_name_check(struct ctx *c, const struct conf_node *n, const char *
         return 0;
 }
 
-/* Names are unique per instance. Quadratic, but bounded by CONFIG_VARS_MAX. */
+/*
+ * Names are unique per instance. Each name is looked up in the set of those seen before it
+ * (c->name_set, by hash), then added: one probe per name, so that a configuration at the cap
+ * (CONFIG_VARS_MAX) costs as many probes as names, not a comparison per pair of names. The set
+ * never fills (twice the cap), so a probe always meets an empty slot.
+ */
 static int var_register(struct ctx *c, const struct conf_node *n, const char *name)
 {
-        for (unsigned i = 0; i < c->cfg->n_vars; i++)
-                if (strcmp(c->vars[i].name, name) == 0)
+        const uint32_t mask = CFG_NAME_SET_SIZE - 1u;
+        uint32_t i = shm_layout_name_hash(name) & mask;
+
+        for (; c->name_set[i] != 0; i = (i + 1u) & mask) {
+                const struct seen_var *first = &c->vars[c->name_set[i] - 1u];
+
+                if (strcmp(first->name, name) == 0)
                         return cfg_fail(c, n, "duplicate variable name %s (first at %u:%u)",
-                                        cfg_quote_node(c, n), c->vars[i].node->line,
-                                        c->vars[i].node->column);
+                                        cfg_quote_node(c, n), first->node->line,
+                                        first->node->column);
+        }
         if (c->cfg->n_vars >= CONFIG_VARS_MAX)
                 return cfg_fail(c, n, "too many variables (at most %u per instance)",
                                 CONFIG_VARS_MAX);
         c->vars[c->cfg->n_vars].name = name;
         c->vars[c->cfg->n_vars].node = n;
-        c->cfg->n_vars++;
+        c->name_set[i] = ++c->cfg->n_vars;
         return 0;
 }
 

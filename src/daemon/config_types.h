@@ -42,8 +42,16 @@
 #define CONFIG_PEERS_MAX        15u     /* SharedLink addresses A..P, minus the link's own */
 #define CONFIG_DEVICES_MAX      8u      /* device paths a link scans in turn */
 #define CONFIG_EMULATE_MAX      32u     /* devices one CIRCE mediator emulator plays */
+/*
+ * Why these two (docs/testing.md, "Why 256 variables per list and 4,096 per instance"): a list
+ * is held by the wire (a full list of eight-byte values is 0.22 s of line at 115,200 baud). The
+ * instance is held by no structure: the tables are sized from the configuration, names are
+ * hashed in the daemon, the library and this parser, and a wake-up scans only the .out slots
+ * written. 4,096 is where it is measured (bench_scale's cap row) and tested
+ * (tests/integration/test_scale.c); the once-a-second full .out scan grows with it.
+ */
 #define CONFIG_LIST_MAX         256u    /* variables in one outbound or inbound list */
-#define CONFIG_VARS_MAX         1024u   /* configured variables per instance, all lists together */
+#define CONFIG_VARS_MAX         4096u   /* configured variables per instance, all lists together */
 
 /* Numeric ranges (inclusive) and defaults. */
 #define CONFIG_BAUD_MIN                 1200u

@@ -239,22 +239,13 @@ static void out_map(struct sl_client *c)
 
 /* ---- ids ----------------------------------------------------------------------------------- */
 
-static uint32_t name_hash(const char *name)
-{
-        uint32_t h = 2166136261u;       /* FNV-1a */
-
-        for (size_t i = 0; i < SHM_NAME_SIZE && name[i]; i++)
-                h = (h ^ (unsigned char)name[i]) * 16777619u;
-        return h;
-}
-
 int client_id_lookup(const struct sl_client *c, const char *name)
 {
         uint32_t mask = c->name_hash_size - 1u;
 
         if (!c->name_hash_size)
                 return -ENOENT;
-        for (uint32_t i = name_hash(name) & mask, n = 0; n < c->name_hash_size;
+        for (uint32_t i = shm_layout_name_hash(name) & mask, n = 0; n < c->name_hash_size;
              i = (i + 1u) & mask, n++) {
                 int32_t id = c->name_hash[i];
 
@@ -269,7 +260,7 @@ int client_id_lookup(const struct sl_client *c, const char *name)
 static void id_hash_insert(struct sl_client *c, uint32_t id)
 {
         uint32_t mask = c->name_hash_size - 1u;
-        uint32_t i = name_hash(c->id_names[id]) & mask;
+        uint32_t i = shm_layout_name_hash(c->id_names[id]) & mask;
 
         while (c->name_hash[i] != CLIENT_HASH_EMPTY)
                 i = (i + 1u) & mask;

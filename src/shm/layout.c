@@ -11,6 +11,10 @@
 
 #include "proto/sharedlink.h"           /* the value and name bytes (inline: no link to it) */
 
+/* FNV-1a, 32 bits: the offset basis and the prime. */
+#define LAYOUT_FNV_BASIS        2166136261u
+#define LAYOUT_FNV_PRIME        16777619u
+
 #define SHM_COUNTER_NAME(id, name, scope) name,
 static const char *const counter_names[] = { SHM_COUNTER_LIST(SHM_COUNTER_NAME) };
 #undef SHM_COUNTER_NAME
@@ -283,6 +287,15 @@ int shm_layout_value_check_field(const char *v, size_t len)
         return shm_layout_value_check(v, len);
 }
 #endif
+
+uint32_t shm_layout_name_hash(const char *name)
+{
+        uint32_t h = LAYOUT_FNV_BASIS;
+
+        for (size_t i = 0; i < SHM_NAME_SIZE && name[i]; i++)
+                h = (h ^ (unsigned char)name[i]) * LAYOUT_FNV_PRIME;
+        return h;
+}
 
 int shm_layout_name_check(const char *name)
 {

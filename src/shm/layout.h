@@ -541,6 +541,10 @@ int shm_layout_value_check_field(const char *v, size_t len);
  * else -EINVAL. */
 int shm_layout_name_check(const char *name);
 
+/* The hash of a variable name (FNV-1a over at most SHM_NAME_SIZE bytes, up to its NUL) that
+ * every index of names uses: the daemon's table, the library's ids, the configuration's check. */
+uint32_t shm_layout_name_hash(const char *name);
+
 /*
  * The one rule for instance names (and, in the daemon's configuration, link names): letters,
  * digits, '_' and '-', not starting with '-'. They appear on slctl's command line, in shm object

@@ -138,20 +138,12 @@ static int copy_field(char *dst, size_t size, const char *src)
         return 0;
 }
 
-static uint32_t hash_name(const char *name)
-{
-        uint32_t h = 2166136261u;       /* FNV-1a */
-
-        for (; *name; name++)
-                h = (h ^ (unsigned char)*name) * 16777619u;
-        return h;
-}
-
 static int hash_lookup(const struct shm_table *t, const char *name)
 {
         uint32_t mask = t->hash_size - 1u;
 
-        for (uint32_t i = hash_name(name) & mask, n = 0; n < t->hash_size; i = (i + 1u) & mask, n++) {
+        for (uint32_t i = shm_layout_name_hash(name) & mask, n = 0; n < t->hash_size;
+             i = (i + 1u) & mask, n++) {
                 int32_t id = t->hash[i];
 
                 if (id == TABLE_HASH_EMPTY)
@@ -165,7 +157,7 @@ static int hash_lookup(const struct shm_table *t, const char *name)
 static void hash_insert(struct shm_table *t, const char *name, int32_t id)
 {
         uint32_t mask = t->hash_size - 1u;
-        uint32_t i = hash_name(name) & mask;
+        uint32_t i = shm_layout_name_hash(name) & mask;
 
         while (t->hash[i] != TABLE_HASH_EMPTY)
                 i = (i + 1u) & mask;

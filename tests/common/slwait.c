@@ -45,3 +45,20 @@ int slwait_value(struct sl_client *c, const char *name, const char *want, int ti
                 snprintf(last, lastsz, "%s", buf);
         return -ETIMEDOUT;
 }
+
+int slwait_link_state(struct sl_client *c, int link, const char *prefix, int timeout_ms)
+{
+        uint64_t deadline = harness_now_ns() + (uint64_t)timeout_ms * SLWAIT_NS_PER_MS;
+        uint32_t cursor = 0;
+
+        for (;;) {
+                struct sl_link_info li = { .size = sizeof(li) };
+
+                if (sl_link_info(c, link, &li) == 0 &&
+                    strncmp(li.state_name, prefix, strlen(prefix)) == 0)
+                        return 0;
+                if (harness_now_ns() >= deadline)
+                        return -ETIMEDOUT;
+                sl_wait(c, &cursor, SLWAIT_SLICE_MS);
+        }
+}

@@ -21,4 +21,8 @@ bool slwait_value_is(struct sl_client *c, const char *name, const char *want);
 int slwait_value(struct sl_client *c, const char *name, const char *want, int timeout_ms,
                  char *last, size_t lastsz);
 
+/* Waits until link (an index) has a state name that starts with prefix ("up"); 0, or
+ * -ETIMEDOUT after timeout_ms. */
+int slwait_link_state(struct sl_client *c, int link, const char *prefix, int timeout_ms);
+
 #endif

@@ -936,35 +936,49 @@ static void test_too_many_peers(void **state)
         free(t.buf);
 }
 
-/* Lists up to their bound load; one more variable is refused, per list and per instance. */
+/* An instance at its cap: links of one peer with both lists full, the names v0, v1, ... in
+ * order, three lines a link (the last ends with the last name, then "]}]}\n"). */
+static void text_at_cap(struct text *t)
+{
+        unsigned n = 0;
+
+        text_add(t, "links:\n");
+        for (unsigned l = 0; l < CONFIG_VARS_MAX / (2 * CONFIG_LIST_MAX); l++) {
+                text_add(t, "  - {name: l%u, protocol: sharedlink, transport: serial, "
+                         "device: /dev/t%u, address: A, peers: [{address: B,\n", l, l);
+                for (unsigned dir = 0; dir < 2; dir++) {
+                        text_add(t, "      %s: [", dir ? "inbound" : "outbound");
+                        for (unsigned i = 0; i < CONFIG_LIST_MAX; i++)
+                                text_add(t, "%sv%u", i ? "," : "", n++);
+                        text_add(t, "]%s\n", dir ? "}]}" : ",");
+                }
+        }
+}
+
+/*
+ * Lists up to their bound load, and an instance up to its cap: 4,096 variables (issue 23: the
+ * cap was 1,024 while a quadratic check of unique names held it). One more variable is refused,
+ * per list and per instance.
+ */
 static void test_too_many_variables(void **state)
 {
         struct text t = { 0 };
         struct config *c = NULL;
         struct config_error e;
-        unsigned n = 0;
 
         (void)state;
-        text_add(&t, "links:\n");
-        for (unsigned l = 0; l < CONFIG_VARS_MAX / (2 * CONFIG_LIST_MAX); l++) {
-                text_add(&t, "  - {name: l%u, protocol: sharedlink, transport: serial, "
-                         "device: /dev/t%u, address: A, peers: [{address: B,\n", l, l);
-                for (unsigned dir = 0; dir < 2; dir++) {
-                        text_add(&t, "      %s: [", dir ? "inbound" : "outbound");
-                        for (unsigned i = 0; i < CONFIG_LIST_MAX; i++)
-                                text_add(&t, "%sv%u", i ? "," : "", n++);
-                        text_add(&t, "]%s\n", dir ? "}]}" : ",");
-                }
-        }
+        text_at_cap(&t);
         assert_int_equal(config_parse(t.buf, t.len, TEST_FILENAME, &c, &e), 0);
-        assert_int_equal(c->n_vars, CONFIG_VARS_MAX);
-        assert_string_equal(c->links[1].sl.peers[0].inbound[255].name, "v1023");
+        assert_int_equal(c->n_vars, 4096);
+        assert_int_equal(c->n_links, 8);
+        assert_string_equal(c->links[0].sl.peers[0].outbound[0].name, "v0");
+        assert_string_equal(c->links[7].sl.peers[0].inbound[255].name, "v4095");
         config_free(c);
 
         text_add(&t, "  - {name: x, protocol: sharedlink, transport: serial, device: /dev/x, "
                  "address: A, peers: [{address: B, inbound: [one_more]}]}\n");
         expect_error(&t, -EINVAL,
-                     "t.yaml:8:115: too many variables (at most 1024 per instance)");
+                     "t.yaml:26:115: too many variables (at most 4096 per instance)");
 
         t.len = 0;
         text_add(&t, "links:\n  - {name: x, protocol: sharedlink, transport: serial, "
@@ -974,6 +988,40 @@ static void test_too_many_variables(void **state)
         text_add(&t, "]}]}\n");
         expect_error(&t, -EINVAL,
                      "t.yaml:2:114: inbound: too many variables (257, at most 256 per list)");
+        free(t.buf);
+}
+
+/* At the cap, the last name repeats an earlier one: refused at the repeat, naming the first. */
+static void test_duplicate_at_cap(void **state)
+{
+        static const char *const repeats[][2] = {
+                /* the name, where it first is (line:column) */
+                { "v0", "3:18" },       /* the first of all */
+                { "v2048", "15:18" },   /* the first of the fifth link */
+                { "v4094", "25:1541" }, /* the one just before it */
+        };
+        struct text t = { 0 };
+        char expected[CONFIG_ERROR_MAX];
+
+        (void)state;
+        for (size_t k = 0; k < sizeof(repeats) / sizeof(repeats[0]); k++) {
+                const char *tail = "v4095]}]}\n";
+                size_t line = 0, column;
+
+                t.len = 0;
+                text_at_cap(&t);
+                assert_true(t.len > strlen(tail));
+                t.len -= strlen(tail);
+                for (size_t i = 0; i < t.len; i++)
+                        if (t.buf[i] == '\n')
+                                line = i + 1;   /* where the last line begins */
+                column = t.len - line + 1;      /* where the repeat goes */
+                text_add(&t, "%s]}]}\n", repeats[k][0]);
+                snprintf(expected, sizeof(expected),
+                         "t.yaml:25:%zu: duplicate variable name \"%s\" (first at %s)", column,
+                         repeats[k][0], repeats[k][1]);
+                expect_error(&t, -EINVAL, expected);
+        }
         free(t.buf);
 }
 
@@ -1680,6 +1728,7 @@ int main(void)
                 cmocka_unit_test(test_too_many_links),
                 cmocka_unit_test(test_too_many_peers),
                 cmocka_unit_test(test_too_many_variables),
+        cmocka_unit_test(test_duplicate_at_cap),
                 cmocka_unit_test(test_too_many_emulated),
                 cmocka_unit_test(test_too_many_nodes),
                 cmocka_unit_test(test_too_large),

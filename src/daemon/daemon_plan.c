@@ -6,6 +6,7 @@
 
 #include <errno.h>
 #include <grp.h>
+#include <inttypes.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -240,6 +241,34 @@ void daemon_plan_clear(struct daemon_plan *plan)
         plan->decl = decl_free(plan->decl);
 }
 
+/* Room for what links learn at run time, as their engines say (link_ops.learning), which the
+ * tables must hold beside the configured names: checked here, so that `-n` refuses a
+ * configuration whose tables could not be created. */
+static int plan_learned_room(const struct config *cfg, struct daemon_plan *plan, char *err,
+                             size_t errsz)
+{
+        uint64_t learned = 0;
+
+        plan->adhoc_capacity = DAEMON_ADHOC_CAPACITY;
+        for (unsigned i = 0; i < cfg->n_links; i++) {
+                struct link_learning learning = { 0 };
+
+                if (!plan->ops[i]->learning)
+                        continue;
+                plan->ops[i]->learning(&cfg->links[i], &learning);
+                learned += learning.adhoc;
+                plan->out_spare += learning.out_spare;
+        }
+        if (plan->decl->nvars + DAEMON_ADHOC_CAPACITY + learned > SHM_CAPACITY_MAX)
+                return errf(err, errsz, -E2BIG, "the links may learn %" PRIu64 " names at run "
+                            "time; with the %" PRIu32 " configured and %u for ad hoc names "
+                            "that is more than an instance's tables hold (%u): lower learn_max "
+                            "or the number of peers that learn", learned, plan->decl->nvars,
+                            DAEMON_ADHOC_CAPACITY, SHM_CAPACITY_MAX);
+        plan->adhoc_capacity += (uint32_t)learned;
+        return 0;
+}
+
 int daemon_plan_make(const struct config *cfg, struct daemon_plan *plan, char *err,
                      size_t errsz)
 {
@@ -266,7 +295,10 @@ int daemon_plan_make(const struct config *cfg, struct daemon_plan *plan, char *e
                                     "available in this build", cfg->links[i].name,
                                     config_protocol_name(cfg->links[i].protocol));
         }
-        return decl_build(cfg, plan, &plan->decl, err, errsz);
+        r = decl_build(cfg, plan, &plan->decl, err, errsz);
+        if (r < 0)
+                return r;
+        return plan_learned_room(cfg, plan, err, errsz);
 }
 
 bool daemon_plan_same_tables(const struct daemon_plan *a, const struct daemon_plan *b)

@@ -20,6 +20,7 @@
 #include "daemon/link.h"
 
 #define DAEMON_VARS_MAX         16384   /* variables all links may declare together */
+#define DAEMON_ADHOC_CAPACITY   2048    /* inbound names engines may add at run time */
 #define DAEMON_NAMES_SIZE       (DAEMON_VARS_MAX * 48)  /* scratch for generated names */
 #define DAEMON_ERROR_MAX        512     /* a one-line reason: a refused plan, a failed link */
 #define DAEMON_RUNTIME_DIR_ENV  "SHAREDLINK_RUNTIME_DIR"
@@ -44,6 +45,8 @@ struct daemon_plan {
         char runtime_dir[CONFIG_PATH_MAX];
         char socket_path[CONFIG_SOCKET_PATH_MAX];
         struct daemon_decl *decl;
+        uint32_t adhoc_capacity;        /* names the links may add at run time, and ... */
+        uint32_t out_spare;             /* ... the outbound ones among them (link_ops.learning) */
         unsigned err_line, err_column;          /* the failing key of the file, 0: none */
 };
 

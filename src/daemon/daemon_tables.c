@@ -13,21 +13,6 @@
 /* The socket path is published in the .in header (layout 1.2): the field must hold any path. */
 _Static_assert(CONFIG_SOCKET_PATH_MAX <= SHM_SOCKET_PATH_SIZE, "socket path field");
 
-/* Room for what links learn at run time, as their engines say (link_ops.learning). */
-static void tables_learned_room(const struct config *cfg, const struct daemon_plan *plan,
-                                uint32_t *adhoc, uint32_t *out_spare)
-{
-        for (unsigned i = 0; i < cfg->n_links; i++) {
-                struct link_learning learning = { 0 };
-
-                if (!plan->ops[i]->learning)
-                        continue;
-                plan->ops[i]->learning(&cfg->links[i], &learning);
-                *adhoc += learning.adhoc;
-                *out_spare += learning.out_spare;
-        }
-}
-
 int daemon_tables_create(const struct config *cfg, const struct daemon_plan *plan,
                          struct shm_table **ret_table)
 {
@@ -38,7 +23,8 @@ int daemon_tables_create(const struct config *cfg, const struct daemon_plan *pla
                 .nvars = plan->decl->nvars,
                 .links = links,
                 .nlinks = cfg->n_links,
-                .adhoc_capacity = DAEMON_ADHOC_CAPACITY,
+                .adhoc_capacity = plan->adhoc_capacity,
+                .out_spare = plan->out_spare,
                 .heartbeat_interval_ms = DAEMON_HEARTBEAT_MS,
                 .has_group = plan->has_group,
                 .gid = plan->gid,
@@ -46,7 +32,6 @@ int daemon_tables_create(const struct config *cfg, const struct daemon_plan *pla
         };
         int r;
 
-        tables_learned_room(cfg, plan, &tc.adhoc_capacity, &tc.out_spare);
         for (unsigned i = 0; i < cfg->n_links; i++) {
                 links[i].name = cfg->links[i].name;
                 links[i].protocol = config_protocol_name(cfg->links[i].protocol);

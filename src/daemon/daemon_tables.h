@@ -8,7 +8,6 @@
 #include "daemon/config.h"
 #include "daemon/daemon_plan.h"
 
-#define DAEMON_ADHOC_CAPACITY   2048    /* inbound names engines may add at run time */
 /* The heartbeat the tables announce (clients judge staleness by it), which daemon_status.c
  * keeps, with the engines' heartbeats and the STATUS refresh. */
 #define DAEMON_HEARTBEAT_MS     1000

@@ -263,6 +263,55 @@ static void test_learning(void **state)
         assert_null(link_circe_ops.learning);
 }
 
+/* YAML of `links` UDP links of `peers` Pronto4 peers each, both lists learned, learn_max 168
+ * (the most a 1024-byte answer holds). */
+static char *learning_links(unsigned links, unsigned peers)
+{
+        static const char peer_addr[] = "ACDEFGHIJKLMNOP";       /* every node but B */
+        size_t size = 256 + (size_t)links * (160 + peers * 120), len;
+        char *y = malloc(size);
+
+        assert_non_null(y);
+        assert_true(peers <= sizeof(peer_addr) - 1);
+        len = (size_t)snprintf(y, size, "instance: plan\nruntime_dir: " RUNTIME_DIR "\nlinks:\n");
+        for (unsigned i = 0; i < links; i++) {
+                len += (size_t)snprintf(y + len, size - len, "  - {name: p%u, protocol: "
+                                        "sharedlink, transport: udp, local: '127.0.0.1:0', "
+                                        "remote: '127.0.0.1:9', address: B, peers: [", i);
+                for (unsigned k = 0; k < peers; k++)
+                        len += (size_t)snprintf(y + len, size - len, "%s{address: %c, dialect: "
+                                                "pronto4, max_frame: 1024, outbound: learn, "
+                                                "inbound: learn, learn_max: 168}",
+                                                k ? ", " : "", peer_addr[k]);
+                len += (size_t)snprintf(y + len, size - len, "]}\n");
+        }
+        assert_true(len < size);
+        return y;
+}
+
+/* The tables hold the configured names, the ad hoc room and what the links may learn, at most
+ * SHM_CAPACITY_MAX entries: a plan that needs more is refused (so `-n` says so), where before
+ * it passed `-n` and the daemon failed to create its tables ("Invalid argument"). */
+static void test_learned_room(void **state)
+{
+        struct daemon_plan plan;
+        char err[DAEMON_ERROR_MAX] = "";
+        char *y;
+
+        (void)state;
+        y = learning_links(16, 5);              /* 16 x 5 x 336 = 26,880 names */
+        plan_ok(y, &plan);
+        assert_int_equal(plan.adhoc_capacity, DAEMON_ADHOC_CAPACITY + 16 * 5 * 2 * 168);
+        assert_int_equal(plan.out_spare, 16 * 5 * 168);
+        daemon_plan_clear(&plan);
+        free(y);
+        y = learning_links(16, 15);             /* 80,640 names: more than the tables hold */
+        assert_int_equal(plan_error(y, err, sizeof(err)), -E2BIG);
+        assert_non_null(strstr(err, "the links may learn 80640 names at run time"));
+        assert_non_null(strstr(err, "lower learn_max"));
+        free(y);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -271,6 +320,7 @@ int main(void)
                 cmocka_unit_test(test_group),
                 cmocka_unit_test(test_same),
                 cmocka_unit_test(test_learning),
+                cmocka_unit_test(test_learned_room),
         };
 
         unsetenv(DAEMON_RUNTIME_DIR_ENV);

@@ -645,6 +645,7 @@ $(O)/obj/tests/ros2peer/peer_cyclone.o: TEST_CFLAGS += -std=gnu11 -I$(ROS2PEER_G
 $(O)/obj/tests/ros2peer/peer_cyclone.o: $(ROS2PEER_GEN)/ros2peer_types.h
 $(O)/tests/ros2peer/peer_cyclone: $(O)/obj/tests/ros2peer/peer_cyclone.o \
                                   $(ROS2PEER_GEN)/ros2peer_types.o $(ROS2PEER_COMMON) $(A_SVC)
+	@mkdir -p $(@D)
 	$(call quiet,LD)$(CC) $(LDFLAGS_EXE) -o $@ $^ $(CYCLONE_LIBS)
 # bench_ros2 subscribes with the peers' copy of the types; without Cyclone it only says so.
 $(O)/obj/tests/bench/bench_ros2.o: TEST_CFLAGS += -I$(ROS2PEER_GEN) \

@@ -8,6 +8,7 @@
 #include "svc/waker.h"
 
 #include <errno.h>
+#include <inttypes.h>
 #include <poll.h>
 #include <pthread.h>
 #include <stdatomic.h>
@@ -77,8 +78,11 @@ int waker_start_with(struct evloop *loop, struct sl_client *c, waker_fn fn, void
 
         if (!opts)
                 opts = &none;
-        if (opts->spin_us > SL_WAIT_SPIN_MAX_US)
+        if (opts->spin_us > SL_WAIT_SPIN_MAX_US) {
+                log_msg(LOG_PRIO_ERR, "waker: a spin of %" PRIu32 " us is over %u",
+                        opts->spin_us, SL_WAIT_SPIN_MAX_US);
                 return -EINVAL;
+        }
         w = calloc(1, sizeof(*w));
         if (!w)
                 return -ENOMEM;

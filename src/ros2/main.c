@@ -4,10 +4,15 @@
  *
  *   sharedlink-ros2 [-c FILE] [-n] [-v] [-V]
  *
- * One thread runs the bridge on the service's event loop (svc/service.h); the toolkit's waker
- * (svc/waker.h) tells it when the tables changed, an eventfd rung by DDS's listener threads
- * when a write or a writer arrived. Init: log, configuration, service (loop, notify, signals,
- * watchdog), bridge (the DDS participant), the waker once attached; teardown in reverse. A
+ * The bridge runs on the service's event loop (svc/service.h), with one exception for speed: the
+ * toolkit's waker thread (svc/waker.h), which hears first that the tables changed, publishes the
+ * values and events itself (on_thread) instead of waking the loop to do it, since a wake-up of a
+ * sleeping thread is the largest cost of the path on a virtual machine; it rings the loop only
+ * for what the loop alone does (diagnostics due, a retry, STATUS=). ctx.lock keeps the bridge
+ * single-owner at any moment: every call into it, on either thread, holds the lock. DDS's
+ * listener threads ring an eventfd on the loop when a write or a writer arrived. Init: log,
+ * configuration, service (loop, notify, signals, watchdog), bridge (the DDS participant), the
+ * waker once attached; teardown in reverse. A
  * stop is at once (nothing is in flight that a later start could not redo); SIGHUP has no
  * reload (logged). -n checks the file, then, when the daemon runs, the variables it names and
  * the topics they map to. Exit status: 0 after a clean stop or a good -n check, 1 on a bad
@@ -15,6 +20,7 @@
  */
 #include <errno.h>
 #include <poll.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -49,26 +55,51 @@ struct main_ctx {
         unsigned attach_ms;
         uint64_t attach_ns;             /* next sl_open attempt */
         uint64_t tick_ns;
-        bool dirty;                     /* the tables changed since the last scan */
+        pthread_mutex_t lock;           /* b and dirty: the loop's and the waker thread's */
+        bool dirty;                     /* scan on the loop: attached, or a scan failed */
 };
 
 static void turn(struct main_ctx *ctx);
 
-static void on_change(void *arg)
+/* Values that changed, then events; under ctx->lock, on either thread. */
+static void publish(struct main_ctx *ctx)
+{
+        ctx->dirty = ros2_bridge_scan(ctx->b) < 0;
+        ros2_bridge_pump(ctx->b);
+}
+
+/* On the waker's thread: the hot path, without the loop's wake-up. The loop is rung for what
+ * only it does: a failed scan's retry, diagnostics (a link's state, a new plan), the events
+ * history's retry timer, STATUS=. */
+static bool on_change_thread(void *arg)
 {
         struct main_ctx *ctx = arg;
+        bool loop;
 
-        ctx->dirty = true;
-        turn(ctx);
+        pthread_mutex_lock(&ctx->lock);
+        publish(ctx);
+        loop = ctx->dirty || ros2_bridge_diag_due(ctx->b) || ros2_bridge_events_blocked(ctx->b);
+        pthread_mutex_unlock(&ctx->lock);
+        return loop;
+}
+
+/* On the loop, after on_change_thread asked for it. */
+static void on_change(void *arg)
+{
+        turn(arg);
 }
 
 static void on_dds(struct evloop *loop, int fd, unsigned revents, void *arg)
 {
+        struct main_ctx *ctx = arg;
+
         (void)loop;
         (void)fd;
         (void)revents;
-        ros2_bridge_dds(((struct main_ctx *)arg)->b);
-        turn(arg);
+        pthread_mutex_lock(&ctx->lock);
+        ros2_bridge_dds(ctx->b);
+        pthread_mutex_unlock(&ctx->lock);
+        turn(ctx);
 }
 
 static void on_step(struct evloop *loop, struct evloop_timer *t, void *arg)
@@ -80,6 +111,9 @@ static void on_step(struct evloop *loop, struct evloop_timer *t, void *arg)
 
 static void attach_due(struct main_ctx *ctx, uint64_t now)
 {
+        const struct waker_opts opts = {
+                .on_thread = on_change_thread, .spin_us = ctx->cfg.wait_spin_us,
+        };
         int r;
 
         if (ros2_bridge_client(ctx->b) || now < ctx->attach_ns)
@@ -94,7 +128,8 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
                                  ctx->attach_ms * 2u;
                 return;
         }
-        if (waker_start(ctx->loop, ros2_bridge_client(ctx->b), on_change, ctx, &ctx->waker) < 0)
+        if (waker_start_with(ctx->loop, ros2_bridge_client(ctx->b), on_change, ctx, &opts,
+                             &ctx->waker) < 0)
                 log_msg(LOG_PRIO_WARNING, "rescanning every %u ms only", TICK_MS);
         ctx->dirty = true;
 }
@@ -114,8 +149,9 @@ static void status_update(struct main_ctx *ctx)
         ctx->ready = true;
 }
 
-/* Attach, publish what changed, events, diagnostics when due; then sleep until the next tick,
- * attach retry or events retry. */
+/* Attach, a scan on the tick (staleness, and a waker that could not start) or after a failed
+ * one, events, diagnostics when due; then sleep until the next tick, attach retry or events
+ * retry. */
 static void turn(struct main_ctx *ctx)
 {
         uint64_t now = evloop_clock_ns(), at;
@@ -124,15 +160,14 @@ static void turn(struct main_ctx *ctx)
 
         if (evloop_exiting(ctx->loop))
                 return;
+        pthread_mutex_lock(&ctx->lock);
         attach_due(ctx, now);
         if (tick)
                 ctx->tick_ns = now + TICK_MS * NS_PER_MS;
-        if (ctx->dirty || tick) {
-                ctx->dirty = false;
-                if (ros2_bridge_scan(ctx->b) < 0)
-                        ctx->dirty = true;
-        }
-        ros2_bridge_pump(ctx->b);
+        if (ctx->dirty || tick)
+                publish(ctx);
+        else
+                ros2_bridge_pump(ctx->b);
         if (tick || ros2_bridge_diag_due(ctx->b))
                 ros2_bridge_diagnostics(ctx->b);
         status_update(ctx);
@@ -141,6 +176,7 @@ static void turn(struct main_ctx *ctx)
                 at = ctx->attach_ns;
         if (ros2_bridge_events_blocked(ctx->b) && now + RETRY_MS * NS_PER_MS < at)
                 at = now + RETRY_MS * NS_PER_MS;
+        pthread_mutex_unlock(&ctx->lock);
         r = evloop_timer_arm(&ctx->step, at <= now ? 0 : (at - now + NS_PER_MS - 1) / NS_PER_MS,
                              0);
         if (r < 0) {
@@ -219,7 +255,7 @@ int main(int argc, char **argv)
                 .name = "sharedlink-ros2", .version = SHAREDLINK_VERSION,
                 .config_default = ROS2_CONFIG_DEFAULT, .check = check_only,
         };
-        static struct main_ctx ctx;
+        static struct main_ctx ctx = { .lock = PTHREAD_MUTEX_INITIALIZER };
         struct service_args args;
         int r = service_args(&desc, argc, argv, &args);
 

@@ -1,6 +1,7 @@
 /*
  * sharedlink-ros2: the bridge between a sharedlinkd instance (through the public libsharedlink
- * only) and ROS 2 over DDS (ros2_dds.h). Driven from one thread by main.c:
+ * only) and ROS 2 over DDS (ros2_dds.h). Not thread-safe: main.c drives it from its loop and from
+ * the waker's thread (scan and pump, where a change is heard first), one at a time under its lock:
  *
  *   ros2_bridge_new      the participant and the bridge's own topics (events, set_errors,
  *                        /diagnostics); a domain that cannot be created fails here

@@ -169,6 +169,7 @@ static const struct conf_key root_keys[] = {
         CONF_KEY_CUSTOM("domain_id", parse_domain),
         CONF_KEY_STRING("cyclonedds_uri", CFG, cyclonedds_uri),
         CONF_KEY_CUSTOM("navsatfix", parse_navsatfix),
+        CONF_KEY_UINT("wait_spin_us", CFG, wait_spin_us, 0, SL_WAIT_SPIN_MAX_US),
 };
 #define N_ROOT_KEYS             (sizeof(root_keys) / sizeof(root_keys[0]))
 

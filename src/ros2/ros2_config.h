@@ -3,13 +3,14 @@
  * sharedlink-mqtt's is: unknown keys, wrong types, out-of-range numbers, duplicate keys,
  * anchors, aliases and tags are errors "FILE:LINE:COL: message", never a silent default.
  * The keys (conf/sharedlink-ros2.yaml): instance, namespace, publish, writable, domain_id,
- * cyclonedds_uri, navsatfix: [{topic, latitude, longitude, altitude, frame_id}].
+ * cyclonedds_uri, navsatfix: [{topic, latitude, longitude, altitude, frame_id}], wait_spin_us.
  */
 #ifndef SHAREDLINK_ROS2_CONFIG_H
 #define SHAREDLINK_ROS2_CONFIG_H
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 
 #include <sharedlink.h>
 
@@ -49,6 +50,7 @@ struct ros2_config {
         char cyclonedds_uri[ROS2_URI_MAX];      /* "" : Cyclone's own ($CYCLONEDDS_URI) */
         unsigned n_navsatfix;
         struct ros2_navsatfix navsatfix[ROS2_NAVSATFIX_MAX];
+        uint32_t wait_spin_us;                  /* 0..SL_WAIT_SPIN_MAX_US; 0: sleep at once */
 };
 
 /* Fills *ret with every default (what an empty file gives). */

@@ -14,12 +14,14 @@
  *  - writes from <ns>/set/<name> reach the wire (the peer node's inbound variable); a string
  *    over 63 bytes, a value that is not wire text, a NaN, a writer of the wrong type and a
  *    writer on an inbound variable's set topic change nothing and are reported on set_errors;
- *    a flood of writes: every one written, the last one wins;
+ *    a flood of writes: every one written, the last one wins, and values changed meanwhile
+ *    (published from the bridge's waker thread while its loop takes the writes) go out too;
  *  - /diagnostics: one status per link and one for the bridge; a stopped daemon is STALE, and
  *    its restart is followed; events in ring order on <ns>/events, an overrun as a notice;
  *  - NavSatFix from two variables; a reader that vanishes (SIGKILL) does not stop the bridge;
  *  - -n: two variables on one topic, an unknown navsatfix variable (FILE:LINE:COL); a DDS
- *    domain that cannot be created fails the start with a clear message.
+ *    domain that cannot be created fails the start with a clear message;
+ *  - a second bridge with wait_spin_us publishes as the default one does.
  *
  * Network rule: every participant (this test's, the bridge's) is configured for unicast on
  * 127.0.0.1 only (AllowMulticast false, a 127.0.0.1 peer, the loopback interface), on a domain
@@ -62,6 +64,9 @@
 #define DOMAIN_BASE     100     /* domain ids 100..199, by pid: one of this run's own */
 #define DOMAIN_SPAN     100
 #define FLOOD           500     /* writes in the flood */
+#define VALUE_EVERY     50      /* test_values_during_flood: a value change every so many */
+#define SPIN_NS         "/spin"
+#define SPIN_US         1000    /* test_spin_bridge's wait_spin_us */
 #define RING_EVENTS     1024    /* the daemon's event ring (SHM_EVENTS_DEFAULT) */
 #define OVERRUN_EVENTS  (RING_EVENTS + 100)
 #define VANISH_ARG      "--vanishing-reader"
@@ -878,6 +883,74 @@ static void test_flood(void **state)
         dds_delete(wl);
 }
 
+/* Values go out from the waker's thread while the loop takes a flood of writes from ROS (the
+ * bridge's lock keeps the two apart, docs/ros2.md "Latency"): every write lands, the last of
+ * each wins, and the last value changed during the flood is published. */
+static void test_values_during_flood(void **state)
+{
+        char topic[TOPIC_MAX], text[32];
+        dds_entity_t wl, rd;
+        double v = FLOOD + 0.5;
+
+        (void)state;
+        topic_of(topic, sizeof(topic), "set/a/Count");
+        wl = writer(&std_msgs_msg_dds__Int64__desc, topic);
+        wait_matched(wl, true);
+        {
+                std_msgs_msg_dds__Int64_ hello = { .data = 2999 };
+
+                write_until(wl, &hello, "a.Count", "2999");
+        }
+        for (int i = 1; i <= FLOOD; i++) {
+                std_msgs_msg_dds__Int64_ l = { .data = 3000 + i };
+
+                assert_int_equal(dds_write(wl, &l), 0);
+                if (i % VALUE_EVERY == 0) {
+                        snprintf(text, sizeof(text), "%d.5", i);
+                        sl_set("a.Lat", text);
+                }
+        }
+        snprintf(text, sizeof(text), "%d", 3000 + FLOOD);
+        wait_var("a.Count", text);
+        snprintf(text, sizeof(text), "%d.5", FLOOD);
+        wait_var("b.Lat", text);
+        topic_of(topic, sizeof(topic), "b/Lat");
+        rd = reader(&std_msgs_msg_dds__Float64__desc, topic, RQ_TRANSIENT);
+        assert_true(wait_sample(rd, is_double, &v));
+        dds_delete(rd);
+        dds_delete(wl);
+}
+
+/* wait_spin_us: a second bridge on a namespace of its own, spinning before it sleeps, publishes
+ * a change as the default one does. */
+static void test_spin_bridge(void **state)
+{
+        char text[CONFIG_MAX], path[PATH_BUF], topic[TOPIC_MAX];
+        const char *argv[] = { bridge_path(), "-c", path, NULL };
+        struct harness s;
+        dds_entity_t rd;
+        double v = 77.5;
+        int st = 0;
+
+        (void)state;
+        assert_int_equal(harness_init(&s, "ros2s"), 0);
+        snprintf(text, sizeof(text), "instance: %s\nnamespace: " SPIN_NS "\ndomain_id: %u\n"
+                 "cyclonedds_uri: '%s'\npublish: [\"b.*\"]\nwait_spin_us: %u\n",
+                 F->h.instance, F->domain, CYCLONE_XML, SPIN_US);
+        assert_int_equal(harness_write_file(&s, "spin.yaml", text, path), 0);
+        s.capture_log = 1;
+        if (harness_start_program(&s, &F->h, argv, T_START_MS, &st) < 0)
+                fail_msg("sharedlink-ros2 with wait_spin_us did not start (status %d); log %s",
+                         st, s.log_path);
+        sl_set("a.Lat", "77.5");
+        wait_var("b.Lat", "77.5");
+        snprintf(topic, sizeof(topic), "rt" SPIN_NS "/b/Lat");
+        rd = reader(&std_msgs_msg_dds__Float64__desc, topic, RQ_TRANSIENT);
+        assert_true(wait_sample(rd, is_double, &v));
+        dds_delete(rd);
+        harness_cleanup(&s);
+}
+
 /* ---- diagnostics, events, navsatfix ------------------------------------------------------- */
 
 struct level_arg {
@@ -1312,12 +1385,14 @@ int main(int argc, char **argv)
                 cmocka_unit_test(test_writes_reach_the_wire),
                 cmocka_unit_test(test_bad_writes),
                 cmocka_unit_test(test_flood),
+                cmocka_unit_test(test_values_during_flood),
                 cmocka_unit_test(test_diagnostics),
                 cmocka_unit_test(test_events),
                 cmocka_unit_test(test_events_overrun),
                 cmocka_unit_test(test_navsatfix),
                 cmocka_unit_test(test_vanished_reader),
                 cmocka_unit_test(test_check),
+                cmocka_unit_test(test_spin_bridge),
                 cmocka_unit_test(test_fastdds_reader),
                 cmocka_unit_test(test_fastdds_writer),
                 cmocka_unit_test(test_daemon_restart),

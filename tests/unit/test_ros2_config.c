@@ -32,6 +32,7 @@ static void test_defaults_and_keys(void **state)
         assert_string_equal(c.publish.glob[0], "*");
         assert_int_equal(c.writable.count, 0);
         assert_false(c.domain_set);
+        assert_int_equal(c.wait_spin_us, 0);    /* the default sleeps at once */
         unsetenv("SHAREDLINK_INSTANCE");
         assert_int_equal(ros2_config_names(&c, inst, ns), 0);
         assert_string_equal(inst, "default");
@@ -40,7 +41,9 @@ static void test_defaults_and_keys(void **state)
                                "writable: [\"Cmd*\"]\ndomain_id: 42\n"
                                "cyclonedds_uri: file:///etc/cyclone.xml\n"
                                "navsatfix:\n  - {topic: gps/fix, latitude: Lat, longitude: Lon,\n"
-                               "     altitude: Alt, frame_id: gps}\n", &c, err), 0);
+                               "     altitude: Alt, frame_id: gps}\n"
+                               "wait_spin_us: 10000\n", &c, err), 0);
+        assert_int_equal(c.wait_spin_us, SL_WAIT_SPIN_MAX_US);
         assert_string_equal(c.instance, "car-1");
         assert_string_equal(c.ns, "/vehicle");
         assert_string_equal(c.writable.glob[0], "Cmd*");
@@ -89,6 +92,8 @@ static const struct bad_case bad[] = {
         { "namespace: /a/1b\n", "not a ROS namespace" },
         { "domain_id: 233\n", "t.yaml:1:12: domain_id 233 out of range (0..232)" },
         { "publish: [\"a/b\"]\n", "'+', '#' and '/' are not allowed" },
+        { "wait_spin_us: 10001\n", "t.yaml:1:15: wait_spin_us 10001 out of range (0..10000)" },
+        { "wait_spin_us: -1\n", "t.yaml:1:15: wait_spin_us" },
         { "navsatfix:\n  - {topic: fix, latitude: a}\n",
           "t.yaml:2:5: navsatfix: needs topic, latitude and longitude" },
         { "navsatfix:\n  - {topic: fix, latitude: a, longitude: a}\n",
@@ -132,6 +137,7 @@ static void test_example(void **state)
         assert_int_equal(c.writable.count, 0);
         assert_false(c.domain_set);
         assert_int_equal(c.n_navsatfix, 0);
+        assert_int_equal(c.wait_spin_us, d.wait_spin_us);
 }
 
 int main(void)

@@ -35,11 +35,10 @@
 #include "svc/evloop.h"
 #include "svc/log.h"
 #include "svc/service.h"
+#include "svc/backoff.h"
 #include "svc/waker.h"
 
 #define NS_PER_MS               1000000ull
-#define ATTACH_MIN_MS           100u    /* sl_open retries while no daemon runs ... */
-#define ATTACH_MAX_MS           5000u   /* ... doubling to this */
 #define STORE_RETRY_MS          5000u   /* a run the database refused is tried again */
 #define EVENTS_BATCH            32
 #define REPLY_MAX               512
@@ -77,8 +76,7 @@ struct main_ctx {
         bool db_error;                  /* the last store failed: said in STATUS= */
         bool ready;                     /* READY=1 sent */
         uint64_t last_ms;               /* the engine's clock never goes back */
-        unsigned attach_ms;
-        uint64_t attach_at_ms;          /* next sl_open attempt */
+        struct backoff attach;          /* sl_open retries while no daemon runs */
         uint64_t retry_at_ms;           /* next store retry, 0: none due */
         struct log_ratelimit display_rl;
 };
@@ -461,21 +459,19 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
         const char *inst = ctx->cfg->instance[0] ? ctx->cfg->instance : NULL;
         int r;
 
-        if (ctx->cl || now < ctx->attach_at_ms)
+        if (ctx->cl || !backoff_due(&ctx->attach, now))
                 return;
         r = sl_open(inst, &ctx->cl);
         if (r == 0)
                 r = sl_events_now(ctx->cl, &ctx->ev_cursor);
         if (r < 0) {
                 ctx->cl = sl_close(ctx->cl);
-                if (ctx->attach_ms == ATTACH_MIN_MS)
+                if (backoff_failed(&ctx->attach, now))
                         log_msg(LOG_PRIO_WARNING, "sharedlinkd instance %s: %s; retrying",
                                 inst ? inst : "(default)", sl_strerror(r));
-                ctx->attach_at_ms = now + ctx->attach_ms;
-                ctx->attach_ms = ctx->attach_ms * 2u > ATTACH_MAX_MS ? ATTACH_MAX_MS :
-                                 ctx->attach_ms * 2u;
                 return;
         }
+        backoff_reset(&ctx->attach);
         sl_set_command_wait(ctx->cl, COMMAND_WAIT_MS);
         if (waker_start(ctx->loop, ctx->cl, on_change, ctx, &ctx->waker) < 0)
                 log_msg(LOG_PRIO_ERR, "no waker: changes are seen only at the next timer");
@@ -491,8 +487,8 @@ static uint64_t timeout_ms(struct main_ctx *ctx, uint64_t now)
 {
         uint64_t at = agility_run_next_deadline(&ctx->run);
 
-        if (!ctx->cl && ctx->attach_at_ms < at)
-                at = ctx->attach_at_ms;
+        if (!ctx->cl && backoff_due_ms(&ctx->attach) < at)
+                at = backoff_due_ms(&ctx->attach);
         if (ctx->retry_at_ms && ctx->retry_at_ms < at)
                 at = ctx->retry_at_ms;
         if (at == UINT64_MAX)
@@ -722,7 +718,7 @@ static int setup(struct main_ctx *ctx, const struct service_desc *desc, const ch
                 return r;
         ctx->loop = service_loop(ctx->svc);
         evloop_timer_init(&ctx->step, ctx->loop, on_step, ctx);
-        ctx->attach_ms = ATTACH_MIN_MS;
+        backoff_reset(&ctx->attach);
         r = agilityd_http_start(ctx->cfg, &ctx->http, &port, err, sizeof(err));
         if (r < 0) {
                 log_msg(LOG_PRIO_ERR, "%s", err);

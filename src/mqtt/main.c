@@ -28,12 +28,11 @@
 #include "mqtt/bridge_mqtt.h"
 #include "svc/log.h"
 #include "svc/service.h"
+#include "svc/backoff.h"
 #include "svc/waker.h"
 
 #define NS_PER_MS               1000000ull
 #define TICK_MS                 1000u   /* rescan anyway (staleness by heartbeat), stats */
-#define ATTACH_MIN_MS           100u    /* sl_open retries while no daemon runs ... */
-#define ATTACH_MAX_MS           5000u   /* ... doubling to this */
 #define STATUS_MAX              320     /* a state and a reason per side */
 
 #ifndef SHAREDLINK_VERSION
@@ -51,8 +50,7 @@ struct main_ctx {
         struct waker *waker;            /* once attached */
         bool ready;
         uint64_t stop_deadline_ns;
-        unsigned attach_ms;
-        uint64_t attach_ns;             /* next sl_open attempt */
+        struct backoff attach;          /* sl_open retries while no daemon runs */
         uint64_t tick_ns;
         uint64_t sync_ns;               /* next fsync of the cursor */
         uint64_t stats_version;
@@ -72,18 +70,16 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
 {
         int r;
 
-        if (bridge_attached(ctx->b) || now < ctx->attach_ns)
+        if (bridge_attached(ctx->b) || !backoff_due(&ctx->attach, now / NS_PER_MS))
                 return;
         r = bridge_attach(ctx->b);
         if (r < 0) {
-                if (ctx->attach_ms == ATTACH_MIN_MS)
+                if (backoff_failed(&ctx->attach, now / NS_PER_MS))
                         log_msg(LOG_PRIO_WARNING, "sharedlinkd instance: %s; retrying",
                                 sl_strerror(r));
-                ctx->attach_ns = now + ctx->attach_ms * NS_PER_MS;
-                ctx->attach_ms = ctx->attach_ms * 2u > ATTACH_MAX_MS ? ATTACH_MAX_MS :
-                                 ctx->attach_ms * 2u;
                 return;
         }
+        backoff_reset(&ctx->attach);
         if (waker_start(ctx->loop, bridge_client(ctx->b), on_change, ctx, &ctx->waker) < 0)
                 log_msg(LOG_PRIO_WARNING, "rescanning every %u ms only", TICK_MS);
         ctx->dirty = true;
@@ -163,8 +159,8 @@ static uint64_t timeout_ms(struct main_ctx *ctx, uint64_t now)
 {
         uint64_t at = ctx->tick_ns, t, m;
 
-        if (!bridge_attached(ctx->b) && ctx->attach_ns < at)
-                at = ctx->attach_ns;
+        if (!bridge_attached(ctx->b) && backoff_due_ms(&ctx->attach) * NS_PER_MS < at)
+                at = backoff_due_ms(&ctx->attach) * NS_PER_MS;
         if (service_stopping(ctx->svc) && ctx->stop_deadline_ns < at)
                 at = ctx->stop_deadline_ns;
         t = at <= now ? 0 : (at - now + NS_PER_MS - 1u) / NS_PER_MS;
@@ -309,7 +305,7 @@ static int setup(struct main_ctx *ctx, const struct service_desc *desc, const ch
                 return r;
         }
         evloop_timer_init(&ctx->step, ctx->loop, on_step, ctx);
-        ctx->attach_ms = ATTACH_MIN_MS;
+        backoff_reset(&ctx->attach);
         log_msg(LOG_PRIO_INFO, "sharedlink-mqtt %s: %s -> %s:%d, topics %s/...",
                 SHAREDLINK_VERSION, path, ctx->cfg.host, ctx->cfg.port, bridge_base(ctx->b));
         return 0;

@@ -31,13 +31,12 @@
 #include "ros2/ros2_config.h"
 #include "svc/log.h"
 #include "svc/service.h"
+#include "svc/backoff.h"
 #include "svc/waker.h"
 
 #define NS_PER_MS               1000000ull
 #define TICK_MS                 1000u   /* /diagnostics, rescan (staleness by heartbeat) */
 #define RETRY_MS                20u     /* events history full: pump again this soon */
-#define ATTACH_MIN_MS           100u    /* sl_open retries while no daemon runs ... */
-#define ATTACH_MAX_MS           5000u   /* ... doubling to this */
 
 #ifndef SHAREDLINK_VERSION
 #define SHAREDLINK_VERSION      "unknown"
@@ -52,8 +51,7 @@ struct main_ctx {
         struct waker *waker;            /* once attached */
         bool fd_added;
         bool ready;
-        unsigned attach_ms;
-        uint64_t attach_ns;             /* next sl_open attempt */
+        struct backoff attach;          /* sl_open retries while no daemon runs */
         uint64_t tick_ns;
         pthread_mutex_t lock;           /* b and dirty: the loop's and the waker thread's */
         bool dirty;                     /* scan on the loop: attached, or a scan failed */
@@ -116,18 +114,16 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
         };
         int r;
 
-        if (ros2_bridge_client(ctx->b) || now < ctx->attach_ns)
+        if (ros2_bridge_client(ctx->b) || !backoff_due(&ctx->attach, now / NS_PER_MS))
                 return;
         r = ros2_bridge_attach(ctx->b);
         if (r < 0) {
-                if (ctx->attach_ms == ATTACH_MIN_MS)
+                if (backoff_failed(&ctx->attach, now / NS_PER_MS))
                         log_msg(LOG_PRIO_WARNING, "sharedlinkd instance: %s; retrying",
                                 sl_strerror(r));
-                ctx->attach_ns = now + ctx->attach_ms * NS_PER_MS;
-                ctx->attach_ms = ctx->attach_ms * 2u > ATTACH_MAX_MS ? ATTACH_MAX_MS :
-                                 ctx->attach_ms * 2u;
                 return;
         }
+        backoff_reset(&ctx->attach);
         if (waker_start_with(ctx->loop, ros2_bridge_client(ctx->b), on_change, ctx, &opts,
                              &ctx->waker) < 0)
                 log_msg(LOG_PRIO_WARNING, "rescanning every %u ms only", TICK_MS);
@@ -172,8 +168,8 @@ static void turn(struct main_ctx *ctx)
                 ros2_bridge_diagnostics(ctx->b);
         status_update(ctx);
         at = ctx->tick_ns;
-        if (!ros2_bridge_client(ctx->b) && ctx->attach_ns < at)
-                at = ctx->attach_ns;
+        if (!ros2_bridge_client(ctx->b) && backoff_due_ms(&ctx->attach) * NS_PER_MS < at)
+                at = backoff_due_ms(&ctx->attach) * NS_PER_MS;
         if (ros2_bridge_events_blocked(ctx->b) && now + RETRY_MS * NS_PER_MS < at)
                 at = now + RETRY_MS * NS_PER_MS;
         pthread_mutex_unlock(&ctx->lock);
@@ -232,7 +228,7 @@ static int setup(struct main_ctx *ctx, const struct service_desc *desc, const ch
                 return r;
         }
         ctx->fd_added = true;
-        ctx->attach_ms = ATTACH_MIN_MS;
+        backoff_reset(&ctx->attach);
         log_msg(LOG_PRIO_INFO, "sharedlink-ros2 %s: %s, topics %s/...", SHAREDLINK_VERSION, path,
                 ros2_bridge_namespace(ctx->b));
         return 0;

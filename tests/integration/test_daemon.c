@@ -1231,6 +1231,57 @@ static void test_out_truncated_recovers(void **state)
         stop_ok(h, SIGTERM);
 }
 
+/* A daemon with two links, p1.out1 written once through the library, and both tables mapped
+ * as a raw writer sees them (.out writable): the two tests below write p1.out1 by hand. */
+struct raw_out {
+        struct shmtest_view in, out;
+        uint32_t index;                 /* p1.out1's directory entry */
+};
+
+static void raw_out_start(struct harness *h, struct raw_out *r)
+{
+        char links[2 * LINK_MAX], path[PATH_BUF], name[PATH_BUF];
+        uint32_t count;
+
+        two_links(h, links, sizeof(links), 100, NULL);
+        write_config(h, "a.yaml", NULL, links, path);
+        start_ok(h, path);
+        write_through(h, "p1.out1", "1");
+        snprintf(name, sizeof(name), "/sharedlink.%s.in", h->instance);
+        r->in = shmtest_view_open(name, 0);
+        snprintf(name, sizeof(name), "/sharedlink.%s.out", h->instance);
+        r->out = shmtest_view_open(name, 1);
+        assert_non_null(r->in.base);
+        assert_non_null(r->out.base);
+        count = atomic_load(&shmtest_in_header(&r->in)->count);
+        for (r->index = 0; r->index < count; r->index++)
+                if (strcmp(shmtest_in_dir(&r->in)[r->index].name, "p1.out1") == 0)
+                        break;
+        assert_true(r->index < count);
+}
+
+/* Writes value into p1.out1's .out slot as a writer does (claim, store, publish), with no mark
+ * and no step of the change word; returns the slot's lock word after. */
+static uint64_t raw_out_write(struct raw_out *r, const char *value)
+{
+        struct shm_slot *slot = shmtest_out_slot(&r->out,
+                                                 shmtest_in_dir(&r->in)[r->index].out_slot);
+        uint64_t word;
+
+        assert_int_equal(shm_slot_claim(slot, (uint32_t)getpid(), &word), 0);
+        shm_slot_store(slot, value, (uint32_t)strlen(value), SHM_SLOT_VALID | SHM_SLOT_OUTBOUND,
+                       1, 2);
+        assert_int_equal(shm_slot_publish(slot, word), 0);
+        return shm_slot_word(slot);
+}
+
+static void raw_out_stop(struct harness *h, struct raw_out *r)
+{
+        shmtest_view_close(&r->out);
+        shmtest_view_close(&r->in);
+        stop_ok(h, SIGTERM);
+}
+
 /*
  * A write whose touched mark (layout 1.6) was lost, as a writer killed between its publish and
  * its mark leaves it: no mark, no bump of the change word, nobody to wake the daemon. Its scan at
@@ -1240,44 +1291,22 @@ static void test_out_truncated_recovers(void **state)
 static void test_out_lost_mark_heartbeat(void **state)
 {
         struct harness *h = *state;
-        char links[2 * LINK_MAX], path[PATH_BUF], name[PATH_BUF];
-        struct shmtest_view in, out;
+        struct raw_out r;
         struct sl_client *c;
-        struct shm_slot *slot;
-        uint32_t cursor = 0, index = 0, count;
+        uint32_t cursor = 0;
         uint64_t word;
         int tries = 0;
 
-        two_links(h, links, sizeof(links), 100, NULL);
-        write_config(h, "a.yaml", NULL, links, path);
-        start_ok(h, path);
-        write_through(h, "p1.out1", "1");
-        snprintf(name, sizeof(name), "/sharedlink.%s.in", h->instance);
-        in = shmtest_view_open(name, 0);
-        snprintf(name, sizeof(name), "/sharedlink.%s.out", h->instance);
-        out = shmtest_view_open(name, 1);
-        assert_non_null(in.base);
-        assert_non_null(out.base);
-        count = atomic_load(&shmtest_in_header(&in)->count);
-        while (index < count && strcmp(shmtest_in_dir(&in)[index].name, "p1.out1") != 0)
-                index++;
-        assert_true(index < count);
+        raw_out_start(h, &r);
         assert_int_equal(sl_open(h->instance, &c), 0);
         sl_wait(c, &cursor, 0);
-
-        slot = shmtest_out_slot(&out, shmtest_in_dir(&in)[index].out_slot);
-        assert_int_equal(shm_slot_claim(slot, (uint32_t)getpid(), &word), 0);
-        shm_slot_store(slot, "2", 1, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND, 1, 2);
-        assert_int_equal(shm_slot_publish(slot, word), 0);
-        word = shm_slot_word(slot);
-        while (atomic_load(&shmtest_in_slot(&in, index)->source) != word) {
+        word = raw_out_write(&r, "2");
+        while (atomic_load(&shmtest_in_slot(&r.in, r.index)->source) != word) {
                 assert_true(++tries < 4);
                 assert_int_equal(sl_wait(c, &cursor, T_RECOVER_MS), 1);
         }
         sl_close(c);
-        shmtest_view_close(&out);
-        shmtest_view_close(&in);
-        stop_ok(h, SIGTERM);
+        raw_out_stop(h, &r);
 }
 
 /*
@@ -1290,51 +1319,30 @@ static void test_out_lost_mark_heartbeat(void **state)
 static void test_request_sees_earlier_writes(void **state)
 {
         struct harness *h = *state;
-        char links[2 * LINK_MAX], path[PATH_BUF], name[PATH_BUF], reply[REPLY_MAX];
-        struct shmtest_view in, out;
+        char reply[REPLY_MAX];
+        struct raw_out r;
         struct shm_out_header *oh;
-        struct shm_slot *slot;
-        uint32_t index = 0, count, slot_index;
+        uint32_t slot_index;
         uint64_t word;
 
-        two_links(h, links, sizeof(links), 100, NULL);
-        write_config(h, "a.yaml", NULL, links, path);
-        start_ok(h, path);
-        write_through(h, "p1.out1", "1");
-        snprintf(name, sizeof(name), "/sharedlink.%s.in", h->instance);
-        in = shmtest_view_open(name, 0);
-        snprintf(name, sizeof(name), "/sharedlink.%s.out", h->instance);
-        out = shmtest_view_open(name, 1);
-        assert_non_null(in.base);
-        assert_non_null(out.base);
-        count = atomic_load(&shmtest_in_header(&in)->count);
-        while (index < count && strcmp(shmtest_in_dir(&in)[index].name, "p1.out1") != 0)
-                index++;
-        assert_true(index < count);
-        oh = out.base;
+        raw_out_start(h, &r);
+        oh = r.out.base;
         assert_true(oh->touched_words > 0);
         assert_true(oh->touched_offset + (uint64_t)oh->touched_words * sizeof(uint64_t) <=
-                    out.size);
-
+                    r.out.size);
         /* The write and its mark, as sl_write makes them, but no step of the change word: no
          * wake-up comes. Done in one go between two heartbeats, most likely: the request
          * follows at once. */
-        slot_index = shmtest_in_dir(&in)[index].out_slot;
-        slot = shmtest_out_slot(&out, slot_index);
-        assert_int_equal(shm_slot_claim(slot, (uint32_t)getpid(), &word), 0);
-        shm_slot_store(slot, "2", 1, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND, 1, 2);
-        assert_int_equal(shm_slot_publish(slot, word), 0);
-        word = shm_slot_word(slot);
-        atomic_fetch_or_explicit((_Atomic uint64_t *)((char *)out.base + oh->touched_offset) +
+        slot_index = shmtest_in_dir(&r.in)[r.index].out_slot;
+        word = raw_out_write(&r, "2");
+        atomic_fetch_or_explicit((_Atomic uint64_t *)((char *)r.out.base + oh->touched_offset) +
                                          slot_index / SHM_TOUCHED_WORD_BITS,
                                  (uint64_t)1 << (slot_index % SHM_TOUCHED_WORD_BITS),
                                  memory_order_release);
         request(h, "ping", reply, sizeof(reply));
         assert_memory_equal(reply, "OK ", 3);
-        assert_int_equal(atomic_load(&shmtest_in_slot(&in, index)->source), word);
-        shmtest_view_close(&out);
-        shmtest_view_close(&in);
-        stop_ok(h, SIGTERM);
+        assert_int_equal(atomic_load(&shmtest_in_slot(&r.in, r.index)->source), word);
+        raw_out_stop(h, &r);
 }
 
 int main(void)

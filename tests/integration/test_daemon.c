@@ -279,7 +279,9 @@ static const struct bad_case bad_cases[] = {
           "group: nosuchgroup-sl\nlinks:\n  - name: a\n    protocol: sharedlink\n"
           "    transport: pty\n    device: /tmp/x.tty\n    address: A\n    peers:\n"
           "      - address: B\n        outbound: [v1]\n",
-          "2:8", "group \"nosuchgroup-sl\" does not exist" },
+          "2:8", "group \"nosuchgroup-sl\" does not exist: create it (groupadd --system "
+          "nosuchgroup-sl; for \"sharedlink\", systemd-sysusers once make install has put its "
+          "sysusers.d file in place), or leave out group:\n" },
         { "pronto4 max_frame over what the clients read",
           "links:\n  - name: a\n    protocol: sharedlink\n    transport: pty\n"
           "    device: /tmp/x.tty\n    address: A\n    peers:\n"
@@ -861,6 +863,24 @@ static void test_second_daemon(void **state)
         stop_ok(h, SIGTERM);
 }
 
+/* A group that does not exist fails a real start as it fails -n: exit 1, and the log says how
+ * to create it (the reference configuration names "sharedlink", which make install's sysusers.d
+ * file makes). */
+static void test_missing_group_start(void **state)
+{
+        struct harness *h = *state;
+        char links[2 * LINK_MAX], path[PATH_BUF];
+        int status = 0;
+
+        two_links(h, links, sizeof(links), 100, NULL);
+        write_config(h, "a.yaml", "group: nosuchgroup-sl\n", links, path);
+        assert_int_equal(harness_start_daemon(h, path, T_START_MS, &status, NULL), -ECHILD);
+        assert_true(WIFEXITED(status));
+        assert_int_equal(WEXITSTATUS(status), 1);
+        assert_int_equal(harness_log_contains(h, "group \"nosuchgroup-sl\" does not exist: "
+                                              "create it (groupadd --system nosuchgroup-sl"), 1);
+}
+
 static int orphan_answered(struct harness *h)
 {
         char reply[REPLY_MAX];
@@ -1409,6 +1429,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_control_held_by_users, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_control_stale_and_live, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_second_daemon, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_missing_group_start, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_request_outlives_client, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_reload_settings, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_reload_variables, setup, teardown),

@@ -14,7 +14,8 @@
  * deadline, a retry); libmicrohttpd's threads serve the scoreboard (agilityd_http.h). Always
  * in the foreground, logging to stderr with <N> priority prefixes. Exit status: 0 after a clean
  * stop (SIGTERM, SIGINT) or a good -n check, 1 on a bad configuration or a failed start, 2 on a
- * usage error.
+ * usage error, 3 when another sharedlink-agility times the same link of the instance
+ * (svc/lockfile.h).
  */
 #include <errno.h>
 #include <inttypes.h>
@@ -33,6 +34,7 @@
 #include "agility/agilityd_http.h"
 #include "agility/agilityd_store.h"
 #include "svc/evloop.h"
+#include "svc/lockfile.h"
 #include "svc/log.h"
 #include "svc/service.h"
 #include "svc/backoff.h"
@@ -79,6 +81,9 @@ struct main_ctx {
         struct backoff attach;          /* sl_open retries while no daemon runs */
         uint64_t retry_at_ms;           /* next store retry, 0: none due */
         struct log_ratelimit display_rl;
+        struct lockfile single;         /* one sharedlink-agility per link of an instance */
+        char lock_instance[AGILITYD_NAME_MAX];  /* the instance of its name (from the start) */
+        bool held_elsewhere;            /* another holds it: SERVICE_EXIT_HELD */
 };
 
 static void handle(struct main_ctx *ctx, struct agility_actions *acts);
@@ -620,6 +625,37 @@ static struct class_load *class_prepare(const char *path)
 }
 
 /* Makes cl the running class (Offline: the caller starts it); cl is consumed. */
+/*
+ * Takes the lock of link of the instance (svc/lockfile.h) into l: two sharedlink-agility on one
+ * CIRCE controller link would both drive its displays and both record every run. The database
+ * is SQLite's to share (its own locking; runs are stored by class). 0 or -errno (logged).
+ */
+static int take_lock(struct main_ctx *ctx, struct lockfile *l, const char *link)
+{
+        const char *parts[] = { ctx->lock_instance, "agility", link };
+        char what[2 * AGILITYD_NAME_MAX + 32];
+
+        lockfile_init(l);
+        snprintf(what, sizeof(what), "times link %s of instance %s", link, ctx->lock_instance);
+        return lockfile_take_service(l, "sharedlink-agility", what, parts, 3);
+}
+
+/* A reload that names another link moves the lock to it first; 0 or -errno (logged). */
+static int move_lock(struct main_ctx *ctx, const char *link)
+{
+        struct lockfile l;
+        int r;
+
+        if (strcmp(link, ctx->cfg->link) == 0)
+                return 0;
+        r = take_lock(ctx, &l, link);
+        if (r < 0)
+                return r;
+        lockfile_release(&ctx->single);
+        ctx->single = l;
+        return 0;
+}
+
 static void class_install(struct main_ctx *ctx, struct class_load *cl)
 {
         struct agilityd_config *old = ctx->cfg;
@@ -682,6 +718,13 @@ static void reload(struct main_ctx *ctx)
                 ready(ctx);
                 return;
         }
+        if (move_lock(ctx, cl->cfg->link) < 0) {
+                log_msg(LOG_PRIO_ERR, "SIGHUP: link %s is taken: the class %s stays",
+                        cl->cfg->link, ctx->cfg->class_name);
+                class_load_free(cl);
+                ready(ctx);
+                return;
+        }
         snprintf(old_host, sizeof(old_host), "%s", ctx->cfg->http_host);
         snprintf(old_instance, sizeof(old_instance), "%s", ctx->cfg->instance);
         if (strcmp(old_host, cl->cfg->http_host) != 0 || old_port != cl->cfg->http_port ||
@@ -702,6 +745,7 @@ static int setup(struct main_ctx *ctx, const struct service_desc *desc, const ch
         static const struct service_ops ops = { .reload = on_reload };   /* stop: at once */
         char err[AGILITYD_ERROR_MAX];
         struct class_load *cl;
+        const char *inst;
         uint16_t port = 0;
         int r;
 
@@ -710,6 +754,14 @@ static int setup(struct main_ctx *ctx, const struct service_desc *desc, const ch
         if (!cl)
                 return -EINVAL;
         class_install(ctx, cl);
+        /* Before the link and the scoreboard see us. The instance is the one sl_open takes. */
+        inst = ctx->cfg->instance[0] ? ctx->cfg->instance : getenv("SHAREDLINK_INSTANCE");
+        snprintf(ctx->lock_instance, sizeof(ctx->lock_instance), "%s",
+                 inst && inst[0] ? inst : "default");
+        r = take_lock(ctx, &ctx->single, ctx->cfg->link);
+        ctx->held_elsewhere = r == -EBUSY;
+        if (r < 0)
+                return r;
         log_ratelimit_init(&ctx->display_rl, "displays", LOG_RATELIMIT_INTERVAL_MS,
                            LOG_RATELIMIT_BURST);
         /* The signals are blocked from here on: the threads below inherit the mask. */
@@ -756,6 +808,7 @@ static void teardown(struct main_ctx *ctx)
         ctx->http = agilityd_http_stop(ctx->http);
         ctx->cl = sl_close(ctx->cl);
         ctx->store = agilityd_store_close(ctx->store);
+        lockfile_release(&ctx->single);
         ctx->svc = service_free(ctx->svc);
         free(ctx->cfg);
 }
@@ -773,10 +826,13 @@ int main(int argc, char **argv)
         if (r != SERVICE_CONTINUE)
                 return r;
         service_start(&args);
+        lockfile_init(&ctx.single);
         r = SERVICE_EXIT_FAILURE;
         if (setup(&ctx, &desc, args.config) == 0) {
                 start(&ctx);
                 r = service_run(ctx.svc);
+        } else if (ctx.held_elsewhere) {
+                r = SERVICE_EXIT_HELD;
         }
         teardown(&ctx);
         return r;

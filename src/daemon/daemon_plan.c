@@ -200,8 +200,13 @@ static int resolve_group(const char *name, gid_t *ret_gid, char *err, size_t err
         free(buf);
         if (r != 0)
                 return errf(err, errsz, -r, "group \"%s\": %s", name, strerror(r));
+        /* Said at -n as at a start: the reference configuration names the house's group, which
+         * exists only once the sysusers.d snippet that make install puts in place was applied. */
         if (!res)
-                return errf(err, errsz, -ENOENT, "group \"%s\" does not exist", name);
+                return errf(err, errsz, -ENOENT, "group \"%s\" does not exist: create it "
+                            "(groupadd --system %s; for \"sharedlink\", systemd-sysusers once "
+                            "make install has put its sysusers.d file in place), or leave out "
+                            "group:", name, name);
         return 0;
 }
 

@@ -10,7 +10,8 @@
  * client, the waker once attached; teardown in reverse.
  * A stop drains (drain_ms); SIGHUP has no reload here (logged). Always in the foreground,
  * logging to stderr with <N> priority prefixes. Exit status: 0 after a clean stop (SIGTERM,
- * SIGINT) or a good -n check, 1 on a bad configuration or a failed start, 2 on a usage error.
+ * SIGINT) or a good -n check, 1 on a bad configuration or a failed start, 2 on a usage error,
+ * 3 when another sharedlink-mqtt bridges the same instance to the same topics (svc/lockfile.h).
  */
 #include <errno.h>
 #include <poll.h>
@@ -26,6 +27,7 @@
 #include "mqtt/bridge_config.h"
 #include "mqtt/bridge_format.h"
 #include "mqtt/bridge_mqtt.h"
+#include "svc/lockfile.h"
 #include "svc/log.h"
 #include "svc/service.h"
 #include "svc/backoff.h"
@@ -55,6 +57,8 @@ struct main_ctx {
         uint64_t sync_ns;               /* next fsync of the cursor */
         uint64_t stats_version;
         bool dirty;                     /* the tables changed since the last scan */
+        struct lockfile single;         /* one bridge per instance and prefix */
+        bool held_elsewhere;            /* another holds it: SERVICE_EXIT_HELD */
 };
 
 /* The waker: the tables changed. */
@@ -279,6 +283,20 @@ static int check_only(const char *path)
         return service_check_ok();
 }
 
+/* One bridge per instance and topic prefix (svc/lockfile.h), before the broker sees us: a second
+ * one would publish everything twice and fight the first over every write. */
+static int take_lock(struct main_ctx *ctx, const char *program)
+{
+        const char *parts[] = { "mqtt", bridge_base(ctx->b) };
+        char what[BRIDGE_TOPIC_MAX + 32];
+        int r;
+
+        snprintf(what, sizeof(what), "bridges topics %s/...", bridge_base(ctx->b));
+        r = lockfile_take_service(&ctx->single, program, what, parts, 2);
+        ctx->held_elsewhere = r == -EBUSY;
+        return r;
+}
+
 static int setup(struct main_ctx *ctx, const struct service_desc *desc, const char *path)
 {
         static const struct service_ops ops = { .stop = on_stop };      /* no reload */
@@ -293,18 +311,21 @@ static int setup(struct main_ctx *ctx, const struct service_desc *desc, const ch
         if (r < 0)
                 return r;
         ctx->loop = service_loop(ctx->svc);
+        evloop_timer_init(&ctx->step, ctx->loop, on_step, ctx);        /* teardown cancels it */
         r = bridge_new(&ctx->cfg, &ctx->b);
         if (r < 0) {
                 log_msg(LOG_PRIO_ERR, "%s: %s", path, r == -EINVAL ?
                         "instance or prefix too long for a topic" : strerror(-r));
                 return r;
         }
+        r = take_lock(ctx, desc->name);
+        if (r < 0)
+                return r;
         r = bridge_mqtt_new(&ctx->cfg, ctx->b, &ctx->bm, err, sizeof(err));
         if (r < 0) {
                 log_msg(LOG_PRIO_ERR, "%s: %s", path, err);
                 return r;
         }
-        evloop_timer_init(&ctx->step, ctx->loop, on_step, ctx);
         backoff_reset(&ctx->attach);
         log_msg(LOG_PRIO_INFO, "sharedlink-mqtt %s: %s -> %s:%d, topics %s/...",
                 SHAREDLINK_VERSION, path, ctx->cfg.host, ctx->cfg.port, bridge_base(ctx->b));
@@ -327,6 +348,7 @@ static void teardown(struct main_ctx *ctx)
         if (ctx->b)
                 bridge_cursor_flush(ctx->b, true);
         ctx->bm = bridge_mqtt_free(ctx->bm);
+        lockfile_release(&ctx->single);
         ctx->b = bridge_free(ctx->b);
         ctx->svc = service_free(ctx->svc);
 }
@@ -345,10 +367,13 @@ int main(int argc, char **argv)
                 return r;
         service_start(&args);
         mosquitto_lib_init();
+        lockfile_init(&ctx.single);
         r = SERVICE_EXIT_FAILURE;
         if (setup(&ctx, &desc, args.config) == 0) {
                 turn(&ctx);
                 r = service_run(ctx.svc);
+        } else if (ctx.held_elsewhere) {
+                r = SERVICE_EXIT_HELD;
         }
         teardown(&ctx);
         mosquitto_lib_cleanup();

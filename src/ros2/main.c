@@ -16,7 +16,9 @@
  * stop is at once (nothing is in flight that a later start could not redo); SIGHUP has no
  * reload (logged). -n checks the file, then, when the daemon runs, the variables it names and
  * the topics they map to. Exit status: 0 after a clean stop or a good -n check, 1 on a bad
- * configuration or a failed start (a DDS domain that cannot be created), 2 on a usage error.
+ * configuration or a failed start (a DDS domain that cannot be created), 2 on a usage error, 3
+ * when another sharedlink-ros2 bridges the same instance to the same namespace and DDS domain
+ * (svc/lockfile.h).
  */
 #include <errno.h>
 #include <poll.h>
@@ -29,6 +31,7 @@
 
 #include "ros2/ros2_bridge.h"
 #include "ros2/ros2_config.h"
+#include "svc/lockfile.h"
 #include "svc/log.h"
 #include "svc/service.h"
 #include "svc/backoff.h"
@@ -55,6 +58,8 @@ struct main_ctx {
         uint64_t tick_ns;
         pthread_mutex_t lock;           /* b and dirty: the loop's and the waker thread's */
         bool dirty;                     /* scan on the loop: attached, or a scan failed */
+        struct lockfile single;         /* one bridge per instance, namespace and domain */
+        bool held_elsewhere;            /* another holds it: SERVICE_EXIT_HELD */
 };
 
 static void turn(struct main_ctx *ctx);
@@ -202,6 +207,28 @@ static int check_only(const char *path)
         return service_check_ok();
 }
 
+/* One bridge per instance, namespace and DDS domain (svc/lockfile.h), before DDS sees us: a
+ * second one would publish everything twice and fight the first over every write. A name or
+ * domain that does not resolve is left to ros2_bridge_new, which says why. */
+static int take_lock(struct main_ctx *ctx, const char *program)
+{
+        char instance[ROS2_INSTANCE_MAX], ns[ROS2_NAMESPACE_MAX], domain[16];
+        char what[ROS2_INSTANCE_MAX + ROS2_NAMESPACE_MAX + 64];
+        const char *parts[] = { instance, "ros2", domain, ns };
+        unsigned id;
+        int r;
+
+        if (ros2_config_names(&ctx->cfg, instance, ns) < 0 ||
+            ros2_config_domain(&ctx->cfg, &id) < 0)
+                return 0;
+        snprintf(domain, sizeof(domain), "%u", id);
+        snprintf(what, sizeof(what), "bridges instance %s to namespace %s on DDS domain %u",
+                 instance, ns, id);
+        r = lockfile_take_service(&ctx->single, program, what, parts, 4);
+        ctx->held_elsewhere = r == -EBUSY;
+        return r;
+}
+
 static int setup(struct main_ctx *ctx, const struct service_desc *desc, const char *path)
 {
         static const struct service_ops ops = { 0 };    /* stop at once, no reload */
@@ -217,6 +244,9 @@ static int setup(struct main_ctx *ctx, const struct service_desc *desc, const ch
                 return r;
         ctx->loop = service_loop(ctx->svc);
         evloop_timer_init(&ctx->step, ctx->loop, on_step, ctx);
+        r = take_lock(ctx, desc->name);
+        if (r < 0)
+                return r;
         r = ros2_bridge_new(&ctx->cfg, &ctx->b, err, sizeof(err));
         if (r < 0) {
                 log_msg(LOG_PRIO_ERR, "%s: %s", path, err);
@@ -242,6 +272,7 @@ static void teardown(struct main_ctx *ctx)
                 evloop_del_fd(ctx->loop, ros2_bridge_fd(ctx->b));
         ctx->waker = waker_stop(ctx->waker);
         ctx->b = ros2_bridge_free(ctx->b);
+        lockfile_release(&ctx->single);
         ctx->svc = service_free(ctx->svc);
 }
 
@@ -258,10 +289,13 @@ int main(int argc, char **argv)
         if (r != SERVICE_CONTINUE)
                 return r;
         service_start(&args);
+        lockfile_init(&ctx.single);
         r = SERVICE_EXIT_FAILURE;
         if (setup(&ctx, &desc, args.config) == 0) {
                 turn(&ctx);
                 r = service_run(ctx.svc);
+        } else if (ctx.held_elsewhere) {
+                r = SERVICE_EXIT_HELD;
         }
         teardown(&ctx);
         return r;

@@ -5,7 +5,10 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <limits.h>
 #include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 int io_write_all(int fd, const void *buf, size_t len)
@@ -61,4 +64,33 @@ int io_read_file(const char *path, size_t max, char **ret_text, size_t *ret_len)
         *ret_text = buf;
         *ret_len = len;
         return 0;
+}
+
+int io_mkdir_parents(const char *path, mode_t mode)
+{
+        char buf[PATH_MAX];
+        struct stat st;
+
+        if (strlen(path) >= sizeof(buf))
+                return -ENAMETOOLONG;
+        strcpy(buf, path);
+        for (char *p = buf + 1;; p++) {
+                char c = *p;
+
+                if (c != '/' && c != '\0')
+                        continue;
+                *p = '\0';
+                if (mkdir(buf, mode) == 0) {
+                        if (chmod(buf, mode) < 0)
+                                return -errno;
+                } else if (errno != EEXIST) {
+                        return -errno;
+                }
+                *p = c;
+                if (!c)
+                        break;
+        }
+        if (stat(path, &st) < 0)
+                return -errno;
+        return S_ISDIR(st.st_mode) ? 0 : -ENOTDIR;
 }

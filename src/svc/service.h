@@ -41,7 +41,8 @@
  * the mask and the signals reach the loop.
  *
  * Exit status: SERVICE_EXIT_OK after a clean stop or a good -n check, SERVICE_EXIT_FAILURE on a
- * bad configuration, a failed start or a fatal error in the loop, SERVICE_EXIT_USAGE.
+ * bad configuration, a failed start or a fatal error in the loop, SERVICE_EXIT_USAGE,
+ * SERVICE_EXIT_HELD when another copy holds the daemon's lock (svc/lockfile.h).
  */
 #ifndef SHAREDLINK_SVC_SERVICE_H
 #define SHAREDLINK_SVC_SERVICE_H
@@ -55,6 +56,9 @@
 #define SERVICE_EXIT_OK         0
 #define SERVICE_EXIT_FAILURE    1       /* a bad configuration or a failed start */
 #define SERVICE_EXIT_USAGE      2
+/* Another copy already serves what this one would (svc/lockfile.h): the units do not restart on
+ * it (RestartPreventExitStatus=), since a restart meets the same holder. */
+#define SERVICE_EXIT_HELD       3
 #define SERVICE_CONTINUE        (-1)    /* service_args(): run the daemon */
 #define SERVICE_STOP_NOW        0       /* service_ops.stop: the loop ends after this round */
 #define SERVICE_STOP_DRAIN      1       /* ... the daemon calls service_exit() when drained */

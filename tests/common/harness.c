@@ -299,6 +299,34 @@ int harness_start_program(struct harness *h, const struct harness *env, const ch
         return wait_notify_or_exit(h, "READY=1", timeout_ms, ret_status);
 }
 
+int harness_start_refused(const struct harness *env, const char *tag, const char *const *argv,
+                          int timeout_ms, int code, const char *needle, char *why, size_t whysz)
+{
+        struct harness h;
+        int st = 0, r = harness_init(&h, tag);
+
+        if (r < 0) {
+                snprintf(why, whysz, "harness: %s", strerror(-r));
+                return r;
+        }
+        h.capture_log = 1;
+        r = harness_start_program(&h, env, argv, timeout_ms, &st);
+        if (r == -ECHILD) {
+                h.pid = 0;
+                r = WIFEXITED(st) && WEXITSTATUS(st) == code &&
+                    harness_log_contains(&h, needle) == 1 ? 0 : -EPROTO;
+        } else {
+                r = -EPROTO;
+        }
+        snprintf(why, whysz, "%s: %s (wait status 0x%x), wanted exit %d and \"%s\" in %s",
+                 argv[0], h.pid > 0 ? "started" : "exited", (unsigned)st, code, needle,
+                 h.log_path);
+        if (r < 0)              /* keep the log to read */
+                h.dir[0] = '\0';
+        harness_cleanup(&h);
+        return r;
+}
+
 int harness_wait_notify(struct harness *h, const char *needle, int timeout_ms)
 {
         return wait_notify_or_exit(h, needle, timeout_ms, NULL);

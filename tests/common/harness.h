@@ -52,6 +52,13 @@ int harness_start_daemon(struct harness *h, const char *config, int timeout_ms, 
 int harness_start_program(struct harness *h, const struct harness *env, const char *const *argv,
                           int timeout_ms, int *ret_status);
 
+/* Starts argv as harness_start_program() does, in a harness of its own (tag; removed after) with
+ * env's instance and runtime directory, for a start that must be refused: 0 when the program
+ * exited with status code before READY=1 and its log holds needle; otherwise -EPROTO (or the
+ * -errno of the harness), with what happened in why (whysz bytes). */
+int harness_start_refused(const struct harness *env, const char *tag, const char *const *argv,
+                          int timeout_ms, int code, const char *needle, char *why, size_t whysz);
+
 /* The message harness_start_config() leaves: the outcome and what this start wrote to the log. */
 #define HARNESS_WHY_MAX 2048
 

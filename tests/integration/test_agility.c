@@ -838,12 +838,31 @@ static void test_browser(void **state)
         assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
 }
 
+/* A second sharedlink-agility on the same link of the instance refuses to start: exit 3, naming
+ * the first by its pid; the first carries on (its successor after a SIGKILL: test_sigkill). */
+static void test_second_refused(void **state)
+{
+        struct fx *f = *state;
+        const char *argv[] = { agility_path(), "-c", f->conf, NULL };
+        char want[PATH_BUF], why[HARNESS_WHY_MAX];
+
+        bring_up(f);
+        snprintf(want, sizeof(want), "another sharedlink-agility (pid %ld) already times link "
+                 "agility of instance %s (lock %s/", (long)f->a.pid, f->h.instance, f->h.dir);
+        if (harness_start_refused(&f->h, "agility2", argv, T_START_MS, 3, want, why,
+                                  sizeof(why)) < 0)
+                fail_msg("%s", why);
+        assert_true(kill(f->a.pid, 0) == 0);
+        assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
                 cmocka_unit_test_setup_teardown(test_check, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_spec_run, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_sigkill, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_second_refused, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_database_locked, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_reload, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_sync_lost, setup, teardown),

@@ -24,6 +24,7 @@
 #include <inttypes.h>
 #include <poll.h>
 #include <pwd.h>
+#include <sched.h>
 #include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -278,7 +279,9 @@ static const struct bad_case bad_cases[] = {
           "group: nosuchgroup-sl\nlinks:\n  - name: a\n    protocol: sharedlink\n"
           "    transport: pty\n    device: /tmp/x.tty\n    address: A\n    peers:\n"
           "      - address: B\n        outbound: [v1]\n",
-          "2:8", "group \"nosuchgroup-sl\" does not exist" },
+          "2:8", "group \"nosuchgroup-sl\" does not exist: create it (groupadd --system "
+          "nosuchgroup-sl; for \"sharedlink\", systemd-sysusers once make install has put its "
+          "sysusers.d file in place), or leave out group:\n" },
         { "pronto4 max_frame over what the clients read",
           "links:\n  - name: a\n    protocol: sharedlink\n    transport: pty\n"
           "    device: /tmp/x.tty\n    address: A\n    peers:\n"
@@ -860,6 +863,24 @@ static void test_second_daemon(void **state)
         stop_ok(h, SIGTERM);
 }
 
+/* A group that does not exist fails a real start as it fails -n: exit 1, and the log says how
+ * to create it (the reference configuration names "sharedlink", which make install's sysusers.d
+ * file makes). */
+static void test_missing_group_start(void **state)
+{
+        struct harness *h = *state;
+        char links[2 * LINK_MAX], path[PATH_BUF];
+        int status = 0;
+
+        two_links(h, links, sizeof(links), 100, NULL);
+        write_config(h, "a.yaml", "group: nosuchgroup-sl\n", links, path);
+        assert_int_equal(harness_start_daemon(h, path, T_START_MS, &status, NULL), -ECHILD);
+        assert_true(WIFEXITED(status));
+        assert_int_equal(WEXITSTATUS(status), 1);
+        assert_int_equal(harness_log_contains(h, "group \"nosuchgroup-sl\" does not exist: "
+                                              "create it (groupadd --system nosuchgroup-sl"), 1);
+}
+
 static int orphan_answered(struct harness *h)
 {
         char reply[REPLY_MAX];
@@ -1310,37 +1331,81 @@ static void test_out_lost_mark_heartbeat(void **state)
 }
 
 /*
+ * Waits (bounded) until the daemon's wake thread sleeps having seen every step of .out's change
+ * word: it sets SHM_OUT_WAITING with a CAS on the value it compared, after signalling the loop
+ * for any change, and a writer's step clears the flag (shm/wake.h). Nothing wakes a waiter when
+ * the flag is set, so this yields in a loop, as shmtest_thread_wait_asleep does.
+ */
+static void wait_wake_thread_asleep(struct shm_out_header *oh)
+{
+        uint64_t deadline = harness_now_ns() + (uint64_t)T_REPLY_MS * 1000000u;
+
+        while (!(atomic_load(&oh->change) & SHM_OUT_WAITING)) {
+                assert_true(harness_now_ns() < deadline);
+                sched_yield();
+        }
+}
+
+/* Marks .out slot slot_index in the touched map (layout 1.6), as sl_write does after its publish. */
+static void raw_out_touch(struct raw_out *r, uint32_t slot_index)
+{
+        struct shm_out_header *oh = r->out.base;
+
+        atomic_fetch_or_explicit((_Atomic uint64_t *)((char *)r->out.base + oh->touched_offset) +
+                                         slot_index / SHM_TOUCHED_WORD_BITS,
+                                 (uint64_t)1 << (slot_index % SHM_TOUCHED_WORD_BITS),
+                                 memory_order_release);
+}
+
+#define QUIET_TRIES     8       /* rounds a heartbeat may spoil before the test gives up */
+
+/*
  * A control request sees the writes finished before it was sent: a write marked in the touched
  * map (layout 1.6) but whose wake-up has not come (here: none at all, the change word is not
  * bumped) is in the .in mirror by the time a request is answered. Without the catch-up before
  * each request, only the next heartbeat (up to 1 s later) would take it, and a `slctl query`
  * right after `slctl set` could answer the old value on a busy machine.
+ *
+ * Nothing else may take the write, or the test could not fail: before it the daemon is made
+ * quiet (the wake thread asleep with every change seen, then two requests, the second sent
+ * after the first's answer, so the loop round that found the wake-up's eventfd readable with the
+ * first is over: the wake-up raw_out_start's write left is taken), and a round whose window
+ * (from before the quieting to after the answer) saw a heartbeat, whose full scan takes every
+ * write, is not counted: the heartbeat stamp did not move, or the round is played again with
+ * another value (a heartbeat comes once a second; a round takes milliseconds).
  */
 static void test_request_sees_earlier_writes(void **state)
 {
         struct harness *h = *state;
-        char reply[REPLY_MAX];
+        char reply[REPLY_MAX], value[16];
         struct raw_out r;
         struct shm_out_header *oh;
+        _Atomic uint64_t *heartbeat;
         uint32_t slot_index;
-        uint64_t word;
+        uint64_t word, before;
+        int round = 0;
 
         raw_out_start(h, &r);
         oh = r.out.base;
         assert_true(oh->touched_words > 0);
         assert_true(oh->touched_offset + (uint64_t)oh->touched_words * sizeof(uint64_t) <=
                     r.out.size);
-        /* The write and its mark, as sl_write makes them, but no step of the change word: no
-         * wake-up comes. Done in one go between two heartbeats, most likely: the request
-         * follows at once. */
+        heartbeat = &shmtest_in_header(&r.in)->heartbeat_ns;
         slot_index = shmtest_in_dir(&r.in)[r.index].out_slot;
-        word = raw_out_write(&r, "2");
-        atomic_fetch_or_explicit((_Atomic uint64_t *)((char *)r.out.base + oh->touched_offset) +
-                                         slot_index / SHM_TOUCHED_WORD_BITS,
-                                 (uint64_t)1 << (slot_index % SHM_TOUCHED_WORD_BITS),
-                                 memory_order_release);
-        request(h, "ping", reply, sizeof(reply));
-        assert_memory_equal(reply, "OK ", 3);
+        do {
+                assert_true(++round <= QUIET_TRIES);
+                before = atomic_load(heartbeat);
+                wait_wake_thread_asleep(oh);
+                request(h, "ping", reply, sizeof(reply));
+                request(h, "ping", reply, sizeof(reply));
+                /* The write and its mark, as sl_write makes them, but no step of the change
+                 * word: no wake-up comes. */
+                snprintf(value, sizeof(value), "%d", round + 1);
+                word = raw_out_write(&r, value);
+                raw_out_touch(&r, slot_index);
+                request(h, "ping", reply, sizeof(reply));
+                assert_memory_equal(reply, "OK ", 3);
+        } while (atomic_load(heartbeat) != before);
         assert_int_equal(atomic_load(&shmtest_in_slot(&r.in, r.index)->source), word);
         raw_out_stop(h, &r);
 }
@@ -1364,6 +1429,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_control_held_by_users, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_control_stale_and_live, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_second_daemon, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_missing_group_start, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_request_outlives_client, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_reload_settings, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_reload_variables, setup, teardown),

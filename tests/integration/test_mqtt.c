@@ -1026,6 +1026,44 @@ static void test_wrong_ca(void **state)
         assert_int_equal(mqtt_bridge_log_contains(&f->bridge, "certificate verify failed"), 1);
 }
 
+/*
+ * One bridge per instance and topic prefix: a second sharedlink-mqtt on the same ones refuses to
+ * start (exit 3), naming the first by its pid, and publishes nothing; one with another prefix runs
+ * beside it; once the first is killed with SIGKILL (no cleanup), its successor starts at once.
+ */
+static void test_second_bridge(void **state)
+{
+        struct fx *f = *state;
+        char want[PATH_BUF], why[HARNESS_WHY_MAX], text[CONFIG_MAX], other[PATH_BUF];
+        const char *argv[] = { mqtt_bridge_path(), "-c", f->bridge_conf, NULL };
+        struct harness second;
+        int st = 0;
+
+        need_broker();
+        start_broker(f);
+        write_bridge_conf(f, 1, NULL);
+        start_bridge(f);
+        snprintf(want, sizeof(want), "another sharedlink-mqtt (pid %ld) already bridges topics "
+                 "%s/... (lock %s/", (long)f->bridge.pid, f->base, f->h.dir);
+        if (harness_start_refused(&f->h, "mqtt2", argv, T_START_MS, 3, want, why,
+                                  sizeof(why)) < 0)
+                fail_msg("%s", why);
+
+        assert_int_equal(harness_init(&second, "mqtt3"), 0);
+        snprintf(text, sizeof(text), "instance: %s\nprefix: other\nbroker: {host: 127.0.0.1, "
+                 "port: %d}\ncursor_file: %s/cursor2\n", f->h.instance, f->broker.port,
+                 second.dir);
+        assert_int_equal(harness_write_file(&second, "other.yaml", text, other), 0);
+        argv[2] = other;
+        assert_int_equal(harness_start_program(&second, &f->h, argv, T_START_MS, &st), 0);
+        assert_int_equal(harness_stop_daemon(&second, SIGTERM, T_STOP_MS), 0);
+        harness_cleanup(&second);
+
+        assert_true(mqtt_bridge_stop(&f->bridge, SIGKILL, T_STOP_MS) >= 0);
+        start_bridge(f);
+        stop_bridge(f, SIGTERM);
+}
+
 static void test_check_config(void **state)
 {
         struct fx *f = *state;
@@ -1050,6 +1088,7 @@ int main(void)
 {
         const struct CMUnitTest tests[] = {
                 cmocka_unit_test_setup_teardown(test_check_config, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_second_bridge, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_values_round_trip, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_refused_writes, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_stale_and_daemon_restart, setup, teardown),

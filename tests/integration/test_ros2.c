@@ -1347,6 +1347,37 @@ static void test_check(void **state)
                 fail_msg("-n said: %s", err);
 }
 
+/*
+ * One bridge per instance, namespace and DDS domain: a second sharedlink-ros2 on the suite's
+ * configuration refuses to start (exit 3) before it joins the domain, naming the first by its
+ * pid; the suite's bridge, killed with SIGKILL (no cleanup), gets a successor at once, which
+ * publishes again.
+ */
+static void test_second_bridge(void **state)
+{
+        const char *argv[] = { bridge_path(), "-c", F->conf, NULL };
+        char want[2 * PATH_BUF], why[HARNESS_WHY_MAX], topic[TOPIC_MAX];
+        int64_t v = 17;
+        dds_entity_t rd;
+
+        (void)state;
+        snprintf(want, sizeof(want), "another sharedlink-ros2 (pid %ld) already bridges instance "
+                 "%s to namespace %s on DDS domain %u (lock %s/", (long)F->r.pid, F->h.instance,
+                 F->ns, F->domain, F->h.dir);
+        if (harness_start_refused(&F->h, "ros2two", argv, T_START_MS, 3, want, why,
+                                  sizeof(why)) < 0)
+                fail_msg("%s", why);
+
+        assert_true(harness_stop_daemon(&F->r, SIGKILL, T_STOP_MS) >= 0);
+        start_bridge(F);
+        sl_set("a.Count", "17");
+        wait_published("a.Count");
+        topic_of(topic, sizeof(topic), "a/Count");
+        rd = reader(&std_msgs_msg_dds__Int64__desc, topic, RQ_TRANSIENT);
+        assert_true(wait_sample(rd, is_long, &v));
+        dds_delete(rd);
+}
+
 /* A domain that cannot be created (Cyclone refuses the configuration): exit 1, said why. */
 static void test_bad_domain(void **state)
 {
@@ -1356,7 +1387,8 @@ static void test_bad_domain(void **state)
         int st = 0;
 
         (void)state;
-        snprintf(text, sizeof(text), "instance: %s\ndomain_id: %u\n"
+        /* Another namespace: the suite's bridge holds the lock of its own (test_second_bridge). */
+        snprintf(text, sizeof(text), "instance: %s\ndomain_id: %u\nnamespace: /bad\n"
                  "cyclonedds_uri: '<CycloneDDS><Domain><NoSuchElement/></Domain></CycloneDDS>'\n",
                  F->h.instance, F->domain);
         assert_int_equal(harness_write_file(h, "bad.yaml", text, path), 0);
@@ -1396,6 +1428,7 @@ int main(int argc, char **argv)
                 cmocka_unit_test(test_fastdds_reader),
                 cmocka_unit_test(test_fastdds_writer),
                 cmocka_unit_test(test_daemon_restart),
+                cmocka_unit_test(test_second_bridge),
                 cmocka_unit_test(test_bad_domain),
         };
 

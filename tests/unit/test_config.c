@@ -13,7 +13,10 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <dirent.h>
 #include <fcntl.h>
+#include <limits.h>
+#include <regex.h>
 #include <unistd.h>
 
 #include <arpa/inet.h>
@@ -991,6 +994,86 @@ static void test_too_many_variables(void **state)
         free(t.buf);
 }
 
+/* A text that states a cap: a number (commas allowed, "4,096") before "per instance" or "per
+ * list", e.g. "4096 configured variables per instance", "256 variables per list". */
+#define CAP_PATTERN     "([0-9][0-9,]*) (configured )?(variables )?per (instance|list)"
+#define CAP_FILE_MAX    (256u * 1024u)
+
+/* Every cap stated in the file at path is the one the parser enforces; the number of statements
+ * found is added to *found. */
+static void caps_stated_in(const char *path, const regex_t *re, unsigned *found)
+{
+        char *text = malloc(CAP_FILE_MAX + 1), number[16];
+        regmatch_t m[5];
+        size_t len, n = 0;
+        FILE *f = fopen(path, "rb");
+
+        assert_non_null(text);
+        if (!f)
+                fail_msg("%s: %s (run from the source tree root)", path, strerror(errno));
+        len = fread(text, 1, CAP_FILE_MAX, f);
+        fclose(f);
+        for (size_t i = 0; i < len; i++)        /* fuzz inputs may hold NULs */
+                if (text[i] == '\0')
+                        text[i] = ' ';
+        text[len] = '\0';
+        for (const char *p = text; regexec(re, p, 5, m, 0) == 0; p += m[0].rm_eo) {
+                unsigned long want = p[m[4].rm_so] == 'i' ? CONFIG_VARS_MAX : CONFIG_LIST_MAX;
+
+                n = 0;
+                for (regoff_t i = m[1].rm_so; i < m[1].rm_eo && n + 1 < sizeof(number); i++)
+                        if (p[i] != ',')
+                                number[n++] = p[i];
+                number[n] = '\0';
+                if (strtoul(number, NULL, 10) != want)
+                        fail_msg("%s: \"%.*s\" says %s, the cap is %lu", path,
+                                 (int)(m[0].rm_eo - m[0].rm_so), p + m[0].rm_so, number, want);
+                (*found)++;
+        }
+        free(text);
+}
+
+/*
+ * The caps as the reference configuration, its copies in the fuzz corpus, the man page and the
+ * docs state them are the parser's (CONFIG_VARS_MAX, CONFIG_LIST_MAX): the corpus's copies of
+ * sharedlinkd.yaml kept saying 1,024 per instance after the cap was raised to 4,096.
+ */
+static void test_caps_stated(void **state)
+{
+        static const char *const files[] = {
+                REFERENCE_CONF, "man/sharedlinkd.yaml.5", "README.md", "docs/running.md",
+                "docs/testing.md",
+        };
+        static const char *const dirs[] = { "tests/fuzz/corpus/config" };
+        char path[PATH_MAX];
+        unsigned found = 0, reference = 0;
+        struct dirent *de;
+        regex_t re;
+        DIR *dir;
+
+        (void)state;
+        assert_int_equal(regcomp(&re, CAP_PATTERN, REG_EXTENDED), 0);
+        caps_stated_in(REFERENCE_CONF, &re, &reference);
+        assert_int_equal(reference, 2);         /* the test reads what it should */
+        for (size_t i = 0; i < sizeof(files) / sizeof(files[0]); i++)
+                caps_stated_in(files[i], &re, &found);
+        for (size_t i = 0; i < sizeof(dirs) / sizeof(dirs[0]); i++) {
+                dir = opendir(dirs[i]);
+                if (!dir)
+                        fail_msg("%s: %s (run from the source tree root)", dirs[i],
+                                 strerror(errno));
+                while ((de = readdir(dir)) != NULL) {
+                        if (de->d_name[0] == '.')
+                                continue;
+                        snprintf(path, sizeof(path), "%s/%s", dirs[i], de->d_name);
+                        caps_stated_in(path, &re, &found);
+                }
+                closedir(dir);
+        }
+        assert_true(found > reference);
+        regfree(&re);
+}
+
 /* At the cap, the last name repeats an earlier one: refused at the repeat, naming the first. */
 static void test_duplicate_at_cap(void **state)
 {
@@ -1722,6 +1805,7 @@ int main(void)
 {
         static const struct CMUnitTest fixed[] = {
                 cmocka_unit_test(test_reference),
+                cmocka_unit_test(test_caps_stated),
                 cmocka_unit_test(test_demo),
                 cmocka_unit_test(test_defaults),
                 cmocka_unit_test(test_accepted_forms),

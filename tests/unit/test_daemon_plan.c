@@ -160,7 +160,10 @@ static void test_group(void **state)
         daemon_plan_clear(&plan);
         assert_int_equal(plan_error("group: no-such-group-here\nlinks:\n" SL_LINK, err,
                                     sizeof(err)), -ENOENT);
-        assert_string_equal(err, "group \"no-such-group-here\" does not exist");
+        assert_string_equal(err, "group \"no-such-group-here\" does not exist: create it "
+                            "(groupadd --system no-such-group-here; for \"sharedlink\", "
+                            "systemd-sysusers once make install has put its sysusers.d file in "
+                            "place), or leave out group:");
 }
 
 struct same_case {

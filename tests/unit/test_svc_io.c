@@ -1,6 +1,6 @@
 /*
  * svc/io: io_write_all() through a pipe whose writer is interrupted (short writes and EINTR),
- * on a full non-blocking pipe and a closed reader; io_read_file()'s bounds.
+ * on a full non-blocking pipe and a closed reader; io_read_file()'s bounds; io_mkdir_parents().
  */
 #define _GNU_SOURCE     /* F_SETPIPE_SZ, pipe2 */
 #include <errno.h>
@@ -15,6 +15,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cmocka.h>
@@ -143,12 +144,52 @@ static void test_read_file(void **state)
         assert_int_equal(io_read_file("/", 9, &text, &len), -EISDIR);
 }
 
+/* Every missing level is made with the mode asked, whatever the umask; what exists is kept; a
+ * file in the way is -ENOTDIR. */
+static void test_mkdir_parents(void **state)
+{
+        char dir[] = "/tmp/test_svc_io.XXXXXX", path[256], file[256];
+        struct stat st;
+        mode_t old = umask(077);
+        int fd;
+
+        (void)state;
+        assert_non_null(mkdtemp(dir));
+        snprintf(path, sizeof(path), "%s/a/b/c", dir);
+        assert_int_equal(io_mkdir_parents(path, 0755), 0);
+        assert_int_equal(stat(path, &st), 0);
+        assert_int_equal(st.st_mode & 07777, 0755);
+        snprintf(file, sizeof(file), "%s/a/b", dir);
+        assert_int_equal(stat(file, &st), 0);
+        assert_int_equal(st.st_mode & 07777, 0755);
+        assert_int_equal(io_mkdir_parents(path, 0700), 0);     /* there: left as it is */
+        assert_int_equal(stat(path, &st), 0);
+        assert_int_equal(st.st_mode & 07777, 0755);
+        snprintf(file, sizeof(file), "%s/f", dir);
+        fd = open(file, O_WRONLY | O_CREAT | O_EXCL, 0600);
+        assert_true(fd >= 0);
+        close(fd);
+        assert_int_equal(io_mkdir_parents(file, 0755), -ENOTDIR);
+        snprintf(path, sizeof(path), "%s/f/g", dir);
+        assert_int_equal(io_mkdir_parents(path, 0755), -ENOTDIR);
+        umask(old);
+        unlink(file);
+        snprintf(path, sizeof(path), "%s/a/b/c", dir);
+        rmdir(path);
+        snprintf(path, sizeof(path), "%s/a/b", dir);
+        rmdir(path);
+        snprintf(path, sizeof(path), "%s/a", dir);
+        rmdir(path);
+        assert_int_equal(rmdir(dir), 0);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
                 cmocka_unit_test(test_write_all_interrupted_pipe),
                 cmocka_unit_test(test_write_all_errors),
                 cmocka_unit_test(test_read_file),
+                cmocka_unit_test(test_mkdir_parents),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

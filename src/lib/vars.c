@@ -541,13 +541,14 @@ static int write_locked(struct sl_client *c, int id, const char *value, size_t l
 }
 
 /*
- * Whether sl_write takes value for id (read lock held): 0, or its error with one line that says
- * why in reason (reason_size bytes; NULL/0 for none). A long or double variable takes only what
- * the daemon would send for that type (slp_value_check, the daemon's own rule): refused here,
- * the table keeps its value, instead of a write that stays local and is counted type_mismatch.
+ * Whether sl_write takes value for id (read lock held): 0 with its length in *ret_len, or its
+ * error with one line that says why in reason (reason_size bytes; NULL/0 for none). A long or
+ * double variable takes only what the daemon would send for that type (slp_value_check, the
+ * daemon's own rule, after the wire's charset checked eight bytes at a time): refused here, the
+ * table keeps its value, instead of a write that stays local and is counted type_mismatch.
  */
 static int write_refusal(const struct sl_client *c, int id, const char *value, char *reason,
-                         size_t reason_size)
+                         size_t reason_size, size_t *ret_len)
 {
         const struct shm_dir_entry *e;
         size_t len = strnlen(value, SHM_VALUE_SIZE);
@@ -566,10 +567,11 @@ static int write_refusal(const struct sl_client *c, int id, const char *value, c
                       "a byte the wire cannot carry (printable ASCII except | [ ])";
         } else {
                 e = &c->map->dir[index];
-                if (e->type == SHM_TYPE_LONG && slp_value_check(SLP_TYPE_LONG, value, len) < 0)
+                if (e->type == SHM_TYPE_LONG &&
+                    slp_value_type_check(SLP_TYPE_LONG, value, len) < 0)
                         why = "not a long: [+-] decimal digits within 64 bits";
                 else if (e->type == SHM_TYPE_DOUBLE &&
-                         slp_value_check(SLP_TYPE_DOUBLE, value, len) < 0)
+                         slp_value_type_check(SLP_TYPE_DOUBLE, value, len) < 0)
                         why = "not a double: a finite decimal number such as -1.5 or 2e-3";
                 if (why) {
                         /* The value passed the wire's check: safe to quote. */
@@ -580,12 +582,14 @@ static int write_refusal(const struct sl_client *c, int id, const char *value, c
         }
         if (reason && reason_size > 0 && why)
                 snprintf(reason, reason_size, "%s", why);
+        *ret_len = len;
         return r;
 }
 
 SL_EXPORT int sl_write_check(struct sl_client *c, int id, const char *value, char *reason,
                              size_t reason_size)
 {
+        size_t len;
         int r;
 
         if (reason && reason_size > 0)
@@ -593,22 +597,20 @@ SL_EXPORT int sl_write_check(struct sl_client *c, int id, const char *value, cha
         if (!c || !value)
                 return -EINVAL;
         client_rdlock(c);
-        r = write_refusal(c, id, value, reason, reason_size);
+        r = write_refusal(c, id, value, reason, reason_size, &len);
         client_unlock(c);
         return r;
 }
 
 SL_EXPORT int sl_write(struct sl_client *c, int id, const char *value)
 {
-        size_t len = 0;
+        size_t len;
         int r;
 
         if (!c || !value)
                 return -EINVAL;
         client_rdlock(c);
-        r = write_refusal(c, id, value, NULL, 0);
-        if (r >= 0)
-                len = strlen(value);
+        r = write_refusal(c, id, value, NULL, 0, &len);
         if (r >= 0)
                 r = write_locked(c, id, value, len);
         client_unlock(c);

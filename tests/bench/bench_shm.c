@@ -20,10 +20,9 @@
  *    lowest median: other work on a shared machine only ever adds time). Round trips and
  *    wake-ups are timed one by one with CLOCK_MONOTONIC.
  * 3. Ratios, and the targets: sl_read median under 25 ns, at least 500x faster than a Redis GET.
- * 4. sl_read in launches of its own: where a process's stack lies (ASLR, and the size of its
- *    environment) can decide whether its reads stall on 4 KiB aliasing between the slot and the
- *    caller's buffer, and other work on a shared machine slows whole launches: one launch is a
- *    draw. This program starts itself again as a reader (`bench_shm --reader so|a INSTANCE`)
+ * 4. sl_read in launches of its own: a launch is a draw of where its stack lies (ASLR, and the
+ *    size of its environment: were the slot and the caller's buffer to alias modulo 4 KiB, its
+ *    loads could falsely wait on the stores) and of what the machine does meanwhile. This program starts itself again as a reader (`bench_shm --reader so|a INSTANCE`)
  *    through the shared library (dlopen of the build's libsharedlink.so.1, called through
  *    pointers as through a PLT) and through the statically linked library, LAUNCHES times each
  *    with ASLR on, alternating; each launch prints, for sl_read of a 63-byte value, plain and

@@ -273,7 +273,7 @@ static int ids_reserve(struct sl_client *c, uint32_t need)
         uint32_t cap = c->ids_cap ? c->ids_cap : CLIENT_IDS_INITIAL;
         char (*names)[SHM_NAME_SIZE];
         int32_t *index, *hash;
-        uint32_t hash_size;
+        uint32_t hash_size, *out;
 
         if (need <= c->ids_cap)
                 return 0;
@@ -289,6 +289,10 @@ static int ids_reserve(struct sl_client *c, uint32_t need)
         if (!index)
                 return -ENOMEM;
         c->id_index = index;
+        out = realloc(c->id_out, (size_t)cap * sizeof(*out));
+        if (!out)
+                return -ENOMEM;
+        c->id_out = out;
         hash_size = 2u * cap;
         hash = malloc((size_t)hash_size * sizeof(*hash));
         if (!hash)
@@ -347,6 +351,7 @@ static void ids_sync_view(struct sl_client *c, int all)
                 }
                 c->id_index[id] = (int32_t)c->synced |
                                   (e->flags & SHM_DIR_ADHOC ? CLIENT_INDEX_LEARNED : 0);
+                c->id_out[id] = e->direction == SHM_DIR_OUT ? e->out_slot : SHM_OUT_NONE;
                 c->index_id[c->synced] = id;
         }
         /* As a seqlock reader: the entries' loads before the reload. */
@@ -753,6 +758,7 @@ SL_EXPORT struct sl_client *sl_close(struct sl_client *c)
         freelocale(c->c_locale);
         free(c->id_names);
         free(c->id_index);
+        free(c->id_out);
         free(c->index_id);
         free(c->name_hash);
         free(c);

@@ -107,6 +107,8 @@ struct sl_client {
         char (*id_names)[SHM_NAME_SIZE];
         int32_t *id_index;              /* id -> directory index in the current map (with
                                          * CLIENT_INDEX_LEARNED), or -1 */
+        uint32_t *id_out;               /* id -> its entry's .out slot when outbound, else
+                                         * SHM_OUT_NONE (the read path's copy of the entry) */
         int32_t *index_id;              /* directory index -> id, map->capacity entries */
         uint32_t synced;                /* directory entries of the current map given ids */
         uint32_t synced_rewrites;       /* dir_rewrites the ids were resolved under (1.5) */
@@ -191,6 +193,14 @@ static inline struct client_reader *client_reader_of(const struct sl_client *c, 
         return &c->slots[h >> CLIENT_READER_SHIFT];
 }
 
+/* Leaves through the shared count, waking a writer that waits for the last reader. */
+static inline __attribute__((always_inline)) void client_unlock_count(struct sl_client *c)
+{
+        if (atomic_fetch_sub_explicit(&c->readers, 1u, memory_order_release) == 1u &&
+            atomic_load_explicit(&c->writer, memory_order_seq_cst) != 0)
+                client_unlock_wake(c);
+}
+
 /* Releases a read lock (through the thread's slot when it entered through it). */
 static inline __attribute__((always_inline)) void client_unlock(struct sl_client *c)
 {
@@ -205,17 +215,22 @@ static inline __attribute__((always_inline)) void client_unlock(struct sl_client
                         return;
                 }
         }
-        if (atomic_fetch_sub_explicit(&c->readers, 1u, memory_order_release) == 1u &&
-            atomic_load_explicit(&c->writer, memory_order_seq_cst) != 0)
-                client_unlock_wake(c);
+        client_unlock_count(c);
 }
 
+/* client_rdlock_token's token when the slow path took the lock: release with client_unlock. */
+#define CLIENT_LOCK_ANY         ((struct client_reader *)1)
+
 /*
- * Takes the lock for reading, first refreshing the view if the tables changed underneath. A
- * thread with a slot announces itself with a plain store: the writer's membarrier supplies the
- * StoreLoad order that the locked increment of the shared count gives the others (client.c).
+ * Takes the lock for reading, first refreshing the view if the tables changed underneath, and
+ * says how it got in: the thread's reader slot, NULL for the shared count, CLIENT_LOCK_ANY after
+ * the slow path. A thread with a slot announces itself with a plain store: the writer's
+ * membarrier supplies the StoreLoad order that the locked increment of the shared count gives the
+ * others (client.c). The token lets client_unlock_token release without finding the slot again
+ * (the hot path's unlock reloaded owner and active, the latter from the store just made).
  */
-static inline __attribute__((always_inline)) void client_rdlock(struct sl_client *c)
+static inline __attribute__((always_inline)) struct client_reader *
+client_rdlock_token(struct sl_client *c)
 {
         if (c->slots) {
                 uintptr_t self = client_thread_id();
@@ -229,10 +244,10 @@ static inline __attribute__((always_inline)) void client_rdlock(struct sl_client
                         atomic_signal_fence(memory_order_seq_cst);
                         if (atomic_load_explicit(&c->writer, memory_order_acquire) == 0 &&
                             !client_needs_refresh(c))
-                                return;
+                                return r;
                         atomic_store_explicit(&r->active, 0u, memory_order_release);
                         client_rdlock_slow(c);
-                        return;
+                        return CLIENT_LOCK_ANY;
                 }
                 if (owner == 0)
                         client_reader_claim(c, self);   /* for the next call */
@@ -240,9 +255,28 @@ static inline __attribute__((always_inline)) void client_rdlock(struct sl_client
         atomic_fetch_add_explicit(&c->readers, 1u, memory_order_seq_cst);
         if (atomic_load_explicit(&c->writer, memory_order_seq_cst) == 0 &&
             !client_needs_refresh(c))
-                return;
-        client_unlock(c);
+                return NULL;
+        client_unlock_count(c);
         client_rdlock_slow(c);
+        return CLIENT_LOCK_ANY;
+}
+
+/* Releases a lock taken by client_rdlock_token. */
+static inline __attribute__((always_inline)) void
+client_unlock_token(struct sl_client *c, struct client_reader *token)
+{
+        if (token == CLIENT_LOCK_ANY)
+                client_unlock(c);
+        else if (token)
+                atomic_store_explicit(&token->active, 0u, memory_order_release);
+        else
+                client_unlock_count(c);
+}
+
+/* client_rdlock_token without the token: release with client_unlock. */
+static inline __attribute__((always_inline)) void client_rdlock(struct sl_client *c)
+{
+        (void)client_rdlock_token(c);
 }
 
 /*

@@ -74,31 +74,33 @@ SL_EXPORT int sl_count(struct sl_client *c)
         return n;
 }
 
-/* The read lock and id's directory index with CLIENT_INDEX_LEARNED (try `attempt` after a
- * rewrite: layout 1.5), or -errno with no lock held. */
-static VARS_HOT int lock_entry(struct sl_client *c, int id, int attempt)
+/* The read lock (its token in *token) and id's directory index with CLIENT_INDEX_LEARNED (try
+ * `attempt` after a rewrite: layout 1.5), or -errno with no lock held. */
+static VARS_HOT int lock_entry(struct sl_client *c, int id, int attempt,
+                               struct client_reader **token)
 {
         int index;
 
         if (attempt == VARS_MOVED_TRIES)
                 return -EAGAIN;
-        client_rdlock(c);
+        *token = client_rdlock_token(c);
         index = client_index_entry(c, id);
         if (index < 0)
-                client_unlock(c);
+                client_unlock_token(c, *token);
         return index;
 }
 
 SL_EXPORT int sl_info(struct sl_client *c, int id, struct sl_var_info *ret)
 {
         const struct shm_dir_entry *e;
+        struct client_reader *token;
         struct sl_var_info info;
         int index;
 
         if (!c || !ret || ret->size < SL_VAR_INFO_SIZE_V1)
                 return -EINVAL;
         for (int attempt = 0;; attempt++) {
-                index = lock_entry(c, id, attempt);
+                index = lock_entry(c, id, attempt, &token);
                 if (index < 0)
                         return index;
                 e = &c->map->dir[index & ~CLIENT_INDEX_LEARNED];
@@ -113,34 +115,45 @@ SL_EXPORT int sl_info(struct sl_client *c, int id, struct sl_var_info *ret)
                 /* Rewritten meanwhile (layout 1.5): maybe torn, or another name's. */
                 if (!client_dir_moved(c))
                         break;
-                client_unlock(c);
+                client_unlock_token(c, token);
         }
-        client_unlock(c);
+        client_unlock_token(c, token);
         client_struct_out(ret, &info, sizeof(info));
         return 0;
 }
 
+/*
+ * What a read hands out besides the value: the slot's head, the value's sequence, and with
+ * metadata the flags that apply on top and the time the age counts to. The hot path keeps it in
+ * registers: no function that is not inlined ever gets its address (the slow paths fill one of
+ * their own, which is then assigned), so the compiler neither spills it to the stack nor reloads
+ * it from there.
+ */
+struct vars_read {
+        struct shm_slot_head head;
+        uint64_t sequence;
+        uint64_t now;
+        uint32_t extra;
+};
+
 /* The metadata of one read, as meta_fill stores it. */
-static VARS_HOT void meta_store(struct sl_meta *out, const struct shm_slot_head *head,
-                                uint64_t sequence, uint32_t extra_flags, uint64_t now)
+static VARS_HOT void meta_store(struct sl_meta *out, const struct vars_read *rd)
 {
-        out->mono_ns = head->mono_ns;
-        out->real_ns = head->real_ns;
-        out->age_ns = head->mono_ns && now > head->mono_ns ? now - head->mono_ns : 0;
-        out->sequence = sequence;
-        out->flags = (head->flags & (SL_FLAG_VALID | SL_FLAG_STALE | SL_FLAG_OUTBOUND |
-                                     SL_FLAG_REPAIRED)) | extra_flags;
+        out->mono_ns = rd->head.mono_ns;
+        out->real_ns = rd->head.real_ns;
+        out->age_ns = rd->head.mono_ns && rd->now > rd->head.mono_ns ?
+                      rd->now - rd->head.mono_ns : 0;
+        out->sequence = rd->sequence;
+        out->flags = (rd->head.flags & (SL_FLAG_VALID | SL_FLAG_STALE | SL_FLAG_OUTBOUND |
+                                        SL_FLAG_REPAIRED)) | rd->extra;
 }
 
 /* meta_fill for a caller's struct older than ours: built whole, then copied out as far as it goes. */
-static void __attribute__((noinline)) meta_fill_small(struct sl_meta *meta,
-                                                      const struct shm_slot_head *head,
-                                                      uint64_t sequence, uint32_t extra_flags,
-                                                      uint64_t now)
+static void __attribute__((noinline)) meta_fill_small(struct sl_meta *meta, struct vars_read rd)
 {
         struct sl_meta m = { .size = sizeof(m) };
 
-        meta_store(&m, head, sequence, extra_flags, now);
+        meta_store(&m, &rd);
         client_struct_out(meta, &m, sizeof(m));
 }
 
@@ -150,119 +163,121 @@ static void __attribute__((noinline)) meta_fill_small(struct sl_meta *meta,
  * and copying it out cost a memset and a memcpy call on every read with metadata (and a local
  * whose address escapes costs the hot path a stack canary).
  */
-static VARS_HOT void meta_fill(struct sl_meta *meta, const struct shm_slot_head *head,
-                               uint64_t sequence, uint32_t extra_flags, uint64_t now)
+static VARS_HOT void meta_fill(struct sl_meta *meta, const struct vars_read *rd)
 {
         if (meta->size >= sizeof(*meta))
-                meta_store(meta, head, sequence, extra_flags, now);
+                meta_store(meta, rd);
         else
-                meta_fill_small(meta, head, sequence, extra_flags, now);
+                meta_fill_small(meta, *rd);
 }
 
 /*
- * Reads the .out slot of an outbound variable, its value to value[0..SHM_VALUE_SIZE) (read lock
- * held). Returns 1 with a valid copy, 0 when it holds no valid value (never written, repaired,
- * recreated, scribbled), or -EAGAIN. The slot is client-writable: the copy is validated like the
- * daemon does before it is used.
+ * Reads .out slot out_slot (< out_capacity) of the outbound variable at directory index `index`,
+ * its value to value[0..SHM_VALUE_SIZE) (read lock held). Returns 1 with a valid copy, 0 when it
+ * holds no valid value (never written, repaired, recreated, scribbled), or -EAGAIN. The slot is
+ * client-writable: the copy is validated like the daemon does before it is used.
  */
-static int read_out_slot(const struct sl_client *c, const struct shm_dir_entry *e,
-                         struct shm_slot_head *head, char *value, unsigned fields,
-                         uint64_t *ret_sequence)
+static int __attribute__((noinline)) read_out_slot(const struct sl_client *c, int index,
+                                                   uint32_t out_slot, char *value,
+                                                   unsigned fields, struct vars_read *ret)
 {
         int r;
 
-        if (!c->out || e->out_slot >= c->out_capacity)
-                return 0;
-        r = shm_slot_read_fields(&c->out_slots[e->out_slot], head, value,
+        r = shm_slot_read_fields(&c->out_slots[out_slot], &ret->head, value,
                                  fields | SHM_SLOT_HEAD_STAMP);
         if (r < 0)
                 return r;
         /* A value written for the entry's retired name (layout 1.5) is none of this one's. */
-        if (shm_slot_head_check(head, value) < 0 ||
-            shm_layout_stamp_before(head->dir_stamp, e->born))
+        if (shm_slot_head_check(&ret->head, value) < 0 ||
+            shm_layout_stamp_before(ret->head.dir_stamp, c->map->dir[index].born))
                 return 0;
-        head->flags |= SHM_SLOT_OUTBOUND;
-        *ret_sequence = shm_seqlock_sequence(head->word) / 2u;
+        ret->head.flags |= SHM_SLOT_OUTBOUND;
+        ret->sequence = shm_seqlock_sequence(ret->head.word) / 2u;
         return 1;
 }
 
 /*
- * An outbound variable: the daemon's mirror in .in when it was copied from the .out slot as it
- * still is (same lock word: layout.h, 1.1), which needs no check; else the .out slot itself,
- * checked. Returns as read_out_slot (read lock held).
+ * An outbound variable (.out slot out_slot, from c->id_out): the daemon's mirror in .in when it
+ * was copied from the .out slot as it still is (same lock word: layout.h, 1.1), which needs no
+ * check; else the .out slot itself, checked. Returns as read_out_slot (read lock held).
  */
-static VARS_HOT int read_outbound(const struct sl_client *c, const struct shm_dir_entry *e,
-                                  int index, struct shm_slot_head *head, char *value,
-                                  unsigned fields, uint64_t *ret_sequence)
+static VARS_HOT int read_outbound(const struct sl_client *c, int index, uint32_t out_slot,
+                                  char *value, unsigned fields, struct vars_read *rd)
 {
+        struct vars_read slow;
         uint64_t word;
+        int r;
 
-        if (!c->out || e->out_slot >= c->out_capacity)
+        if (!c->out || out_slot >= c->out_capacity)
                 return 0;
-        word = atomic_load_explicit(&c->out_slots[e->out_slot].seq, memory_order_acquire);
+        word = atomic_load_explicit(&c->out_slots[out_slot].seq, memory_order_acquire);
         if (!shm_seqlock_odd(word) && word != 0 &&
-            shm_slot_read_fields(&c->map->slots[index], head, value,
-                                 fields | SHM_SLOT_HEAD_SOURCE) == 0 && head->source == word &&
-            (head->flags & SHM_SLOT_VALID) && head->length <= SHM_VALUE_MAX) {
-                head->flags |= SHM_SLOT_OUTBOUND;
-                *ret_sequence = shm_seqlock_sequence(word) / 2u;
+            shm_slot_read_fields(&c->map->slots[index], &rd->head, value,
+                                 fields | SHM_SLOT_HEAD_SOURCE) == 0 &&
+            rd->head.source == word && (rd->head.flags & SHM_SLOT_VALID) &&
+            rd->head.length <= SHM_VALUE_MAX) {
+                rd->head.flags |= SHM_SLOT_OUTBOUND;
+                rd->sequence = shm_seqlock_sequence(word) / 2u;
                 return 1;
         }
-        return read_out_slot(c, e, head, value, fields, ret_sequence);
+        r = read_out_slot(c, index, out_slot, value, fields, &slow);
+        if (r > 0)
+                *rd = slow;
+        return r;
 }
 
 /*
  * One consistent, validated copy of variable id's value into value[0..SHM_VALUE_SIZE),
- * NUL-terminated (scratch space, unspecified on failure), the rest in *head; with ret_now, also
- * the flags that apply on top and the time the age counts to. The hot path of every read: one
- * read lock, one inline seqlock copy straight into the caller's buffer.
+ * NUL-terminated (scratch space, unspecified on failure), the rest in *rd; with_meta, also the
+ * flags that apply on top and the time the age counts to. The hot path of every read: one read
+ * lock, one inline seqlock copy straight into the caller's buffer.
  */
-static VARS_HOT int read_value(struct sl_client *c, int id, struct shm_slot_head *head,
-                               char *value, uint64_t *ret_sequence, uint32_t *ret_extra,
-                               uint64_t *ret_now)
+static VARS_HOT int read_value(struct sl_client *c, int id, char *value, struct vars_read *rd,
+                               int with_meta)
 {
         /* The time stamps only for the metadata. */
-        unsigned fields = ret_now ? SHM_SLOT_HEAD_TIMES : 0u;
-        const struct shm_dir_entry *e;
-        uint64_t sequence = 0;
+        unsigned fields = with_meta ? SHM_SLOT_HEAD_TIMES : 0u;
+        struct client_reader *token;
+        uint32_t out_slot;
         int entry, index, r = 0;
 
+        rd->sequence = 0;
         for (int attempt = 0;; attempt++) {
-                entry = lock_entry(c, id, attempt);
+                entry = lock_entry(c, id, attempt, &token);
                 if (entry < 0)
                         return entry;
                 index = entry & ~CLIENT_INDEX_LEARNED;
-                e = &c->map->dir[index];
+                out_slot = c->id_out[id];
                 r = 0;
-                if (e->direction == SHM_DIR_OUT)
-                        r = read_outbound(c, e, index, head, value, fields, &sequence);
+                if (out_slot != SHM_OUT_NONE)
+                        r = read_outbound(c, index, out_slot, value, fields, rd);
                 if (r == 0) {
                         /* .in: the daemon's own value, or its mirror of the last accepted
                          * outbound one */
-                        r = shm_slot_read_fields(&c->map->slots[index], head, value, fields);
+                        r = shm_slot_read_fields(&c->map->slots[index], &rd->head, value,
+                                                 fields);
                         if (r == 0) {
-                                sequence = head->word / 2u;
-                                if (head->length > SHM_VALUE_MAX ||
-                                    !(head->flags & SHM_SLOT_VALID))
-                                        head->length = 0;
+                                rd->sequence = rd->head.word / 2u;
+                                if (rd->head.length > SHM_VALUE_MAX ||
+                                    !(rd->head.flags & SHM_SLOT_VALID))
+                                        rd->head.length = 0;
                         }
                 }
                 /* A learned name's entry may have been given to another name meanwhile: the
                  * copy may be its value. A configured name's never is (CLIENT_INDEX_LEARNED). */
                 if (!(entry & CLIENT_INDEX_LEARNED) || !client_dir_moved(c))
                         break;
-                client_unlock(c);
+                client_unlock_token(c, token);
         }
-        if (ret_now) {
+        if (with_meta) {
                 /* Age and liveness from the coarse clock: see client_now_coarse. */
-                *ret_now = client_now_coarse(c);
-                *ret_extra = client_alive(c, *ret_now, NULL) ? 0 : SL_FLAG_STALE;
+                rd->now = client_now_coarse(c);
+                rd->extra = client_alive(c, rd->now, NULL) ? 0 : SL_FLAG_STALE;
         }
-        client_unlock(c);
+        client_unlock_token(c, token);
         if (r < 0)
                 return r;
-        value[head->length] = '\0';
-        *ret_sequence = sequence;
+        value[rd->head.length] = '\0';
         return 0;
 }
 
@@ -280,10 +295,8 @@ static VARS_HOT int read_value(struct sl_client *c, int id, struct shm_slot_head
 #define VARS_BUSY_NAP_MAX_NS    2000000L
 #define VARS_NS_PER_MS          1000000L
 
-static int __attribute__((noinline)) read_busy(struct sl_client *c, int id,
-                                               struct shm_slot_head *head, char *value,
-                                               uint64_t *ret_sequence, uint32_t *ret_extra,
-                                               uint64_t *ret_now)
+static int __attribute__((noinline)) read_busy(struct sl_client *c, int id, char *value,
+                                               struct vars_read *ret, int with_meta)
 {
         long slept = 0, nap = VARS_BUSY_NAP_NS;
         int r = -EAGAIN;
@@ -299,8 +312,27 @@ static int __attribute__((noinline)) read_busy(struct sl_client *c, int id,
                         slept += nap;
                         nap = nap * 2 < VARS_BUSY_NAP_MAX_NS ? nap * 2 : VARS_BUSY_NAP_MAX_NS;
                 }
-                r = read_value(c, id, head, value, ret_sequence, ret_extra, ret_now);
+                r = read_value(c, id, value, ret, with_meta);
         }
+        return r;
+}
+
+/*
+ * read_value, then read_busy when the slot stayed busy (its own vars_read, assigned back: see
+ * struct vars_read).
+ */
+static VARS_HOT int read_any(struct sl_client *c, int id, char *value, struct vars_read *rd,
+                             int with_meta)
+{
+        struct vars_read slow;
+        int r;
+
+        r = read_value(c, id, value, rd, with_meta);
+        if (__builtin_expect(r != -EAGAIN, 1))
+                return r;
+        r = read_busy(c, id, value, &slow, with_meta);
+        if (r == 0)
+                *rd = slow;
         return r;
 }
 
@@ -309,22 +341,18 @@ static int __attribute__((noinline)) read_small(struct sl_client *c, int id, cha
                                                 struct sl_meta *meta)
 {
         char value[SHM_VALUE_SIZE];
-        struct shm_slot_head head;
-        uint64_t sequence, now = 0;
-        uint32_t extra = 0;
+        struct vars_read rd = { .now = 0, .extra = 0 };
         int r;
 
-        r = read_value(c, id, &head, value, &sequence, &extra, meta ? &now : NULL);
-        if (r == -EAGAIN)
-                r = read_busy(c, id, &head, value, &sequence, &extra, meta ? &now : NULL);
+        r = read_any(c, id, value, &rd, meta != NULL);
         if (r < 0)
                 return r;
-        if (size < (size_t)head.length + 1u)
+        if (size < (size_t)rd.head.length + 1u)
                 return -ENOBUFS;
-        memcpy(buf, value, head.length + 1u);
+        memcpy(buf, value, rd.head.length + 1u);
         if (meta)
-                meta_fill(meta, &head, sequence, extra, now);
-        return (int)head.length;
+                meta_fill(meta, &rd);
+        return (int)rd.head.length;
 }
 
 /*
@@ -335,20 +363,16 @@ static int __attribute__((noinline)) read_small(struct sl_client *c, int id, cha
 static VARS_HOT int read_direct(struct sl_client *c, int id, char *buf, struct sl_meta *meta,
                                 int with_meta)
 {
-        struct shm_slot_head head;
-        uint64_t sequence, now = 0;
-        uint32_t extra = 0;
+        struct vars_read rd = { .now = 0, .extra = 0 };
         int r;
 
         /* The clock only matters for the metadata: age, and stale by heartbeat. */
-        r = read_value(c, id, &head, buf, &sequence, &extra, with_meta ? &now : NULL);
-        if (__builtin_expect(r == -EAGAIN, 0))
-                r = read_busy(c, id, &head, buf, &sequence, &extra, with_meta ? &now : NULL);
+        r = read_any(c, id, buf, &rd, with_meta);
         if (r < 0)
                 return r;
         if (with_meta)
-                meta_fill(meta, &head, sequence, extra, now);
-        return (int)head.length;
+                meta_fill(meta, &rd);
+        return (int)rd.head.length;
 }
 
 SL_EXPORT int sl_read(struct sl_client *c, int id, char *buf, size_t size, struct sl_meta *meta)
@@ -517,13 +541,14 @@ static int write_locked(struct sl_client *c, int id, const char *value, size_t l
 }
 
 /*
- * Whether sl_write takes value for id (read lock held): 0, or its error with one line that says
- * why in reason (reason_size bytes; NULL/0 for none). A long or double variable takes only what
- * the daemon would send for that type (slp_value_check, the daemon's own rule): refused here,
- * the table keeps its value, instead of a write that stays local and is counted type_mismatch.
+ * Whether sl_write takes value for id (read lock held): 0 with its length in *ret_len, or its
+ * error with one line that says why in reason (reason_size bytes; NULL/0 for none). A long or
+ * double variable takes only what the daemon would send for that type (slp_value_check, the
+ * daemon's own rule, after the wire's charset checked eight bytes at a time): refused here, the
+ * table keeps its value, instead of a write that stays local and is counted type_mismatch.
  */
 static int write_refusal(const struct sl_client *c, int id, const char *value, char *reason,
-                         size_t reason_size)
+                         size_t reason_size, size_t *ret_len)
 {
         const struct shm_dir_entry *e;
         size_t len = strnlen(value, SHM_VALUE_SIZE);
@@ -542,10 +567,11 @@ static int write_refusal(const struct sl_client *c, int id, const char *value, c
                       "a byte the wire cannot carry (printable ASCII except | [ ])";
         } else {
                 e = &c->map->dir[index];
-                if (e->type == SHM_TYPE_LONG && slp_value_check(SLP_TYPE_LONG, value, len) < 0)
+                if (e->type == SHM_TYPE_LONG &&
+                    slp_value_type_check(SLP_TYPE_LONG, value, len) < 0)
                         why = "not a long: [+-] decimal digits within 64 bits";
                 else if (e->type == SHM_TYPE_DOUBLE &&
-                         slp_value_check(SLP_TYPE_DOUBLE, value, len) < 0)
+                         slp_value_type_check(SLP_TYPE_DOUBLE, value, len) < 0)
                         why = "not a double: a finite decimal number such as -1.5 or 2e-3";
                 if (why) {
                         /* The value passed the wire's check: safe to quote. */
@@ -556,12 +582,14 @@ static int write_refusal(const struct sl_client *c, int id, const char *value, c
         }
         if (reason && reason_size > 0 && why)
                 snprintf(reason, reason_size, "%s", why);
+        *ret_len = len;
         return r;
 }
 
 SL_EXPORT int sl_write_check(struct sl_client *c, int id, const char *value, char *reason,
                              size_t reason_size)
 {
+        size_t len;
         int r;
 
         if (reason && reason_size > 0)
@@ -569,22 +597,20 @@ SL_EXPORT int sl_write_check(struct sl_client *c, int id, const char *value, cha
         if (!c || !value)
                 return -EINVAL;
         client_rdlock(c);
-        r = write_refusal(c, id, value, reason, reason_size);
+        r = write_refusal(c, id, value, reason, reason_size, &len);
         client_unlock(c);
         return r;
 }
 
 SL_EXPORT int sl_write(struct sl_client *c, int id, const char *value)
 {
-        size_t len = 0;
+        size_t len;
         int r;
 
         if (!c || !value)
                 return -EINVAL;
         client_rdlock(c);
-        r = write_refusal(c, id, value, NULL, 0);
-        if (r >= 0)
-                len = strlen(value);
+        r = write_refusal(c, id, value, NULL, 0, &len);
         if (r >= 0)
                 r = write_locked(c, id, value, len);
         client_unlock(c);

@@ -790,25 +790,46 @@ static bool is_digit(char c)
         return c >= '0' && c <= '9';
 }
 
-/* [+-] 1*DIGIT, within INT64_MIN..INT64_MAX. */
+/* The end of the run of digits that starts at v[i]. */
+static size_t digits_end(const char *v, size_t len, size_t i)
+{
+        while (i < len && is_digit(v[i]))
+                i++;
+        return i;
+}
+
+/* The first index in v[from..to) whose digit is not '0', or `to`. */
+static size_t first_nonzero(const char *v, size_t from, size_t to)
+{
+        while (from < to && v[from] == '0')
+                from++;
+        return from;
+}
+
+/*
+ * [+-] 1*DIGIT, within INT64_MIN..INT64_MAX. Up to 18 digits cannot overflow (10^18 < 2^63), so
+ * only longer ones are added up (the division per digit was most of a check).
+ */
+#define SLP_LONG_SAFE_DIGITS    18u
+
 static int check_long(const char *v, size_t len)
 {
         uint64_t mag = 0, limit = (uint64_t)INT64_MAX;
-        size_t i = 0;
+        size_t i = 0, start;
 
         if (i < len && (v[i] == '+' || v[i] == '-')) {
                 if (v[i] == '-')
                         limit++;                /* |INT64_MIN| */
                 i++;
         }
-        if (i == len)
+        start = i;
+        if (digits_end(v, len, start) != len || len == start)
                 return -EINVAL;
-        for (; i < len; i++) {
-                unsigned d;
+        if (len - start <= SLP_LONG_SAFE_DIGITS)
+                return 0;
+        for (i = start; i < len; i++) {
+                unsigned d = (unsigned)(v[i] - '0');
 
-                if (!is_digit(v[i]))
-                        return -EINVAL;
-                d = (unsigned)(v[i] - '0');
                 if (mag > (limit - d) / 10)
                         return -EINVAL;
                 mag = mag * 10 + d;
@@ -841,60 +862,71 @@ static int parse_exponent(const char *v, size_t len, size_t *i, long *exp10)
 }
 
 /*
- * A strict decimal double, finite. The value is 0.S x 10^exp10 where S are its significant
- * digits (leading zeros dropped); it is finite when exp10 is below SL_DBL_MAX_EXP10, or equal
- * with S at most dbl_max_digits. No strtod(): its answer depends on the locale.
+ * The significant digits of a double, from v[first] (those up to int_end, then those from
+ * frac_start, past the point, up to frac_end), against dbl_max_digits: 0 when they are not
+ * above them, else -EINVAL.
  */
-static int check_double(const char *v, size_t len)
+static int check_double_digits(const char *v, size_t first, size_t int_end, size_t frac_start,
+                               size_t frac_end)
 {
-        char sig[SLP_VALUE_MAX];
-        size_t i = 0, nsig = 0, ndigits = 0;
-        long exp10 = 0;
-        bool point = false;
-        int r;
+        const size_t nmax = sizeof(dbl_max_digits) - 1;
+        size_t i = first;
 
-        if (i < len && (v[i] == '+' || v[i] == '-'))
-                i++;
-        for (; i < len && (is_digit(v[i]) || (v[i] == '.' && !point)); i++) {
-                if (v[i] == '.') {
-                        point = true;
-                        continue;
-                }
-                ndigits++;
-                if (nsig == 0 && v[i] == '0') {
-                        if (point)
-                                exp10--;        /* 0.00S: each zero after the point */
-                        continue;
-                }
-                sig[nsig++] = v[i];
-                if (!point)
-                        exp10++;
-        }
-        if (ndigits == 0)
-                return -EINVAL;
-        r = parse_exponent(v, len, &i, &exp10);
-        if (r < 0)
-                return r;
-        if (nsig == 0 || exp10 < SL_DBL_MAX_EXP10)
-                return 0;
-        if (exp10 > SL_DBL_MAX_EXP10)
-                return -EINVAL;
-        for (size_t k = 0; k < nsig || k < sizeof(dbl_max_digits) - 1; k++) {
-                char a = k < nsig ? sig[k] : '0';
-                char b = k < sizeof(dbl_max_digits) - 1 ? dbl_max_digits[k] : '0';
+        for (size_t k = 0; i < frac_end || k < nmax; k++) {
+                char a, b;
 
+                if (i == int_end)
+                        i = frac_start;         /* over the point */
+                a = i < frac_end ? v[i++] : '0';
+                b = k < nmax ? dbl_max_digits[k] : '0';
                 if (a != b)
                         return a < b ? 0 : -EINVAL;
         }
         return 0;
 }
 
-int slp_value_check(enum slp_type type, const char *value, size_t len)
+/*
+ * A strict decimal double, finite. The value is 0.S x 10^exp10 where S are its significant
+ * digits (leading zeros dropped); it is finite when exp10 is below SL_DBL_MAX_EXP10, or equal
+ * with S at most dbl_max_digits. No strtod(): its answer depends on the locale. The digits are
+ * walked in runs, and S is looked at again only for a value near the largest double: every
+ * sl_write of a double variable checks its value here.
+ */
+static int check_double(const char *v, size_t len)
 {
-        int r = check_value('D', value, len);
+        size_t i = 0, int_start, int_end, frac_start, frac_end, first;
+        long exp10;
+        int r;
 
+        if (i < len && (v[i] == '+' || v[i] == '-'))
+                i++;
+        int_start = i;
+        i = int_end = frac_start = frac_end = digits_end(v, len, int_start);
+        if (i < len && v[i] == '.') {
+                frac_start = i + 1;
+                i = frac_end = digits_end(v, len, frac_start);
+        }
+        if (int_end == int_start && frac_end == frac_start)
+                return -EINVAL;                 /* no digit */
+        first = first_nonzero(v, int_start, int_end);
+        if (first < int_end) {
+                exp10 = (long)(int_end - first);
+        } else {
+                first = first_nonzero(v, frac_start, frac_end);
+                exp10 = -(long)(first - frac_start);    /* 0.00S: each zero after the point */
+        }
+        r = parse_exponent(v, len, &i, &exp10);
         if (r < 0)
                 return r;
+        if (first == frac_end || exp10 < SL_DBL_MAX_EXP10)     /* zero, or below the largest */
+                return 0;
+        if (exp10 > SL_DBL_MAX_EXP10)
+                return -EINVAL;
+        return check_double_digits(v, first, int_end, frac_start, frac_end);
+}
+
+int slp_value_type_check(enum slp_type type, const char *value, size_t len)
+{
         switch (type) {
         case SLP_TYPE_LONG:
                 return check_long(value, len);
@@ -904,6 +936,13 @@ int slp_value_check(enum slp_type type, const char *value, size_t len)
                 return 0;
         }
         return -EINVAL;
+}
+
+int slp_value_check(enum slp_type type, const char *value, size_t len)
+{
+        int r = check_value('D', value, len);
+
+        return r < 0 ? r : slp_value_type_check(type, value, len);
 }
 
 int slp_name_check(const char *name, size_t len)

@@ -277,6 +277,13 @@ char slp_type_digit(enum slp_type type);
  */
 int slp_value_check(enum slp_type type, const char *value, size_t len);
 
+/*
+ * slp_value_check's rule for the type alone, for a value already known to be within
+ * SLP_VALUE_MAX and the wire's charset (sl_write checks that first, eight bytes at a time): 0 or
+ * -EINVAL. A long or a double is within the charset whenever it passes.
+ */
+int slp_value_type_check(enum slp_type type, const char *value, size_t len);
+
 /* What a decoded frame is in the Pronto4 dialect, told by its first field and the letters after
  * it (docs/pronto4.md §2); bulletin traffic that means nothing more is SLP_P4_OTHER. */
 enum slp_p4_kind {

@@ -91,11 +91,11 @@ done
 
 # FIGURE|key|label|value|unit|goal from a read_latency table: the median of the rounds.
 # Each program is started LAUNCHES times, alternating with the other: one launch is a draw of
-# where the kernel put its stack (ASLR: 4 KiB aliasing between the slot and the caller's buffer
-# was seen to make one launch in three ~1.8x slower, .so and .a alike) and of what else the
-# machine did meanwhile (on a busy 2-vCPU VM whole launches run 1.6-2x slower, every case at
-# once). The figure is the median over the launches of each launch's median, and the slowest
-# launch is printed next to it; bench_shm's section 4 scans the stack's place with ASLR off.
+# where the kernel put its stack (ASLR) and of what the machine did meanwhile (this VM's host
+# halves its memory pipeline for seconds at a time, and whole launches then run 1.6-1.9x slower,
+# every case at once: bench_shm's section 4 shows it with a pace probe beside the reads). The
+# figure is the median over the launches of each launch's median, and the slowest launch is
+# printed next to it; bench_shm's section 4 also scans the stack's place with ASLR off.
 LAUNCHES=20
 
 # Reads read_latency's table on stdin: "NAME median" for the four rows.

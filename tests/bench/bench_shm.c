@@ -20,10 +20,9 @@
  *    lowest median: other work on a shared machine only ever adds time). Round trips and
  *    wake-ups are timed one by one with CLOCK_MONOTONIC.
  * 3. Ratios, and the targets: sl_read median under 25 ns, at least 500x faster than a Redis GET.
- * 4. sl_read in launches of its own: where a process's stack lies (ASLR, and the size of its
- *    environment) can decide whether its reads stall on 4 KiB aliasing between the slot and the
- *    caller's buffer, and other work on a shared machine slows whole launches: one launch is a
- *    draw. This program starts itself again as a reader (`bench_shm --reader so|a INSTANCE`)
+ * 4. sl_read in launches of its own: a launch is a draw of where its stack lies (ASLR, and the
+ *    size of its environment: were the slot and the caller's buffer to alias modulo 4 KiB, its
+ *    loads could falsely wait on the stores) and of what the machine does meanwhile. This program starts itself again as a reader (`bench_shm --reader so|a INSTANCE`)
  *    through the shared library (dlopen of the build's libsharedlink.so.1, called through
  *    pointers as through a PLT) and through the statically linked library, LAUNCHES times each
  *    with ASLR on, alternating; each launch prints, for sl_read of a 63-byte value, plain and
@@ -33,7 +32,21 @@
  *    saw) and by their best rounds (where other work had least say: what is left is placement).
  *    Then the scan: ASLR off (personality) and the environment grown by SCAN_STEP bytes from
  *    one launch to the next over a whole page, so the stack takes every place modulo 4 KiB.
+ *    Every round of a launch also times a pace probe: a 64-byte copy between two buffers of the
+ *    reader's own, in a loop that touches neither the shared memory nor the library. On a
+ *    virtual machine its time per copy is not a constant: over seconds at a time the host halves
+ *    this VM's memory pipeline (seen here: 0.27 ns a copy, then 0.52 for a few seconds, with an
+ *    ALU-only loop unchanged, the same addresses either way), and every sl_read of those seconds
+ *    takes 1.6-1.9x as long. So each launch is classed by its pace against the best pace of the
+ *    section (slowed: over PACE_SLOWED times it), and the figures are printed for all launches,
+ *    for those at full pace (where only the library and its placement count) and for the slowed.
  *    `bench_shm --launches` runs this section alone.
+ *
+ * `bench_shm --compare LIB_A LIB_B` compares two builds of libsharedlink.so.1 (e.g. main's and a
+ * branch's) in one process: each loaded into a namespace of its own (dlmopen), sl_read timed
+ * through both in alternating rounds, each round with its pace probe, so that both builds see the
+ * same machine. Prints each case's median through A and B and the ratio B/A, over all rounds and
+ * over the rounds at full pace.
  *
  * This process runs on CPU 0 and the contending writers on CPU 1 (sched_setaffinity), when there
  * are two CPUs. Paths that wake another process (sl_wait, the sockets, Redis) are measured with
@@ -103,6 +116,12 @@
 #define SCAN_CALLS      20000L
 #define TARGET_READ_META_NS 15.0        /* sl_read with metadata, median of launches */
 #define TARGET_SLOWEST  1.5             /* slowest launch / median */
+#define PACE_CALLS      200000L         /* 64-byte copies in a round's pace probe */
+#define PACE_SLOWED     1.5             /* a launch whose pace is this much slower than the */
+                                        /* section's best ran on a slowed machine */
+#define COMPARE_ROUNDS  41              /* --compare: rounds of each case through each build */
+#define COMPARE_CALLS   20000L
+#define COMPARE_WRITE   NCASES          /* --compare's case after the reads: sl_write */
 #define READER_LINE     256
 #define PAD_VAR         "BENCH_SHM_PAD="
 
@@ -839,48 +858,81 @@ static double median_of(double *v, size_t n)
         return v[n / 2];
 }
 
+/* A launch's figures: the cases' medians, their best rounds, then the median pace. */
+enum { LAUNCH_PACE = 2 * NCASES, LAUNCH_FIGURES };
+
 /*
- * The reader's rounds, read_latency's way (a buffer and a struct sl_meta on its stack): ns per
- * call per case, the median of the rounds in ret[k] and the best round in ret[NCASES + k]; -1
- * when a read failed. Inline, so that the static reader calls sl_read directly and the shared one
- * through its pointer.
+ * The machine's pace: ns per copy of 64 bytes between two buffers of this process, over calls
+ * copies. The barrier makes each copy happen; nothing here touches the shared memory.
+ */
+static double __attribute__((noinline)) pace_probe(long calls)
+{
+        static char src[SL_VALUE_SIZE], dst[SL_VALUE_SIZE];
+        uint64_t t0 = now_ns();
+
+        for (long i = 0; i < calls; i++) {
+                __asm__ volatile("" ::: "memory");
+                memcpy(dst, src, sizeof(dst));
+        }
+        __asm__ volatile("" ::: "memory");
+        return (double)(now_ns() - t0) / (double)calls;
+}
+
+/*
+ * ns per sl_read of case k (variable id) over calls reads through fn, -1 when a read failed:
+ * read_latency's way, a buffer and a struct sl_meta on the stack. Inline, so that the static
+ * reader calls sl_read directly and the shared one through its pointer.
+ */
+static inline __attribute__((always_inline)) double
+read_round(read_fn fn, struct sl_client *c, int id, int k, long calls)
+{
+        struct sl_meta meta = { .size = sizeof(meta) };
+        struct sl_meta *m = k == CASE_META_IN || k == CASE_META_OUT ? &meta : NULL;
+        char buf[2 * SL_VALUE_SIZE];
+        uint64_t t0 = now_ns();
+        long sum = 0;
+
+        for (long i = 0; i < calls; i++)
+                sum += fn(c, id, buf, sizeof(buf), m);
+        return sum == calls * (long)(SL_VALUE_SIZE - 1) ?
+               (double)(now_ns() - t0) / (double)calls : -1;
+}
+
+/*
+ * The reader's rounds (read_round per case, each round after a pace probe): ns per call per
+ * case, the median of the rounds in ret[k] and the best round in ret[NCASES + k], -1 when a read
+ * failed; the median pace in ret[LAUNCH_PACE].
  */
 static inline __attribute__((always_inline)) void
 reader_rounds(read_fn fn, struct sl_client *c, const int id[NCASES], int rounds, long calls,
-              double ret[2 * NCASES])
+              double ret[LAUNCH_FIGURES])
 {
-        double t[NCASES][LAUNCH_ROUNDS];
+        double t[NCASES][LAUNCH_ROUNDS], pace[LAUNCH_ROUNDS];
 
         for (int r = 0; r < rounds; r++) {
-                for (int k = 0; k < NCASES; k++) {
-                        struct sl_meta meta = { .size = sizeof(meta) };
-                        struct sl_meta *m = k == CASE_META_IN || k == CASE_META_OUT ? &meta : NULL;
-                        char buf[2 * SL_VALUE_SIZE];
-                        uint64_t t0 = now_ns();
-                        long sum = 0;
-
-                        for (long i = 0; i < calls; i++)
-                                sum += fn(c, id[k], buf, sizeof(buf), m);
-                        t[k][r] = sum == calls * (long)(SL_VALUE_SIZE - 1) ?
-                                  (double)(now_ns() - t0) / (double)calls : -1;
-                }
+                pace[r] = pace_probe(PACE_CALLS);
+                for (int k = 0; k < NCASES; k++)
+                        t[k][r] = read_round(fn, c, id[k], k, calls);
         }
         for (int k = 0; k < NCASES; k++) {
                 ret[k] = median_of(t[k], (size_t)rounds);
                 ret[NCASES + k] = t[k][0];
         }
+        ret[LAUNCH_PACE] = median_of(pace, (size_t)rounds);
 }
 
 static void __attribute__((noinline)) reader_rounds_static(struct sl_client *c,
                                                            const int id[NCASES], int rounds,
-                                                           long calls, double ret[2 * NCASES])
+                                                           long calls,
+                                                           double ret[LAUNCH_FIGURES])
 {
         reader_rounds(sl_read, c, id, rounds, calls, ret);
 }
 
 static void __attribute__((noinline)) reader_rounds_shared(read_fn fn, struct sl_client *c,
                                                            const int id[NCASES], int rounds,
-                                                           long calls, double ret[2 * NCASES])
+                                                           long calls,
+                                                           double ret[LAUNCH_FIGURES])
 {
         reader_rounds(fn, c, id, rounds, calls, ret);
 }
@@ -920,7 +972,7 @@ static int reader_main(char **argv)
         int shared = strcmp(argv[2], "so") == 0, rounds = atoi(argv[4]), id[NCASES];
         long calls = atol(argv[5]);
         read_fn fn = sl_read;
-        double ns[2 * NCASES];
+        double ns[LAUNCH_FIGURES];
         struct sl_client *c;
 
         if (rounds < 1 || rounds > LAUNCH_ROUNDS || calls < 1)
@@ -954,10 +1006,10 @@ static int reader_main(char **argv)
                 reader_rounds_static(c, id, rounds, calls, ns);
         }
         close_fn(c);
-        for (int k = 0; k < 2 * NCASES; k++) {
+        for (int k = 0; k < LAUNCH_FIGURES; k++) {
                 if (ns[k] < 0)
                         return 1;
-                printf("%.3f%c", ns[k], k == 2 * NCASES - 1 ? '\n' : ' ');
+                printf("%.3f%c", ns[k], k == LAUNCH_FIGURES - 1 ? '\n' : ' ');
         }
         return 0;
 }
@@ -968,7 +1020,7 @@ static int reader_main(char **argv)
  * 0 or -1.
  */
 static int launch(int lib, const char *instance, int rounds, long calls, int pad,
-                  double ns[2 * NCASES])
+                  double ns[LAUNCH_FIGURES])
 {
         extern char **environ;
         char self[] = "/proc/self/exe", reader[] = "--reader", lib_arg[8], instance_arg[64];
@@ -1015,15 +1067,15 @@ static int launch(int lib, const char *instance, int rounds, long calls, int pad
         free(env);
         f = fdopen(fd[0], "r");
         n = f && fgets(line, sizeof(line), f) ?
-            sscanf(line, "%lf %lf %lf %lf %lf %lf %lf %lf", &ns[0], &ns[1], &ns[2], &ns[3],
-                   &ns[4], &ns[5], &ns[6], &ns[7]) : 0;
+            sscanf(line, "%lf %lf %lf %lf %lf %lf %lf %lf %lf", &ns[0], &ns[1], &ns[2], &ns[3],
+                   &ns[4], &ns[5], &ns[6], &ns[7], &ns[8]) : 0;
         if (f)
                 fclose(f);
         else
                 close(fd[0]);
         if (pid < 0 || waitpid(pid, &st, 0) != pid || !WIFEXITED(st) || WEXITSTATUS(st) != 0)
                 return -1;
-        return n == 2 * NCASES ? 0 : -1;
+        return n == LAUNCH_FIGURES ? 0 : -1;
 }
 
 /* Median and slowest of n per-launch figures (sorts them); the slowest as a ratio too. */
@@ -1035,42 +1087,131 @@ struct spread {
 
 static struct spread spread_of(double *v, size_t n)
 {
-        struct spread sp;
+        struct spread sp = { 0, 0, 0 };
 
+        if (n == 0)
+                return sp;
         sp.median = median_of(v, n);
         sp.slowest = v[n - 1];
         sp.ratio = sp.median > 0 ? sp.slowest / sp.median : 0;
         return sp;
 }
 
-/*
- * One row: a case through one library over n launches, v[0..n) the launches' medians and
- * best[0..n) their best rounds. The median of the medians is the figure; the slowest launch
- * is given by its median (what a user of that launch saw) and by its best round (where it ran
- * alone: only how the launch was placed in memory slows that one). tag names the FIGURE keys.
- */
-static void print_launches(const char *tag, int c, int lib, double *v, double *best, size_t n)
-{
-        struct spread sp = spread_of(v, n), bp = spread_of(best, n);
-        int meta = c == CASE_META_IN || c == CASE_META_OUT;
+/* The figures of a section: [lib][figure][launch], with the launches' classes by pace. */
+struct launches {
+        double v[NLIBS][LAUNCH_FIGURES][SCAN_PAGE / SCAN_STEP];
+        unsigned n;                     /* launches of each library */
+        double best_pace;               /* the section's best pace, ns per 64-byte copy */
+        double slowed_pace;             /* the median pace of the slowed launches, or 0 */
+        bool slowed[NLIBS][SCAN_PAGE / SCAN_STEP];
+        unsigned nslowed;               /* slowed launches, both libraries */
+};
 
-        printf("  %-26s %-3s %8.1f %8.1f %6.2fx %8.1f %8.1f %6.2fx\n", case_what[c],
-               lib_name[lib], sp.median, sp.slowest, sp.ratio, bp.median, bp.slowest, bp.ratio);
+/* Classes every launch of l by its pace against the best of the section. */
+static void launches_classify(struct launches *l)
+{
+        static double paces[NLIBS * (SCAN_PAGE / SCAN_STEP)];
+        size_t np = 0;
+
+        l->best_pace = 0;
+        for (int lib = 0; lib < NLIBS; lib++)
+                for (unsigned k = 0; k < l->n; k++) {
+                        double p = l->v[lib][LAUNCH_PACE][k];
+
+                        if (l->best_pace == 0 || p < l->best_pace)
+                                l->best_pace = p;
+                }
+        l->nslowed = 0;
+        for (int lib = 0; lib < NLIBS; lib++)
+                for (unsigned k = 0; k < l->n; k++) {
+                        double p = l->v[lib][LAUNCH_PACE][k];
+
+                        l->slowed[lib][k] = p > PACE_SLOWED * l->best_pace;
+                        if (l->slowed[lib][k]) {
+                                l->nslowed++;
+                                paces[np++] = p;
+                        }
+                }
+        l->slowed_pace = np ? median_of(paces, np) : 0;
+}
+
+/*
+ * Figure f of one library's launches into out[]: all of them (cls < 0), those at full pace
+ * (cls 0) or the slowed ones (cls 1). Returns how many.
+ */
+static size_t launches_pick(const struct launches *l, int lib, int f, int cls, double *out)
+{
+        size_t n = 0;
+
+        for (unsigned k = 0; k < l->n; k++)
+                if (cls < 0 || (int)l->slowed[lib][k] == cls)
+                        out[n++] = l->v[lib][f][k];
+        return n;
+}
+
+/*
+ * One row: a case through one library over l's launches. The median of the launches' medians is
+ * the figure; the slowest launch is given by its median (what a user of that launch saw) and by
+ * its best round (where other work on the machine had least say). Then the same over the
+ * launches at full pace, and the median of the slowed ones. tag names the FIGURE keys.
+ */
+static void print_launches(const char *tag, const struct launches *l, int c, int lib)
+{
+        static double v[SCAN_PAGE / SCAN_STEP], best[SCAN_PAGE / SCAN_STEP];
+        int meta = c == CASE_META_IN || c == CASE_META_OUT;
+        struct spread sp, bp, fp, wp;
+        size_t n, nfull, nslow;
+
+        n = launches_pick(l, lib, c, -1, v);
+        launches_pick(l, lib, NCASES + c, -1, best);
+        sp = spread_of(v, n);
+        bp = spread_of(best, n);
+        nfull = launches_pick(l, lib, c, 0, v);
+        fp = spread_of(v, nfull);
+        nslow = launches_pick(l, lib, c, 1, v);
+        wp = spread_of(v, nslow);
+        printf("  %-26s %-3s %7.1f %7.1f %5.2fx %7.1f %5.2fx | %7.1f %7.1f %5.2fx | %7.1f\n",
+               case_what[c], lib_name[lib], sp.median, sp.slowest, sp.ratio, bp.slowest,
+               bp.ratio, fp.median, fp.slowest, fp.ratio, wp.median);
         printf("FIGURE|read_%s-%s_%s|%s (%s, %s: median of %zu)|%.1f|ns|%s\n", tag, lib_name[lib],
                case_key[c], case_what[c], lib_name[lib], tag, n, sp.median,
                meta ? "<=15" : "-");
         printf("FIGURE|read_%s-%s_%s_slowest|%s (%s, %s: slowest / median)|%.2f|x|<=%.1f\n",
                tag, lib_name[lib], case_key[c], case_what[c], lib_name[lib], tag, sp.ratio,
                TARGET_SLOWEST);
-        printf("FIGURE|read_%s-%s_%s_slowest_best|%s (%s, %s: slowest / median, best rounds)|"
+        printf("FIGURE|read_%s-%s_%s_full|%s (%s, %s at full pace: median of %zu)|%.1f|ns|%s\n",
+               tag, lib_name[lib], case_key[c], case_what[c], lib_name[lib], tag, nfull,
+               fp.median, meta ? "<=15" : "-");
+        printf("FIGURE|read_%s-%s_%s_full_slowest|%s (%s, %s at full pace: slowest / median)|"
                "%.2f|x|<=%.1f\n", tag, lib_name[lib], case_key[c], case_what[c], lib_name[lib],
-               tag, bp.ratio, TARGET_SLOWEST);
+               tag, fp.ratio, TARGET_SLOWEST);
+        if (nslow)
+                printf("FIGURE|read_%s-%s_%s_slowed|%s (%s, %s slowed: median of %zu)|%.1f|ns|-\n",
+                       tag, lib_name[lib], case_key[c], case_what[c], lib_name[lib], tag, nslow,
+                       wp.median);
 }
 
-static void print_launches_head(void)
+/* The table of a section: the pace, a head, and a row per case and library. */
+static void print_section(const char *tag, struct launches *l)
 {
-        printf("  %-26s %-3s %8s %8s %7s %8s %8s %7s\n", "", "lib", "median", "slowest", "ratio",
-               "best:med", "slowest", "ratio");
+        launches_classify(l);
+        printf("pace (a 64-byte copy loop beside the reads, in each launch): best %.2f ns; "
+               "%u of %u launches slowed (over %.1fx that", l->best_pace, l->nslowed,
+               NLIBS * l->n, PACE_SLOWED);
+        if (l->nslowed)
+                printf(", median %.2f ns: %.1fx", l->slowed_pace, l->slowed_pace / l->best_pace);
+        printf(")\n");
+        printf("FIGURE|%s_pace|pace probe (%s: best, ns per 64-byte copy)|%.2f|ns|-\n", tag, tag,
+               l->best_pace);
+        printf("FIGURE|%s_slowed|launches slowed by the machine (%s: share)|%.2f|x|-\n", tag, tag,
+               (double)l->nslowed / (NLIBS * l->n));
+        printf("  %-26s %-3s %7s %7s %6s %7s %6s | %7s %7s %6s | %7s\n", "", "", "all:", "", "",
+               "best", "rounds", "full", "pace:", "", "slowed");
+        printf("  %-26s %-3s %7s %7s %6s %7s %6s | %7s %7s %6s | %7s\n", "", "lib", "median",
+               "slowest", "ratio", "slowest", "ratio", "median", "slowest", "ratio", "median");
+        for (int c = 0; c < NCASES; c++)
+                for (int lib = 0; lib < NLIBS; lib++)
+                        print_launches(tag, l, c, lib);
 }
 
 /* The 1-minute load average: the other work the figures were taken beside. */
@@ -1093,53 +1234,154 @@ static int launch_values(struct bench *b)
 }
 
 /* Launches of each reader: `scan` with ASLR off over the environment sizes, else ASLR on. */
-static int run_launches(const char *instance, int scan, unsigned n,
-                        double v[][2 * NCASES][SCAN_PAGE / SCAN_STEP])
+static int run_launches(const char *instance, int scan, unsigned n, struct launches *l)
 {
+        l->n = n;
         for (unsigned k = 0; k < n; k++)
                 for (int lib = 0; lib < NLIBS; lib++) {
-                        double ns[2 * NCASES];
+                        double ns[LAUNCH_FIGURES];
                         int r = scan ? launch(lib, instance, SCAN_ROUNDS, SCAN_CALLS,
                                               (int)(k * SCAN_STEP), ns) :
                                        launch(lib, instance, LAUNCH_ROUNDS, LAUNCH_CALLS, -1, ns);
 
                         if (r < 0)
                                 return r;
-                        for (int c = 0; c < 2 * NCASES; c++)
-                                v[lib][c][k] = ns[c];
+                        for (int f = 0; f < LAUNCH_FIGURES; f++)
+                                l->v[lib][f][k] = ns[f];
                 }
         return 0;
 }
 
 static void section_launches(struct bench *b, const char *instance)
 {
-        static double v[NLIBS][2 * NCASES][SCAN_PAGE / SCAN_STEP];
-        unsigned nscan = SCAN_PAGE / SCAN_STEP;
+        static struct launches l;
 
         printf("\n4. sl_read in launches of its own, 63-byte value (ns per call; load average "
                "%.2f)\n", load_average());
-        if (launch_values(b) < 0 || run_launches(instance, 0, LAUNCHES, v) < 0) {
+        if (launch_values(b) < 0 || run_launches(instance, 0, LAUNCHES, &l) < 0) {
                 printf("skipped: a reader failed\n");
                 return;
         }
         printf("%d launches of each, ASLR on, alternating (so: dlopen of the build's "
                "libsharedlink.so.1; a: linked in); a launch: median and best of %d rounds of "
                "%ld\n", LAUNCHES, LAUNCH_ROUNDS, LAUNCH_CALLS);
-        print_launches_head();
-        for (int c = 0; c < NCASES; c++)
-                for (int lib = 0; lib < NLIBS; lib++)
-                        print_launches("launch", c, lib, v[lib][c], v[lib][NCASES + c], LAUNCHES);
-        if (run_launches(instance, 1, nscan, v) < 0) {
+        print_section("launch", &l);
+        if (run_launches(instance, 1, SCAN_PAGE / SCAN_STEP, &l) < 0) {
                 printf("skipped: a reader failed\n");
                 return;
         }
         printf("scan: ASLR off, the environment grown by %u bytes a launch over %u bytes (%u "
                "launches of each); a launch: median and best of %d rounds of %ld\n", SCAN_STEP,
-               SCAN_PAGE, nscan, SCAN_ROUNDS, SCAN_CALLS);
-        print_launches_head();
-        for (int c = 0; c < NCASES; c++)
-                for (int lib = 0; lib < NLIBS; lib++)
-                        print_launches("scan", c, lib, v[lib][c], v[lib][NCASES + c], nscan);
+               SCAN_PAGE, SCAN_PAGE / SCAN_STEP, SCAN_ROUNDS, SCAN_CALLS);
+        print_section("scan", &l);
+}
+
+/* ---- --compare: two builds of the library side by side ------------------------------------ */
+
+/* One build of the library, loaded into its own namespace, with a handle and the two ids. */
+struct compared {
+        read_fn read;
+        int (*write)(struct sl_client *c, int id, const char *value);
+        struct sl_client *c;
+        int id[NCASES];
+};
+
+static int compared_open(const char *path, const char *instance, struct compared *ret)
+{
+        int (*open_fn)(const char *, struct sl_client **);
+        int (*find_fn)(struct sl_client *, const char *);
+        void *h = dlmopen(LM_ID_NEWLM, path, RTLD_NOW | RTLD_LOCAL);
+
+        if (!h) {
+                fprintf(stderr, "bench_shm: %s\n", dlerror());
+                return -1;
+        }
+        *(void **)&open_fn = dlsym(h, "sl_open");
+        *(void **)&find_fn = dlsym(h, "sl_find");
+        *(void **)&ret->read = dlsym(h, "sl_read");
+        *(void **)&ret->write = dlsym(h, "sl_write");
+        if (!open_fn || !find_fn || !ret->read || !ret->write ||
+            open_fn(instance, &ret->c) < 0) {
+                fprintf(stderr, "bench_shm: %s: not a usable libsharedlink\n", path);
+                return -1;
+        }
+        ret->id[CASE_META_IN] = ret->id[CASE_IN] = find_fn(ret->c, "In");
+        ret->id[CASE_META_OUT] = ret->id[CASE_OUT] = find_fn(ret->c, "Out");
+        return ret->id[CASE_IN] < 0 || ret->id[CASE_OUT] < 0 ? -1 : 0;
+}
+
+/*
+ * ns per call of case k through x over calls calls, -1 when one failed: sl_read of the read
+ * cases, sl_write of the 63-byte value (a double variable: its value is checked) for
+ * COMPARE_WRITE. Nothing scans .out meanwhile: the write's own cost, without a daemon's.
+ */
+static double __attribute__((noinline)) compared_round(const struct compared *x, int k, long calls)
+{
+        uint64_t t0;
+
+        if (k != COMPARE_WRITE)
+                return read_round(x->read, x->c, x->id[k], k, calls);
+        t0 = now_ns();
+        for (long i = 0; i < calls; i++)
+                if (x->write(x->c, x->id[CASE_OUT], value63) < 0)
+                        return -1;
+        return (double)(now_ns() - t0) / (double)calls;
+}
+
+static int section_compare(struct bench *b, const char *instance, const char *path_a,
+                           const char *path_b)
+{
+        static double t[2][NCASES + 1][COMPARE_ROUNDS], pace[COMPARE_ROUNDS];
+        double full[COMPARE_ROUNDS], best_pace = 0;
+        struct compared x[2];
+        size_t nfull = 0;
+
+        if (launch_values(b) < 0 || compared_open(path_a, instance, &x[0]) < 0 ||
+            compared_open(path_b, instance, &x[1]) < 0)
+                return -1;
+        printf("sl_read of a 63-byte value through A = %s and B = %s, one process, %d "
+               "alternating rounds of %ld (load average %.2f)\n", path_a, path_b, COMPARE_ROUNDS,
+               COMPARE_CALLS, load_average());
+        for (int r = 0; r < COMPARE_ROUNDS; r++) {
+                pace[r] = pace_probe(PACE_CALLS);
+                if (best_pace == 0 || pace[r] < best_pace)
+                        best_pace = pace[r];
+                for (int k = 0; k <= COMPARE_WRITE; k++)
+                        for (int i = 0; i < 2; i++) {
+                                int lib = (r + i) % 2;  /* A first in even rounds, B in odd */
+
+                                t[lib][k][r] = compared_round(&x[lib], k, COMPARE_CALLS);
+                                if (t[lib][k][r] < 0)
+                                        return -1;
+                        }
+                /* The daemon's mirror of Out again, so the next round reads it as the others do. */
+                if (shm_table_out_scan(b->t, drain_on_change, NULL) < 0)
+                        return -1;
+        }
+        for (int r = 0; r < COMPARE_ROUNDS; r++)
+                nfull += pace[r] <= PACE_SLOWED * best_pace;
+        printf("pace: best %.2f ns per 64-byte copy; %zu of %d rounds at full pace (within "
+               "%.1fx)\n", best_pace, nfull, COMPARE_ROUNDS, PACE_SLOWED);
+        printf("  %-26s %8s %8s %7s | full pace: %8s %8s %7s\n", "", "A", "B", "B/A", "A", "B",
+               "B/A");
+        for (int k = 0; k <= COMPARE_WRITE; k++) {
+                double all[2], fast[2];
+
+                for (int lib = 0; lib < 2; lib++) {
+                        size_t n = 0;
+
+                        for (int r = 0; r < COMPARE_ROUNDS; r++)
+                                if (pace[r] <= PACE_SLOWED * best_pace)
+                                        full[n++] = t[lib][k][r];
+                        all[lib] = median_of(t[lib][k], COMPARE_ROUNDS);
+                        fast[lib] = median_of(full, n);
+                }
+                printf("  %-26s %8.2f %8.2f %6.3fx | %10s %8.2f %8.2f %6.3fx\n",
+                       k == COMPARE_WRITE ? "sl_write (nothing scans)" : case_what[k],
+                       all[0], all[1], all[1] / all[0], "", fast[0], fast[1],
+                       fast[1] / fast[0]);
+        }
+        return 0;
 }
 
 /* ---- the run ------------------------------------------------------------------------------- */
@@ -1184,11 +1426,12 @@ int main(int argc, char **argv)
         struct bench b = { 0 };
         double rate10k, rate1m;
         char instance[64];
-        int only_launches;
+        int only_launches, compare;
 
         if (argc == 6 && strcmp(argv[1], "--reader") == 0)
                 return reader_main(argv);
         only_launches = argc == 2 && strcmp(argv[1], "--launches") == 0;
+        compare = argc == 4 && strcmp(argv[1], "--compare") == 0;
         signal(SIGPIPE, SIG_IGN);
         snprintf(instance, sizeof(instance), "bench-%d", (int)getpid());
         cfg.instance = instance;
@@ -1197,6 +1440,13 @@ int main(int argc, char **argv)
                 return 1;
         }
         b.pinned = sysconf(_SC_NPROCESSORS_ONLN) > 1 && pin(CPU_MAIN) == 0;
+        if (compare) {
+                int r = section_compare(&b, instance, argv[2], argv[3]);
+
+                sl_close(b.c);
+                shm_table_destroy(b.t);
+                return r < 0 ? 1 : 0;
+        }
         if (only_launches) {
                 section_launches(&b, instance);
                 sl_close(b.c);

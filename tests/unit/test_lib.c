@@ -1018,6 +1018,48 @@ static void test_retired_names(void **state)
 }
 
 /*
+ * A learned name made again with the other direction (Pronto4: a declaration wins over what a
+ * beacon made): the same id, through the same handle, now reads its .out slot. The read path
+ * keeps each id's direction and .out slot from the id sync (c->id_out), so a sync that missed
+ * the rewrite would read the .in slot here and hand out nothing instead of what was written.
+ */
+static void test_learned_name_changes_direction(void **state)
+{
+        struct fixture *f = *state;
+        const struct shm_var in_x = { "veh.A.x", SHM_DIR_IN, SHM_TYPE_STRING, 0, "A", 0 };
+        const struct shm_var out_x = { "veh.A.x", SHM_DIR_OUT, SHM_TYPE_STRING, 0, "A", 0 };
+        char buf[SL_VALUE_SIZE];
+        struct sl_meta meta = { .size = sizeof(meta) };
+        int a, id;
+        struct seen s;
+
+        f->tb.cfg.out_spare = 1;
+        assert_int_equal(shmtest_table_create(&f->tb), 0);
+        assert_int_equal(sl_open(f->tb.instance, &f->c), 0);
+        a = shm_table_add(f->tb.t, &in_x);
+        assert_int_equal(shm_table_set_str(f->tb.t, (uint32_t)a, "heard"), 0);
+        id = sl_find(f->c, "veh.A.x");
+        assert_true(id >= 0);
+        assert_int_equal(sl_read(f->c, id, buf, sizeof(buf), &meta), 5);
+        assert_false(meta.flags & SL_FLAG_OUTBOUND);
+        assert_int_equal(sl_write(f->c, id, "refused"), -EPERM);
+
+        assert_int_equal(shm_table_retire(f->tb.t, (uint32_t)a), 0);
+        assert_true(shm_table_add(f->tb.t, &out_x) >= 0);       /* an entry of the new direction */
+        assert_int_equal(sl_find(f->c, "veh.A.x"), id);
+        assert_int_equal(sl_write(f->c, id, "ours"), 0);
+        /* Not scanned yet: only the .out slot has it. */
+        assert_int_equal(sl_read(f->c, id, buf, sizeof(buf), &meta), 4);
+        assert_string_equal(buf, "ours");
+        assert_true(meta.flags & SL_FLAG_OUTBOUND);
+        /* Scanned: the daemon's mirror in .in, the same value. */
+        assert_int_equal(scan(f, &s), 1);
+        assert_int_equal(sl_read(f->c, id, buf, sizeof(buf), &meta), 4);
+        assert_string_equal(buf, "ours");
+        assert_true(meta.flags & SL_FLAG_OUTBOUND);
+}
+
+/*
  * A learned name's entry rewritten in the middle of a read, after the read lock's look at the
  * directory and before the copy: the read must notice (client_dir_moved) and not hand the next
  * name's value to the old name's id. The client skips that check for configured names only
@@ -1965,6 +2007,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_links, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_adhoc_visible, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_retired_names, setup_bare, teardown),
+                cmocka_unit_test_setup_teardown(test_learned_name_changes_direction, setup_bare,
+                                                teardown),
                 cmocka_unit_test_setup_teardown(test_learned_entry_rewritten_mid_read, setup_bare,
                                                 teardown),
                 cmocka_unit_test_setup_teardown(test_restart_clean, setup, teardown),

@@ -91,7 +91,8 @@ struct main_ctx {
         struct agilityd_worker *sync_worker, *display_worker;
         struct lane sync_lane, display_lane;
         bool sync_wanted;               /* the engine asked, not submitted yet */
-        bool sync_busy;                 /* a sync is queued or running on the worker */
+        bool sync_busy;                 /* a sync is queued or running on the worker: more
+                                         * asked for meanwhile make one sync after it */
         /* Bumped at every sync the engine asks for and at every class installed: a result of
          * another generation (a sync a reload overtook) is not this engine's. */
         uint64_t sync_gen;
@@ -280,8 +281,9 @@ static void store_retry(struct main_ctx *ctx, uint64_t now)
 
 /* Synchronize Clocks, on the sync worker: the loop goes on meanwhile, so events that come are
  * fed to the engine at once (in WaitingForSync a passage does not count: docs/agility.md §2).
- * One sync at a time (the daemon refuses a second on the link): one the engine asks for while
- * another is on its way starts when that one ends. */
+ * One sync at a time (the daemon refuses a second on the link; the worker runs one job at a
+ * time anyway): one the engine asks for while another is on its way starts when that one ends,
+ * and however many it asks for meanwhile, one is sent. */
 static void sync_start(struct main_ctx *ctx)
 {
         struct agilityd_job job = { .kind = AGILITYD_JOB_SYNC_CLOCKS };

@@ -18,8 +18,9 @@
  *    sync): while a sync takes its whole window, a number typed on the remote reaches the
  *    scoreboard (/events shows it with the state still WaitingForSync), and the sync's results
  *    still come after it; SIGTERM while a stopped (SIGSTOP) sharedlinkd holds the sync request
- *    ends sharedlink-agility cleanly with the daemon still stopped and no result of the sync.
- *    Asserted on the order of what happened, not on durations;
+ *    ends sharedlink-agility cleanly with the daemon still stopped and no result of the sync;
+ *    a sync a SIGHUP overtook, answered late, is not the new class's. Asserted on the order of
+ *    what happened, not on durations;
  *  - the scoreboard page in a real headless Chromium (Debian chromium, `make deps`; skipped when
  *    it is not installed): after two competitors' runs its DOM has the final time and both
  *    placements. SHAREDLINK_SCREENSHOT=FILE also saves a screenshot of that page there (how
@@ -892,8 +893,9 @@ static void test_browser(void **state)
 #define KEYS_ENTER_NEXT         "53\t015:AAAAAA\t024:1024\t"
 #define KEYS_ENTER_NEXT_3       "53\t015:AAAAAA\t024:1028\t"
 #define KEYS_RELEASED           "53\t015:AAAAAA\t024:0\t"
-/* The finish gate, online, not asking for a sync. */
+/* The finish gate, online, not asking for a sync; and its Sync Succeeded. */
 #define STATUS_E2E2E2           "52\t015:E2E2E2\t016:0\t019:32\t020:4\t021:130\t"
+#define SYNC_DONE_E2E2E2        "52\t015:E2E2E2\t016:0\t019:32\t020:4\t021:130\t027:2\t"
 
 /* Sends one packet to the controller, as the mediator. */
 static void put(struct fx *f, const char *body)
@@ -960,6 +962,10 @@ static void sync_outstanding(struct fx *f)
         start_agility(f);
         wait_started(f, "SetupCompleted", 1);
         sse_open(f);
+        /* A device is offline 3 s after its last status: the course is fresh at the sync. */
+        put(f, CIRCE_S_SYNC_STATUS_AAAAAA);
+        put(f, CIRCE_S_SYNC_STATUS_E1E1E1);
+        put(f, STATUS_E2E2E2);
         put(f, CIRCE_S_RACE_READY_DOWN);
         put(f, CIRCE_S_RACE_READY_UP);
         wait_packet(f, CIRCE_S_SYNC_CLOCKS);
@@ -1025,6 +1031,40 @@ static void test_sigterm_during_sync(void **state)
         f->daemon_stopped = false;
 }
 
+/* SIGHUP while a sync is outstanding, then Ready in the new class: its sync waits for the old one
+ * (the daemon takes one at a time). The devices then answer the old one: its results (every gate
+ * succeeded) are not the new class's, so the new class stays WaitingForSync until its own sync,
+ * sent only once the old one's results were all on the loop, is answered. Fed to the new class,
+ * the old results would have made it ReadyToStart before its own sync was even sent. */
+static void test_reload_during_sync(void **state)
+{
+        struct fx *f = *state;
+
+        sync_outstanding(f);
+        assert_int_equal(kill(f->a.pid, SIGHUP), 0);
+        assert_int_equal(harness_wait_log(&f->a, "SIGHUP: class Jumping A ends, class Jumping A "
+                                          "loaded", T_WAIT_MS), 0);
+        put(f, CIRCE_S_RACE_READY_DOWN);
+        put(f, CIRCE_S_RACE_READY_UP);
+        wait_state(f, "WaitingForSync", 1);
+        put(f, CIRCE_S_SYNC_DONE_AAAAAA);       /* the old sync ends: every device succeeded */
+        put(f, CIRCE_S_SYNC_DONE_E1E1E1);
+        put(f, SYNC_DONE_E2E2E2);
+        wait_packet(f, CIRCE_S_SYNC_CLOCKS);    /* the new class's */
+        assert_has(http_get(f, "GET", "/api/state"), "\"state\":\"WaitingForSync\"");
+        /* Its answers: a status without 027, then Sync Succeeded (PROTOCOLS.md §2.4). */
+        put(f, CIRCE_S_SYNC_STATUS_AAAAAA);
+        put(f, CIRCE_S_NET_STATUS_E1E1E1);
+        put(f, STATUS_E2E2E2);
+        put(f, CIRCE_S_SYNC_DONE_AAAAAA);
+        put(f, CIRCE_S_SYNC_DONE_E1E1E1);
+        put(f, SYNC_DONE_E2E2E2);
+        wait_state(f, "ReadyToStart", 1);
+        assert_int_equal(harness_log_contains(&f->a, "(an earlier sync: ignored)"), 1);
+        assert_int_equal(harness_log_contains(&f->a, "sync-failed"), 0);
+        assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -1038,6 +1078,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_max_course_time, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_loop_serves_during_sync, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_sigterm_during_sync, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_reload_during_sync, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_browser, setup, teardown),
         };
 

@@ -10,8 +10,13 @@
  *
  * One thread runs the engine on the service's loop (svc/service.h: signals, SIGHUP the next
  * class, the watchdog, READY/STATUS), woken by the toolkit's waker when the tables changed
- * (svc/waker.h, as sharedlink-mqtt is) and by one timer at the next thing due (the engine's
- * deadline, a retry); libmicrohttpd's threads serve the scoreboard (agilityd_http.h). Always
+ * (svc/waker.h, as sharedlink-mqtt is), by one timer at the next thing due (the engine's
+ * deadline, a retry) and by the request workers' results; libmicrohttpd's threads serve the
+ * scoreboard (agilityd_http.h). The loop itself only reads the tables and the event ring
+ * (shared memory, no waiting on the daemon): every control request (the clock sync, a display's
+ * Visualize) is a round trip that a slow or stopped daemon holds for its whole timeout, so it
+ * runs on a worker (agilityd_worker.h), one for the sync and one for the displays, each with its
+ * own handle. Always
  * in the foreground, logging to stderr with <N> priority prefixes. Exit status: 0 after a clean
  * stop (SIGTERM, SIGINT) or a good -n check, 1 on a bad configuration or a failed start, 2 on a
  * usage error, 3 when another sharedlink-agility times the same link of the instance
@@ -33,6 +38,7 @@
 #include "agility/agilityd_config.h"
 #include "agility/agilityd_http.h"
 #include "agility/agilityd_store.h"
+#include "agility/agilityd_worker.h"
 #include "svc/evloop.h"
 #include "svc/lockfile.h"
 #include "svc/log.h"
@@ -43,7 +49,6 @@
 #define NS_PER_MS               1000000ull
 #define STORE_RETRY_MS          5000u   /* a run the database refused is tried again */
 #define EVENTS_BATCH            32
-#define REPLY_MAX               512
 #define STATUS_MAX              256
 #define COMMAND_WAIT_MS         0       /* a command to a link that is down fails at once */
 #define CLOCK_SYNC_REQUIRED     "1"     /* 027:1, as the link publishes it */
@@ -53,6 +58,13 @@
 #ifndef SHAREDLINK_VERSION
 #define SHAREDLINK_VERSION      "unknown"
 #endif
+
+/* A worker's own handle on sharedlinkd, used on the worker's thread only (opened at its first
+ * job; closed after the worker stopped, unless a job of it was abandoned). */
+struct lane {
+        char instance[AGILITYD_NAME_MAX];       /* "" : the default (taken once, at start) */
+        struct sl_client *cl;
+};
 
 struct main_ctx {
         struct agilityd_config *cfg;    /* the running class; a reload replaces it whole */
@@ -74,7 +86,20 @@ struct main_ctx {
         struct evloop *loop;
         struct evloop_timer step;       /* the next thing due (see turn()) */
         struct waker *waker;            /* once attached */
-        bool sync_wanted;
+        /* The daemon's round trips run on two workers (agilityd_worker.h), never on the loop:
+         * a clock sync may take 3 s, and a stopped daemon holds any request for its timeout.
+         * One for the clock sync, one for the displays, so a Visualize never queues behind a
+         * sync. */
+        struct agilityd_worker *sync_worker, *display_worker;
+        struct lane sync_lane, display_lane;
+        bool sync_wanted;               /* the engine asked, not submitted yet */
+        bool sync_busy;                 /* a sync is queued or running on the worker: more
+                                         * asked for meanwhile make one sync after it */
+        /* Bumped at every sync the engine asks for and at every class installed: a result of
+         * another generation (a sync a reload overtook) is not this engine's. */
+        uint64_t sync_gen;
+        bool display_busy[AGILITYD_DISPLAYS_MAX];       /* a Visualize on its way */
+        bool display_dirty[AGILITYD_DISPLAYS_MAX];      /* changed since: sent when it is back */
         bool db_error;                  /* the last store failed: said in STATUS= */
         bool ready;                     /* READY=1 sent */
         uint64_t last_ms;               /* the engine's clock never goes back */
@@ -141,35 +166,64 @@ static void status_update(struct main_ctx *ctx)
 
 /* ---- displays -------------------------------------------------------------------------------- */
 
-/* Sends each display the fields that differ from what it shows; one that did not take it is
- * unknown again (it gets every field next time). */
+/* Sends each display the fields that differ from what it shows, through the display worker. A
+ * display has at most one Visualize on its way: what the engine changes meanwhile is sent,
+ * as the difference from it, once that one is back (so the queue never holds more than one
+ * job a display, and a display never gets a difference computed against a state it was not
+ * sent). A display is taken to show what was sent; one that did not take it is unknown again
+ * (it gets every field next time). */
 static void displays_update(struct main_ctx *ctx)
 {
         struct agility_display want;
-        char reply[REPLY_MAX];
 
         if (!ctx->cl || ctx->cfg->display_count == 0)
                 return;
         agility_run_display(&ctx->run, &want);
         for (unsigned i = 0; i < ctx->cfg->display_count; i++) {
-                struct sl_circe_visualize vis = { .size = sizeof(vis) };
+                struct agilityd_job job = { .kind = AGILITYD_JOB_VISUALIZE, .tag = i,
+                                            .vis = { .size = sizeof(job.vis) } };
                 struct agility_display next;
-                const char *dest = ctx->display_addr[i];
                 int r;
 
-                if (agility_display_diff(&ctx->shown[i], &want, &vis, &next) == 0)
+                if (ctx->display_busy[i]) {
+                        ctx->display_dirty[i] = true;
                         continue;
-                vis.dests = &dest;
-                vis.dest_count = 1;
-                r = sl_circe_visualize(ctx->cl, ctx->cfg->link, &vis, reply, sizeof(reply));
+                }
+                ctx->display_dirty[i] = false;
+                if (agility_display_diff(&ctx->shown[i], &want, &job.vis, &next) == 0)
+                        continue;
+                snprintf(job.link, sizeof(job.link), "%s", ctx->cfg->link);
+                snprintf(job.dest, sizeof(job.dest), "%s", ctx->display_addr[i]);
+                r = agilityd_worker_submit(ctx->display_worker, &job);
                 if (r == 0) {
                         ctx->shown[i] = next;
+                        ctx->display_busy[i] = true;
                         continue;
                 }
                 agility_display_unknown(&ctx->shown[i]);
-                log_ratelimited(&ctx->display_rl, LOG_PRIO_WARNING, "display %s: %s", dest,
-                                reply[0] ? reply : sl_strerror(r));
+                log_ratelimited(&ctx->display_rl, LOG_PRIO_WARNING, "display %s: not sent: %s",
+                                job.dest, strerror(-r));
         }
+}
+
+/* A Visualize is back (on the loop). */
+static void display_done(struct main_ctx *ctx, const struct agilityd_result *res)
+{
+        unsigned i = (unsigned)res->tag;
+
+        /* The class may have changed meanwhile: the index is the new class's display then,
+         * and at worst that display gets every field again. */
+        if (i >= AGILITYD_DISPLAYS_MAX)
+                return;
+        ctx->display_busy[i] = false;
+        if (res->err < 0 && i < ctx->cfg->display_count) {
+                agility_display_unknown(&ctx->shown[i]);
+                log_ratelimited(&ctx->display_rl, LOG_PRIO_WARNING, "display %s: %s",
+                                ctx->display_addr[i],
+                                res->text[0] ? res->text : sl_strerror(res->err));
+        }
+        if (ctx->display_dirty[i])
+                displays_update(ctx);
 }
 
 static int display_index(const struct main_ctx *ctx, uint32_t addr)
@@ -230,40 +284,114 @@ static void store_retry(struct main_ctx *ctx, uint64_t now)
 
 /* ---- clock synchronisation ------------------------------------------------------------------- */
 
-static int on_sync_result(const char *addr, int succeeded, void *arg)
+/* Synchronize Clocks, on the sync worker: the loop goes on meanwhile, so events that come are
+ * fed to the engine at once (in WaitingForSync a passage does not count: docs/agility.md §2).
+ * One sync at a time (the daemon refuses a second on the link; the worker runs one job at a
+ * time anyway): one the engine asks for while another is on its way starts when that one ends,
+ * and however many it asks for meanwhile, one is sent. */
+static void sync_start(struct main_ctx *ctx)
 {
-        struct main_ctx *ctx = arg;
+        struct agilityd_job job = { .kind = AGILITYD_JOB_SYNC_CLOCKS };
         struct agility_actions acts;
-        uint32_t dev;
-
-        if (agilityd_address_parse(addr, &dev) < 0)
-                return 0;
-        log_msg(LOG_PRIO_DEBUG, "clock sync: %s %s", addr, succeeded ? "succeeded" :
-                "timed out");
-        agility_run_sync_device(&ctx->run, engine_ms(ctx, now_ms()), dev, succeeded != 0,
-                                &acts);
-        handle(ctx, &acts);
-        return 0;
-}
-
-/* Synchronize Clocks, each device's outcome into the engine, then the end. The call takes up
- * to the specification's 3 s; events that come meanwhile wait in the daemon's ring (the engine
- * is in WaitingForSync, where a passage does not count anyway). */
-static void sync_clocks(struct main_ctx *ctx)
-{
-        struct agility_actions acts;
-        char reply[REPLY_MAX] = "";
         int r = -ENOTCONN;
 
+        if (!ctx->sync_wanted || ctx->sync_busy)
+                return;
         ctx->sync_wanted = false;
+        job.tag = ctx->sync_gen;
+        snprintf(job.link, sizeof(job.link), "%s", ctx->cfg->link);
         if (ctx->cl)
-                r = sl_circe_sync_clocks(ctx->cl, ctx->cfg->link, on_sync_result, ctx, reply,
-                                         sizeof(reply));
-        if (r < 0)
-                log_msg(LOG_PRIO_WARNING, "clock sync on link %s: %s", ctx->cfg->link,
-                        reply[0] ? reply : sl_strerror(r));
+                r = agilityd_worker_submit(ctx->sync_worker, &job);
+        if (r == 0) {
+                ctx->sync_busy = true;
+                return;
+        }
+        log_msg(LOG_PRIO_WARNING, "clock sync on link %s: %s", ctx->cfg->link,
+                r == -ENOTCONN ? "sharedlinkd not found" : strerror(-r));
         agility_run_sync_done(&ctx->run, engine_ms(ctx, now_ms()), &acts);
         handle(ctx, &acts);
+}
+
+/* A sync's result (on the loop): each device's outcome into the engine, then the end, in the
+ * order the daemon gave them. */
+static void sync_result(struct main_ctx *ctx, const struct agilityd_result *res)
+{
+        struct agility_actions acts;
+        uint32_t dev;
+        bool stale = res->tag != ctx->sync_gen;
+
+        if (res->kind == AGILITYD_RESULT_DEVICE) {
+                log_msg(LOG_PRIO_DEBUG, "clock sync: %s %s%s", res->addr,
+                        res->succeeded ? "succeeded" : "timed out",
+                        stale ? " (an earlier sync: ignored)" : "");
+                if (stale || agilityd_address_parse(res->addr, &dev) < 0)
+                        return;
+                agility_run_sync_device(&ctx->run, engine_ms(ctx, now_ms()), dev,
+                                        res->succeeded, &acts);
+                handle(ctx, &acts);
+                return;
+        }
+        ctx->sync_busy = false;
+        if (res->err < 0)
+                log_msg(LOG_PRIO_WARNING, "clock sync on link %s: %s", ctx->cfg->link,
+                        res->text[0] ? res->text : sl_strerror(res->err));
+        if (!stale) {
+                agility_run_sync_done(&ctx->run, engine_ms(ctx, now_ms()), &acts);
+                handle(ctx, &acts);
+        }
+        sync_start(ctx);                /* one asked for meanwhile */
+}
+
+/* A worker's result: the engine may have new deadlines, so a turn follows. */
+static void on_result(const struct agilityd_result *res, void *arg)
+{
+        struct main_ctx *ctx = arg;
+
+        if (res->job == AGILITYD_JOB_SYNC_CLOCKS)
+                sync_result(ctx, res);
+        else
+                display_done(ctx, res);
+        evloop_timer_arm(&ctx->step, 0, 0);
+}
+
+/* ---- the workers' side (their threads) ------------------------------------------------------- */
+
+static int exec_sync_device(const char *addr, int succeeded, void *arg)
+{
+        struct agilityd_result res = { .kind = AGILITYD_RESULT_DEVICE,
+                                       .succeeded = succeeded != 0 };
+
+        snprintf(res.addr, sizeof(res.addr), "%s", addr);
+        return agilityd_worker_post(arg, &res);        /* -ECANCELED ends the request */
+}
+
+/* Runs one job with the lane's own handle. */
+static void exec_request(const struct agilityd_job *job, struct agilityd_worker_post *post,
+                         struct agilityd_result *ret_done, void *arg)
+{
+        struct lane *lane = arg;
+        int r = 0;
+
+        if (!lane->cl) {
+                r = sl_open(lane->instance[0] ? lane->instance : NULL, &lane->cl);
+                if (r == 0)
+                        r = sl_set_command_wait(lane->cl, COMMAND_WAIT_MS);
+                if (r < 0)
+                        lane->cl = sl_close(lane->cl);
+        }
+        if (r == 0 && job->kind == AGILITYD_JOB_SYNC_CLOCKS) {
+                r = sl_circe_sync_clocks(lane->cl, job->link, exec_sync_device, post,
+                                         ret_done->text, sizeof(ret_done->text));
+        } else if (r == 0) {
+                struct sl_circe_visualize vis = job->vis;
+                const char *dest = job->dest;
+
+                vis.dests = &dest;
+                vis.dest_count = 1;
+                r = sl_circe_visualize(lane->cl, job->link, &vis, ret_done->text,
+                                       sizeof(ret_done->text));
+        }
+        ret_done->err = r;
 }
 
 /* ---- the engine's actions -------------------------------------------------------------------- */
@@ -299,6 +427,7 @@ static void handle(struct main_ctx *ctx, struct agility_actions *acts)
                         break;
                 case AGILITY_ACT_SYNC_CLOCKS:
                         ctx->sync_wanted = true;
+                        ctx->sync_gen++;
                         break;
                 case AGILITY_ACT_STORE_RESULT:
                         store_result(ctx, a->index);
@@ -441,8 +570,7 @@ static void events_pump(struct main_ctx *ctx)
                                 log_msg(LOG_PRIO_ERR, "%" PRIu64 " events were lost before "
                                         "they could be read", ev[i].lost);
                         on_event(ctx, &ev[i]);
-                        if (ctx->sync_wanted)
-                                sync_clocks(ctx);
+                        sync_start(ctx);
                 }
         } while (n == EVENTS_BATCH);
         if (n < 0)
@@ -477,7 +605,6 @@ static void attach_due(struct main_ctx *ctx, uint64_t now)
                 return;
         }
         backoff_reset(&ctx->attach);
-        sl_set_command_wait(ctx->cl, COMMAND_WAIT_MS);
         if (waker_start(ctx->loop, ctx->cl, on_change, ctx, &ctx->waker) < 0)
                 log_msg(LOG_PRIO_ERR, "no waker: changes are seen only at the next timer");
         log_msg(LOG_PRIO_INFO, "attached to sharedlinkd, link %s", ctx->cfg->link);
@@ -518,8 +645,7 @@ static void turn(struct main_ctx *ctx)
                 agility_run_tick(&ctx->run, engine_ms(ctx, now), &acts);
                 handle(ctx, &acts);
         }
-        if (ctx->sync_wanted)
-                sync_clocks(ctx);
+        sync_start(ctx);
         store_retry(ctx, now);
         status_update(ctx);
         wait = timeout_ms(ctx, now_ms());
@@ -683,6 +809,9 @@ static void class_install(struct main_ctx *ctx, struct class_load *cl)
                 agility_display_unknown(&ctx->shown[i]);
         }
         sync_watch_reset(ctx);
+        /* A sync still on its way was the old class's: its results are not the new one's. */
+        ctx->sync_wanted = false;
+        ctx->sync_gen++;
         log_msg(LOG_PRIO_INFO, "%s: class %s, %zu competitors, %u runs stored in %s", ctx->path,
                 ctx->cfg->class_name, ctx->run.count, stored, ctx->cfg->database);
 }
@@ -771,6 +900,18 @@ static int setup(struct main_ctx *ctx, const struct service_desc *desc, const ch
         ctx->loop = service_loop(ctx->svc);
         evloop_timer_init(&ctx->step, ctx->loop, on_step, ctx);
         backoff_reset(&ctx->attach);
+        snprintf(ctx->sync_lane.instance, sizeof(ctx->sync_lane.instance), "%s",
+                 ctx->cfg->instance);
+        ctx->display_lane = ctx->sync_lane;
+        r = agilityd_worker_start(ctx->loop, exec_request, &ctx->sync_lane, on_result, ctx,
+                                  &ctx->sync_worker);
+        if (r == 0)
+                r = agilityd_worker_start(ctx->loop, exec_request, &ctx->display_lane, on_result,
+                                          ctx, &ctx->display_worker);
+        if (r < 0) {
+                log_msg(LOG_PRIO_ERR, "request workers: %s", strerror(-r));
+                return r;
+        }
         r = agilityd_http_start(ctx->cfg, &ctx->http, &port, err, sizeof(err));
         if (r < 0) {
                 log_msg(LOG_PRIO_ERR, "%s", err);
@@ -796,6 +937,31 @@ static void start(struct main_ctx *ctx)
         turn(ctx);
 }
 
+/* Stops a worker (docs/agility.md §9: never waits for a request on its way) and says what it
+ * left; its lane's handle is closed unless a request still uses it. */
+static struct agilityd_worker *worker_stop(struct agilityd_worker *w, struct lane *lane)
+{
+        struct agilityd_worker_stats st;
+
+        if (!w)
+                return NULL;
+        agilityd_worker_stop(w, &st);
+        if (st.abandoned)
+                log_msg(LOG_PRIO_NOTICE, "stopping with a %s on its way to sharedlinkd: not "
+                        "waited for, its result is dropped",
+                        st.abandoned_kind == AGILITYD_JOB_SYNC_CLOCKS ? "clock sync" :
+                        "display update");
+        else
+                lane->cl = sl_close(lane->cl);
+        if (st.dropped)
+                log_msg(LOG_PRIO_NOTICE, "stopping: %" PRIu64 " queued requests not sent",
+                        st.dropped);
+        if (st.refused)
+                log_msg(LOG_PRIO_WARNING, "%" PRIu64 " requests were refused (queue full)",
+                        st.refused);
+        return NULL;
+}
+
 static void teardown(struct main_ctx *ctx)
 {
         if (ctx->loop)
@@ -806,6 +972,8 @@ static void teardown(struct main_ctx *ctx)
                         log_msg(LOG_PRIO_ERR, "competitor %u: stopping with the run NOT stored",
                                 (unsigned)ctx->results[i].competitor);
         ctx->http = agilityd_http_stop(ctx->http);
+        ctx->display_worker = worker_stop(ctx->display_worker, &ctx->display_lane);
+        ctx->sync_worker = worker_stop(ctx->sync_worker, &ctx->sync_lane);
         ctx->cl = sl_close(ctx->cl);
         ctx->store = agilityd_store_close(ctx->store);
         lockfile_release(&ctx->single);

@@ -13,6 +13,14 @@
  *    and the restarted daemon resumes the class with the next competitor;
  *  - a database another process keeps locked: the run stays in memory and on the display, the
  *    error is loud (STATUS=, the log), and it is stored once the lock goes;
+ *  - the loop never waits for sharedlinkd (docs/agility.md §9), with a controller link whose
+ *    mediator side the test plays on a pty (so its devices can be made never to answer a clock
+ *    sync): while a sync takes its whole window, a number typed on the remote reaches the
+ *    scoreboard (/events shows it with the state still WaitingForSync), and the sync's results
+ *    still come after it; SIGTERM while a stopped (SIGSTOP) sharedlinkd holds the sync request
+ *    ends sharedlink-agility cleanly with the daemon still stopped and no result of the sync;
+ *    a sync a SIGHUP overtook, answered late, is not the new class's. Asserted on the order of
+ *    what happened, not on durations;
  *  - the scoreboard page in a real headless Chromium (Debian chromium, `make deps`; skipped when
  *    it is not installed): after two competitors' runs its DOM has the final time and both
  *    placements. SHAREDLINK_SCREENSHOT=FILE also saves a screenshot of that page there (how
@@ -41,6 +49,7 @@
 #include <sqlite3.h>
 #include <sharedlink.h>
 
+#include "common/circe_sessions.h"
 #include "common/harness.h"
 #include "common/slwait.h"
 #include "common/testdata.h"
@@ -60,6 +69,9 @@
 #define T_BROWSER_MS    60000   /* one Chromium run, start to exit, on a busy machine */
 #define CHROMIUM        "/usr/bin/chromium"
 
+#define T_HANG_MS       60000   /* a hang guard only, where the order of events is asserted */
+#define PKT_MAX         512
+
 #define KEY_READY       "32768"
 #define SPEC_START_MS   5000    /* the specification's example session */
 #define SPEC_FINISH_MS  32000
@@ -78,6 +90,8 @@ struct fx {
         const char *class_name;         /* what write_conf writes */
         const char *gates;
         const char *times;              /* the class's course times */
+        int master, slave;              /* a pty whose mediator side the test plays, or -1 */
+        bool daemon_stopped;            /* sharedlinkd got SIGSTOP: teardown continues it */
 };
 
 static const char *agility_path(void)
@@ -97,6 +111,7 @@ static int setup(void **state)
                 return -1;
         f->ctl = -1;
         f->sse = -1;
+        f->master = f->slave = -1;
         f->class_name = "Jumping A";
         f->gates = "{start: E1E1E1, finish: E2E2E2}";
         f->times = "standard_course_time_ms: 40000, max_course_time_ms: 80000";
@@ -109,12 +124,16 @@ static int teardown(void **state)
 {
         struct fx *f = *state;
 
+        if (f->daemon_stopped && f->h.pid > 0)
+                kill(f->h.pid, SIGCONT);
         sl_close(f->cl);
         sqlite3_close(f->lock);
         harness_close_fd(&f->ctl);
         harness_close_fd(&f->sse);
         harness_cleanup(&f->a);
         harness_cleanup(&f->h);
+        harness_close_fd(&f->master);
+        harness_close_fd(&f->slave);
         free(f);
         return 0;
 }
@@ -147,13 +166,12 @@ static void write_conf(struct fx *f, const char *extra)
         assert_int_equal(harness_write_file(&f->a, "agility.yaml", text, f->conf), 0);
 }
 
-static void start_sharedlinkd(struct fx *f)
+/* sharedlinkd on links (a "links:" document), the test's handle and control connection. */
+static void start_sharedlinkd_on(struct fx *f, const char *links)
 {
-        char links[CONFIG_MAX], why[HARNESS_WHY_MAX], sock[PATH_BUF];
-        const char *const subst[] = { "@DIR@", f->h.dir, NULL };
+        char why[HARNESS_WHY_MAX], sock[PATH_BUF];
         int r;
 
-        assert_true(testdata_load("agility_links.yaml", subst, links, sizeof(links)) > 0);
         f->h.capture_log = 1;
         r = harness_start_config(&f->h, "circe.yaml", links, T_START_MS, why, sizeof(why));
         if (r == -ENOTSUP)
@@ -164,6 +182,16 @@ static void start_sharedlinkd(struct fx *f)
         snprintf(sock, sizeof(sock), "%s/%s.sock", f->h.dir, f->h.instance);
         f->ctl = harness_connect_unix(sock);
         assert_true(f->ctl >= 0);
+}
+
+/* sharedlinkd with the emulated course (tests/data/agility_links.yaml). */
+static void start_sharedlinkd(struct fx *f)
+{
+        char links[CONFIG_MAX];
+        const char *const subst[] = { "@DIR@", f->h.dir, NULL };
+
+        assert_true(testdata_load("agility_links.yaml", subst, links, sizeof(links)) > 0);
+        start_sharedlinkd_on(f, links);
 }
 
 /* The port of the last "scoreboard at http://127.0.0.1:PORT/" in the log (the class file asks
@@ -270,14 +298,16 @@ static void wait_value(struct fx *f, const char *name, const char *want)
                 fail_msg("%s never became \"%s\" (last \"%s\")", name, want, last);
 }
 
-/* The course is up: every emulated device is online at the controller. */
-static void wait_course(struct fx *f)
+/* The course is up: the gates, the remote and (with display) the display are online at the
+ * controller. */
+static void wait_course(struct fx *f, bool display)
 {
         wait_value(f, "agility.state", "connected");
         wait_value(f, "agility.device.E1E1E1.online", "1");
         wait_value(f, "agility.device.E2E2E2.online", "1");
         wait_value(f, "agility.device.AAAAAA.online", "1");
-        wait_value(f, "agility.device.D15D15.online", "1");
+        if (display)
+                wait_value(f, "agility.device.D15D15.online", "1");
 }
 
 /* sharedlinkd, then sharedlink-agility on the class file, in SetupCompleted with competitor 1
@@ -288,7 +318,7 @@ static void bring_up(struct fx *f)
         write_conf(f, NULL);
         start_agility(f);
         wait_started(f, "SetupCompleted", 1);
-        wait_course(f);
+        wait_course(f, true);
 }
 
 static void wait_until_ms(uint64_t at_ns)
@@ -366,8 +396,9 @@ static void sse_open(struct fx *f)
         assert_int_equal(harness_write_all(f->sse, req, strlen(req), T_WAIT_MS), 0);
 }
 
-/* Reads the stream until an update contains needle. */
-static void sse_wait(struct fx *f, const char *needle)
+/* Reads the stream until an update contains needle; what was read (valid until the next
+ * call). */
+static const char *sse_wait(struct fx *f, const char *needle)
 {
         static char buf[HTTP_MAX * 4];
         size_t len = 0;
@@ -375,6 +406,23 @@ static void sse_wait(struct fx *f, const char *needle)
         buf[0] = '\0';
         if (!read_until(f->sse, buf, sizeof(buf), &len, needle))
                 fail_msg("no update with %s on /events; got:\n%.2000s", needle, buf);
+        return buf;
+}
+
+/* The first update (its "data:" line) in what sse_wait read that contains needle. */
+static void sse_update_with(const char *read, const char *needle, char *line, size_t size)
+{
+        const char *hit = strstr(read, needle), *start, *end;
+
+        assert_non_null(hit);
+        for (start = hit; start > read && start[-1] != '\n'; start--)
+                ;
+        end = strchr(hit, '\n');
+        if (!end)
+                end = hit + strlen(hit);
+        assert_true((size_t)(end - start) < size);
+        memcpy(line, start, (size_t)(end - start));
+        line[end - start] = '\0';
 }
 
 /* ---- the database, read as a user would -------------------------------------------------------- */
@@ -856,6 +904,185 @@ static void test_second_refused(void **state)
         assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
 }
 
+/* ---- the loop and a daemon that takes its time ---------------------------------------------- */
+
+/* The remote AAAAAA enters the next competitor, 3: the modifier, digit 3 (key bit 4) down and up,
+ * the modifier released (docs/agility.md §3). */
+#define KEYS_ENTER_NEXT         "53\t015:AAAAAA\t024:1024\t"
+#define KEYS_ENTER_NEXT_3       "53\t015:AAAAAA\t024:1028\t"
+#define KEYS_RELEASED           "53\t015:AAAAAA\t024:0\t"
+/* The finish gate, online, not asking for a sync; and its Sync Succeeded. */
+#define STATUS_E2E2E2           "52\t015:E2E2E2\t016:0\t019:32\t020:4\t021:130\t"
+#define SYNC_DONE_E2E2E2        "52\t015:E2E2E2\t016:0\t019:32\t020:4\t021:130\t027:2\t"
+
+/* Sends one packet to the controller, as the mediator. */
+static void put(struct fx *f, const char *body)
+{
+        char pkt[PKT_MAX];
+        size_t n = harness_circe_packet(body, pkt);
+
+        assert_int_equal(harness_write_all(f->master, pkt, n, T_WAIT_MS), 0);
+}
+
+/* Reads what the controller sends until the packet body comes (others are skipped). */
+static void wait_packet(struct fx *f, const char *body)
+{
+        char want[PKT_MAX], got[PKT_MAX];
+        size_t wn = harness_circe_packet(body, want);
+
+        for (;;) {
+                ssize_t gn = harness_read_until(f->master, got, sizeof(got), 0x03, T_WAIT_MS);
+                const char *stx;
+
+                if (gn <= 0)
+                        fail_msg("the controller never sent \"%s\" (%zd)", body, gn);
+                stx = memchr(got, 0x02, (size_t)gn);
+                if (stx && (size_t)(got + gn - stx) == wn && memcmp(stx, want, wn) == 0)
+                        return;
+        }
+}
+
+/* sharedlinkd with only the controller link, on a pty whose mediator side the test plays:
+ * logged in, the remote and both gates online (the start gate asking for a sync, 027:1). */
+static void start_mediated(struct fx *f)
+{
+        char links[CONFIG_MAX], slave_path[PATH_BUF], dev[PATH_BUF];
+
+        assert_int_equal(harness_openpty(&f->master, &f->slave, slave_path), 0);
+        snprintf(dev, sizeof(dev), "%s/arena.tty", f->h.dir);
+        assert_int_equal(symlink(slave_path, dev), 0);
+        /* Long timeouts: this mediator sends only what a step needs. */
+        snprintf(links, sizeof(links),
+                 "links:\n"
+                 "  - name: agility\n"
+                 "    protocol: circe\n"
+                 "    role: controller\n"
+                 "    transport: serial\n"
+                 "    device: %s\n"
+                 "    expect_version: \"1.2\"\n"
+                 "    login_timeout_ms: 5000\n"
+                 "    idle_timeout_ms: 60000\n", dev);
+        start_sharedlinkd_on(f, links);
+        wait_packet(f, CIRCE_S_LOGIN);
+        put(f, CIRCE_S_KA);
+        put(f, CIRCE_S_SYNC_STATUS_AAAAAA);
+        put(f, CIRCE_S_SYNC_STATUS_E1E1E1);
+        put(f, STATUS_E2E2E2);
+        wait_course(f, false);
+}
+
+/* sharedlinkd, sharedlink-agility, Ready on the remote: the sync request has reached the daemon
+ * once the controller sends Synchronize Clocks; the test's devices never answer it. */
+static void sync_outstanding(struct fx *f)
+{
+        start_mediated(f);
+        write_conf(f, NULL);
+        start_agility(f);
+        wait_started(f, "SetupCompleted", 1);
+        sse_open(f);
+        /* A device is offline 3 s after its last status: the course is fresh at the sync. */
+        put(f, CIRCE_S_SYNC_STATUS_AAAAAA);
+        put(f, CIRCE_S_SYNC_STATUS_E1E1E1);
+        put(f, STATUS_E2E2E2);
+        put(f, CIRCE_S_RACE_READY_DOWN);
+        put(f, CIRCE_S_RACE_READY_UP);
+        wait_packet(f, CIRCE_S_SYNC_CLOCKS);
+}
+
+/* While the sync is outstanding (its devices never answer, so it takes the whole window), the
+ * loop goes on: a number typed on the remote is on the scoreboard while the state is still
+ * WaitingForSync, and a start passage is refused as the engine refuses it there (a notice, no
+ * run). Then the sync's results arrive: every gate timed out, back to SetupCompleted,
+ * the typed next competitor kept. Before the request worker the loop waited inside the sync
+ * and read the keys and the passage only after its end, so both came in SetupCompleted. */
+static void test_loop_serves_during_sync(void **state)
+{
+        static char line[HTTP_MAX];
+        struct fx *f = *state;
+        const char *read;
+
+        sync_outstanding(f);
+        put(f, KEYS_ENTER_NEXT);
+        put(f, KEYS_ENTER_NEXT_3);
+        put(f, KEYS_ENTER_NEXT);
+        put(f, KEYS_RELEASED);
+        put(f, CIRCE_S_RACE_START);     /* the dog goes early: no start while syncing */
+        read = sse_wait(f, "\"next\":3,");
+        sse_update_with(read, "\"next\":3,", line, sizeof(line));
+        if (!strstr(line, "\"state\":\"WaitingForSync\""))
+                fail_msg("the typed number reached the scoreboard only with the sync's "
+                         "result:\n%s", line);
+        assert_int_equal(harness_wait_log(&f->a, "out-of-order (device E1E1E1, competitor 0, "
+                                          "state WaitingForSync)", T_WAIT_MS), 0);
+
+        /* The sync's results, each gate and then the end. */
+        wait_state(f, "SetupCompleted", 1);
+        assert_has(http_get(f, "GET", "/api/state"), "\"next\":3,");
+        assert_int_equal(harness_log_contains(&f->a, "clock sync: E1E1E1 timed out"), 1);
+        assert_int_equal(harness_log_contains(&f->a, "clock sync: E2E2E2 timed out"), 1);
+        assert_int_equal(harness_log_contains(&f->a, "sync-failed (device E1E1E1"), 1);
+        assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
+}
+
+/* SIGTERM while sharedlinkd, stopped with SIGSTOP, holds the sync request: sharedlink-agility
+ * exits 0 while the daemon is still stopped, with no result of the sync, and says what it left.
+ * Before the request worker it stayed inside the request until the library's timeout and saw
+ * the signal only then: its log had the failed sync before the stop. */
+static void test_sigterm_during_sync(void **state)
+{
+        struct fx *f = *state;
+        int st;
+
+        sync_outstanding(f);
+        assert_int_equal(kill(f->h.pid, SIGSTOP), 0);
+        f->daemon_stopped = true;
+        st = harness_stop_daemon(&f->a, SIGTERM, T_HANG_MS);
+        if (st != 0)
+                fail_msg("sharedlink-agility did not stop cleanly (%d); log %s", st,
+                         f->a.log_path);
+        assert_int_equal(harness_log_contains(&f->a, "clock sync on link"), 0);
+        assert_int_equal(harness_log_contains(&f->a, "sync-failed"), 0);
+        assert_int_equal(harness_log_contains(&f->a, "stopping with a clock sync on its way"),
+                         1);
+        assert_int_equal(harness_log_contains(&f->a, "stopped"), 1);
+        assert_int_equal(kill(f->h.pid, SIGCONT), 0);
+        f->daemon_stopped = false;
+}
+
+/* SIGHUP while a sync is outstanding, then Ready in the new class: its sync waits for the old one
+ * (the daemon takes one at a time). The devices then answer the old one: its results (every gate
+ * succeeded) are not the new class's, so the new class stays WaitingForSync until its own sync,
+ * sent only once the old one's results were all on the loop, is answered. Fed to the new class,
+ * the old results would have made it ReadyToStart before its own sync was even sent. */
+static void test_reload_during_sync(void **state)
+{
+        struct fx *f = *state;
+
+        sync_outstanding(f);
+        assert_int_equal(kill(f->a.pid, SIGHUP), 0);
+        assert_int_equal(harness_wait_log(&f->a, "SIGHUP: class Jumping A ends, class Jumping A "
+                                          "loaded", T_WAIT_MS), 0);
+        put(f, CIRCE_S_RACE_READY_DOWN);
+        put(f, CIRCE_S_RACE_READY_UP);
+        wait_state(f, "WaitingForSync", 1);
+        put(f, CIRCE_S_SYNC_DONE_AAAAAA);       /* the old sync ends: every device succeeded */
+        put(f, CIRCE_S_SYNC_DONE_E1E1E1);
+        put(f, SYNC_DONE_E2E2E2);
+        wait_packet(f, CIRCE_S_SYNC_CLOCKS);    /* the new class's */
+        assert_has(http_get(f, "GET", "/api/state"), "\"state\":\"WaitingForSync\"");
+        /* Its answers: a status without 027, then Sync Succeeded (PROTOCOLS.md §2.4). */
+        put(f, CIRCE_S_SYNC_STATUS_AAAAAA);
+        put(f, CIRCE_S_NET_STATUS_E1E1E1);
+        put(f, STATUS_E2E2E2);
+        put(f, CIRCE_S_SYNC_DONE_AAAAAA);
+        put(f, CIRCE_S_SYNC_DONE_E1E1E1);
+        put(f, SYNC_DONE_E2E2E2);
+        wait_state(f, "ReadyToStart", 1);
+        assert_int_equal(harness_log_contains(&f->a, "(an earlier sync: ignored)"), 1);
+        assert_int_equal(harness_log_contains(&f->a, "sync-failed"), 0);
+        assert_int_equal(harness_stop_daemon(&f->a, SIGTERM, T_STOP_MS), 0);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -868,6 +1095,9 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_sync_lost, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_gate_not_in_network, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_max_course_time, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_loop_serves_during_sync, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_sigterm_during_sync, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_reload_during_sync, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_browser, setup, teardown),
         };
 

@@ -219,12 +219,46 @@ static uint64_t swar_bad(uint64_t x)
 }
 #endif
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+
+/*
+ * A bit set for each of the 16 bytes at p that is no slp_value_byte(). As signed bytes,
+ * 0x80-0xff are negative: "< 0x20" catches them with the control characters, and 0x7f is the
+ * only byte above 0x7e left.
+ */
+static unsigned layout_bad16(const char *p)
+{
+        const __m128i space = _mm_set1_epi8(SLP_VALUE_BYTE_MIN),
+                      del = _mm_set1_epi8(SLP_VALUE_BYTE_MAX + 1);
+        const __m128i bar = _mm_set1_epi8('|'), open = _mm_set1_epi8('['),
+                      close = _mm_set1_epi8(']');
+        __m128i x = _mm_loadu_si128((const __m128i *)(const void *)p);
+        __m128i b = _mm_or_si128(_mm_or_si128(_mm_cmplt_epi8(x, space), _mm_cmpeq_epi8(x, del)),
+                                 _mm_or_si128(_mm_cmpeq_epi8(x, bar),
+                                              _mm_or_si128(_mm_cmpeq_epi8(x, open),
+                                                           _mm_cmpeq_epi8(x, close))));
+
+        return (unsigned)_mm_movemask_epi8(b);
+}
+#endif
+
 int shm_layout_value_check(const char *v, size_t len)
 {
         size_t i = 0;
 
         if (len > SHM_VALUE_MAX)
                 return -EINVAL;
+#if defined(__SSE2__)
+        /* 16 bytes at a time, the last 16 overlapping what came before: no load past len (a
+         * value sl_write checks is the caller's string, which may end at a page's end). */
+        if (len >= 16u) {
+                for (; i + 16u <= len; i += 16u)
+                        if (layout_bad16(v + i))
+                                return -EINVAL;
+                return i < len && layout_bad16(v + len - 16u) ? -EINVAL : 0;
+        }
+#endif
 #if defined(LAYOUT_SWAR)
         for (; i + 8u <= len; i += 8u) {
                 uint64_t w;
@@ -233,7 +267,15 @@ int shm_layout_value_check(const char *v, size_t len)
                 if (swar_bad(w))
                         return -EINVAL;
         }
-        if (i < len) {
+        if (i < len && len >= 8u) {
+                uint64_t w;
+
+                /* The last eight bytes, some of them checked already: one load of a known
+                 * size (a copy of len - i bytes was a call to memcpy, a third of the check). */
+                memcpy(&w, v + len - 8u, sizeof(w));
+                if (swar_bad(w))
+                        return -EINVAL;
+        } else if (i < len) {
                 uint64_t w = LAYOUT_FILL;
 
                 memcpy(&w, v + i, len - i);     /* the low bytes; the others stay 'A' */
@@ -249,44 +291,26 @@ int shm_layout_value_check(const char *v, size_t len)
 #endif
 }
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-
 /*
- * The check over a whole value field, 16 bytes at a time: a client read of an outbound variable
- * validates the slot it copied, and the word-at-a-time check was still a third of that read. The
- * field is always SHM_VALUE_SIZE bytes, so every vector load is in bounds; bytes at and past
- * len are masked out of the verdict. As signed bytes, 0x80-0xff are negative: "< 0x20" catches
- * them with the control characters, and 0x7f is the only byte above 0x7e left.
+ * The check over a whole value field: a client read of an outbound variable validates the slot it
+ * copied, and the word-at-a-time check was still a third of that read. The field is always
+ * SHM_VALUE_SIZE bytes, so every vector load is in bounds; bytes at and past len are masked out
+ * of the verdict.
  */
 int shm_layout_value_check_field(const char *v, size_t len)
 {
-        const __m128i space = _mm_set1_epi8(SLP_VALUE_BYTE_MIN),
-                      del = _mm_set1_epi8(SLP_VALUE_BYTE_MAX + 1);
-        const __m128i bar = _mm_set1_epi8('|'), open = _mm_set1_epi8('['),
-                      close = _mm_set1_epi8(']');
+#if defined(__SSE2__)
         uint64_t bad = 0;
 
         if (len > SHM_VALUE_MAX)
                 return -EINVAL;
-        for (unsigned i = 0; i < SHM_VALUE_SIZE / 16u; i++) {
-                __m128i x = _mm_loadu_si128((const __m128i *)(const void *)(v + 16u * i));
-                __m128i b = _mm_or_si128(_mm_or_si128(_mm_cmplt_epi8(x, space),
-                                                      _mm_cmpeq_epi8(x, del)),
-                                         _mm_or_si128(_mm_cmpeq_epi8(x, bar),
-                                                      _mm_or_si128(_mm_cmpeq_epi8(x, open),
-                                                                   _mm_cmpeq_epi8(x, close))));
-
-                bad |= (uint64_t)(uint32_t)_mm_movemask_epi8(b) << (16u * i);
-        }
+        for (unsigned i = 0; i < SHM_VALUE_SIZE / 16u; i++)
+                bad |= (uint64_t)layout_bad16(v + 16u * i) << (16u * i);
         return bad & ((UINT64_C(1) << len) - 1u) ? -EINVAL : 0;
-}
 #else
-int shm_layout_value_check_field(const char *v, size_t len)
-{
         return shm_layout_value_check(v, len);
-}
 #endif
+}
 
 uint32_t shm_layout_name_hash(const char *name)
 {

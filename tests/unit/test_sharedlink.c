@@ -17,6 +17,8 @@
 #include <string.h>
 #include <errno.h>
 #include <limits.h>
+#include <sys/mman.h>
+#include <unistd.h>
 #include <cmocka.h>
 
 #include "common/wire.h"
@@ -1190,6 +1192,43 @@ static void test_value_check(void **state)
         assert_int_equal(slp_value_check(SLP_TYPE_STRING, V64, SLP_VALUE_MAX), 0);
 }
 
+/*
+ * sl_write checks the caller's own string, whose last byte may be the last of a page: the value
+ * checks (eight and sixteen bytes at a time, their last load overlapping) never read past len.
+ * Every length up to SLP_VALUE_MAX at the end of a page followed by one that faults, each valid
+ * and then with one bad byte at every position; the same values as long and double.
+ */
+static void test_value_check_page_end(void **state)
+{
+        long page = sysconf(_SC_PAGESIZE);
+        char *base = mmap(NULL, 2u * (size_t)page, PROT_READ | PROT_WRITE,
+                          MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+
+        (void)state;
+        assert_true(base != MAP_FAILED);
+        assert_int_equal(mprotect(base + page, (size_t)page, PROT_NONE), 0);
+        for (size_t len = 0; len <= SLP_VALUE_MAX; len++) {
+                char *v = base + page - len;
+
+                memset(v, '7', len);
+                assert_int_equal(shm_layout_value_check(v, len), 0);
+                assert_int_equal(slp_value_check(SLP_TYPE_DOUBLE, v, len), len ? 0 : -EINVAL);
+                assert_int_equal(slp_value_type_check(SLP_TYPE_DOUBLE, v, len),
+                                 len ? 0 : -EINVAL);
+                if (len > 0 && len <= 18)
+                        assert_int_equal(slp_value_type_check(SLP_TYPE_LONG, v, len), 0);
+                for (size_t bad = 0; bad < len; bad++) {
+                        v[bad] = '|';
+                        assert_int_equal(shm_layout_value_check(v, len), -EINVAL);
+                        v[bad] = 'x';
+                        assert_int_equal(slp_value_type_check(SLP_TYPE_DOUBLE, v, len), -EINVAL);
+                        assert_int_equal(slp_value_type_check(SLP_TYPE_LONG, v, len), -EINVAL);
+                        v[bad] = '7';
+                }
+        }
+        munmap(base, 2u * (size_t)page);
+}
+
 static void test_name_check(void **state)
 {
         static const char *const good[] = { "a", "AutoGpsLat", "veh_start", "b.Cmd-1", "7" };
@@ -1722,6 +1761,7 @@ int main(void)
                 cmocka_unit_test(test_address_valid),
                 cmocka_unit_test(test_one_rule),
                 cmocka_unit_test(test_value_check),
+                cmocka_unit_test(test_value_check_page_end),
                 cmocka_unit_test(test_name_check),
                 cmocka_unit_test(test_declaration_encode),
                 cmocka_unit_test(test_declaration_errors),

@@ -878,6 +878,18 @@ static double __attribute__((noinline)) pace_probe(long calls)
         return (double)(now_ns() - t0) / (double)calls;
 }
 
+#define PACE_NOW_PROBES 9
+
+/* The machine's pace now: the median of PACE_NOW_PROBES probes (section 2, before and after). */
+static double pace_now(void)
+{
+        double p[PACE_NOW_PROBES];
+
+        for (unsigned i = 0; i < PACE_NOW_PROBES; i++)
+                p[i] = pace_probe(PACE_CALLS);
+        return median_of(p, PACE_NOW_PROBES);
+}
+
 /*
  * ns per sl_read of case k (variable id) over calls reads through fn, -1 when a read failed:
  * read_latency's way, a buffer and a struct sl_meta on the stack. Inline, so that the static
@@ -1417,6 +1429,7 @@ int main(int argc, char **argv)
         struct shm_table_config cfg = { .vars = vars, .nvars = NVARS };
         static const char *const placement[PLACEMENTS] = { "same CPU", "other CPU" };
         struct figure read0, read0m, read10k, read1m, wr, wake[PLACEMENTS] = { { 0 } };
+        double pace0, pace1;
         struct figure echo[PLACEMENTS] = { { 0 } }, best_echo, best_get, best_set;
         const struct figure none = { 0, 0, 0 };
         struct redis_figures rf[PLACEMENTS] = { { 0 } };
@@ -1464,6 +1477,7 @@ int main(int argc, char **argv)
                b.pinned ? "this process on CPU 0, others on CPU 1" : "not pinned", BATCH_OPS,
                BEST_OF);
         printf("%-40s %10s %10s\n", "", "median ns", "p99 ns");
+        pace0 = pace_now();
         read0 = timed_reads(&b);
         print_figure("sl_read, uncontended", read0, NULL);
         b.with_meta = 1;
@@ -1486,6 +1500,10 @@ int main(int argc, char **argv)
                 wr = timed_writes(&b);
                 print_figure("sl_write", wr, "(no wake thread: it did not start)");
         }
+        pace1 = pace_now();
+        /* The figures above depend on it: see section 4. */
+        printf("%-40s %10.2f %10.2f   (before and after the lines above, ns per 64-byte copy: "
+               "section 4)\n", "pace of the machine", pace0, pace1);
         /*
          * Where the other process runs matters a lot on a virtual machine, where waking a vCPU
          * can cost tens of microseconds: every path that needs a wake-up is measured with the
@@ -1534,6 +1552,9 @@ int main(int argc, char **argv)
                read0m.median);
         printf("FIGURE|read|sl_read (bench_shm, median)|%.1f|ns|<=15\n", read0.median);
         printf("FIGURE|write|sl_write, daemon side idle (median)|%.1f|ns|<=150\n", wr.median);
+        printf("FIGURE|pace_ops|pace of the machine during sl_read and sl_write above (ns per "
+               "64-byte copy, the slower of before and after)|%.2f|ns|-\n",
+               pace0 > pace1 ? pace0 : pace1);
         if (have_redis) {
                 printf("FIGURE|redis_get|Redis GET (median)|%.0f|ns|-\n", best_get.median);
                 printf("FIGURE|redis_get_ratio|Redis GET / sl_read|%.0f|x|>=500\n",

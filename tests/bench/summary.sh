@@ -13,7 +13,7 @@ echo "== summary: every figure of this run next to its goal (load average $(cut 
 # The issue's order; figures not named here follow in the order they were printed.
 order="read_meta read read_installed-so_meta_in read_installed-so_in read_installed-so_meta_out
 read_installed-so_out read_installed-a_meta_in read_installed-a_in read_installed-a_meta_out
-read_installed-a_out write redis_get redis_get_ratio redis_set unix_rtt pty_floor inbound
+read_installed-a_out write pace_ops redis_get redis_get_ratio redis_set unix_rtt pty_floor inbound
 inbound_ratio inbound_spin inbound_spin_ratio inbound_spin_cpu outbound_p50 outbound_p99 dstage1
 dstage2 dstage3 stage1
 stage2 stage3 stage4 codec_sharedlink codec_circe idle_wakeups idle_switches daemon_rss"

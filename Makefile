@@ -187,7 +187,7 @@ LIB_PROTO_SRC := $(filter src/proto/control.c src/proto/request.c src/proto/circ
 # The shared-memory files a client needs (reading and writing slots, events, futex waits, object
 # names); the table, guard and wake files are the daemon's side only. The .so links with -z defs,
 # so a file missing here fails the build rather than the first program that loads the library.
-LIB_SHM_SRC := $(filter src/shm/events.c src/shm/futex.c src/shm/layout.c src/shm/slot.c,$(SHM_SRC))
+LIB_SHM_SRC := $(filter src/shm/changes.c src/shm/events.c src/shm/futex.c src/shm/layout.c src/shm/slot.c,$(SHM_SRC))
 LIB_OBJ      = $(call obj,$(LIB_SRC) $(LIB_PROTO_SRC) $(LIB_SHM_SRC))
 SVC_SRC    := $(wildcard src/svc/*.c)
 DAEMON_MAIN:= $(wildcard src/daemon/main.c)

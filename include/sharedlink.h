@@ -265,6 +265,42 @@ struct sl_wait_opts {
 int sl_wait_with(struct sl_client *c, uint32_t *cursor, int timeout_ms,
                  const struct sl_wait_opts *opts);
 
+/* sl_changed flags: SL_CHANGED_ALL with the reason(s), or SL_CHANGED_MORE, or 0 */
+#define SL_CHANGED_ALL          0x1u    /* read every variable once: the ids do not say it all */
+#define SL_CHANGED_START        0x2u    /* ... the cursor was 0 */
+#define SL_CHANGED_OVERRUN      0x4u    /* ... the caller fell behind: more changes since the
+                                         * cursor than the daemon's record holds */
+#define SL_CHANGED_REMAPPED     0x8u    /* ... ids were resolved anew since the cursor: a daemon
+                                         * restart, a name retired or reused, or a cursor that is
+                                         * not this handle's */
+#define SL_CHANGED_UNAVAILABLE  0x10u   /* ... the daemon keeps no change record (older than the
+                                         * library), or $SHAREDLINK_CHANGES=all: every call */
+#define SL_CHANGED_MORE         0x100u  /* more ids are pending than max: call again */
+
+/*
+ * Which variables changed since *cursor (start with 0): their ids, in the order of the changes,
+ * into ids[0..max-1]; returns how many (0: none) and advances *cursor past them, or -errno
+ * (-EINVAL). A change is anything sl_read would show differently: a value, its flags (valid,
+ * stale, repaired), a name that appeared or went away. An id may appear more than once in one
+ * answer (it changed more than once): reading it again costs a read, never a wrong value.
+ *
+ * When *ret_flags has SL_CHANGED_ALL, the ids cannot tell everything (the reasons are the other
+ * bits): the caller must read every variable once, then go on from the new *cursor as usual;
+ * no ids come with it. That happens for a new cursor, after a daemon restart or a name retired
+ * or reused (ids resolved anew), when the caller fell behind the daemon's record (about one
+ * change per variable of the table), and always with a daemon older than this library.
+ * SL_CHANGED_MORE: not all pending ids fitted; call again.
+ *
+ * Use it after sl_wait: every change the daemon made before the change sl_wait returned for is
+ * in the answer; one made later may be there too, and is anyway in the answer after the next
+ * sl_wait, which returns at once for it. So a caller that reads what it is told after each
+ * wake-up never holds a value older than the table's at that wake-up. Staleness that comes from
+ * the daemon having stopped (no heartbeat: SL_FLAG_STALE on every value) is not a change the
+ * daemon records: read everything when sl_daemon_alive changes, or on a timer. A cursor belongs
+ * to the handle that gave it. Since SHAREDLINK_1.4.
+ */
+int sl_changed(struct sl_client *c, uint64_t *cursor, int *ids, size_t max, uint32_t *ret_flags);
+
 /*
  * Reads up to ret_size events after *cursor (start with 0: the oldest retained; or with
  * sl_events_now) into ret[0..ret_size-1], each element's size set by the caller. Returns the

@@ -45,6 +45,12 @@ SL_EVENT_RESTARTED = 0x2
 SL_WAIT_SPIN = 0x1             # sl_wait_with: Client.wait(..., spin_us=N)
 SL_WAIT_SPIN_MAX_US = 10000
 SL_READ_BUSY_MS = 20
+SL_CHANGED_ALL = 0x1           # sl_changed (C only so far: Client.wait reads every name)
+SL_CHANGED_START = 0x2
+SL_CHANGED_OVERRUN = 0x4
+SL_CHANGED_REMAPPED = 0x8
+SL_CHANGED_UNAVAILABLE = 0x10
+SL_CHANGED_MORE = 0x100
 SL_COUNTER_SHAREDLINK = 0x1
 SL_COUNTER_CIRCE = 0x2
 SL_COUNTER_DAEMON = 0x4

@@ -329,6 +329,7 @@ static void ids_sync_view(struct sl_client *c, int all)
                 for (uint32_t id = 0; id < c->nids; id++)
                         c->id_index[id] = -1;
                 c->synced = 0;
+                c->view++;      /* ids may name other entries now: sl_changed says so */
         }
         c->synced_rewrites = rewrites;
         first = c->synced;
@@ -722,6 +723,7 @@ SL_EXPORT int sl_open(const char *instance, struct sl_client **ret)
         }
         c->pid = (uint32_t)getpid();
         c->vdso_clock_gettime = vdso_clock();
+        c->changes_all = client_changes_all_env();
         r = map_open(c->in_name, &m);
         if (r < 0) {
                 freelocale(c->c_locale);

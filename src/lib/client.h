@@ -112,6 +112,8 @@ struct sl_client {
         int32_t *index_id;              /* directory index -> id, map->capacity entries */
         uint32_t synced;                /* directory entries of the current map given ids */
         uint32_t synced_rewrites;       /* dir_rewrites the ids were resolved under (1.5) */
+        uint32_t view;                  /* bumped whenever ids are resolved anew (changes.c) */
+        int changes_all;                /* $SHAREDLINK_CHANGES=all at sl_open (changes.c) */
         int32_t *name_hash;             /* open addressing: name -> id */
         uint32_t name_hash_size;
         uint32_t pid;                   /* written into .out lock words */
@@ -122,6 +124,10 @@ struct sl_client {
         struct sockpath sock;
         _Atomic int command_wait_ms;    /* "wait=MS" on query/circe requests; 0: none */
 };
+
+/* 1 when $SHAREDLINK_CHANGES is "all" (changes.c): the handle's sl_changed then always says
+ * "read everything" (read once, at sl_open). */
+int client_changes_all_env(void);
 
 /* Takes the lock for writing (no refresh): waits for the readers inside to leave. */
 void client_wrlock(struct sl_client *c);

@@ -13,6 +13,7 @@
 
 #include "mqtt/bridge_cursor.h"
 #include "mqtt/bridge_format.h"
+#include "svc/changes.h"
 #include "svc/evjson.h"
 #include "svc/json.h"
 #include "svc/log.h"
@@ -47,6 +48,9 @@ struct bridge {
 
         struct bridge_var *vars;
         unsigned n_vars, cap_vars;
+        struct changes changes;         /* what changed since the last scan (sl_changed) */
+        bool read_all;                  /* the next scan reads every variable */
+        int alive;                      /* sl_daemon_alive at the last scan (-1: none yet) */
         char link_state[BRIDGE_LINKS_MAX][SL_STATE_NAME_SIZE];
         char link_name[BRIDGE_LINKS_MAX][SL_LINK_NAME_SIZE];
         bool link_published[BRIDGE_LINKS_MAX];
@@ -79,6 +83,7 @@ int bridge_new(const struct bridge_config *cfg, struct bridge **ret)
         if (!b)
                 return -ENOMEM;
         b->cfg = cfg;
+        b->alive = -1;
         if (!inst || !inst[0])
                 inst = INSTANCE_DEFAULT;
         if (strlen(inst) >= sizeof(b->instance) || strpbrk(inst, "/+#")) {
@@ -305,8 +310,10 @@ static int var_scan(struct bridge *b, const struct bridge_sink *sink, unsigned i
                         v->published = false;
                 return r < 0 ? r : 1;
         }
-        if (r < 0)
-                return 0;       /* -EAGAIN: a writer kept it busy; the next scan gets it */
+        if (r < 0) {
+                b->read_all = true;     /* -EAGAIN: a writer kept it busy; the next scan */
+                return 0;
+        }
         /* On change of the value or of its state: a peer that repeats a value every period
          * bumps the sequence without news for a subscriber. */
         if (!full && v->published && v->flags == (meta.flags & FLAGS_PUBLISHED) &&
@@ -319,6 +326,62 @@ static int var_scan(struct bridge *b, const struct bridge_sink *sink, unsigned i
         v->flags = meta.flags & FLAGS_PUBLISHED;
         memcpy(v->value, value, sizeof(value));
         return 1;
+}
+
+struct values_scan {
+        struct bridge *b;
+        const struct bridge_sink *sink;
+        int sent;
+};
+
+/* One id sl_changed named (changes_fn): a name added since the last scan is described first. */
+static int value_changed(void *arg, int id)
+{
+        struct values_scan *vs = arg;
+        struct bridge *b = vs->b;
+        int r;
+
+        if ((unsigned)id >= b->n_vars && (r = vars_grow(b)) < 0)
+                return r;
+        if ((unsigned)id >= b->n_vars)
+                return 0;
+        r = var_scan(b, vs->sink, (unsigned)id, false);
+        if (r < 0)
+                return r;
+        vs->sent += r;
+        return 0;
+}
+
+/*
+ * The values: those sl_changed names (svc/changes.h says why what goes out is never older than
+ * the table), or every one when it says so, when full, or when the last scan left something
+ * unread: one that failed half-way (the broker gone) took ids it did not publish. So does a
+ * scan after the daemon stopped or came back, since staleness by heartbeat is no change the
+ * daemon can record.
+ */
+static int values_scan(struct bridge *b, const struct bridge_sink *sink, bool full)
+{
+        struct values_scan vs = { b, sink, 0 };
+        int alive = sl_daemon_alive(b->cl), r;
+        bool all = full || b->read_all || alive != b->alive;
+
+        b->alive = alive;
+        b->read_all = false;
+        r = changes_follow(&b->changes, b->cl, all, value_changed, &vs);
+        for (unsigned id = 0; r == 1 && id < b->n_vars; id++) {
+                int n = var_scan(b, sink, id, full);
+
+                if (n < 0) {
+                        r = n;
+                        break;
+                }
+                vs.sent += n;
+        }
+        if (r < 0) {
+                b->read_all = true;
+                return r;
+        }
+        return vs.sent;
 }
 
 static int links_scan(struct bridge *b, const struct bridge_sink *sink, bool full)
@@ -405,12 +468,9 @@ int bridge_scan(struct bridge *b, const struct bridge_sink *sink, bool full)
         if ((r = links_scan(b, sink, full)) < 0)
                 return r;
         sent += r;
-        for (unsigned id = 0; id < b->n_vars; id++) {
-                r = var_scan(b, sink, id, full);
-                if (r < 0)
-                        return r;
-                sent += r;
-        }
+        if ((r = values_scan(b, sink, full)) < 0)
+                return r;
+        sent += r;
         if ((r = status_scan(b, sink, full)) < 0)
                 return r;
         return sent + r;

@@ -21,6 +21,7 @@
 #include "ros2/ros2_dds.h"
 #include "ros2/ros2_names.h"
 #include "ros2_msgs.h"
+#include "svc/changes.h"
 #include "svc/evjson.h"
 #include "svc/json.h"
 #include "svc/log.h"
@@ -125,6 +126,9 @@ struct ros2_bridge {
         struct var *vars;
         unsigned n_vars, cap_vars;
         bool replan;
+        struct changes changes;         /* what changed since the last scan (sl_changed) */
+        bool read_all;                  /* the next scan reads every variable */
+        int sent;                       /* values published by the scan under way */
         struct navsat nav[ROS2_NAVSATFIX_MAX];
         unsigned n_refused;             /* variables on a colliding topic */
 
@@ -641,8 +645,12 @@ static int var_scan(struct ros2_bridge *b, struct var *v, unsigned id)
                 b->replan = true;       /* retired by the daemon */
                 return 0;
         }
-        if (r < 0 || !(meta.flags & SL_FLAG_VALID))
-                return 0;               /* -EAGAIN: the next scan; never set: nothing to say */
+        if (r < 0) {
+                b->read_all = true;     /* -EAGAIN: a writer kept it busy; the next scan */
+                return 0;
+        }
+        if (!(meta.flags & SL_FLAG_VALID))
+                return 0;               /* never set: nothing to say */
         if (v->sent && meta.sequence == v->seq)
                 return 0;
         v->seq = meta.sequence;
@@ -717,6 +725,39 @@ static int nav_scan(struct ros2_bridge *b, struct navsat *nv)
         return 1;
 }
 
+/* One id sl_changed named (changes_fn): a name added since the last plan is planned first. */
+static int value_changed(void *arg, int id)
+{
+        struct ros2_bridge *b = arg;
+        int r;
+
+        if ((unsigned)id >= b->n_vars && (r = plan(b)) < 0)
+                return r;
+        if ((unsigned)id < b->n_vars)
+                b->sent += var_scan(b, &b->vars[id], (unsigned)id);
+        return 0;
+}
+
+/*
+ * The values: those sl_changed names (svc/changes.h says why what goes out is never older than
+ * the table), or every one when it says so (a first scan, a daemon restart or a name retired, a
+ * bridge that fell behind the daemon's record) or when the last scan left something unread.
+ */
+static int values_scan(struct ros2_bridge *b)
+{
+        bool all = b->read_all;
+        int r;
+
+        b->sent = 0;
+        b->read_all = false;            /* var_scan may set it again */
+        r = changes_follow(&b->changes, b->cl, all, value_changed, b);
+        if (r < 0)
+                b->read_all = true;
+        for (unsigned id = 0; r == 1 && id < b->n_vars; id++)
+                b->sent += var_scan(b, &b->vars[id], id);
+        return r < 0 ? r : b->sent;
+}
+
 static void links_scan(struct ros2_bridge *b)
 {
         int n = sl_link_count(b->cl);
@@ -753,10 +794,13 @@ int ros2_bridge_scan(struct ros2_bridge *b)
                 b->replan = true;
         }
         if (b->replan || sl_count(b->cl) != (int)b->n_vars)
-                if ((r = plan(b)) < 0)
+                if ((r = plan(b)) < 0) {
+                        b->read_all = true;
                         return r;
-        for (unsigned id = 0; id < b->n_vars; id++)
-                sent += var_scan(b, &b->vars[id], id);
+                }
+        if ((r = values_scan(b)) < 0)
+                return r;
+        sent += r;
         for (unsigned i = 0; i < b->cfg->n_navsatfix; i++)
                 sent += nav_scan(b, &b->nav[i]);
         links_scan(b);

@@ -48,9 +48,22 @@ void shm_layout_in_geometry(uint32_t capacity, uint32_t event_capacity,
                                   SHM_CACHE_LINE);
         g.total_size = g.slots_offset + (uint64_t)capacity * sizeof(struct shm_slot);
         g.link_texts_offset = align_up(g.total_size, SHM_CACHE_LINE);
-        g.object_size = g.link_texts_offset +
-                        (uint64_t)SHM_LINKS_MAX * sizeof(struct shm_link_text);
+        g.link_texts_end = g.link_texts_offset +
+                           (uint64_t)SHM_LINKS_MAX * sizeof(struct shm_link_text);
+        g.changes_offset = align_up(g.link_texts_end, SHM_CACHE_LINE);
+        g.changes_capacity = shm_layout_changes_capacity(capacity);
+        g.object_size = g.changes_offset + SHM_CHANGES_HEAD +
+                        (uint64_t)g.changes_capacity * sizeof(uint64_t);
         *ret_geometry = g;
+}
+
+uint32_t shm_layout_changes_capacity(uint32_t capacity)
+{
+        uint32_t c = SHM_CHANGES_MIN;
+
+        while (c < capacity && c < SHM_CAPACITY_MAX)
+                c <<= 1;
+        return c;
 }
 
 void shm_layout_out_geometry(uint32_t out_capacity, struct shm_out_geometry *ret_geometry)
@@ -116,7 +129,18 @@ int shm_layout_has_link_texts(const struct shm_in_header *h, uint64_t object_siz
             h->link_text_size != sizeof(struct shm_link_text))
                 return 0;
         shm_layout_in_geometry(h->capacity, h->event_capacity, &g);
-        return h->link_texts_offset == g.link_texts_offset && g.object_size <= object_size;
+        return h->link_texts_offset == g.link_texts_offset && g.link_texts_end <= object_size;
+}
+
+int shm_layout_has_changes(const struct shm_in_header *h, uint64_t object_size)
+{
+        struct shm_in_geometry g;
+
+        if ((h->layout_version & 0xffffu) < SHM_LAYOUT_MINOR_CHANGES)
+                return 0;
+        shm_layout_in_geometry(h->capacity, h->event_capacity, &g);
+        return h->changes_offset == g.changes_offset &&
+               h->changes_capacity == g.changes_capacity && g.object_size <= object_size;
 }
 
 int shm_layout_check_out(const struct shm_out_header *h, uint64_t object_size)

@@ -89,6 +89,20 @@
  *        last scan (as every scan did before). A 1.0 client adds 1: seen at once when the
  *        daemon sleeps (the add carries out of the waiter flag), else at the next heartbeat.
  *        An older daemon has no map (both fields 0): clients set no bit and add the old step.
+ *   1.7  .in carries a change record (changes_offset, changes_capacity in the header, reserved
+ *        bytes before): a ring of SHM_CHANGES_HEAD bytes of head, then changes_capacity 64-bit
+ *        entries, after the link texts. The daemon, the only writer of .in, notes there the slot
+ *        index of every slot it rewrites (a value, its flags, a name made or retired) and
+ *        release-stores the head (entries written so far) before each bump of the change word,
+ *        so a client that saw a bump finds every slot the bump covers in the ring. An entry
+ *        holds its position's low 32 bits above the index: a reader tells an entry overwritten
+ *        by a later lap by the position it holds, without writing anything (src/shm/changes.h),
+ *        so any number of readers follow the ring read-only, each with its own position. The
+ *        ring has a table's worth of entries (a power of two, at least SHM_CHANGES_MIN): a
+ *        reader further behind than that reads every variable, which costs no more. It lies
+ *        past the link texts and past total_size (what a 1.6 client checks): older clients
+ *        never look there. An older daemon leaves both fields 0: no record, and a client reads
+ *        everything at every change, as before.
  */
 #ifndef SHM_LAYOUT_H
 #define SHM_LAYOUT_H
@@ -99,13 +113,14 @@
 #include <stdint.h>
 
 #define SHM_LAYOUT_MAJOR        1u
-#define SHM_LAYOUT_MINOR        6u
+#define SHM_LAYOUT_MINOR        7u
 #define SHM_LAYOUT_MINOR_WAITER 1u      /* first minor with SHM_OUT_WAITING */
 #define SHM_LAYOUT_MINOR_SOCKET 2u      /* first minor with shm_in_header.control_socket */
 #define SHM_LAYOUT_MINOR_DOORBELL 3u    /* first minor with shm_in_header.out_doorbell */
 #define SHM_LAYOUT_MINOR_LINK_TEXT 4u   /* first minor with the link texts region */
 #define SHM_LAYOUT_MINOR_RETIRE 5u      /* first minor with dir_rewrites and retired entries */
 #define SHM_LAYOUT_MINOR_TOUCHED 6u     /* first minor with the .out touched map */
+#define SHM_LAYOUT_MINOR_CHANGES 7u     /* first minor with the .in change record */
 #define SHM_LAYOUT_VERSION      ((SHM_LAYOUT_MAJOR << 16) | SHM_LAYOUT_MINOR)
 
 /* "SLNK.IN\0" and "SLNK.OUT" as little-endian words: recognisable in a hex dump. */
@@ -133,6 +148,8 @@
 #define SHM_EVENTS_MIN          16u
 #define SHM_EVENTS_MAX          65536u
 #define SHM_CAPACITY_MAX        65536u  /* directory entries (configured + ad hoc) */
+#define SHM_CHANGES_MIN         64u     /* change record entries (1.7) of the smallest table */
+#define SHM_CHANGES_HEAD        64u     /* bytes before the entries: the head, on its own line */
 #define SHM_INSTANCE_MAX        32u     /* instance name length, without NUL (shm_layout_instance_check) */
 #define SHM_OBJECT_NAME_SIZE    (SHM_INSTANCE_MAX + 32u)
 #define SHM_SOCKET_PATH_SIZE    108u    /* sizeof(sockaddr_un.sun_path): path + NUL */
@@ -313,7 +330,9 @@ struct shm_in_header {
         uint32_t link_text_size;                /* 1.4: sizeof(struct shm_link_text) */
         /* 1.5: rewrites of entries below count, a seqlock (odd while one is rewritten) */
         _Atomic uint32_t dir_rewrites;
-        uint8_t reserved0[16];
+        uint64_t changes_offset;                /* 1.7: the change record; 0: none */
+        uint32_t changes_capacity;              /* 1.7: its entries (a power of two) */
+        uint8_t reserved0[4];
         /* Own cache line: the futex clients wait on, bumped once per committed batch. */
         _Atomic uint32_t change;
         /* 1.3: clients FUTEX_WAKE it when .out is unusable; never written (see the history) */
@@ -436,6 +455,8 @@ static_assert(offsetof(struct shm_in_header, links_offset) == 112, "links offset
 static_assert(offsetof(struct shm_in_header, heartbeat_ns) == 144, "heartbeat offset");
 static_assert(offsetof(struct shm_in_header, event_head) == 152, "event head offset");
 static_assert(offsetof(struct shm_in_header, dir_rewrites) == 172, "dir rewrites offset");
+static_assert(offsetof(struct shm_in_header, changes_offset) == 176, "changes offset offset");
+static_assert(offsetof(struct shm_in_header, changes_capacity) == 184, "changes capacity offset");
 static_assert(offsetof(struct shm_in_header, change) == 192, "change word offset");
 static_assert(offsetof(struct shm_in_header, change) % SHM_CACHE_LINE == 0, "change word line");
 static_assert(offsetof(struct shm_in_header, out_doorbell) == 196, "doorbell offset");
@@ -480,7 +501,10 @@ struct shm_in_geometry {
         uint64_t slots_offset;
         uint64_t total_size;            /* the header's total_size: up to the end of the slots */
         uint64_t link_texts_offset;     /* 1.4, past total_size */
-        uint64_t object_size;           /* the whole object, link texts included */
+        uint64_t link_texts_end;        /* the object of a 1.4 to 1.6 daemon ends here */
+        uint64_t changes_offset;        /* 1.7, past the link texts */
+        uint32_t changes_capacity;      /* 1.7: entries of the change record */
+        uint64_t object_size;           /* the whole object, change record included */
 };
 
 /* Computes where each region of .in lives for the given capacities. */
@@ -509,6 +533,15 @@ int shm_layout_check_in(const struct shm_in_header *h, uint64_t object_size);
 
 /* 1 when a checked .in header has the link texts region (1.4) and it fits the object, else 0. */
 int shm_layout_has_link_texts(const struct shm_in_header *h, uint64_t object_size);
+
+/* Entries of the change record (1.7) of a table of `capacity` slots: a power of two, at least
+ * the capacity and SHM_CHANGES_MIN. */
+uint32_t shm_layout_changes_capacity(uint32_t capacity);
+
+/* 1 when a checked .in header has the change record (1.7) where its geometry puts it, of the
+ * size it gives, and the record fits the object; else 0 (an older daemon, a scribbled header,
+ * a truncated object). */
+int shm_layout_has_changes(const struct shm_in_header *h, uint64_t object_size);
 
 /* Same for .out; returns 0, -EAGAIN or -EPROTO. Does not compare epoch/generation. */
 int shm_layout_check_out(const struct shm_out_header *h, uint64_t object_size);

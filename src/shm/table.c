@@ -27,6 +27,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "shm/changes.h"
 #include "shm/events.h"
 #include "shm/futex.h"
 #include "shm/guard.h"
@@ -84,6 +85,8 @@ struct shm_table {
         struct shm_dir_entry *dir;
         struct shm_slot *slots;
         struct shm_slot *out_slots;
+        struct shm_changes changes;     /* the change record in .in (layout 1.7) */
+        uint64_t changes_next;          /* entries noted; published at the next change bump */
         _Atomic uint64_t *out_touched;  /* the touched map in .out (layout 1.6): client data */
         uint32_t capacity;
         uint32_t count;
@@ -560,6 +563,8 @@ static int in_fill(struct shm_table *t, const struct shm_table_config *cfg,
         h->total_size = g->total_size;
         h->link_texts_offset = g->link_texts_offset;
         h->link_text_size = sizeof(struct shm_link_text);
+        h->changes_offset = g->changes_offset;
+        h->changes_capacity = g->changes_capacity;
         h->epoch = t->epoch;
         h->daemon_pid = (int32_t)t->pid;
         h->heartbeat_interval_ms = cfg->heartbeat_interval_ms;
@@ -661,6 +666,12 @@ int shm_table_create(const struct shm_table_config *cfg, struct shm_table **ret_
         t->events = (struct shm_event *)((char *)map + g.events_offset);
         t->dir = (struct shm_dir_entry *)((char *)map + g.dir_offset);
         t->slots = (struct shm_slot *)((char *)map + g.slots_offset);
+        t->changes = (struct shm_changes){
+                .head = (struct shm_changes_head *)(void *)((char *)map + g.changes_offset),
+                .entries = (_Atomic uint64_t *)(void *)((char *)map + g.changes_offset +
+                                                        SHM_CHANGES_HEAD),
+                .capacity = g.changes_capacity,
+        };
 
         /* 2. A fresh .out (any old one belonged to the dead daemon). */
         r = out_create(t, t->out_generation);
@@ -731,6 +742,12 @@ int shm_table_direction(const struct shm_table *t, uint32_t id)
         return (int)t->vars[id].direction;
 }
 
+/* Notes slot id in the change record (layout 1.7); published with the next change bump. */
+static void note(struct shm_table *t, uint32_t id)
+{
+        shm_changes_note(&t->changes, &t->changes_next, id);
+}
+
 /* A change outside a batch is published at once; inside one, at commit. */
 static void publish(struct shm_table *t)
 {
@@ -738,6 +755,9 @@ static void publish(struct shm_table *t)
                 t->dirty = 1;
                 return;
         }
+        /* The record's head before the bump: a client that saw the bump finds in the record
+         * every slot it covers. */
+        shm_changes_publish(&t->changes, t->changes_next);
         /* Release: a client that sees the new change value sees every store before it. */
         atomic_fetch_add_explicit(&t->in->change, 1u, memory_order_release);
         shm_futex_wake(&t->in->change, INT_MAX);
@@ -786,6 +806,7 @@ static int table_set(struct shm_table *t, uint32_t id, const char *value, size_t
         shm_slot_write_mirror(&t->slots[id], value, (uint32_t)len, v->flags,
                               mono_ns ? mono_ns : t->batch_mono,
                               mono_ns ? real_ns : t->batch_real, source);
+        note(t, id);
         t->dirty = 1;
         if (implicit)
                 shm_table_commit(t);
@@ -835,6 +856,7 @@ static int set_stale_one(struct shm_table *t, uint32_t id, int stale)
                 return 0;
         v->flags = flags;
         shm_slot_write_flags(&t->slots[id], flags);
+        note(t, id);
         return 1;
 }
 
@@ -907,6 +929,7 @@ int shm_table_retire(struct shm_table *t, uint32_t id)
         t->dir[id].flags |= SHM_DIR_RETIRED;
         dir_rewrite_end(t);
         hash_rebuild(t);
+        note(t, id);
         publish(t);
         return 0;
 }
@@ -926,6 +949,7 @@ static void entry_reuse(struct shm_table *t, uint32_t id, const struct shm_var *
         dir_fill(&t->dir[id], v, tv->out_slot, SHM_DIR_ADHOC);
         t->dir[id].born = t->dir_rewrites + 1u;        /* the even value that ends it */
         dir_rewrite_end(t);
+        note(t, id);
         publish(t);
 }
 
@@ -970,6 +994,8 @@ int shm_table_add(struct shm_table *t, const struct shm_var *v)
         t->count = id + 1u;
         atomic_store_explicit(&t->in->count, t->count, memory_order_release);
         atomic_fetch_add_explicit(&t->in->dir_generation, 1u, memory_order_release);
+        /* After the count: a reader that finds the entry in the record finds the name too. */
+        note(t, id);
         publish(t);
         return (int)id;
 }

@@ -12,7 +12,12 @@
  *   rate      1,000 inbound variables all changed in every round of frames, as fast as the pty
  *             takes them, for RATE_S seconds: the value messages per second the bridge gets out
  *             (changes between two scans coalesce: the latest value wins), and the bridge's CPU
- *             time per 1,000 MQTT messages (values + meta).
+ *             time per 1,000 MQTT messages (values + meta);
+ *   wake      the bridge's CPU per wake-up with 1,000 variables and one of them changing (v0, one
+ *             frame, its sample awaited before the next), side by side in three alternating
+ *             rounds: the bridge restarted with SHAREDLINK_CHANGES=all (every wake-up reads all
+ *             1,000 variables, as before the change record: forced), then without (it reads only
+ *             what sl_changed names); the medians of the rounds are the figures.
  *
  * The latency probes take one sample each in turn (interleaved). Prints the figures and ratios;
  * exit status 0 unless something failed to run. Needs mosquitto (make deps); skipped otherwise.
@@ -24,6 +29,7 @@
 #include <pthread.h>
 #include <signal.h>
 #include <stdatomic.h>
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -47,6 +53,7 @@
 #define WAIT_MS         3000            /* one sample must not take longer */
 #define CONFIG_MAX      (64 * 1024)
 #define NS_PER_S        1000000000ull
+#define WAKES           1000            /* wake-ups measured in each series of `wake` */
 
 enum probe { P_FLOOR, P_WRITE, P_FRAME, P_COUNT };
 
@@ -284,8 +291,41 @@ static void rate(struct bench *b)
                (v + m) ? 1000.0 * cpu_s * 1000.0 / (double)(v + m) : 0.0);
 }
 
+/* Stops the bridge and starts it again, with SHAREDLINK_CHANGES=all in its environment when
+ * full_read (benchlat_restart_fn); its pid, or -1. */
+static pid_t restart_bridge(void *arg, bool full_read)
+{
+        struct bench *b = arg;
+        char path[HARNESS_PATH_MAX + 16];
+        int st = 0, r;
+
+        mqtt_bridge_stop(&b->bridge, SIGTERM, START_MS);
+        snprintf(path, sizeof(path), "%s/bridge.yaml", b->h.dir);
+        if (full_read)
+                setenv("SHAREDLINK_CHANGES", "all", 1);
+        r = mqtt_bridge_start(&b->bridge, &b->h, path, START_MS, &st);
+        unsetenv("SHAREDLINK_CHANGES");
+        if (r != 0) {
+                fprintf(stderr, "bench_mqtt: sharedlink-mqtt did not start again (%d)\n", st);
+                return -1;
+        }
+        return b->bridge.pid;
+}
+
+/* `wake`: the bridge's CPU per wake-up, full read (forced) and changed only (benchlat.h). */
+static int wake(struct bench *b)
+{
+        struct benchlat l = { .samples = WAKES, .gap_us = GAP_US, .sample = sample_probe,
+                              .arg = b };
+        long value = 500000;
+
+        printf("wake, %d variables:\n", VARS);
+        return benchlat_wake_compare(&l, P_FRAME, restart_bridge, &value, "mqtt", "MQTT");
+}
+
 int main(void)
 {
+        int rc = 0;
         struct bench *b = &B;
         pthread_t drain;
         char load[128] = "";
@@ -308,6 +348,8 @@ int main(void)
         printf("sharedlink-mqtt bench (load average at start: %s)\n", load);
         latency(b);
         rate(b);
+        if (wake(b) < 0)
+                rc = 1;
         atomic_store(&b->drain_stop, true);
         pthread_join(drain, NULL);
         mqtt_client_stop(&b->sub);
@@ -317,5 +359,5 @@ int main(void)
         mqtt_broker_stop(&b->broker, START_MS);
         sl_close(b->cl);
         harness_cleanup(&b->h);
-        return 0;
+        return rc;
 }

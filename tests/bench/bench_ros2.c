@@ -16,6 +16,11 @@
  *             pty takes them, for RATE_S seconds: the samples per second 1,000 ROS-default readers
  *             get (changes between two scans coalesce: the latest value wins), and the bridge's
  *             CPU time (all its threads) per 1,000 samples;
+ *   wake      the bridge's CPU per wake-up with 1,000 variables and one of them changing (v0, one
+ *             frame, its sample awaited before the next), side by side in three alternating
+ *             rounds: the bridge restarted with SHAREDLINK_CHANGES=all (every wake-up reads all
+ *             1,000 variables, as before the change record: forced), then without (it reads only
+ *             what sl_changed names); the medians of the rounds are the figures.
  *   spin      the three latency probes again with the bridge restarted on the opt-in
  *             `wait_spin_us: SPIN_US` (its waker polls the table before it sleeps), with the
  *             bridge's CPU per sample: what the spin buys and costs, next to the default above,
@@ -77,6 +82,7 @@
 #define NAMESPACE       "/bench"
 #define FLOOR_ARG       "--floor-publisher"
 #define GOAL_RATIO      1.5
+#define WAKES           1000            /* wake-ups measured in each series of `wake` */
 #define SPIN_US         2000            /* the spin series' budget: longer than a round of probes,
                                          * so that its frame comes while the waker spins */
 #define NS_PER_MS       1000000ull
@@ -402,21 +408,6 @@ static uint64_t sample_probe(void *arg, int p, long v)
         return sample(arg, (enum probe)p, v);
 }
 
-/* CPU time of every thread of pid so far, in ns. */
-static int cpu_ns(pid_t pid, uint64_t *ret)
-{
-        clockid_t c;
-        struct timespec ts;
-        int r = clock_getcpuclockid(pid, &c);
-
-        if (r != 0)
-                return -r;
-        if (clock_gettime(c, &ts) < 0)
-                return -errno;
-        *ret = (uint64_t)ts.tv_sec * NS_PER_S + (uint64_t)ts.tv_nsec;
-        return 0;
-}
-
 /* The three probes, interleaved; spin_us: the bridge's wait_spin_us (0: the default, the
  * figures the goal is about; else the opt-in series, reported under its own names). */
 static void latency(struct bench *b, unsigned spin_us)
@@ -431,7 +422,7 @@ static void latency(struct bench *b, unsigned spin_us)
         if (spin_us)
                 printf("opt-in: the bridge with wait_spin_us: %u\n", spin_us);
         if (b->bridge)
-                cpu_ns(b->r.pid, &c0);
+                benchlat_cpu_ns(b->r.pid, &c0);
         if (benchlat_run(&l) < 0)
                 return;
         if (!spin_us) {
@@ -442,7 +433,7 @@ static void latency(struct bench *b, unsigned spin_us)
         }
         if (!b->bridge)
                 return;
-        cpu_ns(b->r.pid, &c1);
+        benchlat_cpu_ns(b->r.pid, &c1);
         ratio = med[P_BRIDGE] / (med[P_FLOOR] + med[P_PTY]);
         cpu_us = (double)(c1 - c0) / 1000.0 / (double)(SAMPLES + WARMUP);
         if (spin_us)
@@ -477,7 +468,7 @@ static void rate(struct bench *b)
         uint64_t t0, t1, c0 = 0, c1 = 0, s0, s, rounds = 0;
         double secs;
 
-        cpu_ns(b->r.pid, &c0);
+        benchlat_cpu_ns(b->r.pid, &c0);
         s0 = atomic_load(&b->samples);
         t0 = now_ns();
         rounds = benchlink_offer(b->master, RATE_S, WAIT_MS);
@@ -487,7 +478,7 @@ static void rate(struct bench *b)
                 last = atomic_load(&b->samples);
                 usleep(SETTLE_MS * 1000);
         }
-        cpu_ns(b->r.pid, &c1);
+        benchlat_cpu_ns(b->r.pid, &c1);
         s = atomic_load(&b->samples) - s0;
         secs = (double)(t1 - t0) / NS_PER_S;
         printf("rate, %d variables, %d s:\n", VARS, RATE_S);
@@ -503,17 +494,48 @@ static void rate(struct bench *b)
                s ? (double)(c1 - c0) / NS_PER_MS * 1000.0 / (double)s : 0.0);
 }
 
-/* Stops the bridge and starts it again with wait_spin_us: spin_us; every reader matched again. */
-static int restart_bridge(struct bench *b, unsigned spin_us)
+/* Stops the bridge and starts it again with wait_spin_us: spin_us, and SHAREDLINK_CHANGES=all in
+ * its environment when full_read; every reader matched again. */
+static int restart_bridge_env(struct bench *b, unsigned spin_us, bool full_read)
 {
+        int r;
+
         harness_cleanup(&b->r);
-        if (start_bridge(b, spin_us) < 0)
+        if (full_read)
+                setenv("SHAREDLINK_CHANGES", "all", 1);
+        r = start_bridge(b, spin_us);
+        unsetenv("SHAREDLINK_CHANGES");
+        if (r < 0)
                 return -1;
         if (wait_matched(b, b->readers, VARS) < 0) {
                 fprintf(stderr, "bench_ros2: not every bridge topic matched a reader again\n");
                 return -1;
         }
         return 0;
+}
+
+static int restart_bridge(struct bench *b, unsigned spin_us)
+{
+        return restart_bridge_env(b, spin_us, false);
+}
+
+/* benchlat_restart_fn: the bridge again, full_read as SHAREDLINK_CHANGES=all; its pid or -1. */
+static pid_t restart_for_wake(void *arg, bool full_read)
+{
+        struct bench *b = arg;
+
+        return restart_bridge_env(b, 0, full_read) == 0 ? b->r.pid : -1;
+}
+
+/* `wake`: the bridge's CPU per wake-up, full read (forced) and changed only (benchlat.h). */
+static int wake(struct bench *b)
+{
+        struct benchlat l = { .samples = WAKES, .gap_us = GAP_US, .sample = sample_probe,
+                              .arg = b };
+        long value = 500000;
+
+        printf("wake, %d variables:\n", VARS);
+        return benchlat_wake_compare(&l, P_BRIDGE, restart_for_wake, &value, "ros2", "ROS 2");
 }
 
 /* ---- setup and the report of the machine ---- */
@@ -605,6 +627,8 @@ int main(int argc, char **argv)
         latency(b, 0);
         if (b->bridge) {
                 rate(b);
+                if (wake(b) < 0)
+                        rc = 1;
                 if (restart_bridge(b, SPIN_US) == 0)
                         latency(b, SPIN_US);
                 else

@@ -6,8 +6,10 @@
  */
 #pragma once
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <sys/types.h>
 
 #define BENCHLAT_PROBES_MAX     8
 
@@ -30,3 +32,32 @@ struct benchlat {
 /* Runs the rounds and prints "latency, N samples each, interleaved (us):" and the table; fills
  * the results. 0, or -ENOMEM / -EINVAL. */
 int benchlat_run(struct benchlat *l);
+
+/* CPU time of every thread of process pid so far, in ns. 0 or -errno. */
+int benchlat_cpu_ns(pid_t pid, uint64_t *ret);
+
+/*
+ * The CPU process pid spends per sample of probe p of l: l->samples samples, values *value + 1
+ * on (left at the last), each after the previous one arrived and l->gap_us apart, after one not
+ * counted (it waits for whatever was starting). Returns microseconds of pid's CPU per sample with
+ * the samples' median latency in *ret_median_us, or -1 when a sample never came (-ENOMEM: -1 as
+ * well).
+ */
+double benchlat_cpu_per_sample(const struct benchlat *l, int p, pid_t pid, long *value,
+                               double *ret_median_us);
+
+/* Restarts the process under test, reading every variable at each wake-up when full_read
+ * (SHAREDLINK_CHANGES=all); returns its pid, or -1. */
+typedef pid_t (*benchlat_restart_fn)(void *arg, bool full_read);
+
+#define BENCHLAT_WAKE_ROUNDS    3       /* alternating rounds of the wake comparison */
+
+/*
+ * A bridge's CPU per wake-up, full read (forced) against changed only, side by side in one run:
+ * BENCHLAT_WAKE_ROUNDS rounds, each restarting it both ways in turn (restart with l->arg) and
+ * taking benchlat_cpu_per_sample of probe p (values from *value on). Prints each round, the
+ * medians, and the FIGURE lines <key>_wake_full and <key>_wake_changed (label: what). 0, or -1
+ * when a restart failed or a sample never came.
+ */
+int benchlat_wake_compare(const struct benchlat *l, int p, benchlat_restart_fn restart,
+                          long *value, const char *key, const char *what);

@@ -62,3 +62,25 @@ int slwait_link_state(struct sl_client *c, int link, const char *prefix, int tim
                 sl_wait(c, &cursor, SLWAIT_SLICE_MS);
         }
 }
+
+int slwait_changes_now(struct sl_client *c, uint64_t *ret_cursor)
+{
+        uint64_t cursor = 0;
+        uint32_t flags;
+        int r = sl_changed(c, &cursor, NULL, 0, &flags);
+
+        if (r < 0)
+                return r;
+        if (flags != (SL_CHANGED_ALL | SL_CHANGED_START))
+                return -EPROTO;
+        *ret_cursor = cursor;
+        return 0;
+}
+
+int slwait_changes_overrun(struct sl_client *c, uint64_t cursor)
+{
+        uint32_t flags;
+        int r = sl_changed(c, &cursor, NULL, 0, &flags);
+
+        return r < 0 ? r : (flags & SL_CHANGED_OVERRUN) != 0;
+}

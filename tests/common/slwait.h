@@ -8,6 +8,7 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 
 #include <sharedlink.h>
 
@@ -24,5 +25,13 @@ int slwait_value(struct sl_client *c, const char *name, const char *want, int ti
 /* Waits until link (an index) has a state name that starts with prefix ("up"); 0, or
  * -ETIMEDOUT after timeout_ms. */
 int slwait_link_state(struct sl_client *c, int link, const char *prefix, int timeout_ms);
+
+/* The daemon's change record (sl_changed) through c: a cursor at its head now into *ret_cursor;
+ * 0, or -errno (-EPROTO: c had taken a cursor before, which the first call does not expect). */
+int slwait_changes_now(struct sl_client *c, uint64_t *ret_cursor);
+
+/* 1 when the daemon made more changes since cursor than its change record holds, 0 when not,
+ * or -errno. The cursor is not moved. */
+int slwait_changes_overrun(struct sl_client *c, uint64_t cursor);
 
 #endif

@@ -16,6 +16,8 @@
  *    bridge is stopped is refused ("queued") when an older bridge's persistent session kept it,
  *    and otherwise never delivered (the writes' session is clean);
  *  - a daemon that stops makes values stale and the status offline; its restart is followed;
+ *  - values changed while the bridge is stopped between two wake-ups, with more changes than
+ *    the daemon's change record holds, and across a daemon restart, all go out;
  *  - 10,000 gate passages across a bridge restart and a broker restart, each in mid-burst,
  *    arrive at a persistent-session QoS 2 subscriber exactly once and in order (QoS 2; the
  *    broker configured as sharedlink-mqtt(8) requires: max_inflight_messages large and
@@ -55,6 +57,7 @@
 
 #include "common/harness.h"
 #include "common/mqtt.h"
+#include "common/slwait.h"
 
 #define T_START_MS      15000   /* READY=1 (ASan build), a broker accepting connections */
 #define T_WAIT_MS       15000   /* one awaited message */
@@ -72,6 +75,9 @@
 #define OVERRUN_AWAY    1500    /* passages while the bridge is away: more than the ring */
 #define BRIDGE_WINDOW   64      /* events_window's default */
 #define HUGE_PAYLOAD    (256 * 1024)    /* a set/ payload far over the value size */
+#define KEEPALIVE_S     5       /* the bridge's MQTT keepalive, unless a test sets its own */
+#define LONG_KEEPALIVE_S 120    /* a bridge stopped this long is not taken for dead */
+#define FLOOD_MAX       40000   /* passages before the change record must have overrun */
 
 struct fx {
         struct harness h;
@@ -83,6 +89,7 @@ struct fx {
         char bridge_conf[PATH_BUF];
         char base[128];
         int master, slave;              /* the test as the CIRCE mediator */
+        int keepalive_s;                /* 0: KEEPALIVE_S */
 };
 
 static int setup(void **state)
@@ -172,14 +179,15 @@ static void write_bridge_conf_broker(struct fx *f, int events_qos, const char *b
                  "broker:\n"
                  "  host: 127.0.0.1\n"
                  "  port: %d\n"
-                 "  keepalive_s: 5\n"
+                 "  keepalive_s: %d\n"
                  "  reconnect_min_ms: 50\n"
                  "  reconnect_max_ms: 400\n%s"
                  "cursor_file: %s/cursor\n"
                  "writable: [\"a.*\"]\n"
                  "events_qos: %d\n"
                  "drain_ms: 20000\n%s",
-                 f->h.instance, f->broker.port, broker_extra ? broker_extra : "", f->h.dir,
+                 f->h.instance, f->broker.port, f->keepalive_s ? f->keepalive_s : KEEPALIVE_S,
+                 broker_extra ? broker_extra : "", f->h.dir,
                  events_qos, extra ? extra : "");
         assert_int_equal(harness_write_file(&f->h, "bridge.yaml", text, f->bridge_conf), 0);
 }
@@ -860,6 +868,58 @@ static void test_events_bridge_killed(void **state)
         assert_true(check_events(f, REPEATS_BRIDGE) <= BRIDGE_WINDOW);
 }
 
+/*
+ * Values changed while the bridge is stopped (SIGSTOP: between two of its wake-ups, its cursor
+ * kept): one value, then more changes than the daemon's change record holds (gate passages),
+ * which the bridge learns as an overrun and answers by reading everything once, so the value
+ * goes out; then only what changes. Then a daemon restart while it is stopped: what the new
+ * daemon has goes out, and what changes after. The keepalive is long so that the broker never
+ * drops the stopped bridge (a reconnection would publish everything anyway).
+ */
+static void test_values_overrun_restart(void **state)
+{
+        struct fx *f = *state;
+        uint64_t cursor;
+        int sent = 0;
+
+        f->keepalive_s = LONG_KEEPALIVE_S;
+        events_start(f, 1, "test-values-overrun");
+        write_local(f, "b.Throttle", "-4");
+        wait_value(f, topic(f, "a.Throttle", NULL), "-4");
+
+        assert_int_equal(kill(f->bridge.pid, SIGSTOP), 0);
+        assert_int_equal(slwait_changes_now(f->cl, &cursor), 0);
+        write_local(f, "b.Throttle", "-5");
+        assert_int_equal(slwait_value(f->cl, "a.Throttle", "-5", T_WAIT_MS, NULL, 0), 0);
+        while (slwait_changes_overrun(f->cl, cursor) == 0) {
+                char last[16];
+
+                assert_true(sent < FLOOD_MAX);
+                passages(f, sent, sent + BATCH, false);
+                sent += BATCH;
+                snprintf(last, sizeof(last), "%d", sent - 1);
+                assert_int_equal(slwait_value(f->cl, "agility.device.E1E1E1.sensor_time", last,
+                                              T_WAIT_MS, NULL, 0), 0);
+        }
+        assert_int_equal(kill(f->bridge.pid, SIGCONT), 0);
+        wait_value(f, topic(f, "a.Throttle", NULL), "-5");
+        wait_value(f, topic(f, "b.Throttle", NULL), "-5");
+        write_local(f, "b.Throttle", "-6");
+        wait_value(f, topic(f, "a.Throttle", NULL), "-6");
+
+        assert_int_equal(kill(f->bridge.pid, SIGSTOP), 0);
+        assert_true(harness_stop_daemon(&f->h, SIGTERM, T_STOP_MS) >= 0);
+        start_daemon(f);
+        write_local(f, "b.Throttle", "-7");
+        assert_int_equal(slwait_value(f->cl, "a.Throttle", "-7", T_WAIT_MS, NULL, 0), 0);
+        assert_int_equal(kill(f->bridge.pid, SIGCONT), 0);
+        wait_value(f, topic(f, "a.Throttle", NULL), "-7");
+        write_local(f, "b.Throttle", "-8");
+        wait_value(f, topic(f, "a.Throttle", NULL), "-8");
+        /* The bridge's connection to the broker held all along. */
+        assert_int_equal(mqtt_bridge_log_contains(&f->bridge, "retrying in"), 0);
+}
+
 /* More events than the ring holds while the bridge is away: an "overrun" notice with the exact
  * number lost, right where the gap is, then everything after it in order. */
 static void test_events_overrun(void **state)
@@ -1092,6 +1152,7 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_values_round_trip, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_refused_writes, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_stale_and_daemon_restart, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_values_overrun_restart, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_events_exactly_once, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_events_qos1_bridge_restart, setup,
                                                 teardown),

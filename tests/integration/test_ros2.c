@@ -51,6 +51,7 @@
 #include <sharedlink.h>
 
 #include "common/harness.h"
+#include "common/slwait.h"
 #include "ros2/ros2_typehash.h"
 #include "ros2_test_msgs.h"
 
@@ -69,6 +70,8 @@
 #define SPIN_US         1000    /* test_spin_bridge's wait_spin_us */
 #define RING_EVENTS     1024    /* the daemon's event ring (SHM_EVENTS_DEFAULT) */
 #define OVERRUN_EVENTS  (RING_EVENTS + 100)
+#define FLOOD_MAX       40000   /* gate passages before the change record must have overrun */
+#define FLOOD_CHECK     100     /* passages between two looks at the record */
 #define VANISH_ARG      "--vanishing-reader"
 #define RETRIES         10      /* writes until a volatile reader is matched both ways ... */
 #define RETRY_MS        1500    /* ... each awaited this long */
@@ -1294,6 +1297,80 @@ static void test_fastdds_writer(void **state)
 }
 
 /* The daemon stops: /diagnostics says STALE; it starts again: values flow again. */
+/* Gate passages until the daemon made more changes since cursor than its change record holds
+ * (bounded by FLOOD_MAX, not by time). */
+static void changes_flood(uint64_t cursor)
+{
+        for (int n = 1;; n++) {
+                char line[128], value[16];
+
+                assert_true(n < FLOOD_MAX);
+                snprintf(line, sizeof(line), "circe arena emulate action E1E1E1 sensor-time=%d",
+                         n);
+                request(line);
+                if (n % FLOOD_CHECK)
+                        continue;
+                snprintf(value, sizeof(value), "%d", n);
+                assert_true(var_becomes("agility.device.E1E1E1.sensor_time", value, T_WAIT_MS));
+                if (slwait_changes_overrun(F->cl, cursor) == 1)
+                        return;
+        }
+}
+
+static void set_published(const char *value)
+{
+        sl_set("a.Lat", value);
+        wait_published("a.Lat");
+}
+
+/*
+ * Values changed while the bridge is stopped (SIGSTOP: between two of its wake-ups, its cursor
+ * kept): one value, then more changes than the daemon's change record holds, which the bridge
+ * learns as an overrun and answers by reading everything once, so the value goes out; then only
+ * what changes. Then a daemon restart while it is stopped: what the new daemon has goes out, and
+ * what changes after. (The bridge reads everything only when the record says so: not on its
+ * tick, so a value missed here would stay missed.)
+ */
+static void test_values_overrun_restart(void **state)
+{
+        char topic[TOPIC_MAX];
+        dds_entity_t rd;
+        uint64_t cursor;
+        double v;
+
+        (void)state;
+        /* a.Lat: outbound, so its value changes only when written (b.Lat, inbound, is set again
+         * at every refresh of the peer, which a bridge would publish whatever it missed). */
+        topic_of(topic, sizeof(topic), "a/Lat");
+        rd = reader(&std_msgs_msg_dds__Float64__desc, topic, RQ_TRANSIENT);
+        set_published("31.5");
+        v = 31.5;
+        assert_true(wait_sample(rd, is_double, &v));
+
+        assert_int_equal(kill(F->r.pid, SIGSTOP), 0);
+        assert_int_equal(slwait_changes_now(F->cl, &cursor), 0);
+        set_published("32.5");
+        changes_flood(cursor);
+        assert_int_equal(kill(F->r.pid, SIGCONT), 0);
+        v = 32.5;
+        assert_true(wait_sample(rd, is_double, &v));
+        set_published("33.5");
+        v = 33.5;
+        assert_true(wait_sample(rd, is_double, &v));
+
+        assert_int_equal(kill(F->r.pid, SIGSTOP), 0);
+        assert_true(WIFEXITED(harness_stop_daemon(&F->h, SIGTERM, T_STOP_MS)));
+        start_daemon(F);
+        set_published("34.5");
+        assert_int_equal(kill(F->r.pid, SIGCONT), 0);
+        v = 34.5;
+        assert_true(wait_sample(rd, is_double, &v));
+        set_published("35.5");
+        v = 35.5;
+        assert_true(wait_sample(rd, is_double, &v));
+        dds_delete(rd);
+}
+
 static void test_daemon_restart(void **state)
 {
         char topic[TOPIC_MAX];
@@ -1427,6 +1504,7 @@ int main(int argc, char **argv)
                 cmocka_unit_test(test_spin_bridge),
                 cmocka_unit_test(test_fastdds_reader),
                 cmocka_unit_test(test_fastdds_writer),
+                cmocka_unit_test(test_values_overrun_restart),
                 cmocka_unit_test(test_daemon_restart),
                 cmocka_unit_test(test_second_bridge),
                 cmocka_unit_test(test_bad_domain),

@@ -275,6 +275,13 @@ static const char *status_sent(struct fixture *f)
         return f->fs.msg[i].payload;
 }
 
+/* What the daemon does on a client's write before anyone hears of it: takes it from .out into
+ * .in, where the change record names it (the bridge follows that record). */
+static void daemon_takes_writes(struct fixture *f)
+{
+        assert_true(shm_table_out_scan(f->tb.t, NULL, NULL) > 0);
+}
+
 static void scan(struct fixture *f, bool full)
 {
         f->fs.n = 0;
@@ -297,6 +304,7 @@ static void test_scan(void **state)
 
         f->fs.n = 0;
         assert_int_equal(set(f, "CmdThrottle", "0.5", BRIDGE_SET_LIVE), 1);
+        daemon_takes_writes(f);
         assert_int_equal(bridge_scan(f->b, &f->sink, false), 1);
         i = find(f, topic(f, "CmdThrottle", NULL));
         assert_true(i >= 0);
@@ -346,6 +354,7 @@ static void test_scan_sink_down(void **state)
 
         assert_true(bridge_scan(f->b, &f->sink, true) > 0);
         assert_int_equal(set(f, "CmdThrottle", "0.5", BRIDGE_SET_LIVE), 1);
+        daemon_takes_writes(f);
         f->fs.down = true;
         assert_true(bridge_scan(f->b, &f->sink, false) < 0);
         assert_true(bridge_counters(f->b)->publish_errors > 0);
@@ -353,6 +362,59 @@ static void test_scan_sink_down(void **state)
         f->fs.n = 0;
         assert_int_equal(bridge_scan(f->b, &f->sink, false), 1);
         assert_true(find(f, topic(f, "CmdThrottle", NULL)) >= 0);
+}
+
+/* Between two scans the daemon made more changes than its record holds (one value, then one
+ * other variable again and again): the scan that follows reads everything, so the first value
+ * goes out too. */
+static void test_scan_overrun(void **state)
+{
+        struct fixture *f = *state;
+        uint32_t cap = shm_layout_changes_capacity(NVARS);
+        char v[16];
+        int i;
+
+        scan(f, true);
+        assert_int_equal(shm_table_set_str(f->tb.t, LAT, "12.5"), 0);
+        for (uint32_t k = 0; k <= cap; k++) {
+                snprintf(v, sizeof(v), "%u", k);
+                assert_int_equal(shm_table_set_str(f->tb.t, STEER, v), 0);
+        }
+        scan(f, false);
+        i = find(f, topic(f, "AutoGpsLat", NULL));
+        assert_true(i >= 0);
+        assert_string_equal(f->fs.msg[i].payload, "12.5");
+        i = find(f, topic(f, "CmdSteer", NULL));
+        assert_true(i >= 0);
+        assert_string_equal(f->fs.msg[i].payload, v);
+        /* and from there on, only what changes */
+        assert_int_equal(shm_table_set_str(f->tb.t, LAT, "13"), 0);
+        scan(f, false);
+        assert_int_equal(f->fs.n, 2);
+        assert_true(find(f, topic(f, "AutoGpsLat", NULL)) >= 0);
+}
+
+/* The daemon stops: no change is recorded, but every value turns stale (no heartbeat), which the
+ * next scan publishes; a new daemon's values go out again in full. */
+static void test_scan_daemon_stops(void **state)
+{
+        struct fixture *f = *state;
+        int i;
+
+        assert_int_equal(shm_table_set_str(f->tb.t, LAT, "1.5"), 0);
+        scan(f, true);
+        f->tb.t = shm_table_destroy(f->tb.t);
+        scan(f, false);
+        i = find(f, topic(f, "AutoGpsLat", BRIDGE_TOPIC_META));
+        assert_true(i >= 0);
+        assert_non_null(strstr(f->fs.msg[i].payload, "\"stale\":true"));
+        assert_int_equal(shmtest_table_create(&f->tb), 0);
+        assert_int_equal(shm_table_set_str(f->tb.t, LAT, "2.5"), 0);
+        scan(f, false);
+        i = find(f, topic(f, "AutoGpsLat", NULL));
+        assert_true(i >= 0);
+        assert_string_equal(f->fs.msg[i].payload, "2.5");
+        assert_true(find(f, topic(f, "CmdThrottle", NULL)) >= 0);     /* in full */
 }
 
 /* The largest "seq" among the events the last pump published (0: none). */
@@ -420,6 +482,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_scan, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_status, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_scan_sink_down, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_scan_overrun, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_scan_daemon_stops, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_events_kill_bound, setup, teardown),
         };
 

@@ -88,7 +88,7 @@ extern "C" {
 #define SL_FLAG_STALE           0x2u    /* link down, peer silent, or the daemon is not running
                                          * (its heartbeat is 3 intervals old: 3 s by default) */
 #define SL_FLAG_OUTBOUND        0x4u    /* an outbound variable: the value a client wrote */
-#define SL_FLAG_REPAIRED        0x8u    /* outbound: its last writer died mid-write */
+#define SL_FLAG_REPAIRED        0x8u    /* outbound: its last writer died (or stalled) mid-write */
 
 /* sl_event.flags */
 #define SL_EVENT_TRUNCATED      0x1u    /* the text was cut to fit */
@@ -191,7 +191,8 @@ int sl_info(struct sl_client *c, int id, struct sl_var_info *ret);
  * (0 and no SL_FLAG_VALID when it was never set), -ENOENT, -ENOBUFS (size < length + 1), or
  * -EAGAIN when its writer stayed in the middle of a write for every bounded attempt and then
  * SL_READ_BUSY_MS of sleeping: a writer that is stopped, or was killed mid-write (the daemon
- * repairs such a slot within a second); try again. A writer that was merely preempted mid-write
+ * repairs such a slot within a second, and takes one a live process holds over after two
+ * heartbeats); try again. A writer that was merely preempted mid-write
  * costs the read a yield or a short sleep, not an error, so a read normally takes nanoseconds and
  * only then up to about SL_READ_BUSY_MS. An outbound variable reads as what was last written to
  * it. On failure buf holds nothing meaningful (a buffer of SL_VALUE_SIZE bytes or more is used as
@@ -212,8 +213,11 @@ int sl_read_long(struct sl_client *c, int id, long *ret, struct sl_meta *meta);
  * cannot go on the wire (bytes, length) or is not of the variable's type (sl_var_info.type: a
  * long takes [+-] decimal digits within 64 bits, a double a finite decimal number; the table
  * keeps its value, sl_write_check says why); -EACCES when this user may not write (not in the
- * group); -EBUSY when other writers kept the slot for every bounded attempt; -ENOTCONN when no
- * daemon runs.
+ * group); -EBUSY when other writers kept the slot for every bounded attempt (a writer stopped
+ * mid-write keeps it until the daemon takes it over, after two heartbeats); -ECANCELED when this
+ * write was abandoned: this writer was kept from its CPU (stopped, debugged) in the middle of it
+ * for that long and the daemon took the slot over; nothing of it is read or sent; -ENOTCONN when
+ * no daemon runs.
  */
 int sl_write(struct sl_client *c, int id, const char *value);
 

@@ -159,7 +159,8 @@ class TestLinks(DaemonCase):
         self.assertEqual(links["node_a"].protocol, "sharedlink")
         self.assertEqual(links["agility"].protocol, "circe")
         self.assertEqual(links["agility"].state_name, "connected")
-        self.assertEqual(len(links["node_b"].counters), 54)           # 39 + 15 appended for Pronto4
+        # 39 + 15 appended for Pronto4 + out_taken_over
+        self.assertEqual(len(links["node_b"].counters), 55)
         self.c["a.AutoGpsLat"] = 1.5
         until(self.c, "b.AutoGpsLat", lambda v: v == 1.5)           # node_b has had frames
         self.assertGreater(self.c.link("node_b").counters["frames_in"], 0)

@@ -49,6 +49,11 @@ static void daemon_on_out_change(void *userdata, const struct shm_out_change *ch
         struct daemon_link *dl;
         uint32_t link;
 
+        if (change->status == SHM_OUT_REPAIRED && change->taken_over)
+                log_ratelimited(&d->out_rl, LOG_PRIO_WARNING, "outbound variable %s: pid %u "
+                                "held its slot mid-write for %u heartbeats (stopped, or a reused "
+                                "or forged pid): taken over, that write is lost",
+                                change->name, change->writer_pid, SHM_TABLE_HELD_HEARTBEATS);
         /* An outbound name added at run time was learned by a link: each link that learns
          * outbound names gets it and ignores an id that is not one of its own. */
         if (change->id >= decl->nvars) {

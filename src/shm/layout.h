@@ -180,7 +180,12 @@
 #define SHM_SLOT_VALID          0x1u    /* the value was written completely */
 #define SHM_SLOT_STALE          0x2u    /* link down or peer silent */
 #define SHM_SLOT_OUTBOUND       0x4u    /* a value written by a client (mirror or .out slot) */
-#define SHM_SLOT_REPAIRED       0x8u    /* .out: the writer died mid-write, value discarded */
+#define SHM_SLOT_REPAIRED       0x8u    /* .out: the writer died (or stalled) mid-write, value
+                                                 * discarded (length SHM_SLOT_LENGTH_NONE) */
+/* The length the daemon leaves in a repaired .out slot: above SHM_VALUE_MAX, so that whatever
+ * tail of its stores a writer taken over while stopped makes once it runs again, the slot never
+ * passes a check (a length of 0 with one stored value word passed as ""). */
+#define SHM_SLOT_LENGTH_NONE    UINT32_MAX
 
 /* shm_out_header.change (layout 1.1, see the history above) */
 #define SHM_OUT_WAITING         0x1u    /* the daemon's wake thread sleeps (or is about to) */
@@ -263,7 +268,8 @@
         X(BAD_COMMAND,          "bad_command",          SHAREDLINK) \
         X(UDP_REFUSED,          "udp_refused",          LINKS) \
         X(LIST_UNKNOWN,         "list_unknown",         SHAREDLINK) \
-        X(INBOUND_OFF,          "inbound_off",          SHAREDLINK)
+        X(INBOUND_OFF,          "inbound_off",          SHAREDLINK) \
+        X(OUT_TAKEN_OVER,       "out_taken_over",       DAEMON)
 
 #define SHM_COUNTER_ENUM(id, name, scope) SHM_COUNTER_##id,
 enum shm_counter {

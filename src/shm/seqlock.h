@@ -183,8 +183,8 @@ static inline int shm_seqlock_claim(_Atomic uint64_t *seq, uint32_t pid, uint64_
 
 /*
  * Several writers: publishes and frees the slot taken by claim. A CAS rather than a store, so that
- * a writer whose slot was taken over (the daemon judged it dead) learns it: -ECANCELED. Release
- * order pairs with read_begin's acquire, as write_end does.
+ * a writer whose slot was taken over (the daemon judged it dead or stalled) learns it:
+ * -ECANCELED. Release order pairs with read_begin's acquire, as write_end does.
  */
 static inline int shm_seqlock_release(_Atomic uint64_t *seq, uint64_t odd)
 {

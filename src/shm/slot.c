@@ -123,6 +123,12 @@ int shm_slot_repair(struct shm_slot *slot, uint64_t odd_word, uint32_t self_pid,
                 return -EAGAIN;
         shm_seqlock_fence_release();                    /* as in shm_seqlock_claim */
         shm_slot_store(slot, "", 0, SHM_SLOT_REPAIRED, mono_ns, real_ns);
+        /* A length no value has. The writer taken over may be alive (stopped past the daemon's
+         * bound) and store the rest of its value once it runs again, the lock no longer its.
+         * Whatever tail of its stores lands, the value words or the flags, this length stays and
+         * every check refuses the slot: never half a value. (One stopped before its length
+         * store leaves its whole value under our even word: see shm_table_out_scan.) */
+        atomic_store_explicit(&slot->length, SHM_SLOT_LENGTH_NONE, SHM_SEQLOCK_PAYLOAD_STORE);
         return shm_seqlock_release(&slot->seq, ours) == 0 ? 0 : -EAGAIN;
 }
 

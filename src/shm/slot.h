@@ -180,8 +180,9 @@ void shm_slot_store_word(struct shm_slot *slot, unsigned i, uint64_t w);
 int shm_slot_publish(struct shm_slot *slot, uint64_t odd_word);
 
 /*
- * Daemon: takes over a slot left odd (odd_word) by a writer that is gone, marks it not valid
- * (SHM_SLOT_REPAIRED, empty value) and releases it even. Returns 0, or -EAGAIN when the word is no
+ * Daemon: takes over a slot left odd (odd_word) by a writer that is gone or stalled past the
+ * bound, marks it not valid (SHM_SLOT_REPAIRED, zero value, SHM_SLOT_LENGTH_NONE) and releases it
+ * even. Returns 0, or -EAGAIN when the word is no
  * longer odd_word (the writer finished after all, or another repair won).
  */
 int shm_slot_repair(struct shm_slot *slot, uint64_t odd_word, uint32_t self_pid,

@@ -44,6 +44,7 @@
 #define TABLE_STARTTIME_FIELD   22              /* proc(5): field 22 of /proc/<pid>/stat */
 #define TABLE_HASH_EMPTY        (-1)
 #define NS_PER_S                1000000000ull
+#define NS_PER_MS               1000000ull
 
 /* Daemon-private facts about one variable: the authoritative copy, never read back from shm. */
 struct table_var {
@@ -67,7 +68,11 @@ enum table_scan_state {
 
 struct table_scan {
         uint8_t state;
+        uint8_t taken;                  /* SCAN_REPAIR(ED): from a writer kill() finds alive */
+        uint32_t held_scans;            /* periodic scans that found held_word */
         uint64_t word;                  /* word copied under, or the odd word seen */
+        uint64_t held_word;             /* odd word the slot is held under, 0: not held */
+        uint64_t held_since_ns;         /* CLOCK_MONOTONIC when held_word was first found */
 };
 
 struct shm_table {
@@ -106,7 +111,9 @@ struct shm_table {
         uint32_t *out_ids;              /* .out slot -> variable id */
         uint64_t *out_seen;             /* lock word of each .out slot at the last scan */
         struct shm_slot_copy *out_copy; /* copy-out buffer, one per .out slot */
-        struct table_scan *out_scan;
+        struct table_scan *out_scan;    /* per .out slot: the held-slot tracking is bounded by it */
+        uint64_t held_min_ns;           /* SHM_TABLE_HELD_HEARTBEATS intervals (0: no heartbeat) */
+        int out_periodic;               /* the scan under way is shm_table_out_scan's */
         uint64_t *out_want;             /* private touched map: slots the next scan looks at */
         uint32_t *out_list;             /* the slots of the scan under way, ascending */
         uint32_t out_nlist;
@@ -394,8 +401,10 @@ static int out_create(struct shm_table *t, uint32_t generation)
         t->out_touched = (_Atomic uint64_t *)(void *)((char *)map + g.touched_offset);
         t->out_touched_words = g.touched_words;
         t->out_old_steps = change & SHM_OUT_CHANGE_UNTOUCHED;
-        for (uint32_t i = 0; i < t->out_capacity; i++)
+        for (uint32_t i = 0; i < t->out_capacity; i++) {
                 t->out_seen[i] = 0;
+                t->out_scan[i].held_word = 0;
+        }
         /* What the old object's scans left to look at again is gone with it. */
         for (uint32_t w = 0; w < g.touched_words; w++)
                 t->out_want[w] = 0;
@@ -628,6 +637,8 @@ int shm_table_create(const struct shm_table_config *cfg, struct shm_table **ret_
                 if (cfg->vars[i].direction == SHM_DIR_OUT)
                         t->out_capacity++;
         t->out_capacity += cfg->out_spare;
+        t->held_min_ns = (uint64_t)SHM_TABLE_HELD_HEARTBEATS * cfg->heartbeat_interval_ms *
+                         NS_PER_MS;
         random_epoch(&t->epoch);
         if (shm_layout_object_name(cfg->instance, "in", t->in_name, sizeof(t->in_name)) < 0 ||
             shm_layout_object_name(cfg->instance, "out", t->out_name, sizeof(t->out_name)) < 0) {
@@ -1222,6 +1233,53 @@ static int writer_gone(const struct shm_table *t, uint64_t word)
         return kill((pid_t)pid, 0) < 0 && errno == ESRCH;
 }
 
+/*
+ * Pass B: the held slots to repair. One whose writer is gone (writer_gone), at once: the fast
+ * path. One whose writer kill() finds alive, once it stayed held under the very same odd word
+ * past the bound (SHM_TABLE_HELD_*, table.h): a stopped writer, a reused pid, a forged live pid.
+ * Every other finding ends a slot's tracking, so a word that keeps changing (writers taking
+ * turns) is never repaired, and the next hold starts from zero. Returns how many to repair.
+ */
+static int scan_judge(struct shm_table *t)
+{
+        uint64_t now = 0;
+        int repairs = 0;
+
+        for (uint32_t k = 0; k < t->out_nlist; k++) {
+                struct table_scan *s = &t->out_scan[t->out_list[k]];
+
+                s->taken = 0;
+                if (s->state != SCAN_HELD) {
+                        s->held_word = 0;
+                        continue;
+                }
+                if (writer_gone(t, s->word)) {
+                        s->state = SCAN_REPAIR;
+                        s->held_word = 0;
+                        repairs++;
+                        continue;
+                }
+                if (now == 0)
+                        now = clock_ns(CLOCK_MONOTONIC);
+                if (s->held_word != s->word) {
+                        s->held_word = s->word;
+                        s->held_scans = 0;
+                        s->held_since_ns = now;
+                }
+                /* Only the periodic scans count: wake-ups come at the pace of clients' writes. */
+                if (t->out_periodic)
+                        s->held_scans++;
+                if (s->held_scans >= SHM_TABLE_HELD_SCANS &&
+                    now - s->held_since_ns >= t->held_min_ns) {
+                        s->state = SCAN_REPAIR;
+                        s->taken = 1;
+                        s->held_word = 0;       /* repaired, or moved on: either way a new hold */
+                        repairs++;
+                }
+        }
+        return repairs;
+}
+
 /* Header of .out still as we made it? Copies it out under the guard first. */
 struct scan_header {
         const struct shm_out_header *src;
@@ -1289,6 +1347,27 @@ static int scan_broken(struct shm_table *t)
         return r < 0 ? r : -EBADMSG;
 }
 
+/*
+ * After a repair: the .in mirror of id, if it holds an accepted value, now says it was copied
+ * under the repaired word, so clients read that value from it (layout.h, 1.1) and not the .out
+ * slot. A writer taken over while stopped before its first store may finish its whole value
+ * there after it runs again, under the even word we left and no lock: its publish fails
+ * (-ECANCELED) and this scan never sees the word move, so the value must not reach readers
+ * either. (With no accepted value to point to, clients read the slot; what they find there is
+ * then that writer's value, whole.)
+ */
+static void mirror_rebase(struct shm_table *t, uint32_t id, uint64_t word)
+{
+        struct shm_slot_copy c;
+
+        /* Our own slot: this thread is its only writer, so the read never finds it odd. */
+        if (!(t->vars[id].flags & SHM_SLOT_VALID) || shm_slot_read(&t->slots[id], &c) < 0)
+                return;
+        shm_slot_write_mirror(&t->slots[id], c.value, c.length, c.flags, c.mono_ns, c.real_ns,
+                              word);
+        t->dirty = 1;
+}
+
 /* Pass D: one slot's result to the counters, the .in mirror and the engine. */
 static int scan_report(struct shm_table *t, uint32_t i, shm_table_out_fn fn, void *userdata)
 {
@@ -1307,6 +1386,7 @@ static int scan_report(struct shm_table *t, uint32_t i, shm_table_out_fn fn, voi
         }
         memset(&ch, 0, sizeof(ch));
         ch.id = t->out_ids[i];
+        ch.name = t->vars[ch.id].name;
         ch.writer_pid = shm_seqlock_pid(s->word);
         switch (s->state) {
         case SCAN_COPIED:
@@ -1338,7 +1418,12 @@ static int scan_report(struct shm_table *t, uint32_t i, shm_table_out_fn fn, voi
                 break;
         case SCAN_REPAIRED:
                 shm_table_counter_add(t, SHM_LINK_NONE, SHM_COUNTER_OUT_REPAIRED, 1);
+                if (s->taken)
+                        shm_table_counter_add(t, SHM_LINK_NONE, SHM_COUNTER_OUT_TAKEN_OVER, 1);
                 ch.status = SHM_OUT_REPAIRED;
+                ch.taken_over = s->taken;
+                if (!t->vars[ch.id].retired)
+                        mirror_rebase(t, ch.id, t->out_seen[i]);
                 break;
         case SCAN_HELD:
         case SCAN_CHURN:
@@ -1365,14 +1450,7 @@ static int out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata)
                 return -EFAULT;
         if (out_check(t) < 0 || shm_guard_run(scan_copy, t) < 0)
                 return scan_broken(t);
-        for (uint32_t k = 0; k < t->out_nlist; k++) {
-                struct table_scan *s = &t->out_scan[t->out_list[k]];
-
-                if (s->state == SCAN_HELD && writer_gone(t, s->word)) {
-                        s->state = SCAN_REPAIR;
-                        repairs++;
-                }
-        }
+        repairs = scan_judge(t);
         if (repairs && shm_guard_run(scan_repair, t) < 0)
                 return scan_broken(t);
 
@@ -1396,8 +1474,13 @@ static int out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata)
 
 int shm_table_out_scan(struct shm_table *t, shm_table_out_fn fn, void *userdata)
 {
+        int r;
+
         t->out_full = 1;
-        return out_scan(t, fn, userdata);
+        t->out_periodic = 1;
+        r = out_scan(t, fn, userdata);
+        t->out_periodic = 0;
+        return r;
 }
 
 int shm_table_out_scan_touched(struct shm_table *t, shm_table_out_fn fn, void *userdata)

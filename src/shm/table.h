@@ -57,17 +57,38 @@ struct shm_table_config {
                                          * < SHM_SOCKET_PATH_SIZE bytes; NULL: none */
 };
 
+/*
+ * A slot held by a writer that kill() says exists is taken over once the same odd word was found
+ * by SHM_TABLE_HELD_SCANS periodic scans (shm_table_out_scan: one per heartbeat) and
+ * SHM_TABLE_HELD_HEARTBEATS heartbeat intervals have passed since the first. A write section is
+ * a dozen stores, well under a microsecond; it lasts longer only while its writer is off the CPU:
+ * preempted (tens of ms on a busy machine, a few hundred at worst), stopped (SIGSTOP, a
+ * debugger), killed with its pid since reused, or it is a forged word naming a live pid (pid 1,
+ * a hostile client's own), which nothing else would ever clear. Two heartbeats (sharedlinkd's:
+ * 2 s) are an order of magnitude above the longest preemption, and both bounds run on the
+ * daemon's own clock and scans: a daemon starved of CPU as well only takes longer. A writer
+ * misjudged all the same loses its write (its publish returns -ECANCELED); it never gets a torn
+ * value accepted. The scan count alone rules without a heartbeat (heartbeat_interval_ms 0).
+ */
+#define SHM_TABLE_HELD_SCANS            3u
+#define SHM_TABLE_HELD_HEARTBEATS       2u
+
 /* What the outbound scan found in one slot. */
 enum shm_out_status {
         SHM_OUT_CHANGED,                /* a new, valid value */
         SHM_OUT_INVALID,                /* changed, but not a valid value (bad bytes, length...) */
-        SHM_OUT_REPAIRED,               /* its writer died mid-write: value discarded */
+        SHM_OUT_REPAIRED,               /* its writer died, or stalled past the bound,
+                                         * mid-write: value discarded (taken_over) */
 };
 
 struct shm_out_change {
         uint32_t id;                    /* variable id */
         enum shm_out_status status;
+        const char *name;               /* the variable's, valid during the call */
         uint32_t writer_pid;            /* as claimed by the lock word: informational only */
+        uint32_t taken_over;            /* REPAIRED only: 1 when kill() found writer_pid alive
+                                         * (stopped, a reused pid, a forged word) and the slot
+                                         * was taken over after it stayed held past the bound */
         uint64_t mono_ns;               /* the writer's time stamps (CHANGED only) */
         uint64_t real_ns;
         uint32_t length;                /* CHANGED only */
@@ -189,8 +210,11 @@ uint64_t shm_table_eventf(struct shm_table *t, enum shm_event_type type, uint32_
 /*
  * Scans .out for slots changed since the last scan: copies each out (under the SIGBUS guard),
  * validates the copy, mirrors accepted values into their .in slot, repairs slots left odd by a
- * writer that no longer exists, skips (and counts) slots a live writer holds, and calls fn once
- * per changed slot. Never waits on a client-controlled word.
+ * writer that no longer exists, skips (and counts) slots a live writer holds, takes over (repairs
+ * and counts out_taken_over) one held under the same odd word for 3 of these scans and 2
+ * heartbeat intervals whatever its pid, and calls fn once per changed slot. Never waits on a
+ * client-controlled word. Only these scans, at the heartbeat's pace, move a held slot towards
+ * being taken over: shm_table_out_scan_touched's come at the pace of clients' writes.
  * Returns the number of changes reported, or -EBADMSG when the object was truncated or its header
  * overwritten: it was then recreated empty (clients reopen it) and the scan is void.
  * Call it when the wake fd is readable, and also on a periodic timer (the daemon: every

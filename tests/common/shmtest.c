@@ -78,6 +78,12 @@ void shmtest_table_destroy(struct shmtest_table *f)
 int shmtest_table_strings(const char *instance, const char *prefix, unsigned direction,
                           unsigned n, struct shm_table **ret)
 {
+        return shmtest_table_strings_beat(instance, prefix, direction, n, 0, ret);
+}
+
+int shmtest_table_strings_beat(const char *instance, const char *prefix, unsigned direction,
+                               unsigned n, uint32_t heartbeat_ms, struct shm_table **ret)
+{
         char names[SHMTEST_STRINGS_MAX][SHM_NAME_SIZE];   /* copied by shm_table_create */
         struct shm_var vars[SHMTEST_STRINGS_MAX];
         struct shm_table_config cfg;
@@ -93,6 +99,7 @@ int shmtest_table_strings(const char *instance, const char *prefix, unsigned dir
         cfg.instance = instance;
         cfg.vars = vars;
         cfg.nvars = n;
+        cfg.heartbeat_interval_ms = heartbeat_ms;
         return shm_table_create(&cfg, ret);
 }
 

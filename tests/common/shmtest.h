@@ -64,6 +64,11 @@ void shmtest_table_destroy(struct shmtest_table *f);
 int shmtest_table_strings(const char *instance, const char *prefix, unsigned direction,
                           unsigned n, struct shm_table **ret);
 
+/* shmtest_table_strings of a table whose daemon says it calls shm_table_out_scan every
+ * heartbeat_ms (shm_table_config.heartbeat_interval_ms: what bounds a held slot's takeover). */
+int shmtest_table_strings_beat(const char *instance, const char *prefix, unsigned direction,
+                               unsigned n, uint32_t heartbeat_ms, struct shm_table **ret);
+
 /* Maps the object called name whole (read-only, or read-write); base is NULL when it cannot. */
 struct shmtest_view shmtest_view_open(const char *name, bool writable);
 

@@ -1410,6 +1410,113 @@ static void test_request_sees_earlier_writes(void **state)
         raw_out_stop(h, &r);
 }
 
+#define HELD_WAITS      64      /* table changes a takeover may come after (hang guard) */
+
+/* The stopped writer: claims p1.out1's slot, stores its length and first value word, as
+ * shm_slot_store does, and stops itself there; continued, it stores the rest and publishes.
+ * Exits 0 when the publish says the slot was taken over (-ECANCELED), else 1. */
+static int stopped_writer_main(void *arg)
+{
+        struct shm_slot *slot = arg;
+        uint64_t word;
+
+        /* Never left stopped behind a test that failed. */
+        if (prctl(PR_SET_PDEATHSIG, SIGKILL) < 0)
+                return 2;
+        if (shm_slot_claim(slot, (uint32_t)getpid(), &word) < 0)
+                return 2;
+        atomic_store(&slot->length, 16u);
+        shm_slot_store_word(slot, 0, 0x3939393939393939ull);
+        raise(SIGSTOP);
+        shm_slot_store_word(slot, 1, 0x3939393939393939ull);
+        atomic_store(&slot->flags, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND);
+        return shm_slot_publish(slot, word) == -ECANCELED ? 0 : 1;
+}
+
+/* The daemon's out_taken_over counter (what slctl stats shows). */
+static uint64_t taken_over(struct raw_out *r)
+{
+        return atomic_load(&shmtest_in_header(&r->in)->counters[SHM_COUNTER_OUT_TAKEN_OVER]);
+}
+
+/* Waits until the daemon's .in mirror of p1.out1 holds what its .out slot holds now. */
+static void wait_mirrored(struct sl_client *c, uint32_t *cursor, struct raw_out *r,
+                          const struct shm_slot *slot)
+{
+        int tries = 0;
+
+        while (atomic_load(&shmtest_in_slot(&r->in, r->index)->source) != shm_slot_word(slot)) {
+                assert_true(++tries < HELD_WAITS);
+                assert_int_equal(sl_wait(c, cursor, T_RECOVER_MS), 1);
+        }
+}
+
+/* Reads p1.out1 through c and checks it is value. */
+static void expect_read(struct sl_client *c, int id, const char *value)
+{
+        char buf[SL_VALUE_SIZE];
+
+        assert_int_equal(sl_read(c, id, buf, sizeof(buf), NULL), (int)strlen(value));
+        assert_string_equal(buf, value);
+}
+
+/*
+ * A writer stopped (SIGSTOP) in the middle of its write: kill() finds it alive, so the dead-writer
+ * repair never came and every write of the variable failed (-EBUSY) for as long as it stayed
+ * stopped. The daemon takes the slot over after its bound (out_taken_over, one log line naming
+ * the pid): the next write goes through; the writer, continued, learns at its publish that its
+ * write was abandoned (-ECANCELED), and nothing of it is read or sent. Waits on table changes
+ * (the takeover bumps the change word), with the counter as the condition; about 2 s (two
+ * heartbeats) of it.
+ */
+static void test_out_stopped_writer_taken_over(void **state)
+{
+        struct harness *h = *state;
+        struct shm_slot *slot;
+        struct sl_client *c;
+        struct raw_out r;
+        const char *kept;
+        char needle[64];
+        uint32_t cursor = 0;
+        int id, status, tries = 0, r_write;
+        pid_t pid;
+
+        raw_out_start(h, &r);
+        slot = shmtest_out_slot(&r.out, shmtest_in_dir(&r.in)[r.index].out_slot);
+        assert_int_equal(sl_open(h->instance, &c), 0);
+        id = sl_find(c, "p1.out1");
+        assert_true(id >= 0);
+        sl_wait(c, &cursor, 0);
+        wait_mirrored(c, &cursor, &r, slot);                    /* "1" taken by the daemon */
+        pid = shmtest_fork(stopped_writer_main, slot);
+        assert_true(pid > 0);
+        assert_int_equal(waitpid(pid, &status, WUNTRACED), pid);        /* stopped mid-write */
+        assert_true(WIFSTOPPED(status));
+        /* Held by a live writer: refused, unless the takeover came first (a busy machine). */
+        r_write = sl_write(c, id, "late");
+        assert_true(r_write == -EBUSY || r_write == 0);
+        kept = r_write == 0 ? "late" : "1";
+        while (taken_over(&r) == 0) {
+                assert_true(++tries < HELD_WAITS);
+                /* The takeover bumps the change word (the mirror now points at it). */
+                assert_int_equal(sl_wait(c, &cursor, T_RECOVER_MS), 1);
+        }
+        assert_int_equal(taken_over(&r), 1);
+        snprintf(needle, sizeof(needle), "pid %ld held its slot", (long)pid);
+        assert_int_equal(harness_log_contains(h, needle), 1);
+        expect_read(c, id, kept);                       /* the last accepted value */
+        /* Other writers get through again while it is still stopped. */
+        assert_int_equal(sl_write(c, id, "2"), 0);
+        wait_mirrored(c, &cursor, &r, slot);
+        /* Continued: its late stores land in "2"'s slot past its length, and its publish fails. */
+        assert_int_equal(kill(pid, SIGCONT), 0);
+        assert_int_equal(shmtest_wait(pid), 0);
+        expect_read(c, id, "2");
+        assert_int_equal(taken_over(&r), 1);
+        sl_close(c);
+        raw_out_stop(h, &r);
+}
+
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -1440,6 +1547,8 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_idle_wakeups, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_truncated_recovers, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_lost_mark_heartbeat, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_stopped_writer_taken_over, setup,
+                                                teardown),
                 cmocka_unit_test_setup_teardown(test_request_sees_earlier_writes, setup,
                                                 teardown),
         };

@@ -577,6 +577,81 @@ static void test_write_read_after_repair(void **state)
         assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), NULL), 5);
 }
 
+/* The daemon's periodic scans of a slot a live pid holds: skipped until the bound, then taken
+ * over (table.h, SHM_TABLE_HELD_SCANS). */
+static void scans_until_taken_over(struct fixture *f)
+{
+        struct seen s;
+
+        for (unsigned k = 1; k < SHM_TABLE_HELD_SCANS; k++)
+                assert_int_equal(scan(f, &s), 0);
+        assert_int_equal(scan(f, &s), 1);
+        assert_int_equal(s.last.status, SHM_OUT_REPAIRED);
+        assert_int_equal(s.last.taken_over, 1);
+}
+
+/*
+ * A slot whose lock word names a live process that is not writing (here pid 1, forged by a
+ * hostile member) refuses every sl_write with -EBUSY; after the daemon's bound it is taken over,
+ * and sl_write works again.
+ */
+static void test_write_after_held_taken_over(void **state)
+{
+        struct fixture *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->tb.out_name, true);
+        char buf[SL_VALUE_SIZE];
+        struct seen s;
+
+        assert_non_null(v.base);
+        assert_int_equal(sl_write(f->c, NOTE, "kept"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        atomic_store(&shmtest_out_slot(&v, 2)->seq, (UINT64_C(1) << 32) | 11u);     /* NOTE's */
+        assert_int_equal(sl_write(f->c, NOTE, "lost"), -EBUSY);
+        scans_until_taken_over(f);
+        assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), NULL), 4);
+        assert_string_equal(buf, "kept");
+        assert_int_equal(sl_write(f->c, NOTE, "again"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        assert_int_equal(s.last.status, SHM_OUT_CHANGED);
+        assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), NULL), 5);
+        assert_string_equal(buf, "again");
+        shmtest_view_close(&v);
+}
+
+/*
+ * A writer stopped right after its claim (a live pid: not gone) is taken over; when it runs again
+ * it stores its whole value into the slot it no longer holds and its publish fails. The daemon
+ * never sees that value (the word did not move), so readers must not either: they read the last
+ * accepted value, from the daemon's mirror, until the next write.
+ */
+static void test_write_stopped_writer_resumes(void **state)
+{
+        struct fixture *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->tb.out_name, true);
+        char buf[SL_VALUE_SIZE];
+        struct shm_slot *slot;
+        uint64_t word;
+        struct seen s;
+
+        assert_non_null(v.base);
+        slot = shmtest_out_slot(&v, 2);                         /* NOTE's */
+        assert_int_equal(sl_write(f->c, NOTE, "kept"), 0);
+        assert_int_equal(scan(f, &s), 1);
+        assert_int_equal(shm_slot_claim(slot, (uint32_t)getppid(), &word), 0);
+        scans_until_taken_over(f);
+        /* It runs again. */
+        shm_slot_store(slot, "late", 4, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND, 1, 2);
+        shm_slot_store_stamp(slot, 0);
+        assert_int_equal(shm_slot_publish(slot, word), -ECANCELED);
+        assert_int_equal(scan(f, &s), 0);
+        assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), NULL), 4);
+        assert_string_equal(buf, "kept");
+        assert_int_equal(sl_write(f->c, NOTE, "next"), 0);
+        assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), NULL), 4);
+        assert_string_equal(buf, "next");
+        shmtest_view_close(&v);
+}
+
 /*
  * What a member that rewrites a lock word under a writer can make of the slot (stress_out's attacks
  * did this by chance): once the word no longer says "held", a second writer takes the slot, the
@@ -1997,6 +2072,10 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_write_typed, setup, teardown),
         cmocka_unit_test_setup_teardown(test_write_numbers, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_read_after_repair, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_write_after_held_taken_over, setup,
+                                                teardown),
+                cmocka_unit_test_setup_teardown(test_write_stopped_writer_resumes, setup,
+                                                teardown),
                 cmocka_unit_test_setup_teardown(test_write_lock_rewritten_under_writer, setup,
                                                 teardown),
                 cmocka_unit_test_setup_teardown(test_read_waits_out_writer, setup, teardown),

@@ -895,7 +895,13 @@ struct half_writer {
         int hold_fd;            /* >= 0: stay alive (holding the slot) until this pipe closes */
         int ready_fd;           /* >= 0: a byte is written here once the slot is held */
         int close_fd;           /* >= 0: the parent's end of the hold pipe, closed in the child */
+        int finish;             /* 1: once let go, store the rest and publish; exit 0 when the
+                                 * publish says -ECANCELED (the slot was taken over), else 1 */
 };
+
+/* The second half of half_writer_main's value, and the rest shm_slot_store does after it. */
+#define HALF_WRITER_REST        0x3232323232323232ull
+#define HALF_WRITER_LENGTH      16u
 
 /* Claims a slot, writes half a value, and dies (or hangs) without publishing. */
 static int half_writer_main(void *arg)
@@ -909,20 +915,29 @@ static int half_writer_main(void *arg)
                 close(w->close_fd);
         if (!v.base || shm_slot_claim(shmtest_out_slot(&v, w->slot), (uint32_t)getpid(), &word) < 0)
                 return 1;
+        /* As shm_slot_store: the length before the value words (and the flags after). */
+        atomic_store(&shmtest_out_slot(&v, w->slot)->length, HALF_WRITER_LENGTH);
         shm_slot_store_word(shmtest_out_slot(&v, w->slot), 0, 0x3131313131313131ull);
         if (w->ready_fd >= 0 && write(w->ready_fd, "r", 1) != 1)
                 return 1;
         if (w->hold_fd >= 0)
                 while (read(w->hold_fd, &c, 1) < 0 && errno == EINTR)
                         ;
+        if (w->finish) {
+                struct shm_slot *slot = shmtest_out_slot(&v, w->slot);
+
+                shm_slot_store_word(slot, 1, HALF_WRITER_REST);
+                atomic_store(&slot->flags, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND);
+                _exit(shm_slot_publish(slot, word) == -ECANCELED ? 0 : 1);
+        }
         _exit(0);
 }
 
 /* Starts a half writer that holds .out slot `slot` until *ret_hold (our end of its pipe) is
- * closed; returns once it holds the slot. */
-static pid_t half_writer_holding(const char *out_name, unsigned slot, int *ret_hold)
+ * closed (then finishes its write if `finish`); returns once it holds the slot. */
+static pid_t half_writer_start(const char *out_name, unsigned slot, int finish, int *ret_hold)
 {
-        struct half_writer w = { out_name, slot, -1, -1, -1 };
+        struct half_writer w = { out_name, slot, -1, -1, -1, finish };
         int hold[2], ready[2];
         pid_t pid;
         char c;
@@ -941,11 +956,16 @@ static pid_t half_writer_holding(const char *out_name, unsigned slot, int *ret_h
         return pid;
 }
 
+static pid_t half_writer_holding(const char *out_name, unsigned slot, int *ret_hold)
+{
+        return half_writer_start(out_name, slot, 0, ret_hold);
+}
+
 static void test_out_repair_dead_writer(void **state)
 {
         struct shmtest_table *f = *state;
         struct shmtest_view out = shmtest_view_open(f->out_name, 0);
-        struct half_writer w = { f->out_name, OUT_STEER, -1, -1, -1 };
+        struct half_writer w = { f->out_name, OUT_STEER, -1, -1, -1, 0 };
         struct shm_slot_copy c;
         struct seen s;
         pid_t pid;
@@ -962,7 +982,7 @@ static void test_out_repair_dead_writer(void **state)
         /* Even again, marked not valid; nothing half-written was handed on. */
         assert_int_equal(shm_slot_read(shmtest_out_slot(&out, OUT_STEER), &c), 0);
         assert_int_equal(c.flags, SHM_SLOT_REPAIRED);
-        assert_int_equal(c.length, 0);
+        assert_int_equal(c.length, SHM_SLOT_LENGTH_NONE);
         assert_int_equal(scan(f->t, &s), 0);                            /* reported once */
         assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_REPAIRED), 1);
         /* Not wedged: the next writer gets it. */
@@ -983,19 +1003,21 @@ static void test_out_live_writer_skipped(void **state)
         int hold;
 
         pid = half_writer_holding(f->out_name, OUT_THROTTLE, &hold);
-        /* Its writer is alive: skipped and counted, not touched, and the scan does not wait. */
+        /* Its writer is alive: skipped and counted, not touched, and the scan does not wait
+         * (within SHM_TABLE_HELD_SCANS: test_out_held_* for what comes after). */
         assert_int_equal(scan(f->t, &s), 0);
-        assert_int_equal(scan(f->t, &s), 0);
-        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_BUSY), 2);
-        assert_true(shm_seqlock_odd(shm_slot_word(shmtest_out_slot(&out, OUT_THROTTLE))));
         assert_int_equal(out_write(f->out_name, OUT_STEER, "1"), 0);    /* others unaffected */
         assert_int_equal(scan(f->t, &s), 1);
         assert_int_equal(s.c[0].id, STEER);
-        /* Once it is gone, the slot is repaired. */
+        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_BUSY), 2);
+        assert_true(shm_seqlock_odd(shm_slot_word(shmtest_out_slot(&out, OUT_THROTTLE))));
+        /* Once it is gone, the slot is repaired at once: no bound to wait out. */
         close(hold);
         assert_int_equal(shmtest_wait(pid), 0);
         assert_int_equal(scan(f->t, &s), 1);
         assert_int_equal(s.c[0].status, SHM_OUT_REPAIRED);
+        assert_int_equal(s.c[0].taken_over, 0);
+        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_TAKEN_OVER), 0);
         expect_slot(&mirror, THROTTLE, "", 0);                          /* never published */
         shmtest_view_close(&mirror);
         shmtest_view_close(&out);
@@ -1229,6 +1251,143 @@ static void test_out_touched_scribbled(void **state)
         shmtest_view_close(&out);
 }
 
+/* Scans that must find the slot still held (skipped, counted busy, nothing reported). */
+static void scans_held(struct shmtest_table *f, struct shmtest_view *out, unsigned slot,
+                       unsigned n)
+{
+        uint64_t busy = shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_BUSY);
+        struct seen s;
+
+        for (unsigned k = 0; k < n; k++)
+                assert_int_equal(scan(f->t, &s), 0);
+        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_BUSY),
+                         busy + n);
+        assert_true(shm_seqlock_odd(shm_slot_word(shmtest_out_slot(out, slot))));
+}
+
+/* The scan that takes a held slot over: one report, both counters, an even slot. */
+static void scan_takes_over(struct shmtest_table *f, struct shmtest_view *out, unsigned slot,
+                            uint32_t id, uint32_t pid, uint64_t taken_before)
+{
+        struct seen s;
+
+        assert_int_equal(scan(f->t, &s), 1);
+        assert_int_equal(s.c[0].status, SHM_OUT_REPAIRED);
+        assert_int_equal(s.c[0].taken_over, 1);
+        assert_int_equal(s.c[0].id, id);
+        assert_int_equal(s.c[0].writer_pid, pid);
+        assert_string_equal(s.c[0].name, vars[id].name);
+        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_TAKEN_OVER),
+                         taken_before + 1);
+        assert_false(shm_seqlock_odd(shm_slot_word(shmtest_out_slot(out, slot))));
+        assert_int_equal(scan(f->t, &s), 0);                            /* reported once */
+}
+
+/* A write of slot that the next scan accepts and reports. */
+static void write_goes_through(struct shmtest_table *f, unsigned slot, const char *value)
+{
+        struct seen s;
+
+        assert_int_equal(out_write(f->out_name, slot, value), 0);
+        assert_int_equal(scan(f->t, &s), 1);
+        assert_int_equal(s.c[0].status, SHM_OUT_CHANGED);
+        assert_string_equal(s.c[0].value, value);
+}
+
+/*
+ * An odd word naming a process that exists (pid 1: kill() finds it, ESRCH never comes) is no
+ * writer's: a hostile client's. It used to wedge the variable for good; the daemon takes it over
+ * once it stayed the same for SHM_TABLE_HELD_SCANS periodic scans, and only those count: wake-ups
+ * (other writes) do not hurry it.
+ */
+static void test_out_held_forged_live_pid(void **state)
+{
+        struct shmtest_table *f = *state;
+        struct shmtest_view out = shmtest_view_open(f->out_name, 1);
+        struct shmtest_view mirror = shmtest_view_open(f->in_name, 0);
+        struct seen s;
+
+        assert_int_equal(out_write(f->out_name, OUT_NOTE, "kept"), 0);
+        assert_int_equal(scan(f->t, &s), 1);
+        atomic_store(&shmtest_out_slot(&out, OUT_NOTE)->seq, (UINT64_C(1) << 32) | 7u);
+        assert_int_equal(out_write(f->out_name, OUT_NOTE, "lost"), -EBUSY);        /* wedged */
+        scans_held(f, &out, OUT_NOTE, SHM_TABLE_HELD_SCANS - 1u);
+        for (unsigned k = 0; k < 2u * SHM_TABLE_HELD_SCANS; k++) {
+                assert_int_equal(out_write_how(f->out_name, OUT_STEER, "1", TOUCH_MARKED), 0);
+                assert_int_equal(scan_touched(f->t, &s), 1);            /* STEER's alone */
+                assert_int_equal(s.c[0].id, STEER);
+        }
+        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_TAKEN_OVER), 0);
+        scan_takes_over(f, &out, OUT_NOTE, NOTE, 1, 0);
+        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_REPAIRED), 1);
+        expect_slot(&mirror, NOTE, "kept", SHM_SLOT_VALID | SHM_SLOT_OUTBOUND);
+        write_goes_through(f, OUT_NOTE, "again");       /* not wedged any more */
+        shmtest_view_close(&mirror);
+        shmtest_view_close(&out);
+}
+
+/* A held word that changes at every scan is writers taking turns (or a hostile client that keeps
+ * rewriting it): never taken over, however long it goes on; once it stops changing, the count
+ * starts from zero. */
+static void test_out_held_changing_not_early(void **state)
+{
+        struct shmtest_table *f = *state;
+        struct shmtest_view out = shmtest_view_open(f->out_name, 1);
+        _Atomic uint64_t *seq = &shmtest_out_slot(&out, OUT_NOTE)->seq;
+        uint64_t word = (UINT64_C(1) << 32) | 1u;
+
+        for (unsigned k = 0; k < 4u * SHM_TABLE_HELD_SCANS; k++) {
+                word += 2u;
+                atomic_store(seq, word);
+                scans_held(f, &out, OUT_NOTE, 1);
+        }
+        /* The same word but another pid is another hold too. */
+        for (unsigned k = 0; k < 2u * SHM_TABLE_HELD_SCANS; k++) {
+                atomic_store(seq, ((uint64_t)(k % 2u ? 1u : (uint32_t)getppid()) << 32) |
+                                  (word & SHM_SEQLOCK_SEQ_MASK));
+                scans_held(f, &out, OUT_NOTE, 1);
+        }
+        assert_int_equal(shm_table_counter_get(f->t, SHM_LINK_NONE, SHM_COUNTER_OUT_TAKEN_OVER), 0);
+        /* It stops changing: taken over after the whole bound, counted from then. */
+        atomic_store(seq, ((uint64_t)getppid() << 32) | ((word + 2u) & SHM_SEQLOCK_SEQ_MASK));
+        scans_held(f, &out, OUT_NOTE, SHM_TABLE_HELD_SCANS - 1u);
+        scan_takes_over(f, &out, OUT_NOTE, NOTE, (uint32_t)getppid(), 0);
+        shmtest_view_close(&out);
+}
+
+/*
+ * A real writer, alive, stopped in the middle of its write (here: blocked on a pipe): taken over
+ * after the bound. When it runs again its remaining stores land in the repaired slot and its
+ * publish fails with -ECANCELED; nothing of its value is reported, mirrored or left readable as
+ * a valid value, and the next writer is unaffected.
+ */
+static void test_out_held_live_writer_taken_over(void **state)
+{
+        struct shmtest_table *f = *state;
+        struct shmtest_view out = shmtest_view_open(f->out_name, 0);
+        struct shmtest_view mirror = shmtest_view_open(f->in_name, 0);
+        struct shm_slot_copy c;
+        struct seen s;
+        pid_t pid;
+        int hold;
+
+        assert_int_equal(out_write(f->out_name, OUT_THROTTLE, "0.5"), 0);
+        assert_int_equal(scan(f->t, &s), 1);
+        pid = half_writer_start(f->out_name, OUT_THROTTLE, 1, &hold);
+        scans_held(f, &out, OUT_THROTTLE, SHM_TABLE_HELD_SCANS - 1u);
+        scan_takes_over(f, &out, OUT_THROTTLE, THROTTLE, (uint32_t)pid, 0);
+        /* The writer runs again: the rest of its stores, then a publish that fails. */
+        close(hold);
+        assert_int_equal(shmtest_wait(pid), 0);                         /* -ECANCELED */
+        assert_int_equal(scan(f->t, &s), 0);
+        expect_slot(&mirror, THROTTLE, "0.5", SHM_SLOT_VALID | SHM_SLOT_OUTBOUND);
+        assert_int_equal(shm_slot_read(shmtest_out_slot(&out, OUT_THROTTLE), &c), 0);
+        assert_int_equal(shm_slot_copy_check(&c), -EINVAL);             /* half: not a value */
+        write_goes_through(f, OUT_THROTTLE, "0.75");
+        shmtest_view_close(&mirror);
+        shmtest_view_close(&out);
+}
+
 /* A slot held by a live writer stays on the daemon's list: once the writer is gone, the next
  * wake-up (someone else's write) repairs it, with no mark of its own. */
 static void test_out_touched_held(void **state)
@@ -1344,6 +1503,11 @@ int main(void)
                 cmocka_unit_test_setup_teardown(test_out_repair_dead_writer, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_live_writer_skipped, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_out_forged_pids, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_held_forged_live_pid, setup, teardown),
+                cmocka_unit_test_setup_teardown(test_out_held_changing_not_early, setup,
+                                                teardown),
+                cmocka_unit_test_setup_teardown(test_out_held_live_writer_taken_over, setup,
+                                                teardown),
                 cmocka_unit_test_setup_teardown(test_rogue_scribble_all, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_rogue_scribble_slots, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_rogue_truncate, setup, teardown),

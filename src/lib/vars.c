@@ -214,8 +214,11 @@ static VARS_HOT int read_outbound(const struct sl_client *c, int index, uint32_t
         if (!shm_seqlock_odd(word) && word != 0 &&
             shm_slot_read_fields(&c->map->slots[index], &rd->head, value,
                                  fields | SHM_SLOT_HEAD_SOURCE) == 0 &&
-            rd->head.source == word && (rd->head.flags & SHM_SLOT_VALID) &&
-            rd->head.length <= SHM_VALUE_MAX) {
+            rd->head.source == word) {
+                /* The daemon's word for what the slot holds: its value, or none (a writer taken
+                 * over before any value was accepted, whose late stores the slot may hold). */
+                if (!(rd->head.flags & SHM_SLOT_VALID) || rd->head.length > SHM_VALUE_MAX)
+                        return 0;
                 rd->head.flags |= SHM_SLOT_OUTBOUND;
                 rd->sequence = shm_seqlock_sequence(word) / 2u;
                 return 1;

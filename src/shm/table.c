@@ -1348,21 +1348,25 @@ static int scan_broken(struct shm_table *t)
 }
 
 /*
- * After a repair: the .in mirror of id, if it holds an accepted value, now says it was copied
- * under the repaired word, so clients read that value from it (layout.h, 1.1) and not the .out
- * slot. A writer taken over while stopped before its first store may finish its whole value
- * there after it runs again, under the even word we left and no lock: its publish fails
- * (-ECANCELED) and this scan never sees the word move, so the value must not reach readers
- * either. (With no accepted value to point to, clients read the slot; what they find there is
- * then that writer's value, whole.)
+ * After a repair: the .in mirror of id now says it was copied under the repaired word, so clients
+ * take it (layout.h, 1.1) and not the .out slot: the accepted value it holds, or none when no
+ * value was ever accepted (clients trust a mirror of the current word even when it holds none).
+ * A writer taken over while stopped before its first store may finish its whole value there
+ * after it runs again, under the even word we left and no lock: its publish fails (-ECANCELED)
+ * and this scan never sees the word move, so the value must not reach readers either.
  */
 static void mirror_rebase(struct shm_table *t, uint32_t id, uint64_t word)
 {
         struct shm_slot_copy c;
 
         /* Our own slot: this thread is its only writer, so the read never finds it odd. */
-        if (!(t->vars[id].flags & SHM_SLOT_VALID) || shm_slot_read(&t->slots[id], &c) < 0)
+        if (shm_slot_read(&t->slots[id], &c) < 0)
                 return;
+        if (!(t->vars[id].flags & SHM_SLOT_VALID)) {
+                c.length = 0;
+                c.value[0] = '\0';
+                c.flags &= ~SHM_SLOT_VALID;
+        }
         shm_slot_write_mirror(&t->slots[id], c.value, c.length, c.flags, c.mono_ns, c.real_ns,
                               word);
         t->dirty = 1;

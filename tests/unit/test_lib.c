@@ -653,6 +653,38 @@ static void test_write_stopped_writer_resumes(void **state)
 }
 
 /*
+ * The same with no value ever accepted for the variable: the writer stopped right after its
+ * claim, taken over, then finishing its whole value under the even word the daemon left. The
+ * daemon's mirror names that word and holds no value, and readers take the mirror's word for it:
+ * reading the slot would hand out a value the daemon never accepted nor sent.
+ */
+static void test_write_stopped_writer_never_written(void **state)
+{
+        struct fixture *f = *state;
+        struct shmtest_view v = shmtest_view_open(f->tb.out_name, true);
+        struct sl_meta meta = { .size = sizeof(meta) };
+        char buf[SL_VALUE_SIZE];
+        struct shm_slot *slot;
+        uint64_t word;
+        struct seen s;
+
+        assert_non_null(v.base);
+        slot = shmtest_out_slot(&v, 2);                         /* NOTE's, never written */
+        assert_int_equal(shm_slot_claim(slot, (uint32_t)getppid(), &word), 0);
+        scans_until_taken_over(f);
+        shm_slot_store(slot, "late", 4, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND, 1, 2);
+        shm_slot_store_stamp(slot, 0);
+        assert_int_equal(shm_slot_publish(slot, word), -ECANCELED);
+        assert_int_equal(scan(f, &s), 0);
+        assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), &meta), 0);
+        assert_false(meta.flags & SL_FLAG_VALID);
+        assert_int_equal(sl_write(f->c, NOTE, "next"), 0);
+        assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), NULL), 4);
+        assert_string_equal(buf, "next");
+        shmtest_view_close(&v);
+}
+
+/*
  * What a member that rewrites a lock word under a writer can make of the slot (stress_out's attacks
  * did this by chance): once the word no longer says "held", a second writer takes the slot, the
  * first one's remaining stores land in the second one's value, and the mix is published under an
@@ -2073,6 +2105,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_write_numbers, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_read_after_repair, setup, teardown),
                 cmocka_unit_test_setup_teardown(test_write_after_held_taken_over, setup,
+                                                teardown),
+                cmocka_unit_test_setup_teardown(test_write_stopped_writer_never_written, setup,
                                                 teardown),
                 cmocka_unit_test_setup_teardown(test_write_stopped_writer_resumes, setup,
                                                 teardown),

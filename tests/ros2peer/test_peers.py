@@ -159,12 +159,16 @@ class Interop(unittest.TestCase):
         Interop.n += 1
         return "rt/ros2peer_%d/t%d" % (os.getpid(), Interop.n)
 
-    def exchange(self, writer, reader, t, sub_args=(), best_effort=False):
+    def exchange(self, writer, reader, t, sub_args=()):
         """writer publishes GOLDEN[t] to reader (both started here); returns the reader's
-        writer and sample lines as dicts. A reliable reader must have the first write; a
-        best-effort one may lose what it is sent before its side of the match has settled
-        (between a Fast DDS writer and a Cyclone reader the first sample sometimes is), so
-        the value is written again, RETRY_S apart, until one arrives."""
+        writer and sample lines as dicts. Both readers here may lose what they are sent before
+        their side of the match has settled, even though each side has reported the other: a
+        best-effort one by its nature, and a reliable but volatile one (the ROS default) because
+        it owes only what is written after it has the writer's first heartbeat (between a Fast
+        DDS writer and a Cyclone reader, on a busy machine, the first sample sometimes is lost:
+        2 of 11 runs at load 6). So the value is written again, RETRY_S apart, until one
+        arrives; what is checked is the bytes that arrive, not the first write. (The late
+        joiner's test checks that a transient-local reader gets the value written before it.)"""
         value, shown, body = GOLDEN[t]
         topic = self.topic()
         sub = Peer(reader, "sub", topic, t, *sub_args)
@@ -172,10 +176,10 @@ class Interop(unittest.TestCase):
         pub = Peer(writer, "pub", topic, t, value, "--wait-stdin")
         pub.wait("matched")
         w = fields(sub.wait("writer"))   # the reader has matched the writer too
-        for attempt in range(TIMEOUT_S // RETRY_S if best_effort else 1):
+        for attempt in range(TIMEOUT_S // RETRY_S):
             pub.go()
             try:
-                s = fields(sub.wait("sample", RETRY_S if best_effort else TIMEOUT_S))
+                s = fields(sub.wait("sample", RETRY_S))
                 break
             except queue.Empty:
                 continue
@@ -205,7 +209,7 @@ class Interop(unittest.TestCase):
             for writer, reader in (("cyclone", "fastdds"), ("fastdds", "cyclone")):
                 with self.subTest(type=t, writer=writer, reader=reader):
                     self.exchange(writer, reader, t,
-                                  ("--reliability", "best_effort", "--depth", "1"), True)
+                                  ("--reliability", "best_effort", "--depth", "1"))
 
     def test_late_joiner_gets_the_last_value_both_ways(self):
         for writer, reader in (("cyclone", "fastdds"), ("fastdds", "cyclone")):

@@ -22,18 +22,32 @@ HOST_SEND = "T0:veh_start,T2:joy_steer,T0:veh_brake"
 HOST_RECV = "T2:AutoGpsLat,T0:AutoGpsQuality,T4:VehicleName"
 
 
-def start(role, *args):
-    """Starts a peer; returns the process and its "ready" event (which names its port)."""
-    p = subprocess.Popen([sys.executable, PEER, "--role", role] + list(args),
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+def spawn(role, *args):
+    """Starts a peer with unbuffered pipes (see read_ready)."""
+    return subprocess.Popen([sys.executable, PEER, "--role", role] + list(args),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, bufsize=0)
+
+
+def read_ready(p):
+    """Its "ready" event (which names its port), the first line of its output. The pipe is
+    unbuffered so that readline takes that line alone: a buffered reader would take whatever
+    else the peer had written by then, which communicate() (it reads the descriptor, not the
+    reader) would never see; how much that is depends on how soon this process runs."""
     ready = json.loads(p.stdout.readline())
     assert ready["event"] == "ready", ready
-    return p, ready
+    return ready
+
+
+def start(role, *args):
+    """Starts a peer; returns the process and its "ready" event."""
+    p = spawn(role, *args)
+    return p, read_ready(p)
 
 
 def finish(p):
     """Waits for a peer; returns its exit status and its events."""
     out, err = p.communicate(timeout=PROC_TIMEOUT)
+    out, err = out.decode("utf-8"), err.decode("utf-8")
     events = [json.loads(line) for line in out.splitlines()]
     if err.strip():
         raise AssertionError("peer wrote to stderr: " + err)
@@ -69,6 +83,26 @@ class Raw:
 
     def close(self):
         self.sock.close()
+
+
+class Harness(unittest.TestCase):
+    """This file's own helpers."""
+
+    def test_events_written_before_ready_is_read_are_kept(self):
+        # The peer writes all it will write before its ready line is read (it has exited):
+        # every event after that line must still reach finish().
+        raw = Raw()
+        try:
+            p = spawn("host", "--remote", raw.endpoint, "--send", HOST_SEND, "--recv",
+                      HOST_RECV, "--script", "connect; declare")
+            p.wait(timeout=PROC_TIMEOUT)
+            read_ready(p)
+            rc, ev = finish(p)
+        finally:
+            raw.close()
+        self.assertEqual(rc, 0)
+        self.assertEqual(len(of(ev, "sent")), 5)
+        self.assertTrue(of(ev, "done", ok=True))
 
 
 class HostAndVehicle(unittest.TestCase):

@@ -512,6 +512,7 @@ static void claims_release(void *list)
                 /* Only the owner writes its claimed owner word, and it is outside every read
                  * section now; release: its last section is over before another thread's CAS
                  * can take the slot. */
+                cl->slot->claim = NULL;
                 atomic_store_explicit(&cl->slot->owner, 0u, memory_order_release);
                 reader_set_put(cl->set);
                 free(cl);
@@ -541,6 +542,7 @@ static void claims_prune(struct client_claim **link)
 
                 if (atomic_load_explicit(&cl->set->closed, memory_order_acquire)) {
                         *link = cl->next;
+                        cl->slot->claim = NULL;
                         reader_set_put(cl->set);
                         free(cl);
                 } else {
@@ -576,6 +578,7 @@ void client_reader_claim(struct sl_client *c, uintptr_t self)
                 free(cl);
                 return;
         }
+        r->claim = cl;
         claims_prune(&cl->next);
 }
 

@@ -66,11 +66,18 @@ struct client_map {
  * A reader slot of the handle's lock (client.c): one per thread that claimed it, its own cache
  * line. Only the owning thread writes `active`; a writer of the handle reads it.
  */
+struct client_claim;
+
 struct client_reader {
         _Atomic uintptr_t owner;        /* the owning thread (client_thread_id), 0: free */
+        /* The owner's claim (client.c), written by the owner only and read by nobody: it keeps
+         * the claim reachable from the handle for leak checkers, which may look after the
+         * library's thread key is gone (at exit, with a thread still inside a request) */
+        struct client_claim *claim;
         _Atomic uint32_t active;        /* 1 while that thread is inside a read section */
-        uint8_t pad[64 - sizeof(uintptr_t) - sizeof(uint32_t)];
+        uint8_t pad[64 - sizeof(uintptr_t) - sizeof(struct client_claim *) - sizeof(uint32_t)];
 } __attribute__((aligned(64)));
+_Static_assert(sizeof(struct client_reader) == 64, "one reader slot, one cache line");
 
 /*
  * A handle's reader slots, allocated apart from the handle: a thread that claimed a slot gives it

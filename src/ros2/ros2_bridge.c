@@ -22,6 +22,7 @@
 #include "ros2/ros2_names.h"
 #include "ros2_msgs.h"
 #include "svc/changes.h"
+#include "svc/cursor.h"
 #include "svc/evjson.h"
 #include "svc/json.h"
 #include "svc/log.h"
@@ -138,6 +139,9 @@ struct ros2_bridge {
         diagnostic_msgs_msg_dds__DiagnosticStatus_ *diag_status;
 
         uint64_t ev_cursor;
+        struct cursor ev_pos;           /* after the last event written to DDS */
+        bool ev_moved;                  /* ev_pos is ahead of what cursor_file holds */
+        bool cursor_warned;             /* a failed store was logged (until one succeeds) */
         bool ev_started;
         bool announce_restart;
         bool noticed;                   /* the notices of event noticed_seq went out */
@@ -159,6 +163,13 @@ static void on_data(dds_entity_t reader, void *arg)
          * failed one only delays the read to the next tick. */
         if (write(b->efd, &one, sizeof(one)) < 0)
                 return;
+}
+
+static void on_matched(dds_entity_t writer, const dds_publication_matched_status_t st,
+                       void *arg)
+{
+        (void)st;
+        on_data(writer, arg);
 }
 
 /* ---- creation -------------------------------------------------------------------------------- */
@@ -183,8 +194,9 @@ static int own_topics(struct ros2_bridge *b, char *err, size_t err_size)
         if (ros2_names_join(full, sizeof(full), b->ns, ROS2_TOPIC_EVENTS, NULL) < 0 ||
             ros2_names_dds(dds, sizeof(dds), full) < 0)
                 return fail(err, err_size, -EINVAL, "namespace %s too long", b->ns);
-        b->events_w = ros2_dds_endpoint(b->pp, ROS2_TYPE_STRING, dds, ROS2_QOS_EVENTS, NULL,
-                                        &b->events_topic);
+        /* The listener: a reader matched, so the events held back for one go out (pump). */
+        b->events_w = ros2_dds_endpoint(b->pp, ROS2_TYPE_STRING, dds, ROS2_QOS_EVENTS,
+                                        b->listener, &b->events_topic);
         if (b->events_w < 0)
                 return fail(err, err_size, -EIO, "%s: %s", dds, dds_strretcode(b->events_w));
         ros2_names_join(full, sizeof(full), b->ns, ROS2_TOPIC_SET_ERRORS, NULL);
@@ -248,6 +260,7 @@ int ros2_bridge_new(const struct ros2_config *cfg, struct ros2_bridge **ret, cha
                 goto out;
         }
         dds_lset_data_available(b->listener, on_data);
+        dds_lset_publication_matched(b->listener, on_matched);
         b->pp = ros2_dds_participant(domain, cfg->cyclonedds_uri);
         if (b->pp < 0) {
                 r = fail(err, err_size, -EIO, "DDS domain %u cannot be created: %s%s", domain,
@@ -308,6 +321,47 @@ struct ros2_bridge *ros2_bridge_free(struct ros2_bridge *b)
         return NULL;
 }
 
+static uint64_t daemon_epoch(struct ros2_bridge *b);
+
+/*
+ * Where the events start: after the cursor in cursor_file when it belongs to this daemon run
+ * (the bridge was restarted: nothing missed, nothing twice). A cursor of another run (the
+ * daemon restarted meanwhile) or a file that is not a cursor: at the oldest event the ring
+ * holds, with a daemon-restarted notice first for the former (the new run's events are not
+ * lost; a ring that wrapped is announced by an overrun notice). No file (a first start): from
+ * now on, a ROS topic having no history for a subscriber that was not there; the place is
+ * written at once, so that events while a first-started bridge is stopped are not lost either.
+ */
+static void cursor_start(struct ros2_bridge *b)
+{
+        const char *path = b->cfg->cursor_file;
+        uint64_t epoch = daemon_epoch(b);
+        struct cursor c;
+        int r = cursor_load(path, ROS2_CURSOR_OWNER, &c);
+
+        b->ev_cursor = 0;
+        if (r == 0 && c.epoch == epoch) {
+                b->ev_cursor = c.cursor;
+                log_msg(LOG_PRIO_INFO, "events: resuming after event %" PRIu64 " (%s)", c.seq,
+                        path);
+        } else if (r == 0) {
+                b->announce_restart = true;
+                log_msg(LOG_PRIO_NOTICE, "events: %s is of another daemon run (epoch %016"
+                        PRIx64 "): starting at the oldest event retained", path, c.epoch);
+        } else if (r == -ENOENT) {
+                if (sl_events_now(b->cl, &b->ev_cursor) < 0)
+                        b->ev_cursor = 0;
+                log_msg(LOG_PRIO_INFO, "events: no cursor in %s yet: from now on", path);
+        } else {
+                log_msg(LOG_PRIO_WARNING, "events: %s: %s: starting at the oldest event "
+                        "retained (events may repeat)", path,
+                        r == -EBADMSG ? "not a " ROS2_CURSOR_OWNER " cursor" : strerror(-r));
+        }
+        b->ev_pos = (struct cursor){ .epoch = epoch, .cursor = b->ev_cursor,
+                                     .seq = r == 0 ? c.seq : 0 };
+        b->ev_moved = r != 0 || c.epoch != epoch;
+}
+
 int ros2_bridge_attach(struct ros2_bridge *b)
 {
         int r;
@@ -317,9 +371,7 @@ int ros2_bridge_attach(struct ros2_bridge *b)
         r = sl_open(b->instance, &b->cl);
         if (r < 0)
                 return r;
-        /* Events from now on: a ROS topic has no history for a subscriber that was not there. */
-        if (sl_events_now(b->cl, &b->ev_cursor) < 0)
-                b->ev_cursor = 0;
+        cursor_start(b);
         b->ev_started = true;
         b->replan = true;
         b->diag_due = true;
@@ -855,6 +907,18 @@ static int notices(struct ros2_bridge *b, const struct sl_event *ev)
         return 0;
 }
 
+/* Events wait in the ring while no reader is matched: written then, they would be taken as
+ * done (nobody to acknowledge them) and lost to a subscriber that is discovering the bridge,
+ * as every one is right after the bridge (re)starts. The ring keeps them meanwhile (one too
+ * many: an overrun notice, as for a bridge that was stopped). */
+static bool events_readers(struct ros2_bridge *b)
+{
+        dds_publication_matched_status_t st;
+
+        return dds_get_publication_matched_status(b->events_w, &st) != DDS_RETCODE_OK ||
+               st.current_count > 0;
+}
+
 int ros2_bridge_pump(struct ros2_bridge *b)
 {
         int sent = 0, r;
@@ -862,6 +926,10 @@ int ros2_bridge_pump(struct ros2_bridge *b)
         b->events_blocked = false;
         if (!b->cl)
                 return 0;
+        if (!events_readers(b)) {
+                ros2_bridge_cursor_flush(b, 0);         /* a first start's place */
+                return 0;
+        }
         for (;;) {
                 struct sl_event ev = { .size = sizeof(ev) };
                 uint64_t cursor = b->ev_cursor;
@@ -895,10 +963,53 @@ int ros2_bridge_pump(struct ros2_bridge *b)
                         break;
                 }
                 b->ev_cursor = cursor;
+                b->ev_pos = (struct cursor){ .epoch = b->epoch, .cursor = cursor,
+                                             .seq = ev.seq };
+                b->ev_moved = true;
                 b->counters.events_published++;
                 sent++;
         }
+        ros2_bridge_cursor_flush(b, 0);
         return sent;
+}
+
+/*
+ * The cursor moves over an event once every reader matched at the time has acknowledged it
+ * (dds_wait_for_acks: the reliable protocol's own acknowledgement), not when dds_write returned:
+ * a written sample still sits in the writer's history, and a bridge killed then would take it
+ * along, lost to the readers although the cursor were past it. So a bridge stopped or killed
+ * repeats at most what was written since the last store, never loses an event; one that
+ * finds no reader matched has nothing to wait for. The file is not fsynced: a cursor counts
+ * only within one daemon run (its epoch), which a power loss ends anyway.
+ */
+int ros2_bridge_cursor_flush(struct ros2_bridge *b, int64_t wait_ms)
+{
+        const struct cursor pos = b->ev_pos;
+        dds_return_t rc;
+        int r;
+
+        if (!b->cl || !b->ev_moved)
+                return 0;
+        rc = dds_wait_for_acks(b->events_w, DDS_MSECS(wait_ms));
+        if (rc == DDS_RETCODE_TIMEOUT)
+                return -EAGAIN;         /* at the next pump or tick */
+        if (rc != DDS_RETCODE_OK) {
+                b->counters.dds_errors++;
+                return -EIO;
+        }
+        r = cursor_store(b->cfg->cursor_file, ROS2_CURSOR_OWNER, &pos, false);
+        if (r < 0) {
+                b->counters.cursor_errors++;
+                if (!b->cursor_warned)
+                        log_msg(LOG_PRIO_WARNING, "events: cannot write %s: %s (a restart "
+                                "will repeat or skip events)", b->cfg->cursor_file,
+                                strerror(-r));
+                b->cursor_warned = true;
+                return r;
+        }
+        b->cursor_warned = false;
+        b->ev_moved = false;
+        return 0;
 }
 
 /* ---- writes from ROS ------------------------------------------------------------------------- */
@@ -1179,6 +1290,7 @@ static void diag_bridge(struct ros2_bridge *b, bool alive,
         kv(s, st, "events_published", "%" PRIu64, c->events_published);
         kv(s, st, "events_lost", "%" PRIu64, c->events_lost);
         kv(s, st, "events_blocked", "%" PRIu64, c->events_blocked);
+        kv(s, st, "cursor_errors", "%" PRIu64, c->cursor_errors);
         kv(s, st, "set_written", "%" PRIu64, c->set_written);
         kv(s, st, "set_refused", "%" PRIu64, c->set_refused);
         kv(s, st, "navsatfix_published", "%" PRIu64, c->navsatfix_published);

@@ -30,6 +30,8 @@
 #define NS_PER_S                1000000000ull
 #define DECIMAL                 10
 #define TAKE_BATCH              32      /* samples taken from a reader at once */
+#define UNKNOWN_MAX             64      /* set/ writers kept to be judged (again) by a plan */
+#define TYPE_NAME_MAX           256     /* bytes of a writer's type name kept, NUL included */
 #define JSON_MAX                1024    /* one set_errors payload */
 #define DIAG_KV_MAX             (SL_COUNTERS_MAX + 8)   /* values of one status */
 #define DIAG_VALUE_SIZE         32      /* a number, a state name */
@@ -85,8 +87,18 @@ struct var {
         enum ros2_type type;
         dds_entity_t topic, writer;     /* 0: none */
         dds_entity_t set_topic, set_reader;
+        bool set_new;                   /* set_reader made by this plan: writers judged before
+                                         * it existed are judged again */
         uint64_t seq;                   /* sequence published last */
         bool sent;
+};
+
+/* A writer on a set/ topic that no set reader had when it was seen. */
+struct unknown_writer {
+        dds_guid_t key;
+        bool reported;                  /* as unknown (else: seen before the first plan) */
+        char topic[ROS2_DDS_NAME_SIZE];
+        char type[TYPE_NAME_MAX];
 };
 
 struct navsat {
@@ -127,6 +139,10 @@ struct ros2_bridge {
         struct var *vars;
         unsigned n_vars, cap_vars;
         bool replan;
+        bool planned;                   /* a plan exists: writers on set topics can be judged */
+        struct unknown_writer *unknown; /* UNKNOWN_MAX: seen before any plan, or reported
+                                         * unknown: judged (again) by a plan */
+        unsigned n_unknown;
         struct changes changes;         /* what changed since the last scan (sl_changed) */
         bool read_all;                  /* the next scan reads every variable */
         int sent;                       /* values published by the scan under way */
@@ -232,7 +248,8 @@ int ros2_bridge_new(const struct ros2_config *cfg, struct ros2_bridge **ret, cha
         b->efd = -1;
         b->diag = calloc(ROS2_LINKS_MAX + 1, sizeof(*b->diag));
         b->diag_status = calloc(ROS2_LINKS_MAX + 1, sizeof(*b->diag_status));
-        if (!b->diag || !b->diag_status) {
+        b->unknown = calloc(UNKNOWN_MAX, sizeof(*b->unknown));
+        if (!b->diag || !b->diag_status || !b->unknown) {
                 r = fail(err, err_size, -ENOMEM, "out of memory");
                 goto out;
         }
@@ -317,6 +334,7 @@ struct ros2_bridge *ros2_bridge_free(struct ros2_bridge *b)
         free(b->vars);
         free(b->diag);
         free(b->diag_status);
+        free(b->unknown);
         free(b);
         return NULL;
 }
@@ -530,6 +548,7 @@ static int var_endpoints(struct ros2_bridge *b, struct var *v)
                         v->set_reader = 0;
                         b->counters.dds_errors++;
                 }
+                v->set_new = v->set_reader != 0;
         }
         return 0;
 }
@@ -557,6 +576,8 @@ static void nav_endpoints(struct ros2_bridge *b, struct navsat *nv)
                 b->counters.dds_errors++;
         }
 }
+
+static void publications_judge(struct ros2_bridge *b);
 
 static int plan(struct ros2_bridge *b)
 {
@@ -619,6 +640,8 @@ static int plan(struct ros2_bridge *b)
         }
         b->replan = false;
         b->diag_due = true;
+        b->planned = true;
+        publications_judge(b);
 out:
         free(dup);
         free(nav_full);
@@ -1105,17 +1128,14 @@ static void set_take(struct ros2_bridge *b, struct var *v, unsigned id)
         }
 }
 
-/* A writer appeared on one of our set topics (or under set/): one of another type never
- * matches our reader, so its samples vanish; say so on set_errors, once per writer. */
-static void publication(struct ros2_bridge *b, const dds_builtintopic_endpoint_t *ep)
+/* Judges a writer on set topic (DDS name) of type type against the set readers: true when
+ * one has its topic (then nothing to say, or wrong_type said), false when none does. again:
+ * only against readers the last plan made (the others judged it already). */
+static bool publication_judge(struct ros2_bridge *b, const char *topic, const char *type,
+                              bool again)
 {
-        size_t plen = strlen(b->set_prefix);
-        const char *rel;
+        const char *rel = topic + strlen(b->set_prefix);
 
-        if (!memcmp(&ep->participant_key, &b->guid, sizeof(b->guid)) || !ep->topic_name ||
-            strncmp(ep->topic_name, b->set_prefix, plen) != 0)
-                return;
-        rel = ep->topic_name + plen;
         for (unsigned id = 0; id < b->n_vars; id++) {
                 struct var *v = &b->vars[id];
                 const char *want = ros2_dds_type_name(v->type);
@@ -1123,17 +1143,59 @@ static void publication(struct ros2_bridge *b, const dds_builtintopic_endpoint_t
 
                 if (!v->set_reader || strcmp(v->rel, rel) != 0)
                         continue;
-                if (ep->type_name && !strcmp(ep->type_name, want))
-                        return;
+                if (again && !v->set_new)
+                        return true;
+                if (type && !strcmp(type, want))
+                        return true;
                 snprintf(detail, sizeof(detail), "type %.120s, expected %s (%s)",
-                         ep->type_name ? ep->type_name : "?", want, ros2_dds_ros_type(v->type));
-                refuse(b, v->info.name, ep->topic_name + strlen(ROS2_DDS_PREFIX),
-                       REFUSE_WRONG_TYPE, detail);
-                return;
+                         type ? type : "?", want, ros2_dds_ros_type(v->type));
+                refuse(b, v->info.name, topic + strlen(ROS2_DDS_PREFIX), REFUSE_WRONG_TYPE,
+                       detail);
+                return true;
         }
-        refuse(b, "", ep->topic_name + strlen(ROS2_DDS_PREFIX), REFUSE_UNKNOWN, NULL);
+        return false;
 }
 
+/* A writer appeared on one of our set topics (or under set/): one of another type never
+ * matches our reader, so its samples vanish; say so on set_errors, once per writer. Before the
+ * first plan there is no set reader to judge it by: it is kept, and judged by the plan. One on
+ * a topic of no set reader is unknown, and kept too: a later plan may make its reader (a
+ * variable the daemon learns later, or after a daemon restart), and then judges it again. */
+static void publication(struct ros2_bridge *b, const dds_builtintopic_endpoint_t *ep)
+{
+        struct unknown_writer *u;
+
+        if (!memcmp(&ep->participant_key, &b->guid, sizeof(b->guid)) || !ep->topic_name ||
+            strncmp(ep->topic_name, b->set_prefix, strlen(b->set_prefix)) != 0)
+                return;
+        if (b->planned && publication_judge(b, ep->topic_name, ep->type_name, false))
+                return;
+        if (b->planned || b->n_unknown >= UNKNOWN_MAX)
+                refuse(b, "", ep->topic_name + strlen(ROS2_DDS_PREFIX), REFUSE_UNKNOWN, NULL);
+        if (b->n_unknown >= UNKNOWN_MAX)
+                return;                 /* not judged again: it was reported */
+        u = &b->unknown[b->n_unknown++];
+        u->key = ep->key;
+        u->reported = b->planned;
+        snprintf(u->topic, sizeof(u->topic), "%s", ep->topic_name);
+        snprintf(u->type, sizeof(u->type), "%s", ep->type_name ? ep->type_name : "?");
+        if (!u->reported)
+                b->counters.set_writers_waiting++;
+}
+
+/* A writer gone: not judged again. */
+static void publication_gone(struct ros2_bridge *b, const dds_builtintopic_endpoint_t *ep)
+{
+        for (unsigned i = 0; i < b->n_unknown; i++)
+                if (!memcmp(&b->unknown[i].key, &ep->key, sizeof(ep->key))) {
+                        if (!b->unknown[i].reported)
+                                b->counters.set_writers_waiting--;
+                        b->unknown[i] = b->unknown[--b->n_unknown];
+                        return;
+                }
+}
+
+/* Writers discovered or gone since the last look. */
 static void publications_take(struct ros2_bridge *b)
 {
         for (;;) {
@@ -1143,13 +1205,40 @@ static void publications_take(struct ros2_bridge *b)
 
                 if (n <= 0)
                         return;
-                for (int i = 0; i < n; i++)
-                        if (si[i].valid_data && si[i].instance_state == DDS_IST_ALIVE)
+                for (int i = 0; i < n; i++) {
+                        if (si[i].instance_state != DDS_IST_ALIVE)
+                                publication_gone(b, buf[i]);
+                        else if (si[i].valid_data)
                                 publication(b, buf[i]);
+                }
                 dds_return_loan(b->pub_reader, buf, n);
                 if (n < TAKE_BATCH)
                         return;
         }
+}
+
+/* After a plan: the writers seen before the first plan get their verdict (nothing when of the
+ * right type, wrong_type, unknown), and the unknown ones on a topic it made a set reader for
+ * theirs (nothing, or wrong_type). */
+static void publications_judge(struct ros2_bridge *b)
+{
+        for (unsigned i = 0; i < b->n_unknown;) {
+                struct unknown_writer *u = &b->unknown[i];
+                bool first = !u->reported;
+
+                if (first)
+                        b->counters.set_writers_waiting--;
+                if (publication_judge(b, u->topic, u->type, !first)) {
+                        *u = b->unknown[--b->n_unknown];
+                        continue;
+                }
+                if (first)
+                        refuse(b, "", u->topic + strlen(ROS2_DDS_PREFIX), REFUSE_UNKNOWN, NULL);
+                u->reported = true;
+                i++;
+        }
+        for (unsigned id = 0; id < b->n_vars; id++)
+                b->vars[id].set_new = false;
 }
 
 int ros2_bridge_dds(struct ros2_bridge *b)
@@ -1291,6 +1380,7 @@ static void diag_bridge(struct ros2_bridge *b, bool alive,
         kv(s, st, "events_lost", "%" PRIu64, c->events_lost);
         kv(s, st, "events_blocked", "%" PRIu64, c->events_blocked);
         kv(s, st, "cursor_errors", "%" PRIu64, c->cursor_errors);
+        kv(s, st, "set_writers_waiting", "%" PRIu64, c->set_writers_waiting);
         kv(s, st, "set_written", "%" PRIu64, c->set_written);
         kv(s, st, "set_refused", "%" PRIu64, c->set_refused);
         kv(s, st, "navsatfix_published", "%" PRIu64, c->navsatfix_published);

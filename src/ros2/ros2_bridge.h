@@ -37,6 +37,8 @@ struct ros2_counters {
         uint64_t cursor_errors;         /* failed writes of cursor_file */
         uint64_t set_written;
         uint64_t set_refused;
+        uint64_t set_writers_waiting;   /* on set topics, seen before the first plan: judged
+                                         * by it (a gauge) */
         uint64_t navsatfix_published;
         uint64_t dds_errors;            /* writes or endpoints DDS refused */
 };

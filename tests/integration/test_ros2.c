@@ -18,6 +18,7 @@
  *    (published from the bridge's waker thread while its loop takes the writes) go out too;
  *  - /diagnostics: one status per link and one for the bridge; a stopped daemon is STALE, and
  *    its restart is followed; events in ring order on <ns>/events, an overrun as a notice;
+ *  - set/ writers there before the bridge planned: judged once it has (no unknown);
  *  - the events' cursor across a bridge restart: after SIGTERM exactly the events missed,
  *    after SIGKILL none lost (some may repeat);
  *  - NavSatFix from two variables; a reader that vanishes (SIGKILL) does not stop the bridge;
@@ -45,6 +46,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -1393,6 +1395,67 @@ static void test_daemon_restart(void **state)
         dds_delete(rd);
 }
 
+/* ---- set/ writers that were there before the bridge planned --------------------------------- */
+
+#define LOG_TAIL_MAX    65536   /* bytes of the bridge's log read after a mark */
+
+/* The bridge's log from byte since on (NUL-terminated, cut to size). */
+static void log_since(off_t since, char *buf, size_t size)
+{
+        FILE *f = fopen(F->r.log_path, "r");
+        size_t n = 0;
+
+        assert_non_null(f);
+        if (fseeko(f, since, SEEK_SET) == 0)
+                n = fread(buf, 1, size - 1, f);
+        buf[n] = '\0';
+        fclose(f);
+}
+
+/*
+ * Writers on set/ topics that the bridge discovers before it planned any variable (it starts
+ * while the daemon is down) are kept until the plan, then judged: one of the right type is not
+ * reported (and its writes arrive), one of another type is wrong_type; neither is unknown.
+ */
+static void test_set_writer_before_plan(void **state)
+{
+        char topic[TOPIC_MAX], *log = malloc(LOG_TAIL_MAX);
+        std_msgs_msg_dds__Float64_ d = { .data = 42.5 };
+        struct count_arg waiting = { "set_writers_waiting", 2, F->h.instance };
+        struct count_arg refused = { "set_refused", 1, F->h.instance };
+        dds_entity_t wl, wc, dr;
+        struct stat sb;
+
+        (void)state;
+        assert_non_null(log);
+        assert_true(WIFEXITED(harness_stop_daemon(&F->r, SIGTERM, T_STOP_MS)));
+        assert_true(WIFEXITED(harness_stop_daemon(&F->h, SIGTERM, T_STOP_MS)));
+        topic_of(topic, sizeof(topic), "set/a/Lat");
+        wl = writer(&std_msgs_msg_dds__Float64__desc, topic);
+        topic_of(topic, sizeof(topic), "set/a/Count");
+        wc = writer(&std_msgs_msg_dds__String__desc, topic);
+        assert_int_equal(stat(F->r.log_path, &sb), 0);
+        start_bridge(F);
+        /* Both seen, with no plan to judge them by (no daemon yet). */
+        dr = reader(&diagnostic_msgs_msg_dds__DiagnosticArray__desc, "rt/diagnostics",
+                    RQ_ROS_DEFAULT);
+        assert_true(wait_sample(dr, diag_counter, &waiting));
+        start_daemon(F);
+        write_until(wl, &d, "a.Lat", "42.5");
+        assert_true(wait_sample(dr, diag_counter, &refused));
+        dds_delete(dr);
+        log_since(sb.st_size, log, LOG_TAIL_MAX);
+        if (strstr(log, "set : refused") || !strstr(log, "set a.Count: refused: a writer of "
+                                                         "another type"))
+                fail_msg("the bridge said (log %s from %lld): %s", F->r.log_path,
+                         (long long)sb.st_size, log);
+        assert_int_equal(diag_value(F->h.instance, "set_refused"), 1);
+        assert_int_equal(diag_value(F->h.instance, "set_writers_waiting"), 0);
+        dds_delete(wl);
+        dds_delete(wc);
+        free(log);
+}
+
 /* ---- the events' cursor across bridge restarts ------------------------------------------- */
 
 struct ev_track {
@@ -1648,6 +1711,7 @@ int main(int argc, char **argv)
                 cmocka_unit_test(test_fastdds_writer),
                 cmocka_unit_test(test_values_overrun_restart),
                 cmocka_unit_test(test_daemon_restart),
+                cmocka_unit_test(test_set_writer_before_plan),
                 cmocka_unit_test(test_check_cursor),
                 cmocka_unit_test(test_events_cursor_term),
                 cmocka_unit_test(test_events_cursor_kill),

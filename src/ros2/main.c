@@ -40,7 +40,8 @@
 
 #define NS_PER_MS               1000000ull
 #define TICK_MS                 1000u   /* /diagnostics, rescan (staleness by heartbeat) */
-#define RETRY_MS                20u     /* events history full: pump again this soon */
+#define RETRY_MS                20u     /* events history full, or written events not all
+                                         * acknowledged (cursor_file): pump again this soon */
 #define DRAIN_MS                2000    /* at a stop: the events readers' acknowledgements */
 
 #ifndef SHAREDLINK_VERSION
@@ -83,7 +84,8 @@ static bool on_change_thread(void *arg)
 
         pthread_mutex_lock(&ctx->lock);
         publish(ctx);
-        loop = ctx->dirty || ros2_bridge_diag_due(ctx->b) || ros2_bridge_events_blocked(ctx->b);
+        loop = ctx->dirty || ros2_bridge_diag_due(ctx->b) || ros2_bridge_events_blocked(ctx->b) ||
+               ros2_bridge_cursor_pending(ctx->b);
         pthread_mutex_unlock(&ctx->lock);
         return loop;
 }
@@ -177,7 +179,8 @@ static void turn(struct main_ctx *ctx)
         at = ctx->tick_ns;
         if (!ros2_bridge_client(ctx->b) && backoff_due_ms(&ctx->attach) * NS_PER_MS < at)
                 at = backoff_due_ms(&ctx->attach) * NS_PER_MS;
-        if (ros2_bridge_events_blocked(ctx->b) && now + RETRY_MS * NS_PER_MS < at)
+        if ((ros2_bridge_events_blocked(ctx->b) || ros2_bridge_cursor_pending(ctx->b)) &&
+            now + RETRY_MS * NS_PER_MS < at)
                 at = now + RETRY_MS * NS_PER_MS;
         pthread_mutex_unlock(&ctx->lock);
         r = evloop_timer_arm(&ctx->step, at <= now ? 0 : (at - now + NS_PER_MS - 1) / NS_PER_MS,

@@ -996,6 +996,11 @@ int ros2_bridge_pump(struct ros2_bridge *b)
         return sent;
 }
 
+bool ros2_bridge_cursor_pending(const struct ros2_bridge *b)
+{
+        return b->cl && b->ev_moved;
+}
+
 /*
  * The cursor moves over an event once every reader matched at the time has acknowledged it
  * (dds_wait_for_acks: the reliable protocol's own acknowledgement), not when dds_write returned:

@@ -76,6 +76,9 @@ int ros2_bridge_diagnostics(struct ros2_bridge *b);
  * yet: again later), or -errno. */
 int ros2_bridge_cursor_flush(struct ros2_bridge *b, int64_t wait_ms);
 
+/* The events' place moved past what cursor_file holds (a flush to try again soon). */
+bool ros2_bridge_cursor_pending(const struct ros2_bridge *b);
+
 /* Whether a /diagnostics message is due before the next tick (a link's state changed, a
  * write was refused, the variables were planned again). */
 bool ros2_bridge_diag_due(const struct ros2_bridge *b);

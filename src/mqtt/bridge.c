@@ -11,7 +11,7 @@
 
 #include <sharedlink.h>
 
-#include "mqtt/bridge_cursor.h"
+#include "svc/cursor.h"
 #include "mqtt/bridge_format.h"
 #include "svc/changes.h"
 #include "svc/evjson.h"
@@ -35,7 +35,7 @@ struct bridge_var {
 struct inflight {
         int mid;
         bool acked;
-        struct bridge_cursor pos;
+        struct cursor pos;
 };
 
 struct bridge {
@@ -57,8 +57,8 @@ struct bridge {
         const char *status;             /* published last, NULL: never */
         bool writes_ready;              /* set/ messages reach the bridge (bridge_writes_ready) */
 
-        struct bridge_cursor read;      /* after the last event published */
-        struct bridge_cursor done;      /* after the last event acknowledged (what goes to disk) */
+        struct cursor read;             /* after the last event published */
+        struct cursor done;             /* after the last event acknowledged (what goes to disk) */
         bool done_dirty;
         bool announce_restart;          /* a "daemon-restarted" notice is due */
         struct inflight *window;
@@ -152,8 +152,8 @@ static uint64_t daemon_epoch(struct bridge *b)
  * the ring's history is published rather than risking the loss of a gate passage). */
 static void cursor_start(struct bridge *b)
 {
-        struct bridge_cursor c;
-        int r = bridge_cursor_load(b->cursor_path, &c);
+        struct cursor c;
+        int r = cursor_load(b->cursor_path, BRIDGE_CURSOR_OWNER, &c);
 
         memset(&b->read, 0, sizeof(b->read));
         b->read.epoch = b->epoch;
@@ -478,7 +478,7 @@ int bridge_scan(struct bridge *b, const struct bridge_sink *sink, bool full)
 
 /* ---- events ---------------------------------------------------------------------------------- */
 
-static int window_push(struct bridge *b, int mid, const struct bridge_cursor *pos)
+static int window_push(struct bridge *b, int mid, const struct cursor *pos)
 {
         struct inflight *w = &b->window[(b->w_head + b->w_count) % b->cfg->events_window];
 
@@ -506,7 +506,7 @@ static int notice(struct bridge *b, const struct bridge_sink *sink, const char *
 }
 
 static int event_publish(struct bridge *b, const struct bridge_sink *sink,
-                         const struct sl_event *ev, const struct bridge_cursor *pos)
+                         const struct sl_event *ev, const struct cursor *pos)
 {
         char topic[BRIDGE_TOPIC_MAX], json[EVJSON_MAX];
         int n, mid, r;
@@ -540,7 +540,7 @@ int bridge_pump(struct bridge *b, const struct bridge_sink *sink)
         /* A notice and its event take two places: stop while fewer are free. */
         while (b->w_count + 2 <= b->cfg->events_window) {
                 struct sl_event ev = { .size = sizeof(ev) };
-                struct bridge_cursor pos;
+                struct cursor pos;
                 uint64_t cursor = b->read.cursor;
 
                 r = sl_events_read(b->cl, &cursor, &ev, 1);
@@ -562,7 +562,7 @@ int bridge_pump(struct bridge *b, const struct bridge_sink *sink)
                         if ((r = notice(b, sink, EVJSON_OVERRUN, ev.seq, ev.lost)) < 0)
                                 return r;
                 }
-                pos = (struct bridge_cursor){ .epoch = b->epoch, .cursor = cursor,
+                pos = (struct cursor){ .epoch = b->epoch, .cursor = cursor,
                                               .seq = ev.seq };
                 if ((r = event_publish(b, sink, &ev, &pos)) < 0)
                         return r;
@@ -612,7 +612,7 @@ int bridge_cursor_flush(struct bridge *b, bool sync)
                 return 0;
         if (!b->cfg->events || !b->cl)
                 return 0;
-        r = bridge_cursor_store(b->cursor_path, &b->done, sync);
+        r = cursor_store(b->cursor_path, BRIDGE_CURSOR_OWNER, &b->done, sync);
         if (r < 0) {
                 count(b, &b->counters.cursor_errors, 1);
                 log_msg(LOG_PRIO_WARNING, "events: cannot write %s: %s", b->cursor_path,

@@ -11,7 +11,7 @@
  *   bridge_set        a message on base/set/<name>: written, or refused with an error reply
  *                     (always refused when it was retained or waited through a disconnection)
  *
- * Events: every event is published with QoS events_qos; the cursor on disk (bridge_cursor.h)
+ * Events: every event is published with QoS events_qos; the cursor on disk (svc/cursor.h)
  * only moves over events whose PUBACK (QoS 1) or PUBCOMP (QoS 2) came back, in ring order, so
  * a bridge that stops at any moment resumes with the first event the broker has not confirmed.
  * What that gives across restarts:
@@ -104,7 +104,7 @@ void bridge_broker_error(struct bridge *b);
 /* Number of events published and not yet acknowledged. */
 unsigned bridge_unacked(const struct bridge *b);
 
-/* Writes the cursor if it moved (sync: with fsync, see bridge_cursor.h). 0 or -errno. */
+/* Writes the cursor if it moved (sync: with fsync, see svc/cursor.h). 0 or -errno. */
 int bridge_cursor_flush(struct bridge *b, bool sync);
 
 /* How a set/ message reached the bridge (bridge_mqtt.c tells it from the connection it came on

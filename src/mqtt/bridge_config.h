@@ -16,6 +16,7 @@
 
 #define BRIDGE_CONFIG_DEFAULT   "/etc/sharedlink/sharedlink-mqtt.yaml"
 #define BRIDGE_CURSOR_DIR       "/var/lib/sharedlink-mqtt"
+#define BRIDGE_CURSOR_OWNER     "sharedlink-mqtt"       /* svc/cursor.h: the file's first word */
 #define BRIDGE_FILE_MAX         (64u * 1024u)   /* bytes of a configuration file */
 #define BRIDGE_ERROR_MAX        512
 #define BRIDGE_PATH_MAX         256

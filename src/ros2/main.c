@@ -31,6 +31,7 @@
 
 #include "ros2/ros2_bridge.h"
 #include "ros2/ros2_config.h"
+#include "svc/cursor.h"
 #include "svc/lockfile.h"
 #include "svc/log.h"
 #include "svc/service.h"
@@ -39,7 +40,9 @@
 
 #define NS_PER_MS               1000000ull
 #define TICK_MS                 1000u   /* /diagnostics, rescan (staleness by heartbeat) */
-#define RETRY_MS                20u     /* events history full: pump again this soon */
+#define RETRY_MS                20u     /* events history full, or written events not all
+                                         * acknowledged (cursor_file): pump again this soon */
+#define DRAIN_MS                2000    /* at a stop: the events readers' acknowledgements */
 
 #ifndef SHAREDLINK_VERSION
 #define SHAREDLINK_VERSION      "unknown"
@@ -81,7 +84,8 @@ static bool on_change_thread(void *arg)
 
         pthread_mutex_lock(&ctx->lock);
         publish(ctx);
-        loop = ctx->dirty || ros2_bridge_diag_due(ctx->b) || ros2_bridge_events_blocked(ctx->b);
+        loop = ctx->dirty || ros2_bridge_diag_due(ctx->b) || ros2_bridge_events_blocked(ctx->b) ||
+               ros2_bridge_cursor_pending(ctx->b);
         pthread_mutex_unlock(&ctx->lock);
         return loop;
 }
@@ -175,7 +179,8 @@ static void turn(struct main_ctx *ctx)
         at = ctx->tick_ns;
         if (!ros2_bridge_client(ctx->b) && backoff_due_ms(&ctx->attach) * NS_PER_MS < at)
                 at = backoff_due_ms(&ctx->attach) * NS_PER_MS;
-        if (ros2_bridge_events_blocked(ctx->b) && now + RETRY_MS * NS_PER_MS < at)
+        if ((ros2_bridge_events_blocked(ctx->b) || ros2_bridge_cursor_pending(ctx->b)) &&
+            now + RETRY_MS * NS_PER_MS < at)
                 at = now + RETRY_MS * NS_PER_MS;
         pthread_mutex_unlock(&ctx->lock);
         r = evloop_timer_arm(&ctx->step, at <= now ? 0 : (at - now + NS_PER_MS - 1) / NS_PER_MS,
@@ -196,6 +201,10 @@ static int check_only(const char *path)
                 fprintf(stderr, "%s\n", err);
                 return SERVICE_EXIT_FAILURE;
         }
+        if (ros2_config_check_cursor(&cfg, path, err, sizeof(err)) < 0) {
+                fprintf(stderr, "%s\n", err);
+                return SERVICE_EXIT_FAILURE;
+        }
         r = ros2_bridge_check(&cfg, path, err, sizeof(err));
         if (r == -ENOENT)
                 fprintf(stderr, "%s: sharedlinkd is not running: variable names and topic "
@@ -205,6 +214,25 @@ static int check_only(const char *path)
                 return SERVICE_EXIT_FAILURE;
         }
         return service_check_ok();
+}
+
+/* cursor_file's default: beside the lock, under its name (instance, namespace and domain: one
+ * bridge's place each), in the runtime directory. A cursor counts only within one daemon run,
+ * which never outlives the runtime directory, so a place that survives a reboot buys nothing. */
+static int cursor_default(struct main_ctx *ctx)
+{
+        size_t n = strlen(ctx->single.path), sl = strlen(LOCKFILE_SUFFIX);
+
+        if (ctx->cfg.cursor_file[0])
+                return 0;
+        if (n < sl || n - sl + strlen(CURSOR_SUFFIX) >= sizeof(ctx->cfg.cursor_file)) {
+                log_msg(LOG_PRIO_ERR, "%s: too long for the events' cursor: set cursor_file",
+                        ctx->single.path);
+                return -ENAMETOOLONG;
+        }
+        snprintf(ctx->cfg.cursor_file, sizeof(ctx->cfg.cursor_file), "%.*s" CURSOR_SUFFIX,
+                 (int)(n - sl), ctx->single.path);
+        return 0;
 }
 
 /* One bridge per instance, namespace and DDS domain (svc/lockfile.h), before DDS sees us: a
@@ -226,7 +254,7 @@ static int take_lock(struct main_ctx *ctx, const char *program)
                  instance, ns, id);
         r = lockfile_take_service(&ctx->single, program, what, parts, 4);
         ctx->held_elsewhere = r == -EBUSY;
-        return r;
+        return r < 0 ? r : cursor_default(ctx);
 }
 
 static int setup(struct main_ctx *ctx, const struct service_desc *desc, const char *path)
@@ -271,6 +299,10 @@ static void teardown(struct main_ctx *ctx)
         if (ctx->fd_added)
                 evloop_del_fd(ctx->loop, ros2_bridge_fd(ctx->b));
         ctx->waker = waker_stop(ctx->waker);
+        /* The events written are acknowledged by now, or soon: a restart repeats none. */
+        if (ctx->b && ros2_bridge_cursor_flush(ctx->b, DRAIN_MS) == -EAGAIN)
+                log_msg(LOG_PRIO_NOTICE, "events: not acknowledged within %d ms: a restart "
+                        "repeats those since the last acknowledgement", DRAIN_MS);
         ctx->b = ros2_bridge_free(ctx->b);
         lockfile_release(&ctx->single);
         ctx->svc = service_free(ctx->svc);

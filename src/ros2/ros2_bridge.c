@@ -22,6 +22,7 @@
 #include "ros2/ros2_names.h"
 #include "ros2_msgs.h"
 #include "svc/changes.h"
+#include "svc/cursor.h"
 #include "svc/evjson.h"
 #include "svc/json.h"
 #include "svc/log.h"
@@ -29,6 +30,8 @@
 #define NS_PER_S                1000000000ull
 #define DECIMAL                 10
 #define TAKE_BATCH              32      /* samples taken from a reader at once */
+#define UNKNOWN_MAX             64      /* set/ writers kept to be judged (again) by a plan */
+#define TYPE_NAME_MAX           256     /* bytes of a writer's type name kept, NUL included */
 #define JSON_MAX                1024    /* one set_errors payload */
 #define DIAG_KV_MAX             (SL_COUNTERS_MAX + 8)   /* values of one status */
 #define DIAG_VALUE_SIZE         32      /* a number, a state name */
@@ -84,8 +87,18 @@ struct var {
         enum ros2_type type;
         dds_entity_t topic, writer;     /* 0: none */
         dds_entity_t set_topic, set_reader;
+        bool set_new;                   /* set_reader made by this plan: writers judged before
+                                         * it existed are judged again */
         uint64_t seq;                   /* sequence published last */
         bool sent;
+};
+
+/* A writer on a set/ topic that no set reader had when it was seen. */
+struct unknown_writer {
+        dds_guid_t key;
+        bool reported;                  /* as unknown (else: seen before the first plan) */
+        char topic[ROS2_DDS_NAME_SIZE];
+        char type[TYPE_NAME_MAX];
 };
 
 struct navsat {
@@ -126,6 +139,10 @@ struct ros2_bridge {
         struct var *vars;
         unsigned n_vars, cap_vars;
         bool replan;
+        bool planned;                   /* a plan exists: writers on set topics can be judged */
+        struct unknown_writer *unknown; /* UNKNOWN_MAX: seen before any plan, or reported
+                                         * unknown: judged (again) by a plan */
+        unsigned n_unknown;
         struct changes changes;         /* what changed since the last scan (sl_changed) */
         bool read_all;                  /* the next scan reads every variable */
         int sent;                       /* values published by the scan under way */
@@ -138,6 +155,9 @@ struct ros2_bridge {
         diagnostic_msgs_msg_dds__DiagnosticStatus_ *diag_status;
 
         uint64_t ev_cursor;
+        struct cursor ev_pos;           /* after the last event written to DDS */
+        bool ev_moved;                  /* ev_pos is ahead of what cursor_file holds */
+        bool cursor_warned;             /* a failed store was logged (until one succeeds) */
         bool ev_started;
         bool announce_restart;
         bool noticed;                   /* the notices of event noticed_seq went out */
@@ -159,6 +179,13 @@ static void on_data(dds_entity_t reader, void *arg)
          * failed one only delays the read to the next tick. */
         if (write(b->efd, &one, sizeof(one)) < 0)
                 return;
+}
+
+static void on_matched(dds_entity_t writer, const dds_publication_matched_status_t st,
+                       void *arg)
+{
+        (void)st;
+        on_data(writer, arg);
 }
 
 /* ---- creation -------------------------------------------------------------------------------- */
@@ -183,8 +210,9 @@ static int own_topics(struct ros2_bridge *b, char *err, size_t err_size)
         if (ros2_names_join(full, sizeof(full), b->ns, ROS2_TOPIC_EVENTS, NULL) < 0 ||
             ros2_names_dds(dds, sizeof(dds), full) < 0)
                 return fail(err, err_size, -EINVAL, "namespace %s too long", b->ns);
-        b->events_w = ros2_dds_endpoint(b->pp, ROS2_TYPE_STRING, dds, ROS2_QOS_EVENTS, NULL,
-                                        &b->events_topic);
+        /* The listener: a reader matched, so the events held back for one go out (pump). */
+        b->events_w = ros2_dds_endpoint(b->pp, ROS2_TYPE_STRING, dds, ROS2_QOS_EVENTS,
+                                        b->listener, &b->events_topic);
         if (b->events_w < 0)
                 return fail(err, err_size, -EIO, "%s: %s", dds, dds_strretcode(b->events_w));
         ros2_names_join(full, sizeof(full), b->ns, ROS2_TOPIC_SET_ERRORS, NULL);
@@ -220,7 +248,8 @@ int ros2_bridge_new(const struct ros2_config *cfg, struct ros2_bridge **ret, cha
         b->efd = -1;
         b->diag = calloc(ROS2_LINKS_MAX + 1, sizeof(*b->diag));
         b->diag_status = calloc(ROS2_LINKS_MAX + 1, sizeof(*b->diag_status));
-        if (!b->diag || !b->diag_status) {
+        b->unknown = calloc(UNKNOWN_MAX, sizeof(*b->unknown));
+        if (!b->diag || !b->diag_status || !b->unknown) {
                 r = fail(err, err_size, -ENOMEM, "out of memory");
                 goto out;
         }
@@ -248,6 +277,7 @@ int ros2_bridge_new(const struct ros2_config *cfg, struct ros2_bridge **ret, cha
                 goto out;
         }
         dds_lset_data_available(b->listener, on_data);
+        dds_lset_publication_matched(b->listener, on_matched);
         b->pp = ros2_dds_participant(domain, cfg->cyclonedds_uri);
         if (b->pp < 0) {
                 r = fail(err, err_size, -EIO, "DDS domain %u cannot be created: %s%s", domain,
@@ -304,8 +334,50 @@ struct ros2_bridge *ros2_bridge_free(struct ros2_bridge *b)
         free(b->vars);
         free(b->diag);
         free(b->diag_status);
+        free(b->unknown);
         free(b);
         return NULL;
+}
+
+static uint64_t daemon_epoch(struct ros2_bridge *b);
+
+/*
+ * Where the events start: after the cursor in cursor_file when it belongs to this daemon run
+ * (the bridge was restarted: nothing missed, nothing twice). A cursor of another run (the
+ * daemon restarted meanwhile) or a file that is not a cursor: at the oldest event the ring
+ * holds, with a daemon-restarted notice first for the former (the new run's events are not
+ * lost; a ring that wrapped is announced by an overrun notice). No file (a first start): from
+ * now on, a ROS topic having no history for a subscriber that was not there; the place is
+ * written at once, so that events while a first-started bridge is stopped are not lost either.
+ */
+static void cursor_start(struct ros2_bridge *b)
+{
+        const char *path = b->cfg->cursor_file;
+        uint64_t epoch = daemon_epoch(b);
+        struct cursor c;
+        int r = cursor_load(path, ROS2_CURSOR_OWNER, &c);
+
+        b->ev_cursor = 0;
+        if (r == 0 && c.epoch == epoch) {
+                b->ev_cursor = c.cursor;
+                log_msg(LOG_PRIO_INFO, "events: resuming after event %" PRIu64 " (%s)", c.seq,
+                        path);
+        } else if (r == 0) {
+                b->announce_restart = true;
+                log_msg(LOG_PRIO_NOTICE, "events: %s is of another daemon run (epoch %016"
+                        PRIx64 "): starting at the oldest event retained", path, c.epoch);
+        } else if (r == -ENOENT) {
+                if (sl_events_now(b->cl, &b->ev_cursor) < 0)
+                        b->ev_cursor = 0;
+                log_msg(LOG_PRIO_INFO, "events: no cursor in %s yet: from now on", path);
+        } else {
+                log_msg(LOG_PRIO_WARNING, "events: %s: %s: starting at the oldest event "
+                        "retained (events may repeat)", path,
+                        r == -EBADMSG ? "not a " ROS2_CURSOR_OWNER " cursor" : strerror(-r));
+        }
+        b->ev_pos = (struct cursor){ .epoch = epoch, .cursor = b->ev_cursor,
+                                     .seq = r == 0 ? c.seq : 0 };
+        b->ev_moved = r != 0 || c.epoch != epoch;
 }
 
 int ros2_bridge_attach(struct ros2_bridge *b)
@@ -317,9 +389,7 @@ int ros2_bridge_attach(struct ros2_bridge *b)
         r = sl_open(b->instance, &b->cl);
         if (r < 0)
                 return r;
-        /* Events from now on: a ROS topic has no history for a subscriber that was not there. */
-        if (sl_events_now(b->cl, &b->ev_cursor) < 0)
-                b->ev_cursor = 0;
+        cursor_start(b);
         b->ev_started = true;
         b->replan = true;
         b->diag_due = true;
@@ -478,6 +548,7 @@ static int var_endpoints(struct ros2_bridge *b, struct var *v)
                         v->set_reader = 0;
                         b->counters.dds_errors++;
                 }
+                v->set_new = v->set_reader != 0;
         }
         return 0;
 }
@@ -505,6 +576,8 @@ static void nav_endpoints(struct ros2_bridge *b, struct navsat *nv)
                 b->counters.dds_errors++;
         }
 }
+
+static void publications_judge(struct ros2_bridge *b);
 
 static int plan(struct ros2_bridge *b)
 {
@@ -567,6 +640,8 @@ static int plan(struct ros2_bridge *b)
         }
         b->replan = false;
         b->diag_due = true;
+        b->planned = true;
+        publications_judge(b);
 out:
         free(dup);
         free(nav_full);
@@ -855,6 +930,18 @@ static int notices(struct ros2_bridge *b, const struct sl_event *ev)
         return 0;
 }
 
+/* Events wait in the ring while no reader is matched: written then, they would be taken as
+ * done (nobody to acknowledge them) and lost to a subscriber that is discovering the bridge,
+ * as every one is right after the bridge (re)starts. The ring keeps them meanwhile (one too
+ * many: an overrun notice, as for a bridge that was stopped). */
+static bool events_readers(struct ros2_bridge *b)
+{
+        dds_publication_matched_status_t st;
+
+        return dds_get_publication_matched_status(b->events_w, &st) != DDS_RETCODE_OK ||
+               st.current_count > 0;
+}
+
 int ros2_bridge_pump(struct ros2_bridge *b)
 {
         int sent = 0, r;
@@ -862,6 +949,10 @@ int ros2_bridge_pump(struct ros2_bridge *b)
         b->events_blocked = false;
         if (!b->cl)
                 return 0;
+        if (!events_readers(b)) {
+                ros2_bridge_cursor_flush(b, 0);         /* a first start's place */
+                return 0;
+        }
         for (;;) {
                 struct sl_event ev = { .size = sizeof(ev) };
                 uint64_t cursor = b->ev_cursor;
@@ -895,10 +986,58 @@ int ros2_bridge_pump(struct ros2_bridge *b)
                         break;
                 }
                 b->ev_cursor = cursor;
+                b->ev_pos = (struct cursor){ .epoch = b->epoch, .cursor = cursor,
+                                             .seq = ev.seq };
+                b->ev_moved = true;
                 b->counters.events_published++;
                 sent++;
         }
+        ros2_bridge_cursor_flush(b, 0);
         return sent;
+}
+
+bool ros2_bridge_cursor_pending(const struct ros2_bridge *b)
+{
+        return b->cl && b->ev_moved;
+}
+
+/*
+ * The cursor moves over an event once every reader matched at the time has acknowledged it
+ * (dds_wait_for_acks: the reliable protocol's own acknowledgement), not when dds_write returned:
+ * a written sample still sits in the writer's history, and a bridge killed then would take it
+ * along, lost to the readers although the cursor were past it. So a bridge stopped or killed
+ * repeats at most what was written since the last store, never loses an event; one that
+ * finds no reader matched has nothing to wait for. The file is not fsynced: a cursor counts
+ * only within one daemon run (its epoch), which a power loss ends anyway.
+ */
+int ros2_bridge_cursor_flush(struct ros2_bridge *b, int64_t wait_ms)
+{
+        const struct cursor pos = b->ev_pos;
+        dds_return_t rc;
+        int r;
+
+        if (!b->cl || !b->ev_moved)
+                return 0;
+        rc = dds_wait_for_acks(b->events_w, DDS_MSECS(wait_ms));
+        if (rc == DDS_RETCODE_TIMEOUT)
+                return -EAGAIN;         /* at the next pump or tick */
+        if (rc != DDS_RETCODE_OK) {
+                b->counters.dds_errors++;
+                return -EIO;
+        }
+        r = cursor_store(b->cfg->cursor_file, ROS2_CURSOR_OWNER, &pos, false);
+        if (r < 0) {
+                b->counters.cursor_errors++;
+                if (!b->cursor_warned)
+                        log_msg(LOG_PRIO_WARNING, "events: cannot write %s: %s (a restart "
+                                "will repeat or skip events)", b->cfg->cursor_file,
+                                strerror(-r));
+                b->cursor_warned = true;
+                return r;
+        }
+        b->cursor_warned = false;
+        b->ev_moved = false;
+        return 0;
 }
 
 /* ---- writes from ROS ------------------------------------------------------------------------- */
@@ -994,17 +1133,14 @@ static void set_take(struct ros2_bridge *b, struct var *v, unsigned id)
         }
 }
 
-/* A writer appeared on one of our set topics (or under set/): one of another type never
- * matches our reader, so its samples vanish; say so on set_errors, once per writer. */
-static void publication(struct ros2_bridge *b, const dds_builtintopic_endpoint_t *ep)
+/* Judges a writer on set topic (DDS name) of type type against the set readers: true when
+ * one has its topic (then nothing to say, or wrong_type said), false when none does. again:
+ * only against readers the last plan made (the others judged it already). */
+static bool publication_judge(struct ros2_bridge *b, const char *topic, const char *type,
+                              bool again)
 {
-        size_t plen = strlen(b->set_prefix);
-        const char *rel;
+        const char *rel = topic + strlen(b->set_prefix);
 
-        if (!memcmp(&ep->participant_key, &b->guid, sizeof(b->guid)) || !ep->topic_name ||
-            strncmp(ep->topic_name, b->set_prefix, plen) != 0)
-                return;
-        rel = ep->topic_name + plen;
         for (unsigned id = 0; id < b->n_vars; id++) {
                 struct var *v = &b->vars[id];
                 const char *want = ros2_dds_type_name(v->type);
@@ -1012,17 +1148,59 @@ static void publication(struct ros2_bridge *b, const dds_builtintopic_endpoint_t
 
                 if (!v->set_reader || strcmp(v->rel, rel) != 0)
                         continue;
-                if (ep->type_name && !strcmp(ep->type_name, want))
-                        return;
+                if (again && !v->set_new)
+                        return true;
+                if (type && !strcmp(type, want))
+                        return true;
                 snprintf(detail, sizeof(detail), "type %.120s, expected %s (%s)",
-                         ep->type_name ? ep->type_name : "?", want, ros2_dds_ros_type(v->type));
-                refuse(b, v->info.name, ep->topic_name + strlen(ROS2_DDS_PREFIX),
-                       REFUSE_WRONG_TYPE, detail);
-                return;
+                         type ? type : "?", want, ros2_dds_ros_type(v->type));
+                refuse(b, v->info.name, topic + strlen(ROS2_DDS_PREFIX), REFUSE_WRONG_TYPE,
+                       detail);
+                return true;
         }
-        refuse(b, "", ep->topic_name + strlen(ROS2_DDS_PREFIX), REFUSE_UNKNOWN, NULL);
+        return false;
 }
 
+/* A writer appeared on one of our set topics (or under set/): one of another type never
+ * matches our reader, so its samples vanish; say so on set_errors, once per writer. Before the
+ * first plan there is no set reader to judge it by: it is kept, and judged by the plan. One on
+ * a topic of no set reader is unknown, and kept too: a later plan may make its reader (a
+ * variable the daemon learns later, or after a daemon restart), and then judges it again. */
+static void publication(struct ros2_bridge *b, const dds_builtintopic_endpoint_t *ep)
+{
+        struct unknown_writer *u;
+
+        if (!memcmp(&ep->participant_key, &b->guid, sizeof(b->guid)) || !ep->topic_name ||
+            strncmp(ep->topic_name, b->set_prefix, strlen(b->set_prefix)) != 0)
+                return;
+        if (b->planned && publication_judge(b, ep->topic_name, ep->type_name, false))
+                return;
+        if (b->planned || b->n_unknown >= UNKNOWN_MAX)
+                refuse(b, "", ep->topic_name + strlen(ROS2_DDS_PREFIX), REFUSE_UNKNOWN, NULL);
+        if (b->n_unknown >= UNKNOWN_MAX)
+                return;                 /* not judged again: it was reported */
+        u = &b->unknown[b->n_unknown++];
+        u->key = ep->key;
+        u->reported = b->planned;
+        snprintf(u->topic, sizeof(u->topic), "%s", ep->topic_name);
+        snprintf(u->type, sizeof(u->type), "%s", ep->type_name ? ep->type_name : "?");
+        if (!u->reported)
+                b->counters.set_writers_waiting++;
+}
+
+/* A writer gone: not judged again. */
+static void publication_gone(struct ros2_bridge *b, const dds_builtintopic_endpoint_t *ep)
+{
+        for (unsigned i = 0; i < b->n_unknown; i++)
+                if (!memcmp(&b->unknown[i].key, &ep->key, sizeof(ep->key))) {
+                        if (!b->unknown[i].reported)
+                                b->counters.set_writers_waiting--;
+                        b->unknown[i] = b->unknown[--b->n_unknown];
+                        return;
+                }
+}
+
+/* Writers discovered or gone since the last look. */
 static void publications_take(struct ros2_bridge *b)
 {
         for (;;) {
@@ -1032,13 +1210,40 @@ static void publications_take(struct ros2_bridge *b)
 
                 if (n <= 0)
                         return;
-                for (int i = 0; i < n; i++)
-                        if (si[i].valid_data && si[i].instance_state == DDS_IST_ALIVE)
+                for (int i = 0; i < n; i++) {
+                        if (si[i].instance_state != DDS_IST_ALIVE)
+                                publication_gone(b, buf[i]);
+                        else if (si[i].valid_data)
                                 publication(b, buf[i]);
+                }
                 dds_return_loan(b->pub_reader, buf, n);
                 if (n < TAKE_BATCH)
                         return;
         }
+}
+
+/* After a plan: the writers seen before the first plan get their verdict (nothing when of the
+ * right type, wrong_type, unknown), and the unknown ones on a topic it made a set reader for
+ * theirs (nothing, or wrong_type). */
+static void publications_judge(struct ros2_bridge *b)
+{
+        for (unsigned i = 0; i < b->n_unknown;) {
+                struct unknown_writer *u = &b->unknown[i];
+                bool first = !u->reported;
+
+                if (first)
+                        b->counters.set_writers_waiting--;
+                if (publication_judge(b, u->topic, u->type, !first)) {
+                        *u = b->unknown[--b->n_unknown];
+                        continue;
+                }
+                if (first)
+                        refuse(b, "", u->topic + strlen(ROS2_DDS_PREFIX), REFUSE_UNKNOWN, NULL);
+                u->reported = true;
+                i++;
+        }
+        for (unsigned id = 0; id < b->n_vars; id++)
+                b->vars[id].set_new = false;
 }
 
 int ros2_bridge_dds(struct ros2_bridge *b)
@@ -1179,6 +1384,8 @@ static void diag_bridge(struct ros2_bridge *b, bool alive,
         kv(s, st, "events_published", "%" PRIu64, c->events_published);
         kv(s, st, "events_lost", "%" PRIu64, c->events_lost);
         kv(s, st, "events_blocked", "%" PRIu64, c->events_blocked);
+        kv(s, st, "cursor_errors", "%" PRIu64, c->cursor_errors);
+        kv(s, st, "set_writers_waiting", "%" PRIu64, c->set_writers_waiting);
         kv(s, st, "set_written", "%" PRIu64, c->set_written);
         kv(s, st, "set_refused", "%" PRIu64, c->set_refused);
         kv(s, st, "navsatfix_published", "%" PRIu64, c->navsatfix_published);

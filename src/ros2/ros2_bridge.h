@@ -8,7 +8,8 @@
  *   ros2_bridge_attach   opens the instance (retried while no daemon runs)
  *   ros2_bridge_scan     plans topics for the variables (names, collisions) when they change,
  *                        publishes what changed, NavSatFix messages, and notes link states
- *   ros2_bridge_pump     events from the ring, in order, to <namespace>/events
+ *   ros2_bridge_pump     events from the ring, in order, to <namespace>/events, from the
+ *                        place in cursor_file (svc/cursor.h) across restarts
  *   ros2_bridge_dds      what DDS delivered (its listener rang ros2_bridge_fd): writes from
  *                        <namespace>/set/<name>, writers discovered on set topics
  *   ros2_bridge_diagnostics  one DiagnosticArray on /diagnostics
@@ -33,8 +34,11 @@ struct ros2_counters {
         uint64_t events_published;
         uint64_t events_lost;           /* overwritten in the ring before the bridge read them */
         uint64_t events_blocked;        /* writes that found the events history full */
+        uint64_t cursor_errors;         /* failed writes of cursor_file */
         uint64_t set_written;
         uint64_t set_refused;
+        uint64_t set_writers_waiting;   /* on set topics, seen before the first plan: judged
+                                         * by it (a gauge) */
         uint64_t navsatfix_published;
         uint64_t dds_errors;            /* writes or endpoints DDS refused */
 };
@@ -66,6 +70,14 @@ int ros2_bridge_scan(struct ros2_bridge *b);
 int ros2_bridge_pump(struct ros2_bridge *b);
 int ros2_bridge_dds(struct ros2_bridge *b);
 int ros2_bridge_diagnostics(struct ros2_bridge *b);
+
+/* Stores the events' place in cursor_file once the events readers acknowledged every event
+ * written (waiting up to wait_ms for them; 0: only looking). 0, -EAGAIN (not all acknowledged
+ * yet: again later), or -errno. */
+int ros2_bridge_cursor_flush(struct ros2_bridge *b, int64_t wait_ms);
+
+/* The events' place moved past what cursor_file holds (a flush to try again soon). */
+bool ros2_bridge_cursor_pending(const struct ros2_bridge *b);
 
 /* Whether a /diagnostics message is due before the next tick (a link's state changed, a
  * write was refused, the variables were planned again). */

@@ -6,12 +6,15 @@
 #include "ros2/ros2_config.h"
 
 #include <errno.h>
+#include <libgen.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "svc/conf.h"
+#include "svc/cursor.h"
 
 #define INSTANCE_ENV            "SHAREDLINK_INSTANCE"
 #define INSTANCE_DEFAULT        "default"
@@ -170,6 +173,7 @@ static const struct conf_key root_keys[] = {
         CONF_KEY_STRING("cyclonedds_uri", CFG, cyclonedds_uri),
         CONF_KEY_CUSTOM("navsatfix", parse_navsatfix),
         CONF_KEY_UINT("wait_spin_us", CFG, wait_spin_us, 0, SL_WAIT_SPIN_MAX_US),
+        CONF_KEY_PATH("cursor_file", CFG, cursor_file),
 };
 #define N_ROOT_KEYS             (sizeof(root_keys) / sizeof(root_keys[0]))
 
@@ -203,6 +207,28 @@ int ros2_config_load(const char *path, struct ros2_config *ret, char *err, size_
         r = conf_read_file(path, ROS2_FILE_MAX, root_keys, N_ROOT_KEYS, &cfg, err, err_size);
         if (r == 0)
                 *ret = cfg;
+        return r;
+}
+
+int ros2_config_check_cursor(const struct ros2_config *cfg, const char *name, char *err,
+                             size_t err_size)
+{
+        char dir[ROS2_PATH_MAX];
+        struct cursor c;
+        int r;
+
+        if (!cfg->cursor_file[0])
+                return 0;
+        r = cursor_load(cfg->cursor_file, ROS2_CURSOR_OWNER, &c);
+        if (r == -ENOENT) {
+                snprintf(dir, sizeof(dir), "%s", cfg->cursor_file);
+                r = access(dirname(dir), W_OK | X_OK) < 0 ? -errno : 0;
+        }
+        if (r == 0)
+                return 0;
+        snprintf(err, err_size, "%s: cursor_file %s: %s", name, cfg->cursor_file,
+                 r == -EBADMSG ? "not a " ROS2_CURSOR_OWNER " cursor (another program's file?)" :
+                 r == -ENOENT ? "its directory does not exist" : strerror(-r));
         return r;
 }
 

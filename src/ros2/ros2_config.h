@@ -3,7 +3,8 @@
  * sharedlink-mqtt's is: unknown keys, wrong types, out-of-range numbers, duplicate keys,
  * anchors, aliases and tags are errors "FILE:LINE:COL: message", never a silent default.
  * The keys (conf/sharedlink-ros2.yaml): instance, namespace, publish, writable, domain_id,
- * cyclonedds_uri, navsatfix: [{topic, latitude, longitude, altitude, frame_id}], wait_spin_us.
+ * cyclonedds_uri, navsatfix: [{topic, latitude, longitude, altitude, frame_id}], wait_spin_us,
+ * cursor_file.
  */
 #ifndef SHAREDLINK_ROS2_CONFIG_H
 #define SHAREDLINK_ROS2_CONFIG_H
@@ -28,6 +29,8 @@
 #define ROS2_NAVSATFIX_MAX      8       /* navsatfix: entries */
 #define ROS2_FRAME_MAX          64      /* bytes of a frame_id + NUL */
 #define ROS2_FRAME_DEFAULT      "gps"
+#define ROS2_PATH_MAX           512     /* bytes of cursor_file + NUL */
+#define ROS2_CURSOR_OWNER       "sharedlink-ros2"       /* svc/cursor.h: the file's first word */
 
 /* A NavSatFix built from two or three variables (docs/ros2.md §6). */
 struct ros2_navsatfix {
@@ -51,6 +54,7 @@ struct ros2_config {
         unsigned n_navsatfix;
         struct ros2_navsatfix navsatfix[ROS2_NAVSATFIX_MAX];
         uint32_t wait_spin_us;                  /* 0..SL_WAIT_SPIN_MAX_US; 0: sleep at once */
+        char cursor_file[ROS2_PATH_MAX];        /* "" : beside the lock (main.c) */
 };
 
 /* Fills *ret with every default (what an empty file gives). */
@@ -63,6 +67,12 @@ int ros2_config_parse(const char *name, const char *text, size_t len, struct ros
 
 /* Reads and parses a file. 0 or -errno, message in err. */
 int ros2_config_load(const char *path, struct ros2_config *ret, char *err, size_t err_size);
+
+/* The -n check of cursor_file when given (the default's directory is made at the start): a
+ * file there must be a cursor of sharedlink-ros2's, else its directory must let one be made.
+ * 0, or -errno with "NAME: cursor_file PATH: reason" in err. */
+int ros2_config_check_cursor(const struct ros2_config *cfg, const char *name, char *err,
+                             size_t err_size);
 
 /* The instance to open and the namespace, defaults applied ($SHAREDLINK_INSTANCE, "default",
  * ROS2_NAMESPACE_PREFIX<instance mapped as a variable name is, ros2_names.h>). 0, or -EINVAL

@@ -130,7 +130,7 @@ dds_entity_t ros2_dds_endpoint(dds_entity_t pp, enum ros2_type t, const char *na
         if (q == ROS2_QOS_SET)
                 ep = dds_create_reader(pp, topic, qos, l);
         else
-                ep = dds_create_writer(pp, topic, qos, NULL);
+                ep = dds_create_writer(pp, topic, qos, l);
         dds_delete_qos(qos);
         if (ep < 0) {
                 dds_delete(topic);

@@ -47,9 +47,9 @@ const dds_topic_descriptor_t *ros2_dds_descriptor(enum ros2_type t);
  * handle, or a negative DDS return code (dds_strretcode). */
 dds_entity_t ros2_dds_participant(unsigned domain, const char *config);
 
-/* A writer (or, for ROS2_QOS_SET, a reader with listener l) of type t on DDS topic name, with
- * that type's typehash USER_DATA; *ret_topic gets the topic entity (deleted with the endpoint
- * by the caller). The endpoint, or a negative DDS return code. */
+/* A writer (or, for ROS2_QOS_SET, a reader) of type t on DDS topic name, with listener l (NULL:
+ * none) and that type's typehash USER_DATA; *ret_topic gets the topic entity (deleted with the
+ * endpoint by the caller). The endpoint, or a negative DDS return code. */
 dds_entity_t ros2_dds_endpoint(dds_entity_t pp, enum ros2_type t, const char *name,
                                enum ros2_qos q, const dds_listener_t *l,
                                dds_entity_t *ret_topic);

@@ -18,6 +18,9 @@
  *    (published from the bridge's waker thread while its loop takes the writes) go out too;
  *  - /diagnostics: one status per link and one for the bridge; a stopped daemon is STALE, and
  *    its restart is followed; events in ring order on <ns>/events, an overrun as a notice;
+ *  - set/ writers there before the bridge planned: judged once it has (no unknown);
+ *  - the events' cursor across a bridge restart: after SIGTERM exactly the events missed,
+ *    after SIGKILL none lost (some may repeat);
  *  - NavSatFix from two variables; a reader that vanishes (SIGKILL) does not stop the bridge;
  *  - -n: two variables on one topic, an unknown navsatfix variable (FILE:LINE:COL); a DDS
  *    domain that cannot be created fails the start with a clear message;
@@ -43,6 +46,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -75,6 +79,8 @@
 #define VANISH_ARG      "--vanishing-reader"
 #define RETRIES         10      /* writes until a volatile reader is matched both ways ... */
 #define RETRY_MS        1500    /* ... each awaited this long */
+#define MISSED          5       /* events made while the bridge is down */
+#define MISSED_BASE     7000    /* their sensor-time: MISSED_BASE + 1 .. + MISSED */
 
 /* Unicast on loopback only (docs/ros2.md, "Tests"). */
 #define CYCLONE_XML \
@@ -1420,6 +1426,172 @@ static void test_daemon_restart(void **state)
         dds_delete(rd);
 }
 
+/* ---- set/ writers that were there before the bridge planned --------------------------------- */
+
+#define LOG_TAIL_MAX    65536   /* bytes of the bridge's log read after a mark */
+
+/* The bridge's log from byte since on (NUL-terminated, cut to size). */
+static void log_since(off_t since, char *buf, size_t size)
+{
+        FILE *f = fopen(F->r.log_path, "r");
+        size_t n = 0;
+
+        assert_non_null(f);
+        if (fseeko(f, since, SEEK_SET) == 0)
+                n = fread(buf, 1, size - 1, f);
+        buf[n] = '\0';
+        fclose(f);
+}
+
+/*
+ * Writers on set/ topics that the bridge discovers before it planned any variable (it starts
+ * while the daemon is down) are kept until the plan, then judged: one of the right type is not
+ * reported (and its writes arrive), one of another type is wrong_type; neither is unknown.
+ */
+static void test_set_writer_before_plan(void **state)
+{
+        char topic[TOPIC_MAX], *log = malloc(LOG_TAIL_MAX);
+        std_msgs_msg_dds__Float64_ d = { .data = 42.5 };
+        struct count_arg waiting = { "set_writers_waiting", 2, F->h.instance };
+        struct count_arg refused = { "set_refused", 1, F->h.instance };
+        dds_entity_t wl, wc, dr;
+        struct stat sb;
+
+        (void)state;
+        assert_non_null(log);
+        assert_true(WIFEXITED(harness_stop_daemon(&F->r, SIGTERM, T_STOP_MS)));
+        assert_true(WIFEXITED(harness_stop_daemon(&F->h, SIGTERM, T_STOP_MS)));
+        topic_of(topic, sizeof(topic), "set/a/Lat");
+        wl = writer(&std_msgs_msg_dds__Float64__desc, topic);
+        topic_of(topic, sizeof(topic), "set/a/Count");
+        wc = writer(&std_msgs_msg_dds__String__desc, topic);
+        assert_int_equal(stat(F->r.log_path, &sb), 0);
+        start_bridge(F);
+        /* Both seen, with no plan to judge them by (no daemon yet). */
+        dr = reader(&diagnostic_msgs_msg_dds__DiagnosticArray__desc, "rt/diagnostics",
+                    RQ_ROS_DEFAULT);
+        assert_true(wait_sample(dr, diag_counter, &waiting));
+        start_daemon(F);
+        write_until(wl, &d, "a.Lat", "42.5");
+        assert_true(wait_sample(dr, diag_counter, &refused));
+        dds_delete(dr);
+        log_since(sb.st_size, log, LOG_TAIL_MAX);
+        if (strstr(log, "set : refused") || !strstr(log, "set a.Count: refused: a writer of "
+                                                         "another type"))
+                fail_msg("the bridge said (log %s from %lld): %s", F->r.log_path,
+                         (long long)sb.st_size, log);
+        assert_int_equal(diag_value(F->h.instance, "set_refused"), 1);
+        assert_int_equal(diag_value(F->h.instance, "set_writers_waiting"), 0);
+        dds_delete(wl);
+        dds_delete(wc);
+        free(log);
+}
+
+/* ---- the events' cursor across bridge restarts ------------------------------------------- */
+
+struct ev_track {
+        uint64_t next;                  /* the seq expected next (0: any) */
+        const char *until;              /* text of the event that ends the wait */
+        unsigned events, repeats, notices;
+};
+
+/* Events in ring order with no gap, repeats (a seq below the next expected) counted apart;
+ * true at the event whose text holds until. */
+static bool ev_track(const void *s, void *arg)
+{
+        const char *d = ((const std_msgs_msg_dds__String_ *)s)->data, *p;
+        struct ev_track *t = arg;
+        uint64_t seq;
+
+        if (!d || !(p = strstr(d, "\"seq\":")))
+                return false;
+        seq = strtoull(p + 6, NULL, 10);
+        if (strstr(d, "\"type\":\"overrun\"") || strstr(d, "\"type\":\"daemon-restarted\"")) {
+                t->notices++;
+                return false;
+        }
+        if (t->next && seq < t->next) {
+                t->repeats++;
+                return false;
+        }
+        if (t->next && seq != t->next)
+                fail_msg("event %" PRIu64 " after %" PRIu64 ": events lost", seq, t->next - 1);
+        t->next = seq + 1;
+        t->events++;
+        return t->until && strstr(d, t->until);
+}
+
+/* A reader that has seen the bridge's events up to a marker of its own (t->next set). */
+static dds_entity_t events_reader_synced(struct ev_track *t)
+{
+        char topic[TOPIC_MAX];
+        dds_entity_t er;
+
+        topic_of(topic, sizeof(topic), "events");
+        er = reader(&std_msgs_msg_dds__String__desc, topic, RQ_KEEP_ALL);
+        wait_matched(er, false);
+        events_handshake(er);
+        request("circe arena emulate action E1E1E1 sensor-time=6999");
+        t->until = "sensor_time=6999";
+        assert_true(wait_sample(er, ev_track, t));
+        return er;
+}
+
+/* The bridge stopped with sig, MISSED events made meanwhile, the bridge started again: what
+ * the reader (matched throughout) gets up to the last of them. */
+static void events_across_restart(int sig, struct ev_track *t)
+{
+        dds_entity_t er = events_reader_synced(t);
+        char line[128], until[32];
+        int st;
+
+        st = harness_stop_daemon(&F->r, sig, T_STOP_MS);
+        if (sig == SIGTERM)
+                assert_true(WIFEXITED(st) && WEXITSTATUS(st) == 0);
+        else
+                assert_true(WIFSIGNALED(st));
+        for (int i = 1; i <= MISSED; i++) {
+                snprintf(line, sizeof(line), "circe arena emulate action E1E1E1 sensor-time=%d",
+                         MISSED_BASE + i);
+                request(line);
+        }
+        /* The daemon has them (the last one is in the table) before the bridge is back. */
+        snprintf(line, sizeof(line), "%d", MISSED_BASE + MISSED);
+        wait_var("agility.device.E1E1E1.sensor_time", line);
+        t->events = t->repeats = t->notices = 0;
+        snprintf(until, sizeof(until), "sensor_time=%d", MISSED_BASE + MISSED);
+        t->until = until;
+        start_bridge(F);
+        assert_true(wait_sample(er, ev_track, t));
+        dds_delete(er);
+}
+
+/* SIGTERM: the cursor was stored once the reader acknowledged every event, so the restarted
+ * bridge sends exactly the events made while it was down: none twice, none lost. */
+static void test_events_cursor_term(void **state)
+{
+        struct ev_track t = { 0 };
+
+        (void)state;
+        events_across_restart(SIGTERM, &t);
+        assert_int_equal(t.events, MISSED);
+        assert_int_equal(t.repeats, 0);
+        assert_int_equal(t.notices, 0);
+}
+
+/* SIGKILL: the cursor on disk may trail what went out (repeats), never lead it (a loss would
+ * fail ev_track on the gap). */
+static void test_events_cursor_kill(void **state)
+{
+        struct ev_track t = { 0 };
+
+        (void)state;
+        events_across_restart(SIGKILL, &t);
+        assert_int_equal(t.events, MISSED);
+        assert_int_equal(t.notices, 0);
+        print_message("SIGKILL: %u events repeated\n", t.repeats);
+}
+
 /* ---- -n and a failed start -------------------------------------------------------------------- */
 
 static int run_check(const char *conf, char *err, size_t size)
@@ -1453,6 +1625,39 @@ static void test_check(void **state)
                  path);
         if (!strstr(err, want))
                 fail_msg("-n said: %s", err);
+}
+
+/* -n and cursor_file: another program's file and a directory that does not exist are refused;
+ * a cursor of the bridge's own (the suite's, by now) and a new file are fine. */
+static void test_check_cursor(void **state)
+{
+        char path[PATH_BUF], err[2048], extra[PATH_BUF * 2], file[PATH_BUF];
+        static const struct { const char *content, *name, *want; } cases[] = {
+                { "sharedlink-mqtt-cursor 1 1 2 3\n", "mqtt.cursor",
+                  "not a sharedlink-ros2 cursor" },
+                { NULL, "no/such/dir.cursor", "its directory does not exist" },
+                { "sharedlink-ros2-cursor 1 1 2 3\n", "own.cursor", NULL },
+                { NULL, "new.cursor", NULL },
+        };
+
+        (void)state;
+        for (size_t i = 0; i < sizeof(cases) / sizeof(cases[0]); i++) {
+                snprintf(file, sizeof(file), "%s/%s", F->r.dir, cases[i].name);
+                if (cases[i].content)
+                        assert_int_equal(harness_write_file(&F->r, cases[i].name,
+                                                            cases[i].content, file), 0);
+                snprintf(extra, sizeof(extra), "publish: [\"a.*\", \"b.*\"]\ncursor_file: %s\n",
+                         file);
+                write_conf(F, "cur.yaml", extra, path);
+                if (!cases[i].want) {
+                        if (run_check(path, err, sizeof(err)) != 0)
+                                fail_msg("-n refused %s: %s", file, err);
+                        continue;
+                }
+                assert_int_equal(run_check(path, err, sizeof(err)), 1);
+                if (!strstr(err, cases[i].want) || !strstr(err, file))
+                        fail_msg("-n said: %s", err);
+        }
 }
 
 /*
@@ -1537,6 +1742,10 @@ int main(int argc, char **argv)
                 cmocka_unit_test(test_fastdds_writer),
                 cmocka_unit_test(test_values_overrun_restart),
                 cmocka_unit_test(test_daemon_restart),
+                cmocka_unit_test(test_set_writer_before_plan),
+                cmocka_unit_test(test_check_cursor),
+                cmocka_unit_test(test_events_cursor_term),
+                cmocka_unit_test(test_events_cursor_kill),
                 cmocka_unit_test(test_second_bridge),
                 cmocka_unit_test(test_bad_domain),
         };

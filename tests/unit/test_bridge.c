@@ -24,7 +24,7 @@
 #include "common/shmtest.h"
 #include "mqtt/bridge.h"
 #include "mqtt/bridge_config.h"
-#include "mqtt/bridge_cursor.h"
+#include "svc/cursor.h"
 #include "mqtt/bridge_format.h"
 
 #define SINK_MAX        64      /* messages a test looks at */
@@ -452,14 +452,14 @@ static void test_events_kill_bound(void **state)
                 shm_table_eventf(f->tb.t, SHM_EVENT_LOG, SHM_LINK_NONE, "i=%u", i);
 
         for (unsigned round = 0; round < KILL_ROUNDS; round++) {
-                struct bridge_cursor disk = { 0 };
+                struct cursor disk = { 0 };
 
                 f->fs.n = 0;
                 assert_true(bridge_pump(b, &f->sink) > 0);
                 if (published_seq(f) > seq)
                         seq = published_seq(f);
                 /* Killed here: a new bridge resumes after the cursor on disk. */
-                if (bridge_cursor_load(cfg.cursor_file, &disk) == -ENOENT)
+                if (cursor_load(cfg.cursor_file, BRIDGE_CURSOR_OWNER, &disk) == -ENOENT)
                         disk.seq = 0;
                 if (seq - disk.seq > EVENTS_WINDOW)
                         fail_msg("round %u: events up to %" PRIu64 " published, %" PRIu64

@@ -1,8 +1,7 @@
 /*
- * Unit tests for sharedlink-mqtt's wire formats (src/mqtt/bridge_format.c) and its cursor file
- * (src/mqtt/bridge_cursor.c): topics, set/ topic parsing, the checks of set/ payloads (size,
- * UTF-8), the JSON of meta and errors (escaping, overflow), and the cursor's atomic
- * replacement and refusal of anything that is not a cursor.
+ * Unit tests for sharedlink-mqtt's wire formats (src/mqtt/bridge_format.c): topics, set/ topic
+ * parsing, the checks of set/ payloads (size, UTF-8), the JSON of meta and errors (escaping,
+ * overflow). Its cursor file is the toolkit's (tests/unit/test_cursor.c).
  */
 #include <errno.h>
 #include <setjmp.h>
@@ -16,7 +15,6 @@
 
 #include <cmocka.h>
 
-#include "mqtt/bridge_cursor.h"
 #include "mqtt/bridge_format.h"
 
 #define BASE "sharedlink/car1"
@@ -131,46 +129,6 @@ static void test_json(void **state)
         assert_true(strlen(tiny) < sizeof(tiny));
 }
 
-static void test_cursor(void **state)
-{
-        char dir[] = "/tmp/bcur.XXXXXX", path[64], tmp[80];
-        struct bridge_cursor c = { .epoch = 0x1234abcdull, .cursor = 281474976710657ull,
-                                   .seq = 99 }, got;
-        FILE *f;
-
-        (void)state;
-        assert_non_null(mkdtemp(dir));
-        snprintf(path, sizeof(path), "%s/c", dir);
-        snprintf(tmp, sizeof(tmp), "%s.tmp", path);
-        assert_int_equal(bridge_cursor_load(path, &got), -ENOENT);
-        assert_int_equal(bridge_cursor_store(path, &c, false), 0);
-        assert_int_equal(bridge_cursor_load(path, &got), 0);
-        assert_memory_equal(&got, &c, sizeof(c));
-        c.seq = 100;
-        assert_int_equal(bridge_cursor_store(path, &c, true), 0);
-        assert_int_equal(bridge_cursor_load(path, &got), 0);
-        assert_int_equal(got.seq, 100);
-        assert_int_equal(access(tmp, F_OK), -1);        /* renamed, not left behind */
-        /* Anything else is not a cursor: the bridge starts at the oldest event instead. */
-        static const char *const bad[] = {
-                "", "sharedlink-mqtt-cursor 1 12 3\n", "sharedlink-mqtt-cursor 2 1 2 3\n",
-                "sharedlink-mqtt-cursor 1 1 2 3", "sharedlink-mqtt-cursor 1 1 2 3 4\n",
-                "other 1 1 2 3\n", "sharedlink-mqtt-cursor 1 zz 2 3\n",
-        };
-        for (size_t i = 0; i < sizeof(bad) / sizeof(bad[0]); i++) {
-                f = fopen(path, "w");
-                assert_non_null(f);
-                fputs(bad[i], f);
-                fclose(f);
-                if (bridge_cursor_load(path, &got) != -EBADMSG)
-                        fail_msg("accepted as a cursor: \"%s\"", bad[i]);
-        }
-        /* A directory that cannot be written: an error, never a half-written cursor. */
-        assert_int_equal(bridge_cursor_store("/proc/no/such/c", &c, false), -ENOENT);
-        unlink(path);
-        rmdir(dir);
-}
-
 int main(void)
 {
         const struct CMUnitTest tests[] = {
@@ -178,7 +136,6 @@ int main(void)
                 cmocka_unit_test(test_set_topics),
                 cmocka_unit_test(test_values),
                 cmocka_unit_test(test_json),
-                cmocka_unit_test(test_cursor),
         };
 
         return cmocka_run_group_tests(tests, NULL, NULL);

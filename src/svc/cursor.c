@@ -1,7 +1,7 @@
 /*
- * The event cursor on disk (see bridge_cursor.h).
+ * The event cursor on disk (see cursor.h).
  */
-#include "mqtt/bridge_cursor.h"
+#include "svc/cursor.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -13,18 +13,24 @@
 
 #include "svc/io.h"
 
-#define CURSOR_MAGIC            "sharedlink-mqtt-cursor 1"
+#define CURSOR_MAGIC_FMT        "%s-cursor 1 "  /* owner; then epoch, cursor, seq */
+#define CURSOR_OWNER_MAX        64
 #define CURSOR_LINE_MAX         128
 #define CURSOR_PATH_MAX         512
 #define CURSOR_TMP_SUFFIX       ".tmp"
 
-int bridge_cursor_load(const char *path, struct bridge_cursor *ret)
+int cursor_load(const char *path, const char *owner, struct cursor *ret)
 {
-        char line[CURSOR_LINE_MAX], magic[CURSOR_LINE_MAX], tail;
-        struct bridge_cursor c;
-        unsigned version;
+        char line[CURSOR_LINE_MAX], magic[CURSOR_OWNER_MAX + sizeof(CURSOR_MAGIC_FMT)], tail;
+        struct cursor c;
+        size_t mlen;
         ssize_t n;
-        int fd = open(path, O_RDONLY | O_CLOEXEC);
+        int fd;
+
+        mlen = (size_t)snprintf(magic, sizeof(magic), CURSOR_MAGIC_FMT, owner);
+        if (mlen >= sizeof(magic))
+                return -ENAMETOOLONG;
+        fd = open(path, O_RDONLY | O_CLOEXEC);
 
         if (fd < 0)
                 return -errno;
@@ -35,9 +41,9 @@ int bridge_cursor_load(const char *path, struct bridge_cursor *ret)
         line[n] = '\0';
         if (strlen(line) != (size_t)n || n == 0 || line[n - 1] != '\n')
                 return -EBADMSG;
-        if (sscanf(line, "%22s %u %" SCNx64 " %" SCNu64 " %" SCNu64 "%c", magic, &version,
-                   &c.epoch, &c.cursor, &c.seq, &tail) != 6 || tail != '\n' ||
-            strncmp(line, CURSOR_MAGIC " ", strlen(CURSOR_MAGIC) + 1) != 0)
+        if (strncmp(line, magic, mlen) != 0 ||
+            sscanf(line + mlen, "%" SCNx64 " %" SCNu64 " %" SCNu64 "%c", &c.epoch, &c.cursor,
+                   &c.seq, &tail) != 4 || tail != '\n')
                 return -EBADMSG;
         *ret = c;
         return 0;
@@ -58,15 +64,20 @@ static int sync_dir(const char *path)
         return r;
 }
 
-int bridge_cursor_store(const char *path, const struct bridge_cursor *c, bool sync)
+int cursor_store(const char *path, const char *owner, const struct cursor *c, bool sync)
 {
-        char tmp[CURSOR_PATH_MAX], line[CURSOR_LINE_MAX];
+        char tmp[CURSOR_PATH_MAX], line[CURSOR_LINE_MAX], magic[CURSOR_OWNER_MAX +
+                                                              sizeof(CURSOR_MAGIC_FMT)];
         int fd, r, n;
 
         if ((size_t)snprintf(tmp, sizeof(tmp), "%s" CURSOR_TMP_SUFFIX, path) >= sizeof(tmp))
                 return -ENAMETOOLONG;
-        n = snprintf(line, sizeof(line), CURSOR_MAGIC " %016" PRIx64 " %" PRIu64 " %" PRIu64 "\n",
+        if ((size_t)snprintf(magic, sizeof(magic), CURSOR_MAGIC_FMT, owner) >= sizeof(magic))
+                return -ENAMETOOLONG;
+        n = snprintf(line, sizeof(line), "%s%016" PRIx64 " %" PRIu64 " %" PRIu64 "\n", magic,
                      c->epoch, c->cursor, c->seq);
+        if (n < 0 || (size_t)n >= sizeof(line))
+                return -ENAMETOOLONG;
         fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
         if (fd < 0)
                 return -errno;

@@ -619,31 +619,39 @@ static void test_write_after_held_taken_over(void **state)
 }
 
 /*
- * A writer stopped right after its claim (a live pid: not gone) is taken over; when it runs again
- * it stores its whole value into the slot it no longer holds and its publish fails. The daemon
- * never sees that value (the word did not move), so readers must not either: they read the last
- * accepted value, from the daemon's mirror, until the next write.
+ * A writer (a live pid: not gone) claims NOTE's slot and is stopped there; the daemon takes it
+ * over; it runs again, stores its whole value "late" into the slot it no longer holds, and its
+ * publish fails. The daemon never sees that value (the word did not move).
+ */
+static void stopped_writer_resumes(struct fixture *f, struct shmtest_view *v)
+{
+        struct shm_slot *slot = shmtest_out_slot(v, 2);        /* NOTE's */
+        uint64_t word;
+        struct seen s;
+
+        assert_int_equal(shm_slot_claim(slot, (uint32_t)getppid(), &word), 0);
+        scans_until_taken_over(f);
+        shm_slot_store(slot, "late", 4, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND, 1, 2);
+        shm_slot_store_stamp(slot, 0);
+        assert_int_equal(shm_slot_publish(slot, word), -ECANCELED);
+        assert_int_equal(scan(f, &s), 0);
+}
+
+/*
+ * stopped_writer_resumes after an accepted value: readers read that value, from the daemon's
+ * mirror, until the next write, never "late".
  */
 static void test_write_stopped_writer_resumes(void **state)
 {
         struct fixture *f = *state;
         struct shmtest_view v = shmtest_view_open(f->tb.out_name, true);
         char buf[SL_VALUE_SIZE];
-        struct shm_slot *slot;
-        uint64_t word;
         struct seen s;
 
         assert_non_null(v.base);
-        slot = shmtest_out_slot(&v, 2);                         /* NOTE's */
         assert_int_equal(sl_write(f->c, NOTE, "kept"), 0);
         assert_int_equal(scan(f, &s), 1);
-        assert_int_equal(shm_slot_claim(slot, (uint32_t)getppid(), &word), 0);
-        scans_until_taken_over(f);
-        /* It runs again. */
-        shm_slot_store(slot, "late", 4, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND, 1, 2);
-        shm_slot_store_stamp(slot, 0);
-        assert_int_equal(shm_slot_publish(slot, word), -ECANCELED);
-        assert_int_equal(scan(f, &s), 0);
+        stopped_writer_resumes(f, &v);
         assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), NULL), 4);
         assert_string_equal(buf, "kept");
         assert_int_equal(sl_write(f->c, NOTE, "next"), 0);
@@ -653,10 +661,9 @@ static void test_write_stopped_writer_resumes(void **state)
 }
 
 /*
- * The same with no value ever accepted for the variable: the writer stopped right after its
- * claim, taken over, then finishing its whole value under the even word the daemon left. The
- * daemon's mirror names that word and holds no value, and readers take the mirror's word for it:
- * reading the slot would hand out a value the daemon never accepted nor sent.
+ * stopped_writer_resumes with no value ever accepted for the variable: the daemon's mirror names
+ * the repaired word and holds no value, and readers take the mirror's word for it: reading the
+ * slot would hand out a value the daemon never accepted nor sent.
  */
 static void test_write_stopped_writer_never_written(void **state)
 {
@@ -664,18 +671,9 @@ static void test_write_stopped_writer_never_written(void **state)
         struct shmtest_view v = shmtest_view_open(f->tb.out_name, true);
         struct sl_meta meta = { .size = sizeof(meta) };
         char buf[SL_VALUE_SIZE];
-        struct shm_slot *slot;
-        uint64_t word;
-        struct seen s;
 
         assert_non_null(v.base);
-        slot = shmtest_out_slot(&v, 2);                         /* NOTE's, never written */
-        assert_int_equal(shm_slot_claim(slot, (uint32_t)getppid(), &word), 0);
-        scans_until_taken_over(f);
-        shm_slot_store(slot, "late", 4, SHM_SLOT_VALID | SHM_SLOT_OUTBOUND, 1, 2);
-        shm_slot_store_stamp(slot, 0);
-        assert_int_equal(shm_slot_publish(slot, word), -ECANCELED);
-        assert_int_equal(scan(f, &s), 0);
+        stopped_writer_resumes(f, &v);
         assert_int_equal(sl_read(f->c, NOTE, buf, sizeof(buf), &meta), 0);
         assert_false(meta.flags & SL_FLAG_VALID);
         assert_int_equal(sl_write(f->c, NOTE, "next"), 0);
